@@ -1,0 +1,15 @@
+// rtukit CLI: each group of subcommands registers itself on the app.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace rtukit::cli {
+
+/// A subcommand's body; returns the exit code. Set by the register functions.
+using Action = std::function<int()>;
+
+/// read, write, scan, slave.
+void add_generic_commands(CLI::App& app, Action& action);
+
+}  // namespace rtukit::cli

@@ -1,0 +1,119 @@
+#include "common.hpp"
+
+#include <fmt/core.h>
+
+#include <charconv>
+#include <cstring>
+
+namespace rtukit::cli {
+
+void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
+  baud = default_baud;
+  if (listening) {
+    cmd.add_option("--listen,-l", port, "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
+        ->required();
+  } else {
+    cmd.add_option("--port,-p", port, "/dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")->required();
+    cmd.add_option("--timeout", timeout_ms, "response timeout in ms")->capture_default_str();
+    cmd.add_option("--retries", retries, "extra attempts after a timeout")->capture_default_str();
+    cmd.add_option("--delay", delay_ms, "minimum ms between requests (slow devices)")->capture_default_str();
+    cmd.add_flag("--echo", echo, "discard the echo of our own request (half-duplex adapters)");
+    cmd.add_flag("--stats", stats, "print the master's counters to stderr at the end");
+  }
+  cmd.add_option("--baud,-b", baud, "serial baud rate (1200..921600)")->capture_default_str();
+  cmd.add_option("--parity", parity, "N, E or O")->capture_default_str();
+  cmd.add_option("--data-bits", data_bits, "7 or 8")->capture_default_str();
+  cmd.add_option("--stop-bits", stop_bits, "1 or 2")->capture_default_str();
+  cmd.add_flag("--rs485", rs485, "RS-485 direction control (TIOCSRS485, else RTS toggling)");
+}
+
+io::PortSpec LinkOptions::spec(bool listening) const {
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port(port, listening, &why);
+  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad port '{}': {}", port, why)};
+  spec->serial.baud = baud;
+  spec->serial.parity = parity.empty() ? '?' : static_cast<char>(std::toupper(parity[0]));
+  if (parity.size() != 1) spec->serial.parity = '?';
+  spec->serial.data_bits = static_cast<uint8_t>(data_bits);
+  spec->serial.stop_bits = static_cast<uint8_t>(stop_bits);
+  spec->serial.rs485.enabled = rs485;
+  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
+  return *spec;
+}
+
+MasterOptions LinkOptions::master_options() const {
+  MasterOptions o;
+  o.response_timeout = std::chrono::milliseconds(timeout_ms);
+  o.retries = retries;
+  o.inter_request_delay = std::chrono::milliseconds(delay_ms);
+  o.discard_echo = echo;
+  return o;
+}
+
+std::unique_ptr<Master> LinkOptions::make_master() const {
+  return std::make_unique<Master>(io::make_link(spec(false)), master_options());
+}
+
+int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max) {
+  std::string_view digits = text;
+  bool negative = false;
+  if (digits.starts_with('-')) {
+    negative = true;
+    digits.remove_prefix(1);
+  }
+  int base = 10;
+  if (digits.starts_with("0x") || digits.starts_with("0X")) {
+    base = 16;
+    digits.remove_prefix(2);
+  }
+  uint64_t value = 0;
+  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value, base);
+  if (digits.empty() || ec != std::errc() || ptr != digits.data() + digits.size() || value > (uint64_t{1} << 62)) {
+    throw Failure{kUsage, fmt::format("{} '{}' is not a number (decimal, or hex as 0x21)", what, text)};
+  }
+  const int64_t v = negative ? -static_cast<int64_t>(value) : static_cast<int64_t>(value);
+  if (v < min || v > max) throw Failure{kUsage, fmt::format("{} {} is out of range {}..{}", what, text, min, max)};
+  return v;
+}
+
+UnitId parse_unit(const std::string& text) {
+  return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, 255))};
+}
+
+int exit_code(Error e) {
+  if (e.ok()) return kOk;
+  if (e.is_exception()) return kModbusException;
+  switch (e.code()) {
+    case Errc::timeout:
+    case Errc::unexpected_response:
+    case Errc::malformed:
+    case Errc::bad_crc: return kNoResponse;
+    case Errc::invalid_argument: return kUsage;
+    default: return kIoError;
+  }
+}
+
+void fail(Error e, std::string_view context) {
+  std::string line;
+  if (e.is_exception()) {
+    line = fmt::format("{}: Modbus exception {:02X} ({})", context, e.exception_code(), e.name());
+  } else if (e.code() == Errc::timeout) {
+    line = fmt::format("{}: no response (timeout)", context);
+  } else if (e.code() == Errc::io_error && e.os_error() != 0) {
+    line = fmt::format("{}: I/O error: {}", context, std::strerror(e.os_error()));
+  } else {
+    line = fmt::format("{}: {}", context, e.name());
+  }
+  throw Failure{exit_code(e), line};
+}
+
+void print_stats(const Master& master) {
+  const MasterStats s = master.stats();
+  fmt::print(stderr,
+             "stats: requests={} responses={} exceptions={} timeouts={} crc_errors={} unexpected={} "
+             "io_errors={} retries={} reopens={}\n",
+             s.requests, s.responses, s.exceptions, s.timeouts, s.crc_errors, s.unexpected, s.io_errors, s.retries,
+             s.reopens);
+}
+
+}  // namespace rtukit::cli

@@ -1,0 +1,70 @@
+// rtukit CLI: what every subcommand shares: the link options, number parsing
+// (decimal or 0x hex), and turning an Error into one line and an exit code.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "rtukit/driver/master.hpp"
+#include "rtukit/io/port.hpp"
+
+namespace rtukit::cli {
+
+/// Exit codes (documented in README.md).
+enum Exit : int {
+  kOk = 0,
+  kModbusException = 1,
+  kUsage = 2,
+  kNoResponse = 3,
+  kIoError = 4,
+};
+
+/// Thrown inside a subcommand to leave with a message and an exit code;
+/// caught once in main(). (Exceptions are fine here; the core has none.)
+struct Failure {
+  int code;
+  std::string message;
+};
+
+/// --port and the serial settings, shared by every command that talks to a device.
+struct LinkOptions {
+  std::string port;
+  uint32_t baud = 9600;
+  std::string parity = "N";
+  unsigned data_bits = 8;
+  unsigned stop_bits = 1;
+  bool rs485 = false;
+  unsigned timeout_ms = 1000;
+  unsigned retries = 0;
+  unsigned delay_ms = 0;
+  bool echo = false;
+  bool stats = false;
+
+  /// Adds the options to `cmd`. `listening`: the port is where we listen.
+  void add_to(CLI::App& cmd, bool listening, uint32_t default_baud = 9600);
+  /// The parsed port spec; throws Failure{kUsage} with the reason.
+  io::PortSpec spec(bool listening) const;
+  MasterOptions master_options() const;
+  /// A master on the port (not opened yet).
+  std::unique_ptr<Master> make_master() const;
+};
+
+/// Parses "33" or "0x21" (also negative decimals when `allow_negative`).
+/// Throws Failure{kUsage} naming `what` when it is not a number in range.
+int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max);
+
+/// Unit option value -> UnitId; throws Failure{kUsage} outside 0..255.
+UnitId parse_unit(const std::string& text);
+
+/// Maps an Error to its exit code.
+int exit_code(Error e);
+/// Throws Failure with one clear line: what failed, on which port/unit.
+[[noreturn]] void fail(Error e, std::string_view context);
+
+/// Prints the master's counters to stderr (for --stats).
+void print_stats(const Master& master);
+
+}  // namespace rtukit::cli

@@ -1,0 +1,350 @@
+// The generic subcommands: read, write, scan, slave. Protocol work is done by
+// the library; this file only turns arguments into calls and results into text.
+#include <fmt/core.h>
+
+#include <asio.hpp>
+#include <bit>
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "rtukit/driver/memory_bank.hpp"
+#include "rtukit/driver/slave_server.hpp"
+
+namespace rtukit::cli {
+namespace {
+
+enum class Table { holding, input, coils, discrete };
+const char* table_name(Table t) {
+  switch (t) {
+    case Table::holding: return "holding";
+    case Table::input: return "input";
+    case Table::coils: return "coils";
+    case Table::discrete: return "discrete";
+  }
+  return "?";
+}
+
+struct ValueType {
+  std::string name = "u16";
+  unsigned registers() const { return name == "u16" || name == "i16" ? 1 : 2; }
+};
+
+// Registers -> one printable value of `type` (word order for 32-bit types).
+nlohmann::json decode_value(const std::string& type, const uint16_t* r, bool low_first) {
+  if (type == "u16") return r[0];
+  if (type == "i16") return static_cast<int16_t>(r[0]);
+  const uint32_t hi = low_first ? r[1] : r[0];
+  const uint32_t lo = low_first ? r[0] : r[1];
+  const uint32_t v = (hi << 16) | lo;
+  if (type == "u32") return v;
+  if (type == "i32") return static_cast<int32_t>(v);
+  return std::bit_cast<float>(v);
+}
+
+// One value of `type` -> registers (appended).
+void encode_value(const std::string& type, const std::string& text, bool low_first, std::vector<uint16_t>& out) {
+  uint32_t bits = 0;
+  if (type == "u16") {
+    out.push_back(static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF)));
+    return;
+  }
+  if (type == "i16") {
+    out.push_back(static_cast<uint16_t>(parse_number(text, "value", -32768, 0xFFFF)));
+    return;
+  }
+  if (type == "u32") bits = static_cast<uint32_t>(parse_number(text, "value", 0, 0xFFFFFFFFLL));
+  if (type == "i32") bits = static_cast<uint32_t>(parse_number(text, "value", INT32_MIN, 0xFFFFFFFFLL));
+  if (type == "f32") {
+    char* end = nullptr;
+    const float f = std::strtof(text.c_str(), &end);
+    if (text.empty() || *end != '\0') throw Failure{kUsage, fmt::format("value '{}' is not a number", text)};
+    bits = std::bit_cast<uint32_t>(f);
+  }
+  const auto hi = static_cast<uint16_t>(bits >> 16);
+  const auto lo = static_cast<uint16_t>(bits & 0xFFFF);
+  out.push_back(low_first ? lo : hi);
+  out.push_back(low_first ? hi : lo);
+}
+
+void add_type_options(CLI::App& cmd, std::string& type, std::string& order) {
+  cmd.add_option("--type,-t", type, "u16 | i16 | u32 | i32 | f32 (32-bit types span two registers)")
+      ->check(CLI::IsMember({"u16", "i16", "u32", "i32", "f32"}))
+      ->capture_default_str();
+  cmd.add_option("--word-order", order, "32-bit word order: high-first | low-first")
+      ->check(CLI::IsMember({"high-first", "low-first"}))
+      ->capture_default_str();
+}
+
+struct ReadArgs {
+  LinkOptions link;
+  std::string unit = "1";
+  bool holding = false, input = false, coils = false, discrete = false;
+  std::string address;
+  std::string count = "1";
+  std::string type = "u16";
+  std::string order = "high-first";
+  std::string format = "dec";
+  bool json = false;
+};
+
+int run_read(const ReadArgs& a) {
+  const UnitId unit = parse_unit(a.unit);
+  if (a.holding + a.input + a.coils + a.discrete > 1) throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
+  const Table table = a.input ? Table::input : a.coils ? Table::coils : a.discrete ? Table::discrete : Table::holding;
+  const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
+  const bool bits = table == Table::coils || table == Table::discrete;
+  const unsigned per_value = bits ? 1 : ValueType{a.type}.registers();
+  const auto max_count = bits ? kMaxReadBits : kMaxReadRegisters / per_value;
+  const auto count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
+  if (size_t{address} + size_t{count} * per_value > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
+  auto master = a.link.make_master();
+  const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
+
+  std::vector<uint16_t> regs(bits ? 0 : size_t{count} * per_value);
+  std::vector<uint8_t> flags(bits ? count : 0);
+  Error e;
+  switch (table) {
+    case Table::holding: e = master->read_holding_registers(unit, address, regs); break;
+    case Table::input: e = master->read_input_registers(unit, address, regs); break;
+    case Table::coils: e = master->read_coils(unit, address, flags); break;
+    case Table::discrete: e = master->read_discrete_inputs(unit, address, flags); break;
+  }
+  if (a.link.stats) print_stats(*master);
+  if (e) fail(e, context);
+
+  nlohmann::json values = nlohmann::json::array();
+  for (size_t i = 0; i < count; ++i) {
+    values.push_back(bits ? nlohmann::json(flags[i]) : decode_value(a.type, &regs[i * per_value], a.order == "low-first"));
+  }
+  if (a.json) {
+    nlohmann::json out{{"unit", unit.value}, {"table", table_name(table)}, {"address", address},
+                       {"type", bits ? "bit" : a.type}, {"values", values}};
+    fmt::print("{}\n", out.dump());
+    return kOk;
+  }
+  for (size_t i = 0; i < count; ++i) {
+    const size_t at = address + i * per_value;
+    std::string text;
+    if (a.format == "hex" && !bits && a.type != "f32") {
+      const auto& v = values[i];
+      const uint64_t raw = v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
+      const uint64_t mask = per_value == 1 ? 0xFFFF : 0xFFFFFFFF;
+      text = fmt::format("0x{:0{}X}", raw & mask, per_value == 1 ? 4 : 8);
+    } else {
+      text = values[i].dump();
+    }
+    fmt::print("{} (0x{:04X}): {}\n", at, at, text);
+  }
+  return kOk;
+}
+
+struct WriteArgs {
+  LinkOptions link;
+  std::string unit = "1";
+  std::string address;
+  std::vector<std::string> values;
+  bool multiple = false;
+  bool coils = false;
+  std::string type = "u16";
+  std::string order = "high-first";
+};
+
+int run_write(const WriteArgs& a) {
+  const UnitId unit = parse_unit(a.unit);
+  const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
+  auto master = a.link.make_master();
+  const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
+  Error e;
+  if (a.coils) {
+    std::vector<uint8_t> bits;
+    for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
+    if (bits.size() > kMaxWriteBits) throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
+    e = bits.size() == 1 && !a.multiple ? master->write_single_coil(unit, address, bits[0] != 0)
+                                        : master->write_multiple_coils(unit, address, bits);
+  } else {
+    std::vector<uint16_t> regs;
+    for (const auto& v : a.values) encode_value(a.type, v, a.order == "low-first", regs);
+    if (regs.size() > kMaxWriteRegisters)
+      throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
+    if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
+    e = regs.size() == 1 && !a.multiple ? master->write_single_register(unit, address, regs[0])
+                                        : master->write_multiple_registers(unit, address, regs);
+  }
+  if (a.link.stats) print_stats(*master);
+  if (e) fail(e, context);
+  return kOk;
+}
+
+struct ScanArgs {
+  LinkOptions link;
+  std::string units = "1-247";
+  bool json = false;
+};
+
+int run_scan(ScanArgs a) {
+  const auto dash = a.units.find('-');
+  const std::string first = a.units.substr(0, dash);
+  const std::string last = dash == std::string::npos ? first : a.units.substr(dash + 1);
+  const auto lo = parse_number(first, "unit", 1, 255);
+  const auto hi = parse_number(last, "unit", lo, 255);
+  if (a.link.timeout_ms == 1000) a.link.timeout_ms = 100;  // scanning: a short default
+  auto master = a.link.make_master();
+  if (Error e = master->open()) fail(e, fmt::format("scan on {}", master->describe()));
+  nlohmann::json found = nlohmann::json::array();
+  for (auto u = lo; u <= hi; ++u) {
+    uint16_t reg = 0;
+    const Error e = master->read_holding_registers(UnitId{static_cast<uint8_t>(u)}, 0, {&reg, 1});
+    // An exception is an answer too: the unit is there.
+    if (e.ok() || e.is_exception()) {
+      found.push_back(u);
+      if (!a.json) fmt::print("unit {} answers{}\n", u, e.ok() ? "" : fmt::format(" (exception {:02X})", e.exception_code()));
+    } else if (e.code() == Errc::io_error || e.code() == Errc::not_connected) {
+      fail(e, fmt::format("scan on {}", master->describe()));
+    }
+  }
+  if (a.link.stats) print_stats(*master);
+  if (a.json) fmt::print("{}\n", nlohmann::json{{"units", found}}.dump());
+  if (found.empty()) {
+    throw Failure{kNoResponse, fmt::format("scan on {}: no unit in {}..{} answered", master->describe(), lo, hi)};
+  }
+  return kOk;
+}
+
+struct SlaveArgs {
+  LinkOptions link;
+  std::vector<std::string> units{"1"};
+  std::string registers = "10000";
+  std::string init;
+  bool verbose = false;
+};
+
+// {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...}}
+void load_init(const std::string& path, MemoryBank& bank) {
+  std::ifstream in(path);
+  if (!in) throw Failure{kIoError, fmt::format("cannot read {}: {}", path, std::strerror(errno))};
+  nlohmann::json j;
+  try {
+    in >> j;
+  } catch (const nlohmann::json::exception& e) {
+    throw Failure{kUsage, fmt::format("{}: not valid JSON: {}", path, e.what())};
+  }
+  if (!j.is_object()) throw Failure{kUsage, fmt::format("{}: expected an object of tables", path)};
+  for (const auto& [table, entries] : j.items()) {
+    if (!entries.is_object()) throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
+    for (const auto& [key, value] : entries.items()) {
+      const auto start = static_cast<size_t>(parse_number(key, "address", 0, 0xFFFF));
+      const nlohmann::json list = value.is_array() ? value : nlohmann::json::array({value});
+      for (size_t i = 0; i < list.size(); ++i) {
+        if (!list[i].is_number_integer()) throw Failure{kUsage, fmt::format("{}: {}[{}] is not an integer", path, table, key)};
+        const auto v = list[i].get<int64_t>();
+        const size_t at = start + i;
+        auto put = [&](auto& vec, int64_t lo, int64_t hi) {
+          if (at >= vec.size()) throw Failure{kUsage, fmt::format("{}: {} address {} past --registers", path, table, at)};
+          if (v < lo || v > hi) throw Failure{kUsage, fmt::format("{}: {} value {} out of range", path, table, v)};
+          vec[at] = static_cast<std::remove_reference_t<decltype(vec[0])>>(v);
+        };
+        if (table == "holding") put(bank.holding, -32768, 0xFFFF);
+        else if (table == "input") put(bank.input, -32768, 0xFFFF);
+        else if (table == "coils") put(bank.coils, 0, 1);
+        else if (table == "discrete") put(bank.discrete, 0, 1);
+        else throw Failure{kUsage, fmt::format("{}: unknown table '{}' (holding, input, coils, discrete)", path, table)};
+      }
+    }
+  }
+}
+
+std::string hex(std::span<const uint8_t> bytes) {
+  std::string s;
+  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
+  return s;
+}
+
+int run_slave(const SlaveArgs& a) {
+  const io::PortSpec spec = a.link.spec(true);
+  const auto size = static_cast<size_t>(parse_number(a.registers, "--registers", 1, 65536));
+  std::vector<std::unique_ptr<MemoryBank>> banks;
+  SlaveEngine engine;
+  for (const auto& u : a.units) {
+    const UnitId unit = parse_unit(u);
+    if (unit.value == 0) throw Failure{kUsage, "unit 0 is the broadcast address"};
+    banks.push_back(std::make_unique<MemoryBank>(size));
+    if (!a.init.empty()) load_init(a.init, *banks.back());
+    if (engine.add_unit(unit.value, *banks.back())) throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
+  }
+  asio::io_context ctx;
+  RequestLog log;
+  if (a.verbose) {
+    log = [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
+      fmt::print("rx {} -> {}\n", hex(rx), tx.empty() ? std::string("(silence)") : "tx " + hex(tx));
+      std::fflush(stdout);
+    };
+  }
+  std::string why;
+  auto listener = SlaveListener::start(ctx, engine, spec, &why, log);
+  if (!listener.ok()) throw Failure{kIoError, why.empty() ? std::string(listener.error().name()) : why};
+  fmt::print("listening on {} (units", (*listener)->where());
+  for (const auto& u : a.units) fmt::print(" {}", parse_unit(u).value);
+  fmt::print(")\n");
+  std::fflush(stdout);
+  asio::signal_set signals(ctx, SIGINT, SIGTERM);
+  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  ctx.run();
+  return kOk;
+}
+
+}  // namespace
+
+void add_generic_commands(CLI::App& app, Action& action) {
+  {
+    auto args = std::make_shared<ReadArgs>();
+    auto* cmd = app.add_subcommand("read", "read registers, coils or inputs");
+    args->link.add_to(*cmd, false);
+    cmd->add_option("--unit,-u", args->unit, "slave unit address")->capture_default_str();
+    auto* g = cmd->add_option_group("table");
+    g->add_flag("--holding", args->holding, "holding registers, FC03 (default)");
+    g->add_flag("--input", args->input, "input registers, FC04");
+    g->add_flag("--coils", args->coils, "coils, FC01");
+    g->add_flag("--discrete", args->discrete, "discrete inputs, FC02");
+    cmd->add_option("address", args->address, "first address, 0-based (33 or 0x21)")->required();
+    cmd->add_option("count", args->count, "how many values")->capture_default_str();
+    add_type_options(*cmd, args->type, args->order);
+    cmd->add_option("--format", args->format, "dec | hex")->check(CLI::IsMember({"dec", "hex"}))->capture_default_str();
+    cmd->add_flag("--json", args->json, "print JSON");
+    cmd->callback([&action, args] { action = [args] { return run_read(*args); }; });
+  }
+  {
+    auto args = std::make_shared<WriteArgs>();
+    auto* cmd = app.add_subcommand("write", "write registers (FC06 / FC10) or coils (FC05 / FC0F)");
+    args->link.add_to(*cmd, false);
+    cmd->add_option("--unit,-u", args->unit, "slave unit address (0 = broadcast)")->capture_default_str();
+    cmd->add_option("address", args->address, "first address, 0-based")->required();
+    cmd->add_option("values", args->values, "values to write")->required();
+    cmd->add_flag("--multiple", args->multiple, "use FC10 / FC0F even for one value");
+    cmd->add_flag("--coils", args->coils, "write coils (values 0 or 1)");
+    add_type_options(*cmd, args->type, args->order);
+    cmd->callback([&action, args] { action = [args] { return run_write(*args); }; });
+  }
+  {
+    auto args = std::make_shared<ScanArgs>();
+    auto* cmd = app.add_subcommand("scan", "find which unit addresses answer");
+    args->link.add_to(*cmd, false);
+    cmd->add_option("--units", args->units, "range to try, e.g. 1-247 or 21")->capture_default_str();
+    cmd->add_flag("--json", args->json, "print JSON");
+    cmd->callback([&action, args] { action = [args] { return run_scan(*args); }; });
+  }
+  {
+    auto args = std::make_shared<SlaveArgs>();
+    auto* cmd = app.add_subcommand("slave", "a generic in-memory slave (holding, input, coils, discrete)");
+    args->link.add_to(*cmd, true);
+    cmd->add_option("--unit,-u", args->units, "unit address(es) to answer (repeatable)")->capture_default_str();
+    cmd->add_option("--registers", args->registers, "entries per table")->capture_default_str();
+    cmd->add_option("--init", args->init, "JSON file with initial values");
+    cmd->add_flag("-v,--verbose", args->verbose, "log each request and response");
+    cmd->callback([&action, args] { action = [args] { return run_slave(*args); }; });
+  }
+}
+
+}  // namespace rtukit::cli

@@ -1,0 +1,38 @@
+// rtukit: one binary, subcommands. Exit codes: 0 ok, 1 Modbus exception,
+// 2 usage, 3 no response, 4 I/O error. Errors are one line on stderr.
+#include <fmt/core.h>
+
+#include <CLI/CLI.hpp>
+
+#include "commands.hpp"
+#include "common.hpp"
+
+int main(int argc, char** argv) {
+  using namespace rtukit::cli;
+  CLI::App app{"rtukit: talk Modbus-RTU / Modbus TCP to real or simulated devices", "rtukit"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "rtukit 0.1.0");
+  Action action;
+  add_generic_commands(app, action);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    fmt::print(stderr, "rtukit: {} (see --help)\n", e.what());
+    return kUsage;
+  }
+  try {
+    return action ? action() : kUsage;
+  } catch (const Failure& f) {
+    fmt::print(stderr, "rtukit: {}\n", f.message);
+    return f.code;
+  } catch (const std::exception& e) {
+    fmt::print(stderr, "rtukit: {}\n", e.what());
+    return kIoError;
+  }
+}

@@ -1,0 +1,140 @@
+// rtukit core: the Modbus PDU (function code + data), both directions.
+//
+// A PDU is what RTU and TCP have in common: RTU wraps it in address + CRC,
+// Modbus TCP in an MBAP header. Everything here works on caller-owned spans:
+// decoders return views into the bytes they were given (valid as long as
+// those bytes are), encoders write into `out` and return the length written.
+//
+// Function codes: 01 read coils, 02 read discrete inputs, 03 read holding
+// registers, 04 read input registers, 05 write single coil, 06 write single
+// register, 0F write multiple coils, 10 write multiple registers.
+// Limits (Modbus Application Protocol v1.1b3): reads 1..125 registers or
+// 1..2000 bits; multiple writes 1..123 registers or 1..1968 bits.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "rtukit/core/error.hpp"
+
+namespace rtukit {
+
+inline constexpr size_t kMaxPduSize = 253;     ///< function code + data
+inline constexpr size_t kMaxRtuAduSize = 256;  ///< address + PDU + CRC
+inline constexpr uint16_t kMaxReadRegisters = 125;
+inline constexpr uint16_t kMaxWriteRegisters = 123;
+inline constexpr uint16_t kMaxReadBits = 2000;
+inline constexpr uint16_t kMaxWriteBits = 1968;
+inline constexpr uint8_t kExceptionBit = 0x80;
+
+/// A slave's unit address. A distinct type so it cannot be swapped with a
+/// register address: `master.read_holding_registers(UnitId{21}, 0x0021, regs)`.
+struct UnitId {
+  uint8_t value = 0;
+  constexpr explicit UnitId(uint8_t v) noexcept : value(v) {}
+  friend constexpr bool operator==(UnitId, UnitId) noexcept = default;
+};
+inline constexpr UnitId kBroadcast{0};
+
+/// The function codes this stack implements.
+enum class Function : uint8_t {
+  read_coils = 0x01,
+  read_discrete_inputs = 0x02,
+  read_holding_registers = 0x03,
+  read_input_registers = 0x04,
+  write_single_coil = 0x05,
+  write_single_register = 0x06,
+  write_multiple_coils = 0x0F,
+  write_multiple_registers = 0x10,
+};
+
+constexpr uint8_t fc(Function f) noexcept { return static_cast<uint8_t>(f); }
+/// True for the eight function codes above.
+bool is_supported_function(uint8_t function) noexcept;
+/// True for 01..04.
+bool is_read_function(uint8_t function) noexcept;
+/// "read holding registers", ..., or "unknown function".
+const char* function_name(uint8_t function) noexcept;
+
+// ---- byte order helpers: Modbus data is big-endian ----
+constexpr uint16_t load_be16(const uint8_t* p) noexcept {
+  return static_cast<uint16_t>((p[0] << 8) | p[1]);
+}
+constexpr void store_be16(uint8_t* p, uint16_t v) noexcept {
+  p[0] = static_cast<uint8_t>(v >> 8);
+  p[1] = static_cast<uint8_t>(v & 0xFF);
+}
+/// Bit `i` of a packed bit field (LSB of byte 0 is bit 0, as Modbus packs coils).
+constexpr bool get_bit(std::span<const uint8_t> packed, size_t i) noexcept {
+  return (packed[i / 8] >> (i % 8)) & 1U;
+}
+constexpr void set_bit(std::span<uint8_t> packed, size_t i, bool on) noexcept {
+  const auto mask = static_cast<uint8_t>(1U << (i % 8));
+  packed[i / 8] = on ? static_cast<uint8_t>(packed[i / 8] | mask) : static_cast<uint8_t>(packed[i / 8] & ~mask);
+}
+constexpr size_t packed_size(size_t bits) noexcept { return (bits + 7) / 8; }
+
+/// Copies `count` big-endian registers from `bytes` into `out`.
+/// Preconditions: bytes.size() >= 2 * count, out.size() >= count.
+void load_registers(std::span<const uint8_t> bytes, std::span<uint16_t> out) noexcept;
+
+/// A request PDU, decoded. `data` views the buffer that was decoded.
+struct Request {
+  uint8_t function = 0;
+  uint16_t address = 0;
+  uint16_t quantity = 0;  ///< registers or bits; 1 for single writes
+  uint16_t value = 0;     ///< FC05 (0xFF00 on / 0x0000 off) and FC06
+  /// FC0F: packed bits; FC10: big-endian register values. Empty otherwise.
+  std::span<const uint8_t> data{};
+  /// FC10 sent without its byte-count byte (the Inverjet document's form).
+  bool without_byte_count = false;
+};
+
+/// Decodes a request PDU, as a slave does.
+/// Errors: illegal_function (function not implemented), illegal_data_value
+/// (quantity out of range, byte count or length disagreeing with the quantity,
+/// FC05 value other than 0xFF00/0x0000), illegal_data_address (address +
+/// quantity past 0xFFFF), malformed (too short to hold the fixed fields: a
+/// slave drops it without answering).
+Result<Request> decode_request(std::span<const uint8_t> pdu) noexcept;
+
+/// Encodes `request` into `out` (FC10 without byte count if
+/// `request.without_byte_count`). The same validation as decode_request,
+/// returned as invalid_argument for local mistakes; buffer_too_small if `out` is short.
+Result<size_t> encode_request(const Request& request, std::span<uint8_t> out) noexcept;
+
+// Convenience encoders for a master. Each returns the PDU length.
+Result<size_t> encode_read_request(Function function, uint16_t address, uint16_t quantity,
+                                   std::span<uint8_t> out) noexcept;
+Result<size_t> encode_write_single_register(uint16_t address, uint16_t value,
+                                            std::span<uint8_t> out) noexcept;
+Result<size_t> encode_write_single_coil(uint16_t address, bool on, std::span<uint8_t> out) noexcept;
+Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const uint16_t> values,
+                                               std::span<uint8_t> out,
+                                               bool with_byte_count = true) noexcept;
+/// `bits` holds one coil per element (0 = off, anything else = on).
+Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uint8_t> bits,
+                                           std::span<uint8_t> out) noexcept;
+
+/// A response PDU, decoded and checked against the request it answers.
+struct Response {
+  uint8_t function = 0;
+  uint16_t address = 0;  ///< writes: the echoed address
+  uint16_t value = 0;    ///< FC05/06: echoed value; FC0F/10: echoed quantity
+  /// Reads: big-endian register bytes (FC03/04) or packed bits (FC01/02).
+  std::span<const uint8_t> data{};
+  /// FC03/04 answered with a 2-byte byte count (the Rehand 6600 document's form).
+  bool long_byte_count = false;
+};
+
+/// Decodes the response PDU that answers `request`, as a master does.
+/// An exception response returns its exception code as the Error.
+/// Errors: malformed (length wrong for the function), unexpected_response
+/// (other function, byte count or echo that does not match the request).
+Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu) noexcept;
+
+// Response encoders for a slave. Each returns the PDU length written to `out`.
+size_t encode_exception_response(uint8_t function, Errc exception, std::span<uint8_t> out) noexcept;
+
+}  // namespace rtukit

@@ -1,0 +1,128 @@
+// rtukit core: the slave engine. Turns a request into a response (or silence).
+//
+// A device implements `RegisterBank`; the engine does everything that is the
+// same for every device: unit address filtering, broadcast, decoding and
+// validating the request (function, quantity, byte count, address overflow),
+// calling the bank, and encoding the response or exception. One engine can
+// host several units, so one simulated bus can carry several devices.
+//
+// Sans-IO: a driver hands the engine complete frames (from RtuFramer or an
+// MBAP stream) and sends back what the engine writes. No heap; register data
+// passes through a 250-byte stack buffer.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <span>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/core/pdu.hpp"
+
+namespace rtukit {
+
+/// What a device implements. Every method returns Errc::ok or the Modbus
+/// exception to answer with. A method left as is answers illegal_function,
+/// so a device that has no coils simply does not override the coil methods.
+///
+/// Contract for writes: **all or nothing**. A bank validates the whole range
+/// and every value first and changes nothing unless it returns ok; the engine
+/// relies on this to promise atomic multi-register writes.
+///
+/// Bits are packed as on the wire: bit i of the range is bit (i % 8) of byte
+/// (i / 8). The engine has checked that address + count does not pass 0xFFFF.
+// All methods are inline (no key function), so a bank compiled with RTTI
+// links against a core compiled without it.
+class RegisterBank {
+ public:
+  virtual ~RegisterBank() = default;
+  /// FC01. `packed_out` has packed_size(count) bytes, zeroed.
+  virtual Errc read_coils(uint16_t /*address*/, uint16_t /*count*/, std::span<uint8_t> /*packed_out*/) {
+    return Errc::illegal_function;
+  }
+  /// FC02. As read_coils.
+  virtual Errc read_discrete_inputs(uint16_t /*address*/, uint16_t /*count*/, std::span<uint8_t> /*packed_out*/) {
+    return Errc::illegal_function;
+  }
+  /// FC03. Fill `out` (out.size() registers from `address`).
+  virtual Errc read_holding_registers(uint16_t /*address*/, std::span<uint16_t> /*out*/) {
+    return Errc::illegal_function;
+  }
+  /// FC04. As read_holding_registers.
+  virtual Errc read_input_registers(uint16_t /*address*/, std::span<uint16_t> /*out*/) {
+    return Errc::illegal_function;
+  }
+  /// FC05 (count 1) and FC0F.
+  virtual Errc write_coils(uint16_t /*address*/, uint16_t /*count*/, std::span<const uint8_t> /*packed*/) {
+    return Errc::illegal_function;
+  }
+  /// FC06 (one value) and FC10.
+  virtual Errc write_holding_registers(uint16_t /*address*/, std::span<const uint16_t> /*values*/) {
+    return Errc::illegal_function;
+  }
+  /// Called by the driver once the response to the last request of this unit
+  /// has been sent (or would have been: broadcast). A device applies changes
+  /// that must not affect that response here, such as a new address or baud rate.
+  virtual void after_response() {}
+};
+
+/// How the unit byte is read.
+enum class Addressing : uint8_t {
+  rtu,  ///< 0 = broadcast (writes run on every unit, nobody answers)
+  tcp,  ///< 0 and 0xFF address the first unit (a TCP device addressed directly)
+};
+
+class SlaveEngine {
+ public:
+  static constexpr size_t kMaxUnits = 16;
+
+  struct Counters {
+    uint32_t requests = 0;    ///< requests addressed to us (incl. broadcast)
+    uint32_t responses = 0;   ///< normal responses sent
+    uint32_t exceptions = 0;  ///< exception responses sent
+    uint32_t broadcasts = 0;  ///< broadcast requests received
+    uint32_t ignored = 0;     ///< frames for units we do not host
+    uint32_t malformed = 0;   ///< requests dropped without an answer
+  };
+
+  /// Hosts `bank` at `unit` (1..255). The bank must outlive the engine.
+  /// Errors: invalid_argument (unit 0 or already hosted), buffer_too_small (full).
+  Error add_unit(uint8_t unit, RegisterBank& bank) noexcept;
+  /// Moves a hosted unit to a new address. Errors: invalid_argument.
+  Error change_unit_address(uint8_t from, uint8_t to) noexcept;
+  bool remove_unit(uint8_t unit) noexcept;
+  RegisterBank* find(uint8_t unit) const noexcept;
+  size_t unit_count() const noexcept { return count_; }
+
+  /// Handles the request `pdu` addressed to `unit`. Writes the response PDU to
+  /// `out` (>= 253 bytes) and returns its length; 0 means stay silent
+  /// (broadcast, another unit's frame, or a malformed request).
+  /// `handled` receives the bank that ran the request (for after_response), or nullptr.
+  size_t handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
+                    Addressing addressing = Addressing::rtu, RegisterBank** handled = nullptr) noexcept;
+
+  /// RTU: `adu` is a CRC-checked frame (address + PDU + CRC). Writes the
+  /// response ADU to `out` (>= 256 bytes); returns its length, 0 = silence.
+  size_t handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out,
+                    RegisterBank** handled = nullptr) noexcept;
+
+  /// Modbus TCP: `adu` is a complete MBAP ADU. Writes the response ADU to
+  /// `out` (>= 260 bytes); returns its length, 0 = silence.
+  size_t handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out,
+                    RegisterBank** handled = nullptr) noexcept;
+
+  const Counters& counters() const noexcept { return counters_; }
+
+ private:
+  struct Unit {
+    uint8_t address = 0;
+    RegisterBank* bank = nullptr;
+  };
+  Errc execute(RegisterBank& bank, const Request& request, std::span<uint8_t> out, size_t* length) noexcept;
+
+  std::array<Unit, kMaxUnits> units_{};
+  size_t count_ = 0;
+  Counters counters_{};
+};
+
+}  // namespace rtukit

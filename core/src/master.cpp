@@ -1,0 +1,45 @@
+#include "rtukit/core/master.hpp"
+
+namespace rtukit {
+
+Error MasterTransaction::begin(Framing framing, uint8_t unit, const Request& request,
+                               uint16_t transaction_id) noexcept {
+  framing_ = framing;
+  unit_ = unit;
+  transaction_id_ = transaction_id;
+  broadcast_ = framing == Framing::rtu && unit == 0;
+  tx_len_ = 0;
+  if (broadcast_ && is_read_function(request.function)) return Errc::invalid_argument;
+  std::array<uint8_t, kMaxPduSize> pdu{};
+  const Result<size_t> n = encode_request(request, pdu);
+  if (!n.ok()) return n.error();
+  const std::span<const uint8_t> pdu_view(pdu.data(), *n);
+  const Result<size_t> adu = framing == Framing::rtu ? rtu_encode(unit, pdu_view, tx_)
+                                                     : mbap_encode(transaction_id, unit, pdu_view, tx_);
+  if (!adu.ok()) return adu.error();
+  tx_len_ = *adu;
+  request_ = request;
+  request_.data = {};  // the caller's data need not outlive begin()
+  return {};
+}
+
+void MasterTransaction::prepare(RtuFramer& framer, bool discard_echo) const noexcept {
+  framer.reset();
+  framer.expect_response(request_.function, request_.quantity);
+  if (discard_echo) framer.expect_echo(request_bytes());
+}
+
+std::optional<Result<Response>> MasterTransaction::accept_rtu(const RtuFrame& frame) const noexcept {
+  if (frame.unit() != unit_) return std::nullopt;
+  return decode_response(request_, frame.pdu());
+}
+
+std::optional<Result<Response>> MasterTransaction::accept_tcp(std::span<const uint8_t> adu) const noexcept {
+  if (adu.size() < kMbapHeaderSize + 1) return Result<Response>(Errc::malformed);
+  const MbapHeader h = mbap_header(adu);
+  if (h.transaction != transaction_id_) return std::nullopt;
+  if (h.unit != unit_) return Result<Response>(Errc::unexpected_response);
+  return decode_response(request_, mbap_pdu(adu));
+}
+
+}  // namespace rtukit

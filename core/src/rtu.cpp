@@ -1,0 +1,245 @@
+#include "rtukit/core/rtu.hpp"
+
+#include <cstring>
+
+#include "rtukit/core/crc.hpp"
+
+namespace rtukit {
+
+Result<size_t> rtu_encode(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out) noexcept {
+  if (pdu.empty() || pdu.size() > kMaxPduSize) return Errc::invalid_argument;
+  const size_t n = pdu.size() + 3;
+  if (out.size() < n) return Errc::buffer_too_small;
+  out[0] = unit;
+  std::memcpy(&out[1], pdu.data(), pdu.size());
+  const uint16_t crc = crc16(out.first(n - 2));
+  out[n - 2] = static_cast<uint8_t>(crc & 0xFF);
+  out[n - 1] = static_cast<uint8_t>(crc >> 8);
+  return n;
+}
+
+size_t RtuFramer::feed(std::span<const uint8_t> bytes, uint64_t now_us) noexcept {
+  consume_pending();
+  if (bytes.empty()) return 0;
+  // A gap long enough between chunks closes what was buffered before it.
+  const uint32_t gap = timing_.t15_us ? timing_.t15_us : timing_.t35_us;
+  if (gap && have_time_ && tail_ > head_ && now_us >= last_time_us_ + gap) boundary_ = tail_;
+  if (tail_ + bytes.size() > buf_.size() && head_ > 0) {
+    // Compact: move the unparsed bytes to the front.
+    std::memmove(buf_.data(), buf_.data() + head_, tail_ - head_);
+    tail_ -= head_;
+    boundary_ = boundary_ > head_ ? boundary_ - head_ : 0;
+    head_ = 0;
+  }
+  const size_t n = bytes.size() < buf_.size() - tail_ ? bytes.size() : buf_.size() - tail_;
+  std::memcpy(buf_.data() + tail_, bytes.data(), n);
+  tail_ += n;
+  last_time_us_ = now_us;
+  have_time_ = true;
+  return n;
+}
+
+std::optional<uint64_t> RtuFramer::silence_deadline() const noexcept {
+  if (!timing_.t35_us || tail_ - head_ - pending_ == 0 || !have_time_) return std::nullopt;
+  return last_time_us_ + timing_.t35_us;
+}
+
+void RtuFramer::expect_response(uint8_t function, uint16_t quantity) noexcept {
+  expected_function_ = function;
+  expected_quantity_ = quantity;
+}
+
+void RtuFramer::expect_echo(std::span<const uint8_t> sent) noexcept {
+  echo_len_ = sent.size() < echo_.size() ? sent.size() : echo_.size();
+  std::memcpy(echo_.data(), sent.data(), echo_len_);
+}
+
+void RtuFramer::reset() noexcept {
+  head_ = tail_ = pending_ = boundary_ = 0;
+  expected_function_ = 0;
+  expected_quantity_ = 0;
+  echo_len_ = 0;
+}
+
+void RtuFramer::consume_pending() noexcept {
+  head_ += pending_;
+  pending_ = 0;
+  if (boundary_ <= head_) boundary_ = 0;
+  if (head_ == tail_) head_ = tail_ = 0;
+}
+
+void RtuFramer::drop(size_t n) noexcept {
+  head_ += n;
+  counters_.discarded_bytes += static_cast<uint32_t>(n);
+  if (boundary_ <= head_) boundary_ = 0;
+  if (head_ == tail_) head_ = tail_ = 0;
+}
+
+// The frame lengths the bytes at `p` can have, from what is known so far.
+// count == 0 with predictable == true: not enough bytes yet to tell.
+RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const noexcept {
+  Candidates c;
+  auto add = [&c](size_t len) {
+    if (len > kMaxRtuAduSize || len < 4) return;
+    for (size_t i = 0; i < c.count; ++i)
+      if (c.len[i] == len) return;
+    c.len[c.count++] = len;
+    if (c.count == 2 && c.len[0] > c.len[1]) {
+      const size_t t = c.len[0];
+      c.len[0] = c.len[1];
+      c.len[1] = t;
+    }
+  };
+  if (avail < 2) return c;
+  const uint8_t function = p[1];
+  if (shape_ == FrameShape::request) {
+    switch (function) {
+      case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06:
+        add(8);
+        return c;
+      case 0x0F: case 0x10:
+        if (avail < 7) return c;
+        add(9 + size_t{p[6]});
+        // Short form (no byte count), FC10 only: length from the quantity.
+        if (function == 0x10) {
+          const uint16_t q = load_be16(p + 4);
+          if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
+        }
+        return c;
+      default:
+        c.predictable = false;
+        return c;
+    }
+  }
+  // Response shapes.
+  if (function & kExceptionBit) {
+    add(5);
+    return c;
+  }
+  switch (function) {
+    case 0x01: case 0x02: case 0x03: case 0x04: {
+      if (avail < 3) return c;
+      add(5 + size_t{p[2]});
+      if (function >= 0x03) {
+        // 2-byte byte count (Rehand 6600 document). With an expectation the
+        // length is known; without one, read it from the frame.
+        if (expected_function_ == function && expected_quantity_ > 0) {
+          add(6 + 2 * size_t{expected_quantity_});
+        } else if (avail >= 4 && p[2] == 0) {
+          add(6 + size_t{load_be16(p + 2)});
+        }
+      }
+      return c;
+    }
+    case 0x05: case 0x06: case 0x0F: case 0x10:
+      add(8);
+      return c;
+    default:
+      c.predictable = false;
+      return c;
+  }
+}
+
+// Looks for a frame at buf_[pos], with `avail` bytes available from pos.
+RtuFramer::Verdict RtuFramer::check_at(size_t pos, size_t avail, size_t* frame_len) const noexcept {
+  const uint8_t* p = buf_.data() + pos;
+  const Candidates c = predict(p, avail);
+  if (!c.predictable) return Verdict::not_a_frame;
+  if (c.count == 0) return avail >= 7 ? Verdict::not_a_frame : Verdict::need_more;
+  bool waiting = false;
+  for (size_t i = 0; i < c.count; ++i) {
+    if (c.len[i] > avail) {
+      waiting = true;
+      continue;
+    }
+    if (rtu_crc_ok({p, c.len[i]})) {
+      *frame_len = c.len[i];
+      return Verdict::frame;
+    }
+  }
+  return waiting ? Verdict::need_more : Verdict::not_a_frame;
+}
+
+// The head predicts a frame that has not fully arrived. If a complete valid
+// frame ends exactly at the newest byte, the head was garbage: drop up to it.
+bool RtuFramer::lookahead_resync(size_t avail) noexcept {
+  for (size_t k = 1; k + 4 <= avail; ++k) {
+    size_t len = 0;
+    if (check_at(head_ + k, avail - k, &len) == Verdict::frame && len == avail - k) {
+      drop(k);
+      return true;
+    }
+  }
+  return false;
+}
+
+std::optional<RtuFrame> RtuFramer::next(uint64_t now_us) noexcept {
+  consume_pending();
+  if (timing_.t35_us && have_time_ && tail_ > head_ && now_us >= last_time_us_ + timing_.t35_us) {
+    boundary_ = tail_;  // silence: everything buffered is closed
+  }
+  while (tail_ > head_) {
+    const bool closed = boundary_ > head_;
+    const size_t avail = (closed ? boundary_ : tail_) - head_;
+
+    // Our own echo (half duplex): drop it if the bytes repeat what we sent.
+    if (echo_len_) {
+      const size_t n = avail < echo_len_ ? avail : echo_len_;
+      if (std::memcmp(buf_.data() + head_, echo_.data(), n) != 0) {
+        echo_len_ = 0;  // not an echo after all
+      } else if (n == echo_len_) {
+        head_ += echo_len_;
+        if (boundary_ <= head_) boundary_ = 0;
+        echo_len_ = 0;
+        ++counters_.echoes;
+        continue;
+      } else if (!closed) {
+        return std::nullopt;  // partial echo: wait for the rest
+      } else {
+        echo_len_ = 0;
+      }
+    }
+
+    size_t len = 0;
+    const Candidates c = predict(buf_.data() + head_, avail);
+    const Verdict v = check_at(head_, avail, &len);
+    if (v == Verdict::frame) {
+      sliding_ = false;
+      pending_ = len;
+      ++counters_.frames;
+      return RtuFrame{{buf_.data() + head_, len}, last_time_us_};
+    }
+    if (!c.predictable) {
+      // Unknown function: the frame ends at silence. Until then, a complete
+      // known frame ending at the newest byte shows the head was garbage.
+      if (closed) {
+        if (avail >= 4 && rtu_crc_ok({buf_.data() + head_, avail})) {
+          sliding_ = false;
+          pending_ = avail;
+          ++counters_.frames;
+          return RtuFrame{{buf_.data() + head_, avail}, last_time_us_};
+        }
+        drop(avail);
+        continue;
+      }
+      if (lookahead_resync(avail)) continue;
+      return std::nullopt;
+    }
+    if (v == Verdict::need_more) {
+      if (closed) {
+        drop(1);  // truncated at silence: slide, a frame may start later in it
+        continue;
+      }
+      if (lookahead_resync(avail)) continue;
+      return std::nullopt;
+    }
+    // Not a frame at the head: slide one byte. A run of slides counts as one
+    // CRC error (a corrupted frame is dropped byte by byte).
+    if (!sliding_) ++counters_.crc_errors;
+    sliding_ = true;
+    drop(1);
+  }
+  return std::nullopt;
+}
+
+}  // namespace rtukit

@@ -1,0 +1,117 @@
+// rtukit driver: a Modbus master = the core's transaction logic + a Link + the
+// steady clock. Blocking calls with a response timeout, retries, an
+// inter-request delay for slow devices, broadcast with a turnaround delay.
+//
+// Thread-safe: one Master may be shared by several threads; requests are
+// serialised (one transaction on the bus at a time, as RTU requires).
+// A link that fails (USB adapter unplugged, TCP peer gone) is closed and
+// reopened by the next request, so a device that comes back just works again.
+//
+//   rtukit::Master m(rtukit::io::make_link(spec));
+//   std::array<uint16_t, 4> regs;
+//   if (rtukit::Error e = m.read_holding_registers(rtukit::UnitId{21}, 0x0021, regs)) { ... e.name() ... }
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <span>
+#include <string>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/core/master.hpp"
+#include "rtukit/core/pdu.hpp"
+#include "rtukit/core/rtu.hpp"
+#include "rtukit/io/link.hpp"
+
+namespace rtukit {
+
+struct MasterOptions {
+  std::chrono::milliseconds response_timeout{1000};
+  /// Minimum silence between the end of one transaction and the next request.
+  std::chrono::milliseconds inter_request_delay{0};
+  /// After a broadcast (no answer comes): time the slaves get to act.
+  std::chrono::milliseconds turnaround_delay{100};
+  /// Extra attempts after a timeout (no or corrupted answer). Exceptions and I/O errors are not retried.
+  unsigned retries = 0;
+  /// Half-duplex adapters that echo our own request.
+  bool discard_echo = false;
+  /// Send FC10 without its byte count (Inverjet document form). Off: standard form.
+  bool fc10_without_byte_count = false;
+};
+
+/// Counters since construction. Readable from any thread.
+struct MasterStats {
+  uint64_t requests = 0;    ///< requests sent (each retry counts)
+  uint64_t responses = 0;   ///< normal responses received
+  uint64_t exceptions = 0;  ///< exception responses received
+  uint64_t timeouts = 0;    ///< attempts that got no valid answer in time
+  uint64_t crc_errors = 0;  ///< corrupted frames dropped while waiting
+  uint64_t unexpected = 0;  ///< valid frames that did not answer the request
+  uint64_t io_errors = 0;   ///< transport failures (open, write, read)
+  uint64_t retries = 0;     ///< attempts after the first
+  uint64_t reopens = 0;     ///< successful (re)opens of the link
+};
+
+class Master {
+ public:
+  /// Takes the link; it is opened by the first request (or by open()).
+  explicit Master(std::unique_ptr<io::Link> link, MasterOptions options = {});
+  ~Master();
+  Master(const Master&) = delete;
+  Master& operator=(const Master&) = delete;
+
+  /// Opens the link now (else the first request does). Errors: io_error.
+  Error open();
+
+  // Each call returns ok, the Modbus exception the slave answered
+  // (Error::is_exception), timeout, unexpected_response, invalid_argument
+  // (quantity out of range, read broadcast) or io_error/not_connected.
+  // The quantity is the span's size.
+
+  /// FC03.
+  Error read_holding_registers(UnitId unit, uint16_t address, std::span<uint16_t> out);
+  /// FC04.
+  Error read_input_registers(UnitId unit, uint16_t address, std::span<uint16_t> out);
+  /// FC01. One element per coil: 0 or 1.
+  Error read_coils(UnitId unit, uint16_t address, std::span<uint8_t> out);
+  /// FC02. One element per input: 0 or 1.
+  Error read_discrete_inputs(UnitId unit, uint16_t address, std::span<uint8_t> out);
+  /// FC06.
+  Error write_single_register(UnitId unit, uint16_t address, uint16_t value);
+  /// FC10.
+  Error write_multiple_registers(UnitId unit, uint16_t address, std::span<const uint16_t> values);
+  /// FC05.
+  Error write_single_coil(UnitId unit, uint16_t address, bool on);
+  /// FC0F. One element per coil: 0 = off, anything else = on.
+  Error write_multiple_coils(UnitId unit, uint16_t address, std::span<const uint8_t> bits);
+
+  /// Any request. `on_response` runs (under the lock) with the decoded
+  /// response while its data is valid; not called for broadcasts.
+  Error transact(UnitId unit, const Request& request,
+                 const std::function<void(const Response&)>& on_response = {});
+
+  MasterStats stats() const;
+  const MasterOptions& options() const noexcept { return options_; }
+  std::string describe() const;
+
+ private:
+  Error transact_locked(UnitId unit, const Request& request,
+                        const std::function<void(const Response&)>& on_response);
+  Result<Response> receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline);
+  Result<Response> receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline);
+
+  std::unique_ptr<io::Link> link_;
+  MasterOptions options_;
+  mutable std::mutex mutex_;
+  MasterStats stats_{};
+  RtuFramer framer_{FrameShape::response};
+  std::array<uint8_t, kMaxMbapAduSize * 2> rx_{};
+  size_t rx_len_ = 0;
+  uint16_t transaction_id_ = 0;
+  io::Clock::time_point last_end_{};
+};
+
+}  // namespace rtukit

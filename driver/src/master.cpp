@@ -1,0 +1,226 @@
+#include "rtukit/driver/master.hpp"
+
+#include <cstring>
+#include <thread>
+
+namespace rtukit {
+
+Master::Master(std::unique_ptr<io::Link> link, MasterOptions options)
+    : link_(std::move(link)), options_(options) {
+  framer_.set_timing(link_->timing());
+}
+
+Master::~Master() = default;
+
+Error Master::open() {
+  std::lock_guard lock(mutex_);
+  if (link_->is_open()) return {};
+  Error e = link_->open();
+  if (e) {
+    ++stats_.io_errors;
+  } else {
+    ++stats_.reopens;
+  }
+  return e;
+}
+
+MasterStats Master::stats() const {
+  std::lock_guard lock(mutex_);
+  return stats_;
+}
+
+std::string Master::describe() const { return link_->describe(); }
+
+Error Master::transact(UnitId unit, const Request& request,
+                       const std::function<void(const Response&)>& on_response) {
+  std::lock_guard lock(mutex_);
+  return transact_locked(unit, request, on_response);
+}
+
+Error Master::transact_locked(UnitId unit, const Request& request,
+                              const std::function<void(const Response&)>& on_response) {
+  Request req = request;
+  if (req.function == fc(Function::write_multiple_registers)) req.without_byte_count = options_.fc10_without_byte_count;
+
+  if (options_.inter_request_delay.count() > 0) {
+    const auto ready = last_end_ + options_.inter_request_delay;
+    if (io::Clock::now() < ready) std::this_thread::sleep_until(ready);
+  }
+  struct EndMark {
+    io::Clock::time_point& t;
+    ~EndMark() { t = io::Clock::now(); }
+  } end_mark{last_end_};
+
+  MasterTransaction tx;
+  Error last;
+  for (unsigned attempt = 0; attempt <= options_.retries; ++attempt) {
+    if (!link_->is_open()) {
+      if (Error e = link_->open()) {
+        ++stats_.io_errors;
+        return e;
+      }
+      ++stats_.reopens;
+    }
+    if (Error e = tx.begin(link_->framing(), unit.value, req, ++transaction_id_)) return e;
+    if (attempt > 0) ++stats_.retries;
+    link_->discard_input();  // a late answer to an earlier request must not match this one
+    const auto deadline = io::Clock::now() + options_.response_timeout;
+    if (Error e = link_->write(tx.request_bytes(), deadline)) {
+      ++stats_.io_errors;
+      return e;
+    }
+    ++stats_.requests;
+    if (!tx.expects_response()) {
+      std::this_thread::sleep_for(options_.turnaround_delay);
+      return {};
+    }
+    Result<Response> r =
+        link_->framing() == Framing::rtu ? receive_rtu(tx, deadline) : receive_tcp(tx, deadline);
+    if (r.ok()) {
+      ++stats_.responses;
+      if (on_response) on_response(*r);
+      return {};
+    }
+    last = r.error();
+    switch (last.code()) {
+      case Errc::timeout:
+        ++stats_.timeouts;
+        continue;  // retry
+      case Errc::io_error:
+      case Errc::not_connected:
+        ++stats_.io_errors;
+        return last;
+      case Errc::unexpected_response:
+      case Errc::malformed:
+        ++stats_.unexpected;
+        return last;
+      default:
+        if (last.is_exception()) ++stats_.exceptions;
+        return last;
+    }
+  }
+  return last;
+}
+
+Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline) {
+  tx.prepare(framer_, options_.discard_echo);
+  const uint32_t crc_before = framer_.counters().crc_errors;
+  std::array<uint8_t, 256> chunk{};
+  for (;;) {
+    const Result<size_t> n = link_->read_some(chunk, deadline);
+    if (!n.ok()) return n.error();
+    const uint64_t now = io::now_us();
+    if (*n == 0 && io::Clock::now() >= deadline) {
+      stats_.crc_errors += framer_.counters().crc_errors - crc_before;
+      return Errc::timeout;
+    }
+    size_t fed = 0;
+    do {
+      fed += framer_.feed(std::span<const uint8_t>(chunk.data() + fed, *n - fed), now);
+      while (auto frame = framer_.next(now)) {
+        if (auto outcome = tx.accept_rtu(*frame)) {
+          stats_.crc_errors += framer_.counters().crc_errors - crc_before;
+          return *outcome;
+        }
+      }
+    } while (fed < *n);
+  }
+}
+
+Result<Response> Master::receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline) {
+  rx_len_ = 0;
+  for (;;) {
+    // Complete ADUs already buffered first.
+    for (;;) {
+      const Result<size_t> size = mbap_adu_size({rx_.data(), rx_len_});
+      if (!size.ok()) {
+        link_->close();  // out of step: a fresh connection is the only cure
+        return size.error();
+      }
+      if (*size == 0 || *size > rx_len_) break;
+      const auto outcome = tx.accept_tcp({rx_.data(), *size});
+      if (outcome) {
+        // The response views rx_; consumed bytes are dropped by the next call.
+        return *outcome;
+      }
+      std::memmove(rx_.data(), rx_.data() + *size, rx_len_ - *size);
+      rx_len_ -= *size;
+    }
+    const Result<size_t> n = link_->read_some({rx_.data() + rx_len_, rx_.size() - rx_len_}, deadline);
+    if (!n.ok()) return n.error();
+    if (*n == 0) return Errc::timeout;
+    rx_len_ += *n;
+  }
+}
+
+namespace {
+
+Request make_request(Function function, uint16_t address, uint16_t quantity) {
+  Request r;
+  r.function = fc(function);
+  r.address = address;
+  r.quantity = quantity;
+  return r;
+}
+
+}  // namespace
+
+Error Master::read_holding_registers(UnitId unit, uint16_t address, std::span<uint16_t> out) {
+  if (out.size() > kMaxReadRegisters) return Errc::invalid_argument;
+  return transact(unit, make_request(Function::read_holding_registers, address, static_cast<uint16_t>(out.size())),
+                  [&](const Response& r) { load_registers(r.data, out); });
+}
+
+Error Master::read_input_registers(UnitId unit, uint16_t address, std::span<uint16_t> out) {
+  if (out.size() > kMaxReadRegisters) return Errc::invalid_argument;
+  return transact(unit, make_request(Function::read_input_registers, address, static_cast<uint16_t>(out.size())),
+                  [&](const Response& r) { load_registers(r.data, out); });
+}
+
+Error Master::read_coils(UnitId unit, uint16_t address, std::span<uint8_t> out) {
+  if (out.size() > kMaxReadBits) return Errc::invalid_argument;
+  return transact(unit, make_request(Function::read_coils, address, static_cast<uint16_t>(out.size())),
+                  [&](const Response& r) {
+                    for (size_t i = 0; i < out.size(); ++i) out[i] = get_bit(r.data, i) ? 1 : 0;
+                  });
+}
+
+Error Master::read_discrete_inputs(UnitId unit, uint16_t address, std::span<uint8_t> out) {
+  if (out.size() > kMaxReadBits) return Errc::invalid_argument;
+  return transact(unit, make_request(Function::read_discrete_inputs, address, static_cast<uint16_t>(out.size())),
+                  [&](const Response& r) {
+                    for (size_t i = 0; i < out.size(); ++i) out[i] = get_bit(r.data, i) ? 1 : 0;
+                  });
+}
+
+Error Master::write_single_register(UnitId unit, uint16_t address, uint16_t value) {
+  Request r = make_request(Function::write_single_register, address, 1);
+  r.value = value;
+  return transact(unit, r);
+}
+
+Error Master::write_single_coil(UnitId unit, uint16_t address, bool on) {
+  Request r = make_request(Function::write_single_coil, address, 1);
+  r.value = on ? 0xFF00 : 0x0000;
+  return transact(unit, r);
+}
+
+Error Master::write_multiple_registers(UnitId unit, uint16_t address, std::span<const uint16_t> values) {
+  if (values.empty() || values.size() > kMaxWriteRegisters) return Errc::invalid_argument;
+  std::array<uint8_t, 2 * kMaxWriteRegisters> data{};
+  for (size_t i = 0; i < values.size(); ++i) store_be16(&data[2 * i], values[i]);
+  Request r = make_request(Function::write_multiple_registers, address, static_cast<uint16_t>(values.size()));
+  r.data = {data.data(), 2 * values.size()};
+  return transact(unit, r);
+}
+
+Error Master::write_multiple_coils(UnitId unit, uint16_t address, std::span<const uint8_t> bits) {
+  if (bits.empty() || bits.size() > kMaxWriteBits) return Errc::invalid_argument;
+  std::array<uint8_t, packed_size(kMaxWriteBits)> data{};
+  for (size_t i = 0; i < bits.size(); ++i) set_bit(data, i, bits[i] != 0);
+  Request r = make_request(Function::write_multiple_coils, address, static_cast<uint16_t>(bits.size()));
+  r.data = {data.data(), packed_size(bits.size())};
+  return transact(unit, r);
+}
+
+}  // namespace rtukit

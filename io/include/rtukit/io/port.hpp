@@ -1,0 +1,64 @@
+// rtukit io: naming a port. One syntax everywhere (CLI, tests, tools):
+//   /dev/ttyUSB0          serial line (settings from SerialSettings)
+//   tcp://HOST:PORT       Modbus TCP (MBAP)
+//   rtu+tcp://HOST:PORT   RTU frames in a TCP stream (serial device servers)
+//   pty / pty:/some/link  listening only: a new pseudo-terminal (and a symlink to it)
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <string_view>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/core/rtu.hpp"
+
+namespace rtukit::io {
+
+/// RS-485 direction control (Linux serial_rs485).
+struct Rs485Settings {
+  bool enabled = false;
+  bool rts_on_send = true;       ///< RTS level while sending
+  bool rts_after_send = false;   ///< RTS level after sending
+  uint32_t delay_before_us = 0;  ///< before the first bit (kernel: rounded to ms)
+  uint32_t delay_after_us = 0;   ///< after the last bit
+};
+
+struct SerialSettings {
+  uint32_t baud = 9600;  ///< 1200..921600; non-standard rates via BOTHER
+  char parity = 'N';     ///< 'N', 'E' or 'O'
+  uint8_t data_bits = 8;  ///< 7 or 8
+  uint8_t stop_bits = 1;  ///< 1 or 2
+  Rs485Settings rs485{};
+  bool low_latency = true;  ///< ASYNC_LOW_LATENCY where the driver has it
+
+  /// Bits on the wire per character: start + data + parity + stop.
+  uint32_t bits_per_char() const noexcept {
+    return 1U + data_bits + (parity == 'N' ? 0U : 1U) + stop_bits;
+  }
+  /// Errors: invalid_argument with a reason in `why`.
+  Error validate(std::string* why = nullptr) const;
+};
+
+struct PortSpec {
+  enum class Kind : uint8_t { serial, tcp, rtu_tcp, pty };
+  Kind kind = Kind::serial;
+  std::string path;  ///< serial device, or the pty symlink (may be empty)
+  std::string host;  ///< tcp kinds
+  uint16_t port = 0;  ///< tcp kinds
+  SerialSettings serial{};
+
+  std::string describe() const;
+  bool is_tcp() const noexcept { return kind == Kind::tcp || kind == Kind::rtu_tcp; }
+};
+
+/// Parses the port syntax above. `listening` allows `pty`. Errors:
+/// invalid_argument, with a one-line reason in `why`.
+Result<PortSpec> parse_port(std::string_view text, bool listening, std::string* why);
+
+/// The framer timing to use on a link of this kind. Serial and pty get the
+/// t3.5 of their baud rate, never less than 5 ms (Linux and USB adapters
+/// deliver bytes in chunks, up to a few ms late); t1.5 is not enforced for
+/// the same reason. TCP streams get a 20 ms silence.
+RtuTiming link_timing(const PortSpec& spec) noexcept;
+
+}  // namespace rtukit::io
