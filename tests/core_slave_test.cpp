@@ -1,0 +1,264 @@
+// Slave engine exception matrix and master transaction checks, wire bytes in,
+// wire bytes out.
+#include <gtest/gtest.h>
+
+#include "rtukit/core.hpp"
+#include "wire.hpp"
+
+using namespace rtukit;
+using test::bytes;
+using test::hex;
+
+namespace {
+
+// 100 holding registers at 0..99 accepting 0..1000; 10 coils; no input tables.
+class TestBank : public RegisterBank {
+ public:
+  std::array<uint16_t, 100> holding{};
+  std::array<uint8_t, 10> coils{};
+  int writes = 0;
+
+  Errc read_holding_registers(uint16_t address, std::span<uint16_t> out) override {
+    if (size_t{address} + out.size() > holding.size()) return Errc::illegal_data_address;
+    std::copy_n(holding.begin() + address, out.size(), out.begin());
+    return Errc::ok;
+  }
+  Errc write_holding_registers(uint16_t address, std::span<const uint16_t> values) override {
+    if (size_t{address} + values.size() > holding.size()) return Errc::illegal_data_address;
+    for (uint16_t v : values)
+      if (v > 1000) return Errc::illegal_data_value;  // validated whole, before any change
+    std::copy(values.begin(), values.end(), holding.begin() + address);
+    ++writes;
+    return Errc::ok;
+  }
+  Errc read_coils(uint16_t address, uint16_t count, std::span<uint8_t> out) override {
+    if (size_t{address} + count > coils.size()) return Errc::illegal_data_address;
+    for (size_t i = 0; i < count; ++i) set_bit(out, i, coils[address + i] != 0);
+    return Errc::ok;
+  }
+  Errc write_coils(uint16_t address, uint16_t count, std::span<const uint8_t> packed) override {
+    if (size_t{address} + count > coils.size()) return Errc::illegal_data_address;
+    for (size_t i = 0; i < count; ++i) coils[address + i] = get_bit(packed, i);
+    return Errc::ok;
+  }
+};
+
+// Frame in (CRC appended here), frame out as hex ("" = silence).
+std::string answer(SlaveEngine& engine, const std::string& frame_without_crc) {
+  const auto body = bytes(frame_without_crc);
+  std::array<uint8_t, kMaxRtuAduSize> adu{};
+  const size_t n = *rtu_encode(body[0], std::span(body).subspan(1), adu);
+  std::array<uint8_t, kMaxRtuAduSize> out{};
+  const size_t m = engine.handle_rtu({adu.data(), n}, out);
+  return hex({out.data(), m});
+}
+
+// The same, through the framer first (as a driver does), so unknown lengths work.
+std::string answer_framed(SlaveEngine& engine, const std::string& full_frame) {
+  RtuFramer framer(FrameShape::request, RtuTiming::for_serial(9600));
+  const auto in = bytes(full_frame);
+  framer.feed(in, 0);
+  auto frame = framer.next(0);
+  if (!frame) frame = framer.next(1'000'000);  // silence ends an unpredictable frame
+  if (!frame) return "(no frame)";
+  std::array<uint8_t, kMaxRtuAduSize> out{};
+  return hex({out.data(), engine.handle_rtu(frame->adu, out)});
+}
+
+// Exception response for `unit`, `fc`, `code` with its CRC, as hex.
+std::string exception(uint8_t unit, uint8_t fc, uint8_t code) {
+  const uint8_t pdu[] = {static_cast<uint8_t>(fc | 0x80), code};
+  std::array<uint8_t, 8> adu{};
+  return hex({adu.data(), *rtu_encode(unit, pdu, adu)});
+}
+
+class SlaveEngineTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(engine.add_unit(1, bank).ok()); }
+  TestBank bank;
+  SlaveEngine engine;
+};
+
+}  // namespace
+
+TEST_F(SlaveEngineTest, ReadAndWrite_Answered) {
+  bank.holding[0] = 0x15;
+  EXPECT_EQ(answer(engine, "01 03 00 00 00 01"), "01 03 02 00 15 79 8B");
+  EXPECT_EQ(answer(engine, "01 06 00 05 00 2A"), "01 06 00 05 00 2A 18 14");
+  EXPECT_EQ(bank.holding[5], 42);
+}
+
+TEST_F(SlaveEngineTest, UnknownFunction_Exception01_EvenThoughItsLengthIsUnknown) {
+  EXPECT_EQ(answer_framed(engine, "01 2B 0E 01 00 77 77"), "(no frame)");  // bad CRC: silence
+  const auto body = bytes("01 2B 0E 01 00");
+  std::array<uint8_t, 16> adu{};
+  const size_t n = *rtu_encode(1, std::span(body).subspan(1), adu);
+  EXPECT_EQ(answer_framed(engine, hex({adu.data(), n})), exception(1, 0x2B, 0x01));
+  EXPECT_EQ(answer(engine, "01 07"), exception(1, 0x07, 0x01));
+}
+
+TEST_F(SlaveEngineTest, UnimplementedTable_Exception01) {
+  EXPECT_EQ(answer(engine, "01 04 00 00 00 01"), exception(1, 0x04, 0x01));  // no input registers
+}
+
+TEST_F(SlaveEngineTest, Fc10Quantity0_126_124_Exception03) {
+  EXPECT_EQ(answer(engine, "01 10 00 00 00 00 00"), exception(1, 0x10, 0x03));
+  // 124 registers cannot fit an RTU frame (257 bytes): a master that tries
+  // sends what fits, and the length disagrees with the quantity.
+  std::string q124 = "01 10 00 00 00 7C F8";
+  for (int i = 0; i < 246; ++i) q124 += " 00";
+  EXPECT_EQ(answer(engine, q124), exception(1, 0x10, 0x03));
+  std::string q126 = "01 10 00 00 00 7E FC";
+  for (int i = 0; i < 252 - 10; ++i) q126 += " 00";  // cannot even fit: length disagrees
+  EXPECT_EQ(answer(engine, q126), exception(1, 0x10, 0x03));
+  EXPECT_EQ(bank.writes, 0);
+}
+
+TEST_F(SlaveEngineTest, ReadQuantity126_Exception03) {
+  EXPECT_EQ(answer(engine, "01 03 00 00 00 7E"), exception(1, 0x03, 0x03));
+}
+
+TEST_F(SlaveEngineTest, AddressOverflowPast0xFFFF_Exception02) {
+  EXPECT_EQ(answer(engine, "01 03 FF FF 00 02"), exception(1, 0x03, 0x02));
+  EXPECT_EQ(answer(engine, "01 10 FF FF 00 02 04 00 01 00 02"), exception(1, 0x10, 0x02));
+}
+
+TEST_F(SlaveEngineTest, ByteCountDisagreeingWithQuantity_Exception03) {
+  EXPECT_EQ(answer(engine, "01 10 00 00 00 02 02 00 01"), exception(1, 0x10, 0x03));
+  EXPECT_EQ(answer(engine, "01 0F 00 00 00 09 01 FF"), exception(1, 0x0F, 0x03));
+  EXPECT_EQ(bank.writes, 0);
+}
+
+TEST_F(SlaveEngineTest, OutOfRangeForTheDevice_Exception02) {
+  EXPECT_EQ(answer(engine, "01 03 00 63 00 02"), exception(1, 0x03, 0x02));
+}
+
+TEST_F(SlaveEngineTest, MultiWrite_IsAllOrNothing) {
+  EXPECT_EQ(answer(engine, "01 10 00 00 00 03 06 00 01 00 02 FF FF"), exception(1, 0x10, 0x03));
+  EXPECT_EQ(bank.holding[0], 0);
+  EXPECT_EQ(bank.holding[1], 0);
+  EXPECT_EQ(answer(engine, "01 10 00 00 00 03 06 00 01 00 02 00 03"), "01 10 00 00 00 03 80 08");
+  EXPECT_EQ(bank.holding[2], 3);
+}
+
+TEST_F(SlaveEngineTest, Fc10WithoutByteCount_IsAccepted) {
+  EXPECT_EQ(answer(engine, "01 10 00 21 00 02 00 07 00 08"), "01 10 00 21 00 02 11 C2");
+  EXPECT_EQ(bank.holding[0x21], 7);
+  EXPECT_EQ(bank.holding[0x22], 8);
+}
+
+TEST_F(SlaveEngineTest, BroadcastRead_IsSilentAndNotExecuted) {
+  EXPECT_EQ(answer(engine, "00 03 00 00 00 01"), "");
+  EXPECT_EQ(engine.counters().broadcasts, 1U);
+}
+
+TEST_F(SlaveEngineTest, BroadcastWrite_IsExecutedSilently) {
+  EXPECT_EQ(answer(engine, "00 06 00 07 00 09"), "");
+  EXPECT_EQ(bank.holding[7], 9);
+  EXPECT_EQ(answer(engine, "00 10 00 08 00 02 04 00 01 00 02"), "");
+  EXPECT_EQ(bank.holding[9], 2);
+}
+
+TEST_F(SlaveEngineTest, FrameForAnotherUnit_IsSilent) {
+  EXPECT_EQ(answer(engine, "02 06 00 07 00 09"), "");
+  EXPECT_EQ(bank.holding[7], 0);
+  EXPECT_EQ(engine.counters().ignored, 1U);
+}
+
+TEST_F(SlaveEngineTest, Coils_ReadAndWrite) {
+  EXPECT_EQ(answer(engine, "01 05 00 02 FF 00"), "01 05 00 02 FF 00 2D FA");
+  EXPECT_EQ(answer(engine, "01 0F 00 04 00 03 01 05"), "01 0F 00 04 00 03 54 0B");
+  EXPECT_EQ(answer(engine, "01 01 00 00 00 08"), "01 01 01 54 50 77");  // bits 2, 4, 6
+}
+
+TEST_F(SlaveEngineTest, SeveralUnitsOnOneBus) {
+  TestBank other;
+  ASSERT_TRUE(engine.add_unit(21, other).ok());
+  EXPECT_FALSE(engine.add_unit(21, other).ok());
+  EXPECT_EQ(answer(engine, "15 06 00 00 00 0C"), "15 06 00 00 00 0C 8A DB");
+  EXPECT_EQ(other.holding[0], 12);
+  EXPECT_EQ(bank.holding[0], 0);
+  ASSERT_TRUE(engine.change_unit_address(21, 12).ok());
+  EXPECT_EQ(answer(engine, "15 03 00 00 00 01"), "");
+  EXPECT_NE(answer(engine, "0C 03 00 00 00 01"), "");
+  // Broadcast reaches every unit.
+  EXPECT_EQ(answer(engine, "00 06 00 01 00 05"), "");
+  EXPECT_EQ(bank.holding[1], 5);
+  EXPECT_EQ(other.holding[1], 5);
+}
+
+TEST_F(SlaveEngineTest, ModbusTcp_EchoesTheHeader) {
+  bank.holding[0] = 0x15;
+  const auto adu = bytes("12 34 00 00 00 06 01 03 00 00 00 01");
+  std::array<uint8_t, kMaxMbapAduSize> out{};
+  const size_t n = engine.handle_tcp(adu, out);
+  EXPECT_EQ(hex({out.data(), n}), "12 34 00 00 00 05 01 03 02 00 15");
+  // Unit 0xFF addresses the device itself on TCP.
+  const auto ff = bytes("00 01 00 00 00 06 FF 03 00 00 00 01");
+  EXPECT_EQ(hex({out.data(), engine.handle_tcp(ff, out)}), "00 01 00 00 00 05 FF 03 02 00 15");
+}
+
+TEST(MasterTransaction, RtuRequestAndResponse) {
+  MasterTransaction tx;
+  Request r;
+  r.function = 0x03;
+  r.address = 0x0021;
+  r.quantity = 4;
+  ASSERT_TRUE(tx.begin(Framing::rtu, 0x15, r).ok());
+  EXPECT_EQ(hex(tx.request_bytes()), "15 03 00 21 00 04 17 17");
+  RtuFramer f(FrameShape::response);
+  tx.prepare(f, false);
+  f.feed(bytes("16 03 02 00 15 0D 88 15 03 08 00 00 00 06 00 50 07 08 5F C0"), 0);
+  auto other = f.next(0);  // unit 0x16: not ours
+  ASSERT_TRUE(other);
+  EXPECT_FALSE(tx.accept_rtu(*other).has_value());
+  auto mine = f.next(0);
+  ASSERT_TRUE(mine);
+  auto outcome = tx.accept_rtu(*mine);
+  ASSERT_TRUE(outcome.has_value());
+  ASSERT_TRUE(outcome->ok()) << outcome->error().name();
+  std::array<uint16_t, 4> regs{};
+  load_registers((*outcome)->data, regs);
+  EXPECT_EQ(regs, (std::array<uint16_t, 4>{0, 6, 80, 1800}));
+}
+
+TEST(MasterTransaction, ExceptionComesBackAsTheError) {
+  MasterTransaction tx;
+  Request r;
+  r.function = 0x03;
+  r.address = 0x0005;
+  r.quantity = 1;
+  ASSERT_TRUE(tx.begin(Framing::rtu, 0x15, r).ok());
+  RtuFramer f(FrameShape::response);
+  f.feed(bytes("15 83 02 80 F5"), 0);
+  auto frame = f.next(0);
+  ASSERT_TRUE(frame);
+  auto outcome = tx.accept_rtu(*frame);
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_EQ(outcome->error().code(), Errc::illegal_data_address);
+}
+
+TEST(MasterTransaction, BroadcastReadIsRefused_BroadcastWriteExpectsNothing) {
+  MasterTransaction tx;
+  Request r;
+  r.function = 0x03;
+  r.quantity = 1;
+  EXPECT_EQ(tx.begin(Framing::rtu, 0, r).code(), Errc::invalid_argument);
+  r.function = 0x06;
+  r.value = 1;
+  ASSERT_TRUE(tx.begin(Framing::rtu, 0, r).ok());
+  EXPECT_FALSE(tx.expects_response());
+}
+
+TEST(MasterTransaction, TcpMatchesTheTransactionId) {
+  MasterTransaction tx;
+  Request r;
+  r.function = 0x03;
+  r.quantity = 1;
+  ASSERT_TRUE(tx.begin(Framing::tcp, 1, r, 7).ok());
+  EXPECT_EQ(hex(tx.request_bytes()), "00 07 00 00 00 06 01 03 00 00 00 01");
+  EXPECT_FALSE(tx.accept_tcp(bytes("00 06 00 00 00 05 01 03 02 00 15")).has_value());  // stale
+  auto outcome = tx.accept_tcp(bytes("00 07 00 00 00 05 01 03 02 00 15"));
+  ASSERT_TRUE(outcome.has_value());
+  EXPECT_TRUE(outcome->ok());
+}
