@@ -14,7 +14,7 @@ PACKAGES=(
   # Cortex-M cross compile check of core
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
   # interop peers we did not write, and the pty pair maker
-  libmodbus-dev python3-pymodbus python3-serial mbpoll socat
+  libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
 )
 
 missing=()

@@ -1,0 +1,261 @@
+// Master and slave drivers together, in one process, over every transport:
+// pty (RTU), Modbus TCP and RTU-over-TCP.
+#include <gtest/gtest.h>
+
+#include <asio.hpp>
+#include <atomic>
+#include <thread>
+
+#include "process.hpp"
+#include "rtukit/driver/master.hpp"
+#include "rtukit/driver/memory_bank.hpp"
+#include "rtukit/driver/slave_server.hpp"
+
+using namespace rtukit;
+using namespace std::chrono_literals;
+using test::TempDir;
+
+namespace {
+
+// A slave engine with one MemoryBank at unit 1, served on its own thread.
+class SlaveOnThread {
+ public:
+  explicit SlaveOnThread(const std::string& listen, uint8_t unit = 1) {
+    EXPECT_TRUE(engine.add_unit(unit, bank).ok());
+    std::string why;
+    Result<io::PortSpec> spec = io::parse_port(listen, true, &why);
+    EXPECT_TRUE(spec.ok()) << why;
+    auto l = SlaveListener::start(ctx_, engine, *spec, &why);
+    EXPECT_TRUE(l.ok()) << why;
+    listener = std::move(*l);
+    thread_ = std::thread([this] { ctx_.run(); });
+  }
+  ~SlaveOnThread() { stop(); }
+  void stop() {
+    if (!thread_.joinable()) return;
+    asio::post(ctx_, [this] { listener.reset(); });
+    work_.reset();
+    ctx_.stop();
+    thread_.join();
+    listener.reset();
+  }
+  /// A port string a master can use to reach this slave.
+  std::string client_port() const {
+    const std::string w = listener->where();
+    return w;
+  }
+
+  MemoryBank bank{200};
+  SlaveEngine engine;
+  std::unique_ptr<SlaveListener> listener;
+
+ private:
+  asio::io_context ctx_;
+  std::optional<asio::executor_work_guard<asio::io_context::executor_type>> work_{ctx_.get_executor()};
+  std::thread thread_;
+};
+
+std::unique_ptr<Master> master_for(const std::string& port, MasterOptions options = {}) {
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port(port, false, &why);
+  EXPECT_TRUE(spec.ok()) << why;
+  return std::make_unique<Master>(io::make_link(*spec), options);
+}
+
+// Every transport: the listen string for the slave.
+class EveryTransport : public ::testing::TestWithParam<std::string> {};
+
+std::string listen_string(const std::string& kind, const TempDir& dir) {
+  if (kind == "pty") return "pty:" + (dir / "tty");
+  if (kind == "tcp") return "tcp://127.0.0.1:0";
+  return "rtu+tcp://127.0.0.1:0";
+}
+
+}  // namespace
+
+TEST_P(EveryTransport, ReadWriteAndExceptions) {
+  TempDir dir;
+  SlaveOnThread slave(listen_string(GetParam(), dir));
+  auto master = master_for(slave.client_port());
+  const UnitId unit{1};
+
+  const uint16_t values[] = {7, 8, 9};
+  ASSERT_TRUE(master->write_multiple_registers(unit, 10, values).ok());
+  ASSERT_TRUE(master->write_single_register(unit, 13, 0xBEEF).ok());
+  std::array<uint16_t, 4> regs{};
+  ASSERT_TRUE(master->read_holding_registers(unit, 10, regs).ok());
+  EXPECT_EQ(regs, (std::array<uint16_t, 4>{7, 8, 9, 0xBEEF}));
+
+  const uint8_t bits[] = {1, 0, 1};
+  ASSERT_TRUE(master->write_multiple_coils(unit, 5, bits).ok());
+  ASSERT_TRUE(master->write_single_coil(unit, 8, true).ok());
+  std::array<uint8_t, 4> got{};
+  ASSERT_TRUE(master->read_coils(unit, 5, got).ok());
+  EXPECT_EQ(got, (std::array<uint8_t, 4>{1, 0, 1, 1}));
+
+  slave.bank.input[3] = 4242;
+  uint16_t in = 0;
+  ASSERT_TRUE(master->read_input_registers(unit, 3, {&in, 1}).ok());
+  EXPECT_EQ(in, 4242);
+
+  std::array<uint16_t, 2> past{};
+  const Error e = master->read_holding_registers(unit, 199, past);
+  EXPECT_TRUE(e.is_exception());
+  EXPECT_EQ(e.code(), Errc::illegal_data_address);
+
+  const MasterStats s = master->stats();
+  EXPECT_EQ(s.requests, 8U);
+  EXPECT_EQ(s.responses, 7U);
+  EXPECT_EQ(s.exceptions, 1U);
+  EXPECT_EQ(s.timeouts, 0U);
+}
+
+TEST_P(EveryTransport, SharedByEightThreads_RequestsAreSerialised) {
+  TempDir dir;
+  SlaveOnThread slave(listen_string(GetParam(), dir));
+  auto master = master_for(slave.client_port());
+  std::atomic<int> failures{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      for (int i = 0; i < 25; ++i) {
+        const auto value = static_cast<uint16_t>(t * 1000 + i);
+        if (master->write_single_register(UnitId{1}, static_cast<uint16_t>(t), value)) ++failures;
+        uint16_t back = 0;
+        if (master->read_holding_registers(UnitId{1}, static_cast<uint16_t>(t), {&back, 1}) || back != value) {
+          ++failures;
+        }
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(failures.load(), 0);
+  EXPECT_EQ(master->stats().responses, 400U);
+}
+
+INSTANTIATE_TEST_SUITE_P(Driver, EveryTransport, ::testing::Values("pty", "tcp", "rtu_tcp"));
+
+TEST(MasterDriver, SilentUnit_TimesOutAfterRetries) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  MasterOptions o;
+  o.response_timeout = 50ms;
+  o.retries = 2;
+  auto master = master_for(slave.client_port(), o);
+  uint16_t r = 0;
+  EXPECT_EQ(master->read_holding_registers(UnitId{9}, 0, {&r, 1}).code(), Errc::timeout);
+  const MasterStats s = master->stats();
+  EXPECT_EQ(s.requests, 3U);
+  EXPECT_EQ(s.timeouts, 3U);
+  EXPECT_EQ(s.retries, 2U);
+}
+
+TEST(MasterDriver, BroadcastWrite_IsExecutedWithoutAnAnswer) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  MasterOptions o;
+  o.turnaround_delay = 20ms;
+  auto master = master_for(slave.client_port(), o);
+  ASSERT_TRUE(master->write_single_register(kBroadcast, 4, 77).ok());
+  EXPECT_TRUE(test::eventually([&] { return slave.bank.holding[4] == 77; }));
+  EXPECT_EQ(master->stats().responses, 0U);
+  uint16_t r = 0;
+  EXPECT_EQ(master->read_holding_registers(kBroadcast, 0, {&r, 1}).code(), Errc::invalid_argument);
+}
+
+TEST(MasterDriver, DeviceThatDisappearsAndComesBack_IsReopened) {
+  TempDir dir;
+  const std::string link = dir / "tty";
+  auto slave = std::make_unique<SlaveOnThread>("pty:" + link);
+  MasterOptions o;
+  o.response_timeout = 100ms;
+  auto master = master_for(link, o);
+  uint16_t r = 0;
+  ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+
+  slave.reset();  // "unplugged": the pty and its link are gone
+  const Error gone = master->read_holding_registers(UnitId{1}, 0, {&r, 1});
+  EXPECT_TRUE(gone.code() == Errc::io_error || gone.code() == Errc::timeout) << gone.name();
+  EXPECT_EQ(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).code(), Errc::io_error);  // no device
+
+  slave = std::make_unique<SlaveOnThread>("pty:" + link);  // plugged back in
+  slave->bank.holding[0] = 99;
+  ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  EXPECT_EQ(r, 99);
+  EXPECT_GE(master->stats().reopens, 2U);
+}
+
+TEST(MasterDriver, TcpServerRefused_IsAnIoError) {
+  auto master = master_for("tcp://127.0.0.1:" + std::to_string(test::free_tcp_port()));
+  uint16_t r = 0;
+  const Error e = master->read_holding_registers(UnitId{1}, 0, {&r, 1});
+  EXPECT_EQ(e.code(), Errc::io_error);
+  EXPECT_EQ(e.os_error(), ECONNREFUSED);
+}
+
+TEST(MasterDriver, InterRequestDelay_IsKept) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  MasterOptions o;
+  o.inter_request_delay = 30ms;
+  auto master = master_for(slave.client_port(), o);
+  uint16_t r = 0;
+  ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  EXPECT_GE(std::chrono::steady_clock::now() - t0, 60ms);
+}
+
+TEST(SlaveServer, TcpServesManyConnectionsAtOnce) {
+  SlaveOnThread slave("tcp://127.0.0.1:0");
+  std::vector<std::unique_ptr<Master>> masters;
+  for (int i = 0; i < 16; ++i) masters.push_back(master_for(slave.client_port()));
+  for (auto& m : masters) ASSERT_TRUE(m->open().ok());  // 16 connections open together
+  for (size_t i = 0; i < masters.size(); ++i) {
+    ASSERT_TRUE(masters[i]->write_single_register(UnitId{1}, static_cast<uint16_t>(i), static_cast<uint16_t>(i + 1)).ok());
+  }
+  for (size_t i = 0; i < masters.size(); ++i) {
+    uint16_t r = 0;
+    ASSERT_TRUE(masters[(i + 5) % masters.size()]->read_holding_registers(UnitId{1}, static_cast<uint16_t>(i), {&r, 1}).ok());
+    EXPECT_EQ(r, i + 1);
+  }
+}
+
+TEST(SlaveServer, PtyLinkIsReplacedAndRemoved) {
+  TempDir dir;
+  const std::string link = dir / "tty";
+  ASSERT_EQ(::symlink("/nonexistent", link.c_str()), 0);  // a stale link from a crashed run
+  {
+    SlaveOnThread slave("pty:" + link);
+    EXPECT_TRUE(test::path_exists(link));
+  }
+  EXPECT_FALSE(test::path_exists(link));
+}
+
+TEST(PortSpec, ParsesEveryForm) {
+  std::string why;
+  auto serial = io::parse_port("/dev/ttyUSB0", false, &why);
+  ASSERT_TRUE(serial.ok());
+  EXPECT_EQ(serial->kind, io::PortSpec::Kind::serial);
+  auto tcp = io::parse_port("tcp://localhost:1502", false, &why);
+  ASSERT_TRUE(tcp.ok());
+  EXPECT_EQ(tcp->host, "localhost");
+  EXPECT_EQ(tcp->port, 1502);
+  auto rtu = io::parse_port("rtu+tcp://[::1]:4001", false, &why);
+  ASSERT_TRUE(rtu.ok());
+  EXPECT_EQ(rtu->kind, io::PortSpec::Kind::rtu_tcp);
+  EXPECT_EQ(rtu->host, "::1");
+  EXPECT_FALSE(io::parse_port("pty", false, &why).ok());
+  EXPECT_TRUE(io::parse_port("pty:/tmp/x", true, &why).ok());
+  EXPECT_FALSE(io::parse_port("tcp://host:99999", false, &why).ok());
+  EXPECT_FALSE(io::parse_port("udp://host:1", false, &why).ok());
+  io::SerialSettings s;
+  s.baud = 250000;  // non-standard: fine (BOTHER)
+  EXPECT_TRUE(s.validate().ok());
+  s.baud = 1000000;
+  EXPECT_FALSE(s.validate(&why).ok());
+  s.baud = 9600;
+  s.parity = 'X';
+  EXPECT_FALSE(s.validate(&why).ok());
+}

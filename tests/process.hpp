@@ -1,0 +1,181 @@
+// Test helpers for tests that start programs: start by PID, stop by PID,
+// never `sleep` for a fixed time (poll for the condition instead, bounded).
+#pragma once
+
+#include <fcntl.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace rtukit::test {
+
+using namespace std::chrono_literals;
+
+inline std::string read_file(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// Polls `cond` every 10 ms until it holds or `timeout` passes.
+template <class Cond>
+bool eventually(Cond cond, std::chrono::milliseconds timeout = 5000ms) {
+  const auto end = std::chrono::steady_clock::now() + timeout;
+  while (std::chrono::steady_clock::now() < end) {
+    if (cond()) return true;
+    std::this_thread::sleep_for(10ms);
+  }
+  return cond();
+}
+
+inline bool path_exists(const std::string& path) {
+  struct stat st {};
+  return ::stat(path.c_str(), &st) == 0;
+}
+
+/// A fresh directory under /tmp, removed with its files at destruction.
+class TempDir {
+ public:
+  TempDir() {
+    char tmpl[] = "/tmp/rtukit-test-XXXXXX";
+    path_ = ::mkdtemp(tmpl);
+  }
+  ~TempDir() { std::system(("rm -rf '" + path_ + "'").c_str()); }
+  const std::string& path() const { return path_; }
+  std::string operator/(const std::string& name) const { return path_ + "/" + name; }
+
+ private:
+  std::string path_;
+};
+
+/// A TCP port on 127.0.0.1 nobody listens on right now.
+inline uint16_t free_tcp_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&a), sizeof a);
+  socklen_t len = sizeof a;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&a), &len);
+  ::close(fd);
+  return ntohs(a.sin_port);
+}
+
+/// A started program. Output (stdout + stderr) goes to a log file.
+class Process {
+ public:
+  explicit Process(const std::vector<std::string>& argv) {
+    char tmpl[] = "/tmp/rtukit-proc-XXXXXX";
+    const int fd = ::mkstemp(tmpl);
+    log_ = tmpl;
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      ::dup2(fd, 1);
+      ::dup2(fd, 2);
+      const int devnull = ::open("/dev/null", O_RDONLY);
+      ::dup2(devnull, 0);
+      std::vector<char*> args;
+      for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+      args.push_back(nullptr);
+      ::execvp(args[0], args.data());
+      ::_exit(127);
+    }
+    ::close(fd);
+  }
+  ~Process() {
+    stop();
+    ::unlink(log_.c_str());
+  }
+  Process(const Process&) = delete;
+  Process& operator=(const Process&) = delete;
+
+  pid_t pid() const { return pid_; }
+  std::string output() const { return read_file(log_); }
+  bool running() {
+    if (exited_) return false;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) == pid_) {
+      exited_ = true;
+      code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+      return false;
+    }
+    return true;
+  }
+  /// Waits until the output contains `needle` (false if the process died or time ran out).
+  bool wait_for_output(const std::string& needle, std::chrono::milliseconds timeout = 5000ms) {
+    return eventually([&] { return output().find(needle) != std::string::npos || !running(); }, timeout) &&
+           output().find(needle) != std::string::npos;
+  }
+  /// Waits for the exit; returns the exit code, or -1 on time out (then kills).
+  int wait(std::chrono::milliseconds timeout = 20000ms) {
+    if (!eventually([&] { return !running(); }, timeout)) {
+      stop();
+      return -1;
+    }
+    return code_;
+  }
+  /// SIGTERM, then SIGKILL after 2 s. By PID only.
+  void stop() {
+    if (pid_ <= 0 || !running()) return;
+    ::kill(pid_, SIGTERM);
+    if (!eventually([&] { return !running(); }, 2000ms)) {
+      ::kill(pid_, SIGKILL);
+      int status = 0;
+      ::waitpid(pid_, &status, 0);
+      exited_ = true;
+    }
+  }
+
+ private:
+  pid_t pid_ = -1;
+  std::string log_;
+  bool exited_ = false;
+  int code_ = -1;
+};
+
+struct RunResult {
+  int code = -1;
+  std::string output;
+};
+
+/// Runs a program to completion (bounded) and returns its exit code and output.
+inline RunResult run(const std::vector<std::string>& argv, std::chrono::milliseconds timeout = 20000ms) {
+  Process p(argv);
+  RunResult r;
+  r.code = p.wait(timeout);
+  r.output = p.output();
+  return r;
+}
+
+/// A socat pty pair: two linked pseudo-terminals at dir/a and dir/b.
+class PtyPair {
+ public:
+  explicit PtyPair(const TempDir& dir)
+      : a_(dir / "a"),
+        b_(dir / "b"),
+        socat_({"socat", "pty,raw,echo=0,link=" + a_, "pty,raw,echo=0,link=" + b_}) {
+    ready_ = eventually([&] { return path_exists(a_) && path_exists(b_); });
+  }
+  bool ready() const { return ready_; }
+  const std::string& a() const { return a_; }
+  const std::string& b() const { return b_; }
+
+ private:
+  std::string a_, b_;
+  Process socat_;
+  bool ready_ = false;
+};
+
+}  // namespace rtukit::test
