@@ -1,0 +1,147 @@
+// The rtukit binary as users run it: outputs and exit codes
+// (0 ok, 1 Modbus exception, 2 usage, 3 no response, 4 I/O error).
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "process.hpp"
+
+using namespace rtukit::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+
+class Cli : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    port_ = dir_ / "tty";
+    std::ofstream(dir_ / "init.json") << R"({"holding": {"0x10": [1, 2, 65535], "20": [0, 16968, 0, 17096]},
+                                           "input": {"0": 7}, "coils": {"3": 1}})";
+    slave_ = std::make_unique<Process>(std::vector<std::string>{
+        kRtukit, "slave", "--listen", "pty:" + port_, "--unit", "5", "--registers", "100", "--init", dir_ / "init.json"});
+    ASSERT_TRUE(slave_->wait_for_output("listening on")) << slave_->output();
+  }
+  RunResult rtukit(std::vector<std::string> args) {
+    args.insert(args.begin(), kRtukit);
+    return run(args);
+  }
+
+  TempDir dir_;
+  std::string port_;
+  std::unique_ptr<Process> slave_;
+};
+
+}  // namespace
+
+TEST_F(Cli, Read_PrintsAddressesAndValues) {
+  const RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "0x10", "3"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "16 (0x0010): 1\n17 (0x0011): 2\n18 (0x0012): 65535\n");
+}
+
+TEST_F(Cli, Read_Json_Hex_Signed_Float_WordOrder) {
+  RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "16", "3", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, R"({"address":16,"table":"holding","type":"u16","unit":5,"values":[1,2,65535]})"
+                      "\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "18", "--type", "i16"});
+  EXPECT_EQ(r.output, "18 (0x0012): -1\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "18", "--format", "hex"});
+  EXPECT_EQ(r.output, "18 (0x0012): 0xFFFF\n");
+  // 0x4248 0x0000 = 50.0f, high word first.
+  r = rtukit({"read", "--port", port_, "--unit", "5", "21", "--type", "f32"});
+  EXPECT_EQ(r.output, "21 (0x0015): 50.0\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "20", "2", "--type", "u32"});
+  EXPECT_EQ(r.output, "20 (0x0014): 16968\n22 (0x0016): 17096\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "22", "--type", "u32", "--word-order", "low-first"});
+  EXPECT_EQ(r.output, "22 (0x0016): 1120403456\n");  // 0x42C80000
+}
+
+TEST_F(Cli, ReadOtherTables) {
+  RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "--input", "0"});
+  EXPECT_EQ(r.output, "0 (0x0000): 7\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "--coils", "2", "3"});
+  EXPECT_EQ(r.output, "2 (0x0002): 0\n3 (0x0003): 1\n4 (0x0004): 0\n");
+  r = rtukit({"read", "--port", port_, "--unit", "5", "--discrete", "0"});
+  EXPECT_EQ(r.code, 0);
+}
+
+TEST_F(Cli, Write_SingleMultipleAndCoils) {
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "30", "0x2A"}).code, 0);
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "31", "5", "6"}).code, 0);
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "33", "-2", "--type", "i16", "--multiple"}).code, 0);
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "--coils", "7", "1", "1"}).code, 0);
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "30", "4", "--json"}).output,
+            R"({"address":30,"table":"holding","type":"u16","unit":5,"values":[42,5,6,65534]})"
+            "\n");
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "--coils", "7", "2"}).output,
+            "7 (0x0007): 1\n8 (0x0008): 1\n");
+  // The slave logged FC06, FC10 (and FC10 for the --multiple single value), FC0F.
+  EXPECT_TRUE(eventually([&] { return !slave_->output().empty(); }));
+}
+
+TEST_F(Cli, ModbusException_Exit1_NamesTheException) {
+  const RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "99", "2"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_NE(r.output.find("Modbus exception 02 (illegal data address)"), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, UsageErrors_Exit2_OneLine) {
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"read", "--port", port_, "--unit", "5", "0", "126"},
+           {"read", "--port", port_, "--unit", "5", "0x1G"},
+           {"read", "--port", port_, "--unit", "300", "0"},
+           {"read", "--port", port_, "0", "--type", "u64"},
+           {"write", "--port", port_, "0", "70000"},
+           {"read", "--port", "udp://x:1", "0"},
+           {"read", "--port", port_, "--baud", "5", "0"},
+           {"frobnicate"},
+           {}}) {
+    const RunResult r = rtukit(args);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+}
+
+TEST_F(Cli, NoResponse_Exit3) {
+  const RunResult r = rtukit({"read", "--port", port_, "--unit", "6", "0", "--timeout", "100"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.output.find("no response"), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, IoError_Exit4) {
+  RunResult r = rtukit({"read", "--port", dir_ / "missing", "0"});
+  EXPECT_EQ(r.code, 4);
+  EXPECT_NE(r.output.find("No such file or directory"), std::string::npos) << r.output;
+  r = rtukit({"read", "--port", "tcp://127.0.0.1:" + std::to_string(free_tcp_port()), "0"});
+  EXPECT_EQ(r.code, 4);
+  EXPECT_NE(r.output.find("Connection refused"), std::string::npos) << r.output;
+}
+
+TEST_F(Cli, Scan_FindsTheUnit) {
+  const RunResult r = rtukit({"scan", "--port", port_, "--units", "3-7", "--timeout", "50"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "unit 5 answers\n");
+  const RunResult none = rtukit({"scan", "--port", port_, "--units", "1-2", "--timeout", "50"});
+  EXPECT_EQ(none.code, 3);
+}
+
+TEST_F(Cli, Stats_PrintsCounters) {
+  const RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "0", "--stats"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.output.find("stats: requests=1 responses=1 exceptions=0 timeouts=0"), std::string::npos) << r.output;
+}
+
+TEST(CliSlave, BadInitFile_Exit2_AndBusyPort_Exit4) {
+  TempDir dir;
+  std::ofstream(dir / "bad.json") << "{ not json";
+  RunResult r = run({kRtukit, "slave", "--listen", "pty", "--init", dir / "bad.json"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  const uint16_t port = free_tcp_port();
+  Process first({kRtukit, "slave", "--listen", "tcp://127.0.0.1:" + std::to_string(port)});
+  ASSERT_TRUE(first.wait_for_output("listening on"));
+  r = run({kRtukit, "slave", "--listen", "tcp://127.0.0.1:" + std::to_string(port)});
+  EXPECT_EQ(r.code, 4) << r.output;
+}
