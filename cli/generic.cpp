@@ -232,7 +232,9 @@ void load_init(const std::string& path, MemoryBank& bank) {
     throw Failure{kUsage, fmt::format("{}: not valid JSON: {}", path, e.what())};
   }
   if (!j.is_object()) throw Failure{kUsage, fmt::format("{}: expected an object of tables", path)};
-  for (const auto& [table, entries] : j.items()) {
+  for (const auto& item : j.items()) {
+    const std::string table = item.key();
+    const nlohmann::json& entries = item.value();
     if (!entries.is_object()) throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
     for (const auto& [key, value] : entries.items()) {
       const auto start = static_cast<size_t>(parse_number(key, "address", 0, 0xFFFF));

@@ -186,3 +186,23 @@ TEST(RtuTiming, StandardValues) {
   EXPECT_EQ(RtuTiming::for_serial(115200).t35_us, 1750U);
   EXPECT_EQ(RtuTiming::for_serial(115200).t15_us, 750U);
 }
+
+TEST(RtuFramer, UnknownFunctionStream_WithoutTiming_NeverStalls) {
+  // Found by fuzz_rtu_framer: bytes whose head has an unknown function code,
+  // no timing to end them, more than a buffer's worth: the framer must keep
+  // taking bytes and still find the good frame at the end.
+  RtuFramer f(FrameShape::response);
+  std::vector<uint8_t> in(600, 0x90);
+  const auto good = bytes("15 03 02 00 15 49 88");
+  in.insert(in.end(), good.begin(), good.end());
+  EXPECT_EQ(frames_of(f, in), std::vector<std::string>{"15 03 02 00 15 49 88"});
+}
+
+TEST(RtuFramer, UnknownFunctionFrame_WithoutTiming_IsFoundByItsCrcOnceTheBufferFills) {
+  RtuFramer f(FrameShape::request);
+  std::vector<uint8_t> in = bytes("15 2B 0E 01 00 40 74");
+  in.resize(in.size() + 300, 0x90);  // endless unknown bytes after it
+  const auto got = frames_of(f, in);
+  ASSERT_FALSE(got.empty());
+  EXPECT_EQ(got[0], "15 2B 0E 01 00 40 74");
+}

@@ -75,6 +75,17 @@ void RtuFramer::drop(size_t n) noexcept {
   if (head_ == tail_) head_ = tail_ = 0;
 }
 
+// Length of the shortest prefix of p[0..max) (at least 4 bytes) that ends in
+// its own CRC, or 0. One pass: the CRC of each prefix extends the previous one.
+size_t RtuFramer::crc_valid_prefix(const uint8_t* p, size_t max) noexcept {
+  uint16_t crc = crc16({p, 2});
+  for (size_t len = 4; len <= max; ++len) {
+    if (p[len - 2] == (crc & 0xFF) && p[len - 1] == (crc >> 8)) return len;
+    crc = crc16({p + len - 2, 1}, crc);
+  }
+  return 0;
+}
+
 // The frame lengths the bytes at `p` can have, from what is known so far.
 // count == 0 with predictable == true: not enough bytes yet to tell.
 RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const noexcept {
@@ -220,6 +231,19 @@ std::optional<RtuFrame> RtuFramer::next(uint64_t now_us) noexcept {
           return RtuFrame{{buf_.data() + head_, avail}, last_time_us_};
         }
         drop(avail);
+        continue;
+      }
+      if (avail >= kMaxRtuAduSize) {
+        // More bytes than any frame and still no silence (or no timing at
+        // all): waiting longer cannot help. Take the shortest CRC-valid
+        // prefix as the frame, else the head is garbage.
+        if (const size_t n = crc_valid_prefix(buf_.data() + head_, kMaxRtuAduSize)) {
+          sliding_ = false;
+          pending_ = n;
+          ++counters_.frames;
+          return RtuFrame{{buf_.data() + head_, n}, last_time_us_};
+        }
+        drop(1);
         continue;
       }
       if (lookahead_resync(avail)) continue;

@@ -129,6 +129,7 @@ class RtuFramer {
   Candidates predict(const uint8_t* p, size_t avail) const noexcept;
   Verdict check_at(size_t pos, size_t avail, size_t* frame_len) const noexcept;
   bool lookahead_resync(size_t avail) noexcept;
+  static size_t crc_valid_prefix(const uint8_t* p, size_t max) noexcept;
   void drop(size_t n) noexcept;
   void consume_pending() noexcept;
 
