@@ -114,8 +114,9 @@ Server start(const std::string& which, const Scenario& s, const TempDir& dir, co
   }
   std::vector<std::string> argv;
   if (which == "rtukit") {
-    argv = {rtukit, "slave", "--unit", "1", "--registers", "200", "--baud", "115200", "--listen",
-            s.transport == "pty" ? listen : "tcp://127.0.0.1:" + listen};
+    argv = {
+        rtukit, "slave",  "--unit", "1",        "--registers",
+        "200",  "--baud", "115200", "--listen", s.transport == "pty" ? listen : "tcp://127.0.0.1:" + listen};
   } else {
     argv = {libmodbus_server, s.transport == "pty" ? "rtu" : "tcp", listen};
     if (s.transport == "pty") argv.push_back("115200");
@@ -180,15 +181,19 @@ int main(int argc, char** argv) {
   std::strftime(date, sizeof date, "%Y-%m-%d", std::gmtime(&now));
   utsname u{};
   uname(&u);
-  std::printf("rtukit bench %s on %s, %u cores, %s %s; %.1f s per server and row in %d alternating rounds (median round shown); load generator: libmodbus %s\n\n", date,
-              cpu_model().c_str(), std::thread::hardware_concurrency(), u.sysname, u.release, seconds, rounds,
-              LIBMODBUS_VERSION_STRING);
+  std::printf(
+      "rtukit bench %s on %s, %u cores, %s %s; %.1f s per server and row in %d alternating rounds (median "
+      "round shown); load generator: libmodbus %s\n\n",
+      date, cpu_model().c_str(), std::thread::hardware_concurrency(), u.sysname, u.release, seconds, rounds,
+      LIBMODBUS_VERSION_STRING);
   if (markdown) {
-    std::printf("| transport | conns | FC03 regs | rtukit req/s | p50 us | p99 us | libmodbus req/s | p50 us | p99 us | ratio |\n");
+    std::printf(
+        "| transport | conns | FC03 regs | rtukit req/s | p50 us | p99 us | libmodbus req/s | p50 us | p99 "
+        "us | ratio |\n");
     std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
   } else {
-    std::printf("%-9s %5s %4s | %12s %8s %8s | %12s %8s %8s | %5s\n", "transport", "conns", "regs", "rtukit req/s",
-                "p50 us", "p99 us", "libmb req/s", "p50 us", "p99 us", "ratio");
+    std::printf("%-9s %5s %4s | %12s %8s %8s | %12s %8s %8s | %5s\n", "transport", "conns", "regs",
+                "rtukit req/s", "p50 us", "p99 us", "libmb req/s", "p50 us", "p99 us", "ratio");
   }
   int below = 0;
   for (const auto& s : scenarios) {
@@ -197,9 +202,10 @@ int main(int argc, char** argv) {
     if (ratio < 1.0) ++below;
     const char* fmt = markdown ? "| %s | %d | %d | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %.2f |\n"
                                : "%-9s %5d %4d | %12.0f %8.0f %8.0f | %12.0f %8.0f %8.0f | %5.2f\n";
-    std::printf(fmt, s.transport.c_str(), s.connections, s.registers, ours.rps, ours.p50_us, ours.p99_us, theirs.rps,
-                theirs.p50_us, theirs.p99_us, ratio);
-    if (ours.errors || theirs.errors) std::printf("  (errors: rtukit %ld, libmodbus %ld)\n", ours.errors, theirs.errors);
+    std::printf(fmt, s.transport.c_str(), s.connections, s.registers, ours.rps, ours.p50_us, ours.p99_us,
+                theirs.rps, theirs.p50_us, theirs.p99_us, ratio);
+    if (ours.errors || theirs.errors)
+      std::printf("  (errors: rtukit %ld, libmodbus %ld)\n", ours.errors, theirs.errors);
     std::fflush(stdout);
   }
   std::printf("\nrows with ratio below 1.0: %d\n", below);

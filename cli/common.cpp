@@ -10,7 +10,8 @@ namespace rtukit::cli {
 void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
   baud = default_baud;
   if (listening) {
-    cmd.add_option("--listen,-l", port, "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
+    cmd.add_option("--listen,-l", port,
+                   "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
         ->required();
   } else {
     cmd.add_option("--port,-p", port, "/dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")->required();
@@ -68,11 +69,13 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
   }
   uint64_t value = 0;
   const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value, base);
-  if (digits.empty() || ec != std::errc() || ptr != digits.data() + digits.size() || value > (uint64_t{1} << 62)) {
+  if (digits.empty() || ec != std::errc() || ptr != digits.data() + digits.size() ||
+      value > (uint64_t{1} << 62)) {
     throw Failure{kUsage, fmt::format("{} '{}' is not a number (decimal, or hex as 0x21)", what, text)};
   }
   const int64_t v = negative ? -static_cast<int64_t>(value) : static_cast<int64_t>(value);
-  if (v < min || v > max) throw Failure{kUsage, fmt::format("{} {} is out of range {}..{}", what, text, min, max)};
+  if (v < min || v > max)
+    throw Failure{kUsage, fmt::format("{} {} is out of range {}..{}", what, text, min, max)};
   return v;
 }
 
@@ -87,9 +90,12 @@ int exit_code(Error e) {
     case Errc::timeout:
     case Errc::unexpected_response:
     case Errc::malformed:
-    case Errc::bad_crc: return kNoResponse;
-    case Errc::invalid_argument: return kUsage;
-    default: return kIoError;
+    case Errc::bad_crc:
+      return kNoResponse;
+    case Errc::invalid_argument:
+      return kUsage;
+    default:
+      return kIoError;
   }
 }
 
@@ -112,8 +118,8 @@ void print_stats(const Master& master) {
   fmt::print(stderr,
              "stats: requests={} responses={} exceptions={} timeouts={} crc_errors={} unexpected={} "
              "io_errors={} retries={} reopens={}\n",
-             s.requests, s.responses, s.exceptions, s.timeouts, s.crc_errors, s.unexpected, s.io_errors, s.retries,
-             s.reopens);
+             s.requests, s.responses, s.exceptions, s.timeouts, s.crc_errors, s.unexpected, s.io_errors,
+             s.retries, s.reopens);
 }
 
 }  // namespace rtukit::cli

@@ -19,10 +19,14 @@ namespace {
 enum class Table { holding, input, coils, discrete };
 const char* table_name(Table t) {
   switch (t) {
-    case Table::holding: return "holding";
-    case Table::input: return "input";
-    case Table::coils: return "coils";
-    case Table::discrete: return "discrete";
+    case Table::holding:
+      return "holding";
+    case Table::input:
+      return "input";
+    case Table::coils:
+      return "coils";
+    case Table::discrete:
+      return "discrete";
   }
   return "?";
 }
@@ -45,7 +49,8 @@ nlohmann::json decode_value(const std::string& type, const uint16_t* r, bool low
 }
 
 // One value of `type` -> registers (appended).
-void encode_value(const std::string& type, const std::string& text, bool low_first, std::vector<uint16_t>& out) {
+void encode_value(const std::string& type, const std::string& text, bool low_first,
+                  std::vector<uint16_t>& out) {
   uint32_t bits = 0;
   if (type == "u16") {
     out.push_back(static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF)));
@@ -92,14 +97,19 @@ struct ReadArgs {
 
 int run_read(const ReadArgs& a) {
   const UnitId unit = parse_unit(a.unit);
-  if (a.holding + a.input + a.coils + a.discrete > 1) throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
-  const Table table = a.input ? Table::input : a.coils ? Table::coils : a.discrete ? Table::discrete : Table::holding;
+  if (a.holding + a.input + a.coils + a.discrete > 1)
+    throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
+  const Table table = a.input      ? Table::input
+                      : a.coils    ? Table::coils
+                      : a.discrete ? Table::discrete
+                                   : Table::holding;
   const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
   const bool bits = table == Table::coils || table == Table::discrete;
   const unsigned per_value = bits ? 1 : ValueType{a.type}.registers();
   const auto max_count = bits ? kMaxReadBits : kMaxReadRegisters / per_value;
   const auto count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
-  if (size_t{address} + size_t{count} * per_value > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
+  if (size_t{address} + size_t{count} * per_value > 0x10000)
+    throw Failure{kUsage, "address + count passes 0xFFFF"};
   auto master = a.link.make_master();
   const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
 
@@ -107,21 +117,33 @@ int run_read(const ReadArgs& a) {
   std::vector<uint8_t> flags(bits ? count : 0);
   Error e;
   switch (table) {
-    case Table::holding: e = master->read_holding_registers(unit, address, regs); break;
-    case Table::input: e = master->read_input_registers(unit, address, regs); break;
-    case Table::coils: e = master->read_coils(unit, address, flags); break;
-    case Table::discrete: e = master->read_discrete_inputs(unit, address, flags); break;
+    case Table::holding:
+      e = master->read_holding_registers(unit, address, regs);
+      break;
+    case Table::input:
+      e = master->read_input_registers(unit, address, regs);
+      break;
+    case Table::coils:
+      e = master->read_coils(unit, address, flags);
+      break;
+    case Table::discrete:
+      e = master->read_discrete_inputs(unit, address, flags);
+      break;
   }
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
 
   nlohmann::json values = nlohmann::json::array();
   for (size_t i = 0; i < count; ++i) {
-    values.push_back(bits ? nlohmann::json(flags[i]) : decode_value(a.type, &regs[i * per_value], a.order == "low-first"));
+    values.push_back(bits ? nlohmann::json(flags[i])
+                          : decode_value(a.type, &regs[i * per_value], a.order == "low-first"));
   }
   if (a.json) {
-    nlohmann::json out{{"unit", unit.value}, {"table", table_name(table)}, {"address", address},
-                       {"type", bits ? "bit" : a.type}, {"values", values}};
+    nlohmann::json out{{"unit", unit.value},
+                       {"table", table_name(table)},
+                       {"address", address},
+                       {"type", bits ? "bit" : a.type},
+                       {"values", values}};
     fmt::print("{}\n", out.dump());
     return kOk;
   }
@@ -130,7 +152,8 @@ int run_read(const ReadArgs& a) {
     std::string text;
     if (a.format == "hex" && !bits && a.type != "f32") {
       const auto& v = values[i];
-      const uint64_t raw = v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
+      const uint64_t raw =
+          v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
       const uint64_t mask = per_value == 1 ? 0xFFFF : 0xFFFFFFFF;
       text = fmt::format("0x{:0{}X}", raw & mask, per_value == 1 ? 4 : 8);
     } else {
@@ -161,7 +184,8 @@ int run_write(const WriteArgs& a) {
   if (a.coils) {
     std::vector<uint8_t> bits;
     for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
-    if (bits.size() > kMaxWriteBits) throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
+    if (bits.size() > kMaxWriteBits)
+      throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
     e = bits.size() == 1 && !a.multiple ? master->write_single_coil(unit, address, bits[0] != 0)
                                         : master->write_multiple_coils(unit, address, bits);
   } else {
@@ -200,7 +224,9 @@ int run_scan(ScanArgs a) {
     // An exception is an answer too: the unit is there.
     if (e.ok() || e.is_exception()) {
       found.push_back(u);
-      if (!a.json) fmt::print("unit {} answers{}\n", u, e.ok() ? "" : fmt::format(" (exception {:02X})", e.exception_code()));
+      if (!a.json)
+        fmt::print("unit {} answers{}\n", u,
+                   e.ok() ? "" : fmt::format(" (exception {:02X})", e.exception_code()));
     } else if (e.code() == Errc::io_error || e.code() == Errc::not_connected) {
       fail(e, fmt::format("scan on {}", master->describe()));
     }
@@ -208,7 +234,8 @@ int run_scan(ScanArgs a) {
   if (a.link.stats) print_stats(*master);
   if (a.json) fmt::print("{}\n", nlohmann::json{{"units", found}}.dump());
   if (found.empty()) {
-    throw Failure{kNoResponse, fmt::format("scan on {}: no unit in {}..{} answered", master->describe(), lo, hi)};
+    throw Failure{kNoResponse,
+                  fmt::format("scan on {}: no unit in {}..{} answered", master->describe(), lo, hi)};
   }
   return kOk;
 }
@@ -235,24 +262,34 @@ void load_init(const std::string& path, MemoryBank& bank) {
   for (const auto& item : j.items()) {
     const std::string table = item.key();
     const nlohmann::json& entries = item.value();
-    if (!entries.is_object()) throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
+    if (!entries.is_object())
+      throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
     for (const auto& [key, value] : entries.items()) {
       const auto start = static_cast<size_t>(parse_number(key, "address", 0, 0xFFFF));
       const nlohmann::json list = value.is_array() ? value : nlohmann::json::array({value});
       for (size_t i = 0; i < list.size(); ++i) {
-        if (!list[i].is_number_integer()) throw Failure{kUsage, fmt::format("{}: {}[{}] is not an integer", path, table, key)};
+        if (!list[i].is_number_integer())
+          throw Failure{kUsage, fmt::format("{}: {}[{}] is not an integer", path, table, key)};
         const auto v = list[i].get<int64_t>();
         const size_t at = start + i;
         auto put = [&](auto& vec, int64_t lo, int64_t hi) {
-          if (at >= vec.size()) throw Failure{kUsage, fmt::format("{}: {} address {} past --registers", path, table, at)};
-          if (v < lo || v > hi) throw Failure{kUsage, fmt::format("{}: {} value {} out of range", path, table, v)};
+          if (at >= vec.size())
+            throw Failure{kUsage, fmt::format("{}: {} address {} past --registers", path, table, at)};
+          if (v < lo || v > hi)
+            throw Failure{kUsage, fmt::format("{}: {} value {} out of range", path, table, v)};
           vec[at] = static_cast<std::remove_reference_t<decltype(vec[0])>>(v);
         };
-        if (table == "holding") put(bank.holding, -32768, 0xFFFF);
-        else if (table == "input") put(bank.input, -32768, 0xFFFF);
-        else if (table == "coils") put(bank.coils, 0, 1);
-        else if (table == "discrete") put(bank.discrete, 0, 1);
-        else throw Failure{kUsage, fmt::format("{}: unknown table '{}' (holding, input, coils, discrete)", path, table)};
+        if (table == "holding")
+          put(bank.holding, -32768, 0xFFFF);
+        else if (table == "input")
+          put(bank.input, -32768, 0xFFFF);
+        else if (table == "coils")
+          put(bank.coils, 0, 1);
+        else if (table == "discrete")
+          put(bank.discrete, 0, 1);
+        else
+          throw Failure{kUsage,
+                        fmt::format("{}: unknown table '{}' (holding, input, coils, discrete)", path, table)};
       }
     }
   }
@@ -274,7 +311,8 @@ int run_slave(const SlaveArgs& a) {
     if (unit.value == 0) throw Failure{kUsage, "unit 0 is the broadcast address"};
     banks.push_back(std::make_unique<MemoryBank>(size));
     if (!a.init.empty()) load_init(a.init, *banks.back());
-    if (engine.add_unit(unit.value, *banks.back())) throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
+    if (engine.add_unit(unit.value, *banks.back()))
+      throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
   }
   asio::io_context ctx;
   RequestLog log;
@@ -313,7 +351,9 @@ void add_generic_commands(CLI::App& app, Action& action) {
     cmd->add_option("address", args->address, "first address, 0-based (33 or 0x21)")->required();
     cmd->add_option("count", args->count, "how many values")->capture_default_str();
     add_type_options(*cmd, args->type, args->order);
-    cmd->add_option("--format", args->format, "dec | hex")->check(CLI::IsMember({"dec", "hex"}))->capture_default_str();
+    cmd->add_option("--format", args->format, "dec | hex")
+        ->check(CLI::IsMember({"dec", "hex"}))
+        ->capture_default_str();
     cmd->add_flag("--json", args->json, "print JSON");
     cmd->callback([&action, args] { action = [args] { return run_read(*args); }; });
   }
@@ -341,7 +381,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
     auto args = std::make_shared<SlaveArgs>();
     auto* cmd = app.add_subcommand("slave", "a generic in-memory slave (holding, input, coils, discrete)");
     args->link.add_to(*cmd, true);
-    cmd->add_option("--unit,-u", args->units, "unit address(es) to answer (repeatable)")->capture_default_str();
+    cmd->add_option("--unit,-u", args->units, "unit address(es) to answer (repeatable)")
+        ->capture_default_str();
     cmd->add_option("--registers", args->registers, "entries per table")->capture_default_str();
     cmd->add_option("--init", args->init, "JSON file with initial values");
     cmd->add_flag("-v,--verbose", args->verbose, "log each request and response");

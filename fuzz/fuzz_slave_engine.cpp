@@ -61,7 +61,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (m) {
     if (adu[0] == 0) std::abort();  // broadcast answered
     if (out[0] != adu[0] || !rtu_crc_ok({out.data(), m})) std::abort();
-    if (out[1] != adu[1] && !(out[1] == (adu[1] | 0x80) && m == 5 && out[2] >= 1 && out[2] <= 4)) std::abort();
+    if (out[1] != adu[1] && !(out[1] == (adu[1] | 0x80) && m == 5 && out[2] >= 1 && out[2] <= 4))
+      std::abort();
   }
 
   // MBAP: header + the same PDU.
@@ -70,6 +71,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (!t.ok()) return 0;
   std::array<uint8_t, kMaxMbapAduSize> tout{};
   const size_t k = engine.handle_tcp({tcp.data(), *t}, tout);
-  if (k && (k < 9 || tout[0] != 0x12 || tout[1] != 0x34 || *mbap_adu_size({tout.data(), k}) != k)) std::abort();
+  if (k && (k < 9 || tout[0] != 0x12 || tout[1] != 0x34 || *mbap_adu_size({tout.data(), k}) != k))
+    std::abort();
   return 0;
 }

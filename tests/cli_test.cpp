@@ -19,8 +19,9 @@ class Cli : public ::testing::Test {
     port_ = dir_ / "tty";
     std::ofstream(dir_ / "init.json") << R"({"holding": {"0x10": [1, 2, 65535], "20": [0, 16968, 0, 17096]},
                                            "input": {"0": 7}, "coils": {"3": 1}})";
-    slave_ = std::make_unique<Process>(std::vector<std::string>{
-        kRtukit, "slave", "--listen", "pty:" + port_, "--unit", "5", "--registers", "100", "--init", dir_ / "init.json"});
+    slave_ = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", "pty:" + port_,
+                                                                "--unit", "5", "--registers", "100", "--init",
+                                                                dir_ / "init.json"});
     ASSERT_TRUE(slave_->wait_for_output("listening on")) << slave_->output();
   }
   RunResult rtukit(std::vector<std::string> args) {
@@ -71,7 +72,8 @@ TEST_F(Cli, ReadOtherTables) {
 TEST_F(Cli, Write_SingleMultipleAndCoils) {
   ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "30", "0x2A"}).code, 0);
   ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "31", "5", "6"}).code, 0);
-  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "33", "-2", "--type", "i16", "--multiple"}).code, 0);
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "33", "-2", "--type", "i16", "--multiple"}).code,
+            0);
   ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "--coils", "7", "1", "1"}).code, 0);
   EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "30", "4", "--json"}).output,
             R"({"address":30,"table":"holding","type":"u16","unit":5,"values":[42,5,6,65534]})"
@@ -89,16 +91,16 @@ TEST_F(Cli, ModbusException_Exit1_NamesTheException) {
 }
 
 TEST_F(Cli, UsageErrors_Exit2_OneLine) {
-  for (const auto& args : std::vector<std::vector<std::string>>{
-           {"read", "--port", port_, "--unit", "5", "0", "126"},
-           {"read", "--port", port_, "--unit", "5", "0x1G"},
-           {"read", "--port", port_, "--unit", "300", "0"},
-           {"read", "--port", port_, "0", "--type", "u64"},
-           {"write", "--port", port_, "0", "70000"},
-           {"read", "--port", "udp://x:1", "0"},
-           {"read", "--port", port_, "--baud", "5", "0"},
-           {"frobnicate"},
-           {}}) {
+  for (const auto& args :
+       std::vector<std::vector<std::string>>{{"read", "--port", port_, "--unit", "5", "0", "126"},
+                                             {"read", "--port", port_, "--unit", "5", "0x1G"},
+                                             {"read", "--port", port_, "--unit", "300", "0"},
+                                             {"read", "--port", port_, "0", "--type", "u64"},
+                                             {"write", "--port", port_, "0", "70000"},
+                                             {"read", "--port", "udp://x:1", "0"},
+                                             {"read", "--port", port_, "--baud", "5", "0"},
+                                             {"frobnicate"},
+                                             {}}) {
     const RunResult r = rtukit(args);
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
@@ -131,7 +133,8 @@ TEST_F(Cli, Scan_FindsTheUnit) {
 TEST_F(Cli, Stats_PrintsCounters) {
   const RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "0", "--stats"});
   EXPECT_EQ(r.code, 0);
-  EXPECT_NE(r.output.find("stats: requests=1 responses=1 exceptions=0 timeouts=0"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("stats: requests=1 responses=1 exceptions=0 timeouts=0"), std::string::npos)
+      << r.output;
 }
 
 TEST(CliSlave, BadInitFile_Exit2_AndBusyPort_Exit4) {

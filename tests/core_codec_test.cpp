@@ -101,7 +101,8 @@ TEST(Codec, InverjetFc10PrintedFormIsTheShortForm) {
 TEST(Codec, InverjetFc10StandardFormEncodesFromTheSameValues) {
   for (size_t i = 0; i < std::size(kInverjetFc10Standard); ++i) {
     const auto printed = bytes(kInverjetExamples[7 + i]);
-    const Result<Request> r = decode_request(std::span<const uint8_t>(printed).subspan(1, printed.size() - 3));
+    const Result<Request> r =
+        decode_request(std::span<const uint8_t>(printed).subspan(1, printed.size() - 3));
     ASSERT_TRUE(r.ok());
     Request standard = *r;
     standard.without_byte_count = false;
@@ -113,7 +114,8 @@ TEST(Codec, InverjetFc10StandardFormEncodesFromTheSameValues) {
     EXPECT_EQ(hex({adu.data(), *m}), kInverjetFc10Standard[i]);
     // And decoding the standard form gives the same request back.
     const auto std_frame = bytes(kInverjetFc10Standard[i]);
-    const Result<Request> back = decode_request(std::span<const uint8_t>(std_frame).subspan(1, std_frame.size() - 3));
+    const Result<Request> back =
+        decode_request(std::span<const uint8_t>(std_frame).subspan(1, std_frame.size() - 3));
     ASSERT_TRUE(back.ok());
     EXPECT_FALSE(back->without_byte_count);
     EXPECT_EQ(hex(back->data), hex(r->data));
@@ -124,7 +126,8 @@ TEST(Codec, ConvenienceEncodersMatchTheSeed) {
   std::array<uint8_t, kMaxPduSize> pdu{};
   std::array<uint8_t, kMaxRtuAduSize> adu{};
   auto wrap = [&](Result<size_t> n) { return hex({adu.data(), *rtu_encode(0x15, {pdu.data(), *n}, adu)}); };
-  EXPECT_EQ(wrap(encode_read_request(Function::read_holding_registers, 0x0021, 4, pdu)), "15 03 00 21 00 04 17 17");
+  EXPECT_EQ(wrap(encode_read_request(Function::read_holding_registers, 0x0021, 4, pdu)),
+            "15 03 00 21 00 04 17 17");
   EXPECT_EQ(wrap(encode_write_single_register(0x0000, 0x000C, pdu)), "15 06 00 00 00 0C 8A DB");
   const uint16_t values[] = {0x0000, 0x0006, 0x0050, 0x0708};
   EXPECT_EQ(wrap(encode_write_multiple_registers(0x0021, values, pdu, false)),
@@ -139,25 +142,25 @@ TEST(Codec, QuantityLimitsGiveException03) {
     Errc expected;
   };
   const Case cases[] = {
-      {"03 00 00 00 00", Errc::illegal_data_value},         // FC03 quantity 0
-      {"03 00 00 00 7D", Errc::ok},                         // FC03 125
-      {"03 00 00 00 7E", Errc::illegal_data_value},         // FC03 126
-      {"04 00 00 00 7E", Errc::illegal_data_value},         // FC04 126
-      {"01 00 00 07 D0", Errc::ok},                         // FC01 2000
-      {"01 00 00 07 D1", Errc::illegal_data_value},         // FC01 2001
-      {"02 00 00 00 00", Errc::illegal_data_value},         // FC02 0
-      {"03 FF FF 00 02", Errc::illegal_data_address},       // past 0xFFFF
-      {"03 FF FF 00 01", Errc::ok},                         // last register
-      {"05 00 01 12 34", Errc::illegal_data_value},         // FC05 value not FF00/0000
+      {"03 00 00 00 00", Errc::illegal_data_value},    // FC03 quantity 0
+      {"03 00 00 00 7D", Errc::ok},                    // FC03 125
+      {"03 00 00 00 7E", Errc::illegal_data_value},    // FC03 126
+      {"04 00 00 00 7E", Errc::illegal_data_value},    // FC04 126
+      {"01 00 00 07 D0", Errc::ok},                    // FC01 2000
+      {"01 00 00 07 D1", Errc::illegal_data_value},    // FC01 2001
+      {"02 00 00 00 00", Errc::illegal_data_value},    // FC02 0
+      {"03 FF FF 00 02", Errc::illegal_data_address},  // past 0xFFFF
+      {"03 FF FF 00 01", Errc::ok},                    // last register
+      {"05 00 01 12 34", Errc::illegal_data_value},    // FC05 value not FF00/0000
       {"05 00 01 FF 00", Errc::ok},
-      {"10 00 00 00 00 00", Errc::illegal_data_value},      // FC10 quantity 0
+      {"10 00 00 00 00 00", Errc::illegal_data_value},           // FC10 quantity 0
       {"10 00 00 00 01 03 00 01 02", Errc::illegal_data_value},  // byte count 3 for 1 register
       {"10 FF FF 00 02 04 00 01 00 02", Errc::illegal_data_address},
       {"0F 00 00 00 09 02 FF 01", Errc::ok},
-      {"0F 00 00 00 09 01 FF", Errc::illegal_data_value},   // 9 coils need 2 bytes
+      {"0F 00 00 00 09 01 FF", Errc::illegal_data_value},  // 9 coils need 2 bytes
       {"2B 0E 01 00", Errc::illegal_function},
       {"07", Errc::illegal_function},
-      {"03 00 00", Errc::malformed},                        // too short: dropped silently
+      {"03 00 00", Errc::malformed},  // too short: dropped silently
   };
   for (const Case& c : cases) {
     const auto pdu = bytes(c.pdu);
@@ -168,7 +171,11 @@ TEST(Codec, QuantityLimitsGiveException03) {
 
 TEST(Codec, Fc10QuantityLimitFromTheSpec) {
   for (uint16_t q : {uint16_t{0}, uint16_t{124}, uint16_t{126}}) {
-    std::vector<uint8_t> pdu{0x10, 0x00, 0x00, static_cast<uint8_t>(q >> 8), static_cast<uint8_t>(q & 0xFF),
+    std::vector<uint8_t> pdu{0x10,
+                             0x00,
+                             0x00,
+                             static_cast<uint8_t>(q >> 8),
+                             static_cast<uint8_t>(q & 0xFF),
                              static_cast<uint8_t>((2 * q) & 0xFF)};
     pdu.resize(pdu.size() + 2 * q, 0);
     EXPECT_EQ(decode_request(pdu).error().code(), Errc::illegal_data_value) << q;
@@ -180,8 +187,10 @@ TEST(Codec, Fc10QuantityLimitFromTheSpec) {
 
 TEST(Codec, EncoderRefusesWhatTheProtocolCannotCarry) {
   std::array<uint8_t, kMaxPduSize> pdu{};
-  EXPECT_EQ(encode_read_request(Function::read_holding_registers, 0, 126, pdu).error().code(), Errc::invalid_argument);
-  EXPECT_EQ(encode_read_request(Function::write_single_register, 0, 1, pdu).error().code(), Errc::invalid_argument);
+  EXPECT_EQ(encode_read_request(Function::read_holding_registers, 0, 126, pdu).error().code(),
+            Errc::invalid_argument);
+  EXPECT_EQ(encode_read_request(Function::write_single_register, 0, 1, pdu).error().code(),
+            Errc::invalid_argument);
   std::vector<uint16_t> many(124, 0);
   EXPECT_EQ(encode_write_multiple_registers(0, many, pdu).error().code(), Errc::invalid_argument);
   std::array<uint8_t, 3> tiny{};

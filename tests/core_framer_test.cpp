@@ -53,9 +53,11 @@ TEST(RtuFramer, BackToBackFrames_InOneRead_AreAllReturned) {
 }
 
 TEST(RtuFramer, GarbageBeforeAFrame_IsSkipped) {
-  for (const char* garbage : {"FF", "00 FF 13", "15 03 00", "01 10 00 00 00 7B F6 00", "AA 55 AA 55 AA 55 AA 55 AA"}) {
+  for (const char* garbage :
+       {"FF", "00 FF 13", "15 03 00", "01 10 00 00 00 7B F6 00", "AA 55 AA 55 AA 55 AA 55 AA"}) {
     RtuFramer f(FrameShape::request);
-    EXPECT_EQ(frames_of(f, bytes(std::string(garbage) + " " + kRead)), std::vector<std::string>{kRead}) << garbage;
+    EXPECT_EQ(frames_of(f, bytes(std::string(garbage) + " " + kRead)), std::vector<std::string>{kRead})
+        << garbage;
     EXPECT_GT(f.counters().discarded_bytes, 0U);
   }
 }
@@ -163,7 +165,8 @@ TEST(RtuFramer, RehandTwoByteByteCount_WithAndWithoutExpectation) {
   EXPECT_EQ(frames_of(expecting, bytes(longer)), std::vector<std::string>{longer});
   RtuFramer sniffing(FrameShape::response);
   EXPECT_EQ(frames_of(sniffing, bytes(longer)), std::vector<std::string>{longer});
-  EXPECT_EQ(frames_of(sniffing, bytes("01 03 04 00 68 00 50 7B D3")), std::vector<std::string>{"01 03 04 00 68 00 50 7B D3"});
+  EXPECT_EQ(frames_of(sniffing, bytes("01 03 04 00 68 00 50 7B D3")),
+            std::vector<std::string>{"01 03 04 00 68 00 50 7B D3"});
 }
 
 TEST(RtuFramer, ExceptionResponse_IsFiveBytes) {

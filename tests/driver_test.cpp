@@ -122,7 +122,8 @@ TEST_P(EveryTransport, SharedByEightThreads_RequestsAreSerialised) {
         const auto value = static_cast<uint16_t>(t * 1000 + i);
         if (master->write_single_register(UnitId{1}, static_cast<uint16_t>(t), value)) ++failures;
         uint16_t back = 0;
-        if (master->read_holding_registers(UnitId{1}, static_cast<uint16_t>(t), {&back, 1}) || back != value) {
+        if (master->read_holding_registers(UnitId{1}, static_cast<uint16_t>(t), {&back, 1}) ||
+            back != value) {
           ++failures;
         }
       }
@@ -213,11 +214,15 @@ TEST(SlaveServer, TcpServesManyConnectionsAtOnce) {
   for (int i = 0; i < 16; ++i) masters.push_back(master_for(slave.client_port()));
   for (auto& m : masters) ASSERT_TRUE(m->open().ok());  // 16 connections open together
   for (size_t i = 0; i < masters.size(); ++i) {
-    ASSERT_TRUE(masters[i]->write_single_register(UnitId{1}, static_cast<uint16_t>(i), static_cast<uint16_t>(i + 1)).ok());
+    ASSERT_TRUE(masters[i]
+                    ->write_single_register(UnitId{1}, static_cast<uint16_t>(i), static_cast<uint16_t>(i + 1))
+                    .ok());
   }
   for (size_t i = 0; i < masters.size(); ++i) {
     uint16_t r = 0;
-    ASSERT_TRUE(masters[(i + 5) % masters.size()]->read_holding_registers(UnitId{1}, static_cast<uint16_t>(i), {&r, 1}).ok());
+    ASSERT_TRUE(masters[(i + 5) % masters.size()]
+                    ->read_holding_registers(UnitId{1}, static_cast<uint16_t>(i), {&r, 1})
+                    .ok());
     EXPECT_EQ(r, i + 1);
   }
 }

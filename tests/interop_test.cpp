@@ -108,8 +108,8 @@ namespace {
 
 // Our generic slave, started as users start it, listening on `listen`.
 std::unique_ptr<Process> start_our_slave(const std::string& listen) {
-  auto p = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", listen, "--unit", "1",
-                                                              "--registers", "1000"});
+  auto p = std::make_unique<Process>(
+      std::vector<std::string>{kRtukit, "slave", "--listen", listen, "--unit", "1", "--registers", "1000"});
   EXPECT_TRUE(p->wait_for_output("listening on")) << p->output();
   return p;
 }
@@ -155,7 +155,8 @@ TEST(Interop, Mbpoll_OurSlave_RtuOverSocatPty) {
   PtyPair pair(dir);
   ASSERT_TRUE(pair.ready());
   auto slave = start_our_slave(pair.a());
-  const std::vector<std::string> rtu = {"mbpoll", "-m", "rtu", "-a", "1", "-b", "9600", "-P", "none", "-0", "-1"};
+  const std::vector<std::string> rtu = {"mbpoll", "-m", "rtu",  "-a", "1", "-b",
+                                        "9600",   "-P", "none", "-0", "-1"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> v = rtu;
     v.insert(v.end(), extra.begin(), extra.end());
@@ -175,7 +176,8 @@ TEST(Interop, Mbpoll_OurSlave_RtuOverSocatPty) {
 TEST(Interop, Mbpoll_OurSlave_Tcp) {
   const uint16_t port = free_tcp_port();
   auto slave = start_our_slave("tcp://127.0.0.1:" + std::to_string(port));
-  const std::vector<std::string> tcp = {"mbpoll", "-m", "tcp", "-p", std::to_string(port), "-a", "1", "-0", "-1"};
+  const std::vector<std::string> tcp = {"mbpoll", "-m", "tcp", "-p", std::to_string(port),
+                                        "-a",     "1",  "-0",  "-1"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> v = tcp;
     v.insert(v.end(), extra.begin(), extra.end());

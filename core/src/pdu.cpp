@@ -6,27 +6,44 @@ namespace rtukit {
 
 bool is_supported_function(uint8_t function) noexcept {
   switch (function) {
-    case 0x01: case 0x02: case 0x03: case 0x04:
-    case 0x05: case 0x06: case 0x0F: case 0x10:
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04:
+    case 0x05:
+    case 0x06:
+    case 0x0F:
+    case 0x10:
       return true;
     default:
       return false;
   }
 }
 
-bool is_read_function(uint8_t function) noexcept { return function >= 0x01 && function <= 0x04; }
+bool is_read_function(uint8_t function) noexcept {
+  return function >= 0x01 && function <= 0x04;
+}
 
 const char* function_name(uint8_t function) noexcept {
   switch (function) {
-    case 0x01: return "read coils";
-    case 0x02: return "read discrete inputs";
-    case 0x03: return "read holding registers";
-    case 0x04: return "read input registers";
-    case 0x05: return "write single coil";
-    case 0x06: return "write single register";
-    case 0x0F: return "write multiple coils";
-    case 0x10: return "write multiple registers";
-    default: return "unknown function";
+    case 0x01:
+      return "read coils";
+    case 0x02:
+      return "read discrete inputs";
+    case 0x03:
+      return "read holding registers";
+    case 0x04:
+      return "read input registers";
+    case 0x05:
+      return "write single coil";
+    case 0x06:
+      return "write single register";
+    case 0x0F:
+      return "write multiple coils";
+    case 0x10:
+      return "write multiple registers";
+    default:
+      return "unknown function";
   }
 }
 
@@ -38,11 +55,18 @@ namespace {
 
 uint16_t max_quantity(uint8_t function) noexcept {
   switch (function) {
-    case 0x01: case 0x02: return kMaxReadBits;
-    case 0x03: case 0x04: return kMaxReadRegisters;
-    case 0x0F: return kMaxWriteBits;
-    case 0x10: return kMaxWriteRegisters;
-    default: return 1;
+    case 0x01:
+    case 0x02:
+      return kMaxReadBits;
+    case 0x03:
+    case 0x04:
+      return kMaxReadRegisters;
+    case 0x0F:
+      return kMaxWriteBits;
+    case 0x10:
+      return kMaxWriteRegisters;
+    default:
+      return 1;
   }
 }
 
@@ -65,23 +89,27 @@ Result<Request> decode_request(std::span<const uint8_t> pdu) noexcept {
   if (pdu.size() < 5) return Errc::malformed;
   r.address = load_be16(&pdu[1]);
   switch (r.function) {
-    case 0x01: case 0x02: case 0x03: case 0x04: {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04: {
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.quantity = load_be16(&pdu[3]);
       if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
       return r;
     }
-    case 0x05: case 0x06: {
+    case 0x05:
+    case 0x06: {
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.quantity = 1;
       r.value = load_be16(&pdu[3]);
       if (r.function == 0x05 && r.value != 0xFF00 && r.value != 0x0000) return Errc::illegal_data_value;
       return r;
     }
-    case 0x0F: case 0x10: {
+    case 0x0F:
+    case 0x10: {
       r.quantity = load_be16(&pdu[3]);
-      const size_t expected_bytes =
-          r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
+      const size_t expected_bytes = r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
       if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
         r.data = pdu.subspan(6);
       } else if (r.function == 0x10 && pdu.size() == 5 + expected_bytes && r.quantity > 0) {
@@ -106,19 +134,24 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
   if (!is_supported_function(r.function)) return Errc::invalid_argument;
   size_t n = 0;
   switch (r.function) {
-    case 0x01: case 0x02: case 0x03: case 0x04:
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04:
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
       n = 5;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.quantity);
       break;
-    case 0x05: case 0x06:
+    case 0x05:
+    case 0x06:
       if (r.function == 0x05 && r.value != 0xFF00 && r.value != 0) return Errc::invalid_argument;
       n = 5;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.value);
       break;
-    case 0x0F: case 0x10: {
+    case 0x0F:
+    case 0x10: {
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
       const size_t bytes = r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
       if (r.data.size() != bytes) return Errc::invalid_argument;
@@ -208,7 +241,10 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
   Response r;
   r.function = pdu[0];
   switch (request.function) {
-    case 0x01: case 0x02: case 0x03: case 0x04: {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04: {
       const bool registers = request.function >= 0x03;
       const size_t expected = registers ? size_t{2} * request.quantity : packed_size(request.quantity);
       if (pdu.size() >= 2 && pdu[1] == expected && pdu.size() == 2 + expected) {
@@ -224,7 +260,10 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       }
       return r;
     }
-    case 0x05: case 0x06: case 0x0F: case 0x10: {
+    case 0x05:
+    case 0x06:
+    case 0x0F:
+    case 0x10: {
       if (pdu.size() != 5) return Errc::malformed;
       r.address = load_be16(&pdu[1]);
       r.value = load_be16(&pdu[3]);

@@ -105,10 +105,16 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
   const uint8_t function = p[1];
   if (shape_ == FrameShape::request) {
     switch (function) {
-      case 0x01: case 0x02: case 0x03: case 0x04: case 0x05: case 0x06:
+      case 0x01:
+      case 0x02:
+      case 0x03:
+      case 0x04:
+      case 0x05:
+      case 0x06:
         add(8);
         return c;
-      case 0x0F: case 0x10:
+      case 0x0F:
+      case 0x10:
         if (avail < 7) return c;
         add(9 + size_t{p[6]});
         // Short form (no byte count), FC10 only: length from the quantity.
@@ -128,7 +134,10 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     return c;
   }
   switch (function) {
-    case 0x01: case 0x02: case 0x03: case 0x04: {
+    case 0x01:
+    case 0x02:
+    case 0x03:
+    case 0x04: {
       if (avail < 3) return c;
       add(5 + size_t{p[2]});
       if (function >= 0x03) {
@@ -142,7 +151,10 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       }
       return c;
     }
-    case 0x05: case 0x06: case 0x0F: case 0x10:
+    case 0x05:
+    case 0x06:
+    case 0x0F:
+    case 0x10:
       add(8);
       return c;
     default:

@@ -48,17 +48,20 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
                           size_t* length) noexcept {
   out[0] = r.function;
   switch (r.function) {
-    case 0x01: case 0x02: {
+    case 0x01:
+    case 0x02: {
       const size_t bytes = packed_size(r.quantity);
       std::memset(&out[2], 0, bytes);
-      const Errc e = r.function == 0x01 ? bank.read_coils(r.address, r.quantity, out.subspan(2, bytes))
-                                        : bank.read_discrete_inputs(r.address, r.quantity, out.subspan(2, bytes));
+      const Errc e = r.function == 0x01
+                         ? bank.read_coils(r.address, r.quantity, out.subspan(2, bytes))
+                         : bank.read_discrete_inputs(r.address, r.quantity, out.subspan(2, bytes));
       if (e != Errc::ok) return e;
       out[1] = static_cast<uint8_t>(bytes);
       *length = 2 + bytes;
       return Errc::ok;
     }
-    case 0x03: case 0x04: {
+    case 0x03:
+    case 0x04: {
       std::array<uint16_t, kMaxReadRegisters> regs{};
       const std::span<uint16_t> view(regs.data(), r.quantity);
       const Errc e = r.function == 0x03 ? bank.read_holding_registers(r.address, view)
@@ -158,7 +161,8 @@ size_t SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> 
                                RegisterBank** handled) noexcept {
   if (handled) *handled = nullptr;
   if (adu.size() < 4 || out.size() < kMaxRtuAduSize) return 0;
-  const size_t n = handle_pdu(adu[0], adu.subspan(1, adu.size() - 3), out.subspan(1), Addressing::rtu, handled);
+  const size_t n =
+      handle_pdu(adu[0], adu.subspan(1, adu.size() - 3), out.subspan(1), Addressing::rtu, handled);
   if (n == 0) return 0;
   out[0] = adu[0];
   const uint16_t crc = crc16(out.first(n + 1));

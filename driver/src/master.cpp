@@ -29,7 +29,9 @@ MasterStats Master::stats() const {
   return stats_;
 }
 
-std::string Master::describe() const { return link_->describe(); }
+std::string Master::describe() const {
+  return link_->describe();
+}
 
 Error Master::transact(UnitId unit, const Request& request,
                        const std::function<void(const Response&)>& on_response) {
@@ -40,7 +42,8 @@ Error Master::transact(UnitId unit, const Request& request,
 Error Master::transact_locked(UnitId unit, const Request& request,
                               const std::function<void(const Response&)>& on_response) {
   Request req = request;
-  if (req.function == fc(Function::write_multiple_registers)) req.without_byte_count = options_.fc10_without_byte_count;
+  if (req.function == fc(Function::write_multiple_registers))
+    req.without_byte_count = options_.fc10_without_byte_count;
 
   if (options_.inter_request_delay.count() > 0) {
     const auto ready = last_end_ + options_.inter_request_delay;
@@ -167,13 +170,15 @@ Request make_request(Function function, uint16_t address, uint16_t quantity) {
 
 Error Master::read_holding_registers(UnitId unit, uint16_t address, std::span<uint16_t> out) {
   if (out.size() > kMaxReadRegisters) return Errc::invalid_argument;
-  return transact(unit, make_request(Function::read_holding_registers, address, static_cast<uint16_t>(out.size())),
+  return transact(unit,
+                  make_request(Function::read_holding_registers, address, static_cast<uint16_t>(out.size())),
                   [&](const Response& r) { load_registers(r.data, out); });
 }
 
 Error Master::read_input_registers(UnitId unit, uint16_t address, std::span<uint16_t> out) {
   if (out.size() > kMaxReadRegisters) return Errc::invalid_argument;
-  return transact(unit, make_request(Function::read_input_registers, address, static_cast<uint16_t>(out.size())),
+  return transact(unit,
+                  make_request(Function::read_input_registers, address, static_cast<uint16_t>(out.size())),
                   [&](const Response& r) { load_registers(r.data, out); });
 }
 
@@ -187,7 +192,8 @@ Error Master::read_coils(UnitId unit, uint16_t address, std::span<uint8_t> out) 
 
 Error Master::read_discrete_inputs(UnitId unit, uint16_t address, std::span<uint8_t> out) {
   if (out.size() > kMaxReadBits) return Errc::invalid_argument;
-  return transact(unit, make_request(Function::read_discrete_inputs, address, static_cast<uint16_t>(out.size())),
+  return transact(unit,
+                  make_request(Function::read_discrete_inputs, address, static_cast<uint16_t>(out.size())),
                   [&](const Response& r) {
                     for (size_t i = 0; i < out.size(); ++i) out[i] = get_bit(r.data, i) ? 1 : 0;
                   });

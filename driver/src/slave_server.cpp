@@ -123,27 +123,32 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
  public:
   TcpSession(asio::ip::tcp::socket socket, SlaveEngine& engine, Framing framing, RtuTiming timing,
              const RequestLog& log)
-      : socket_(std::move(socket)), engine_(engine), framing_(framing), log_(log), rtu_(engine, timing, log) {}
+      : socket_(std::move(socket)),
+        engine_(engine),
+        framing_(framing),
+        log_(log),
+        rtu_(engine, timing, log) {}
 
   void start() { read(); }
 
  private:
   void read() {
     auto self = shared_from_this();
-    socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
-                            [this, self](const std::error_code& ec, size_t n) {
-                              if (ec) return;  // closed: the session ends with its last reference
-                              if (framing_ == Framing::rtu) {
-                                rtu_.on_bytes({rx_.data(), n}, io::now_us(),
-                                              [this](std::span<const uint8_t> out) { queue(out); });
-                              } else if (!on_mbap(n)) {
-                                std::error_code ignored;
-                                socket_.close(ignored);
-                                return;
-                              }
-                              flush();
-                              read();
-                            });
+    socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_), [this, self](
+                                                                                          const std::
+                                                                                              error_code& ec,
+                                                                                          size_t n) {
+      if (ec) return;  // closed: the session ends with its last reference
+      if (framing_ == Framing::rtu) {
+        rtu_.on_bytes({rx_.data(), n}, io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
+      } else if (!on_mbap(n)) {
+        std::error_code ignored;
+        socket_.close(ignored);
+        return;
+      }
+      flush();
+      read();
+    });
   }
 
   // Handles every complete MBAP ADU buffered. False: the stream is out of step.
@@ -269,7 +274,8 @@ Result<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ct
     case io::PortSpec::Kind::tcp:
     case io::PortSpec::Kind::rtu_tcp: {
       auto server = std::make_unique<TcpServer>(
-          ctx, engine, spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu, timing, std::move(log));
+          ctx, engine, spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu, timing,
+          std::move(log));
       if (Error e = server->listen(spec.host, spec.port, why)) return e;
       return std::unique_ptr<SlaveListener>(std::move(server));
     }

@@ -236,10 +236,13 @@ class TcpLink final : public Link {
 
 std::unique_ptr<Link> make_link(const PortSpec& spec) {
   switch (spec.kind) {
-    case PortSpec::Kind::serial: return std::make_unique<SerialLink>(spec);
+    case PortSpec::Kind::serial:
+      return std::make_unique<SerialLink>(spec);
     case PortSpec::Kind::tcp:
-    case PortSpec::Kind::rtu_tcp: return std::make_unique<TcpLink>(spec);
-    case PortSpec::Kind::pty: return nullptr;
+    case PortSpec::Kind::rtu_tcp:
+      return std::make_unique<TcpLink>(spec);
+    case PortSpec::Kind::pty:
+      return nullptr;
   }
   return nullptr;
 }

@@ -20,11 +20,14 @@ Error SerialSettings::validate(std::string* why) const {
 std::string PortSpec::describe() const {
   switch (kind) {
     case Kind::serial:
-      return path + " " + std::to_string(serial.baud) + " " + std::to_string(serial.data_bits) + serial.parity +
-             std::to_string(serial.stop_bits);
-    case Kind::tcp: return "tcp://" + host + ":" + std::to_string(port);
-    case Kind::rtu_tcp: return "rtu+tcp://" + host + ":" + std::to_string(port);
-    case Kind::pty: return path.empty() ? "pty" : "pty:" + path;
+      return path + " " + std::to_string(serial.baud) + " " + std::to_string(serial.data_bits) +
+             serial.parity + std::to_string(serial.stop_bits);
+    case Kind::tcp:
+      return "tcp://" + host + ":" + std::to_string(port);
+    case Kind::rtu_tcp:
+      return "rtu+tcp://" + host + ":" + std::to_string(port);
+    case Kind::pty:
+      return path.empty() ? "pty" : "pty:" + path;
   }
   return "?";
 }

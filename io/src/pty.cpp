@@ -35,7 +35,9 @@ Pty::~Pty() {
   if (master_ >= 0) ::close(master_);
 }
 
-int Pty::release_master() noexcept { return std::exchange(master_, -1); }
+int Pty::release_master() noexcept {
+  return std::exchange(master_, -1);
+}
 
 Result<Pty> Pty::create(const std::string& link, std::string* why) {
   auto fail = [why](const char* step) {

@@ -9,19 +9,20 @@
 #include <cstdlib>
 #include <string>
 
-#define CHECK(cond, ...)                              \
-  do {                                                \
-    if (!(cond)) {                                    \
-      std::fprintf(stderr, "libmodbus_client: " __VA_ARGS__); \
+#define CHECK(cond, ...)                                       \
+  do {                                                         \
+    if (!(cond)) {                                             \
+      std::fprintf(stderr, "libmodbus_client: " __VA_ARGS__);  \
       std::fprintf(stderr, " (%s)\n", modbus_strerror(errno)); \
-      return 1;                                       \
-    }                                                 \
+      return 1;                                                \
+    }                                                          \
   } while (0)
 
 int main(int argc, char** argv) {
   if (argc < 3) return 2;
   const std::string mode = argv[1];
-  modbus_t* ctx = mode == "rtu" ? modbus_new_rtu(argv[2], 9600, 'N', 8, 1) : modbus_new_tcp("127.0.0.1", std::atoi(argv[2]));
+  modbus_t* ctx = mode == "rtu" ? modbus_new_rtu(argv[2], 9600, 'N', 8, 1)
+                                : modbus_new_tcp("127.0.0.1", std::atoi(argv[2]));
   modbus_set_slave(ctx, 1);
   modbus_set_response_timeout(ctx, 2, 0);
   CHECK(modbus_connect(ctx) == 0, "connect");
@@ -39,8 +40,9 @@ int main(int argc, char** argv) {
   const uint8_t bits_in[4] = {1, 0, 1, 1};
   CHECK(modbus_write_bits(ctx, 20, 4, bits_in) == 4, "write_bits");
   uint8_t bits[8] = {};
-  CHECK(modbus_read_bits(ctx, 20, 4, bits) == 4 && bits[0] == 1 && bits[1] == 0 && bits[2] == 1 && bits[3] == 1,
-        "read_bits");
+  CHECK(
+      modbus_read_bits(ctx, 20, 4, bits) == 4 && bits[0] == 1 && bits[1] == 0 && bits[2] == 1 && bits[3] == 1,
+      "read_bits");
   CHECK(modbus_read_bits(ctx, 3, 1, bits) == 1 && bits[0] == 1, "read_bit 3");
   CHECK(modbus_read_input_registers(ctx, 0, 2, regs) == 2, "read_input_registers");
   CHECK(modbus_read_input_bits(ctx, 0, 2, bits) == 2, "read_input_bits");

@@ -98,7 +98,8 @@ int serve_tcp(int port) {
 
 int main(int argc, char** argv) {
   std::signal(SIGPIPE, SIG_IGN);
-  if (argc >= 3 && std::string(argv[1]) == "rtu") return serve_rtu(argv[2], argc > 3 ? std::atoi(argv[3]) : 9600);
+  if (argc >= 3 && std::string(argv[1]) == "rtu")
+    return serve_rtu(argv[2], argc > 3 ? std::atoi(argv[3]) : 9600);
   if (argc >= 3 && std::string(argv[1]) == "tcp") return serve_tcp(std::atoi(argv[2]));
   std::fprintf(stderr, "usage: libmodbus_server rtu DEVICE [BAUD] | tcp PORT\n");
   return 2;

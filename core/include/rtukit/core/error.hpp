@@ -81,7 +81,7 @@ class [[nodiscard]] Result {
   constexpr Result(T value) noexcept(noexcept(T(std::move(value))))  // NOLINT: implicit
       : value_(std::move(value)) {}
   constexpr Result(Error error) noexcept : error_(error) {}  // NOLINT: implicit
-  constexpr Result(Errc code) noexcept : error_(code) {}    // NOLINT: implicit
+  constexpr Result(Errc code) noexcept : error_(code) {}     // NOLINT: implicit
 
   constexpr bool ok() const noexcept { return error_.ok(); }
   constexpr explicit operator bool() const noexcept { return ok(); }  // true = has value

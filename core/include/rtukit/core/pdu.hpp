@@ -49,7 +49,9 @@ enum class Function : uint8_t {
   write_multiple_registers = 0x10,
 };
 
-constexpr uint8_t fc(Function f) noexcept { return static_cast<uint8_t>(f); }
+constexpr uint8_t fc(Function f) noexcept {
+  return static_cast<uint8_t>(f);
+}
 /// True for the eight function codes above.
 bool is_supported_function(uint8_t function) noexcept;
 /// True for 01..04.
@@ -71,9 +73,12 @@ constexpr bool get_bit(std::span<const uint8_t> packed, size_t i) noexcept {
 }
 constexpr void set_bit(std::span<uint8_t> packed, size_t i, bool on) noexcept {
   const auto mask = static_cast<uint8_t>(1U << (i % 8));
-  packed[i / 8] = on ? static_cast<uint8_t>(packed[i / 8] | mask) : static_cast<uint8_t>(packed[i / 8] & ~mask);
+  packed[i / 8] =
+      on ? static_cast<uint8_t>(packed[i / 8] | mask) : static_cast<uint8_t>(packed[i / 8] & ~mask);
 }
-constexpr size_t packed_size(size_t bits) noexcept { return (bits + 7) / 8; }
+constexpr size_t packed_size(size_t bits) noexcept {
+  return (bits + 7) / 8;
+}
 
 /// Copies `count` big-endian registers from `bytes` into `out`.
 /// Preconditions: bytes.size() >= 2 * count, out.size() >= count.
@@ -111,8 +116,7 @@ Result<size_t> encode_write_single_register(uint16_t address, uint16_t value,
                                             std::span<uint8_t> out) noexcept;
 Result<size_t> encode_write_single_coil(uint16_t address, bool on, std::span<uint8_t> out) noexcept;
 Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const uint16_t> values,
-                                               std::span<uint8_t> out,
-                                               bool with_byte_count = true) noexcept;
+                                               std::span<uint8_t> out, bool with_byte_count = true) noexcept;
 /// `bits` holds one coil per element (0 = off, anything else = on).
 Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uint8_t> bits,
                                            std::span<uint8_t> out) noexcept;

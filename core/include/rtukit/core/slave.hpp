@@ -41,7 +41,8 @@ class RegisterBank {
     return Errc::illegal_function;
   }
   /// FC02. As read_coils.
-  virtual Errc read_discrete_inputs(uint16_t /*address*/, uint16_t /*count*/, std::span<uint8_t> /*packed_out*/) {
+  virtual Errc read_discrete_inputs(uint16_t /*address*/, uint16_t /*count*/,
+                                    std::span<uint8_t> /*packed_out*/) {
     return Errc::illegal_function;
   }
   /// FC03. Fill `out` (out.size() registers from `address`).

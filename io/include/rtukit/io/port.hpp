@@ -24,17 +24,15 @@ struct Rs485Settings {
 };
 
 struct SerialSettings {
-  uint32_t baud = 9600;  ///< 1200..921600; non-standard rates via BOTHER
-  char parity = 'N';     ///< 'N', 'E' or 'O'
+  uint32_t baud = 9600;   ///< 1200..921600; non-standard rates via BOTHER
+  char parity = 'N';      ///< 'N', 'E' or 'O'
   uint8_t data_bits = 8;  ///< 7 or 8
   uint8_t stop_bits = 1;  ///< 1 or 2
   Rs485Settings rs485{};
   bool low_latency = true;  ///< ASYNC_LOW_LATENCY where the driver has it
 
   /// Bits on the wire per character: start + data + parity + stop.
-  uint32_t bits_per_char() const noexcept {
-    return 1U + data_bits + (parity == 'N' ? 0U : 1U) + stop_bits;
-  }
+  uint32_t bits_per_char() const noexcept { return 1U + data_bits + (parity == 'N' ? 0U : 1U) + stop_bits; }
   /// Errors: invalid_argument with a reason in `why`.
   Error validate(std::string* why = nullptr) const;
 };
@@ -42,8 +40,8 @@ struct SerialSettings {
 struct PortSpec {
   enum class Kind : uint8_t { serial, tcp, rtu_tcp, pty };
   Kind kind = Kind::serial;
-  std::string path;  ///< serial device, or the pty symlink (may be empty)
-  std::string host;  ///< tcp kinds
+  std::string path;   ///< serial device, or the pty symlink (may be empty)
+  std::string host;   ///< tcp kinds
   uint16_t port = 0;  ///< tcp kinds
   SerialSettings serial{};
 
