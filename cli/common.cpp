@@ -2,6 +2,7 @@
 
 #include <fmt/core.h>
 
+#include <cctype>
 #include <charconv>
 #include <cstring>
 
@@ -26,6 +27,8 @@ void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
   cmd.add_option("--data-bits", data_bits, "7 or 8")->capture_default_str();
   cmd.add_option("--stop-bits", stop_bits, "1 or 2")->capture_default_str();
   cmd.add_flag("--rs485", rs485, "RS-485 direction control (TIOCSRS485, else RTS toggling)");
+  cmd.add_option("--rs485-delay-before", rs485_before_us, "RS-485: us between RTS and the first bit");
+  cmd.add_option("--rs485-delay-after", rs485_after_us, "RS-485: us between the last bit and RTS release");
 }
 
 io::PortSpec LinkOptions::spec(bool listening) const {
@@ -38,6 +41,8 @@ io::PortSpec LinkOptions::spec(bool listening) const {
   spec->serial.data_bits = static_cast<uint8_t>(data_bits);
   spec->serial.stop_bits = static_cast<uint8_t>(stop_bits);
   spec->serial.rs485.enabled = rs485;
+  spec->serial.rs485.delay_before_us = rs485_before_us;
+  spec->serial.rs485.delay_after_us = rs485_after_us;
   if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
   return *spec;
 }

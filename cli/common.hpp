@@ -37,6 +37,8 @@ struct LinkOptions {
   unsigned data_bits = 8;
   unsigned stop_bits = 1;
   bool rs485 = false;
+  unsigned rs485_before_us = 0;
+  unsigned rs485_after_us = 0;
   unsigned timeout_ms = 1000;
   unsigned retries = 0;
   unsigned delay_ms = 0;

@@ -22,10 +22,12 @@ Pty::Pty(Pty&& o) noexcept
 }
 
 Pty& Pty::operator=(Pty&& o) noexcept {
-  if (this != &o) {
-    this->~Pty();
-    new (this) Pty(std::move(o));
-  }
+  Pty old(std::move(*this));  // released when `old` goes out of scope
+  master_ = std::exchange(o.master_, -1);
+  keep_open_ = std::exchange(o.keep_open_, -1);
+  path_ = std::move(o.path_);
+  link_ = std::move(o.link_);
+  o.link_.clear();
   return *this;
 }
 
