@@ -10,6 +10,8 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/pty.hpp"
+#include "rtukit/io/serial_config.hpp"
 
 using namespace rtukit;
 using namespace std::chrono_literals;
@@ -263,4 +265,96 @@ TEST(PortSpec, ParsesEveryForm) {
   s.baud = 9600;
   s.parity = 'X';
   EXPECT_FALSE(s.validate(&why).ok());
+}
+
+namespace {
+
+// A pty whose far side we drive by hand: what a device (or an adapter) sends.
+struct HandDrivenPty {
+  HandDrivenPty(const TempDir& dir) {
+    std::string why;
+    auto p = io::Pty::create(dir / "dev", &why);
+    EXPECT_TRUE(p.ok()) << why;
+    pty = std::move(*p);
+  }
+  // Reads one chunk the master wrote (bounded wait).
+  std::vector<uint8_t> read_request() {
+    std::vector<uint8_t> buf(512);
+    ssize_t n = -1;
+    test::eventually([&] { return (n = ::read(pty.master_fd(), buf.data(), buf.size())) > 0; }, 2000ms);
+    buf.resize(n > 0 ? static_cast<size_t>(n) : 0);
+    return buf;
+  }
+  void send(const std::vector<uint8_t>& bytes) {
+    EXPECT_EQ(::write(pty.master_fd(), bytes.data(), bytes.size()), static_cast<ssize_t>(bytes.size()));
+  }
+  io::Pty pty;
+};
+
+}  // namespace
+
+TEST(MasterDriver, HalfDuplexEcho_IsDiscarded_NotTakenForTheAnswer) {
+  // For FC06 the echo of the request looks exactly like a success response.
+  // The "device" here answers with exception 02 after the echo: only a master
+  // that drops the echo reports the exception.
+  for (const bool discard : {true, false}) {
+    TempDir dir;
+    HandDrivenPty dev(dir);
+    MasterOptions o;
+    o.discard_echo = discard;
+    o.response_timeout = 500ms;
+    auto master = master_for(dev.pty.name(), o);
+    std::thread device([&] {
+      const auto request = dev.read_request();
+      dev.send(request);                         // the adapter's echo
+      dev.send({0x01, 0x86, 0x02, 0xC3, 0xA1});  // the device's answer: exception 02
+    });
+    const Error e = master->write_single_register(UnitId{1}, 5, 42);
+    device.join();
+    if (discard) {
+      EXPECT_EQ(e.code(), Errc::illegal_data_address) << e.name();
+    } else {
+      EXPECT_TRUE(e.ok()) << "without echo discard the echo passes for the answer";
+    }
+  }
+}
+
+TEST(SlaveServer, UnknownFunction_IsAnsweredAfterSilence_OnAPty) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  const int fd = ::open(slave.client_port().c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(fd, 0);
+  ASSERT_TRUE(io::make_raw(fd).ok());
+  const uint8_t request[] = {0x01, 0x2B, 0x0E, 0x01, 0x00, 0x70, 0x77};  // FC 2B, CRC valid
+  ASSERT_EQ(::write(fd, request, sizeof request), static_cast<ssize_t>(sizeof request));
+  std::vector<uint8_t> got;
+  test::eventually(
+      [&] {
+        uint8_t buf[16];
+        const ssize_t n = ::read(fd, buf, sizeof buf);
+        if (n > 0) got.insert(got.end(), buf, buf + n);
+        return got.size() >= 5;
+      },
+      2000ms);
+  ::close(fd);
+  EXPECT_EQ(got, (std::vector<uint8_t>{0x01, 0xAB, 0x01, 0x9E, 0xF0}));  // exception 01
+}
+
+TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port(slave.client_port(), false, &why);
+  ASSERT_TRUE(spec.ok());
+  spec->serial.baud = 250000;  // not a Bxxx constant: BOTHER
+  spec->serial.parity = 'E';
+  spec->serial.stop_bits = 2;
+  Master master(io::make_link(*spec));
+  uint16_t r = 0;
+  EXPECT_TRUE(master.read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  // Exclusive: a second opener of the same port is refused, even as root.
+  Master second(io::make_link(*spec));
+  const Error busy = second.open();
+  EXPECT_EQ(busy.code(), Errc::io_error);
+  EXPECT_EQ(busy.os_error(), EBUSY);
 }

@@ -5,6 +5,7 @@
 #include <asm/termbits.h>
 #include <fcntl.h>
 #include <linux/serial.h>
+#include <sys/file.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
 
@@ -68,7 +69,11 @@ Error make_raw(int fd) {
 
 Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& s) {
   SerialCapabilities caps;
+  // TIOCEXCL refuses other openers, except root (CAP_SYS_ADMIN bypasses it);
+  // the advisory lock also holds against root among programs that take it
+  // (rtukit, pyserial with exclusive=True).
   if (ioctl(fd, TIOCEXCL) != 0) return os_error();
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0) return errno == EWOULDBLOCK ? Error(Errc::io_error, EBUSY) : os_error();
   if (Error e = make_raw(fd)) return e;
 
   struct termios2 tio {};

@@ -18,7 +18,8 @@ struct SerialCapabilities {
 };
 
 /// Puts `fd` in raw mode with `settings`: baud (BOTHER when not a standard
-/// rate), parity, data and stop bits; exclusive (TIOCEXCL); RS-485 through
+/// rate), parity, data and stop bits; exclusive (TIOCEXCL, and an advisory
+/// flock that also holds against root: EBUSY when taken); RS-485 through
 /// TIOCSRS485 when the driver supports it (else the caller toggles RTS).
 /// Errors: io_error with the OS error number. A pty accepts all of this
 /// except RS-485 and low latency, which are then reported as unavailable.
