@@ -84,8 +84,8 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
   return v;
 }
 
-UnitId parse_unit(const std::string& text) {
-  return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, 255))};
+UnitId parse_unit(const std::string& text, bool tcp) {
+  return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : 247))};
 }
 
 int exit_code(Error e) {

@@ -58,8 +58,10 @@ struct LinkOptions {
 /// Throws Failure{kUsage} naming `what` when it is not a number in range.
 int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max);
 
-/// Unit option value -> UnitId; throws Failure{kUsage} outside 0..255.
-UnitId parse_unit(const std::string& text);
+/// Unit option value -> UnitId. RTU links take the standard 0..247 (0 =
+/// broadcast, modbus-rtu.md); Modbus TCP takes 0..255 (0xFF addresses a TCP
+/// device directly). Throws Failure{kUsage} outside the range.
+UnitId parse_unit(const std::string& text, bool tcp = false);
 
 /// Maps an Error to its exit code.
 int exit_code(Error e);

@@ -96,7 +96,7 @@ struct ReadArgs {
 };
 
 int run_read(const ReadArgs& a) {
-  const UnitId unit = parse_unit(a.unit);
+  const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (a.holding + a.input + a.coils + a.discrete > 1)
     throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
   const Table table = a.input      ? Table::input
@@ -176,7 +176,7 @@ struct WriteArgs {
 };
 
 int run_write(const WriteArgs& a) {
-  const UnitId unit = parse_unit(a.unit);
+  const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
   auto master = a.link.make_master();
   const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
@@ -212,8 +212,9 @@ int run_scan(ScanArgs a) {
   const auto dash = a.units.find('-');
   const std::string first = a.units.substr(0, dash);
   const std::string last = dash == std::string::npos ? first : a.units.substr(dash + 1);
-  const auto lo = parse_number(first, "unit", 1, 255);
-  const auto hi = parse_number(last, "unit", lo, 255);
+  const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
+  const auto lo = parse_number(first, "unit", 1, tcp ? 255 : 247);
+  const auto hi = parse_number(last, "unit", lo, tcp ? 255 : 247);
   if (a.link.timeout_ms == 1000) a.link.timeout_ms = 100;  // scanning: a short default
   auto master = a.link.make_master();
   if (Error e = master->open()) fail(e, fmt::format("scan on {}", master->describe()));
@@ -307,7 +308,7 @@ int run_slave(const SlaveArgs& a) {
   std::vector<std::unique_ptr<MemoryBank>> banks;
   SlaveEngine engine;
   for (const auto& u : a.units) {
-    const UnitId unit = parse_unit(u);
+    const UnitId unit = parse_unit(u, spec.kind == io::PortSpec::Kind::tcp);
     if (unit.value == 0) throw Failure{kUsage, "unit 0 is the broadcast address"};
     banks.push_back(std::make_unique<MemoryBank>(size));
     if (!a.init.empty()) load_init(a.init, *banks.back());
@@ -326,7 +327,7 @@ int run_slave(const SlaveArgs& a) {
   auto listener = SlaveListener::start(ctx, engine, spec, &why, log);
   if (!listener.ok()) throw Failure{kIoError, why.empty() ? std::string(listener.error().name()) : why};
   fmt::print("listening on {} (units", (*listener)->where());
-  for (const auto& u : a.units) fmt::print(" {}", parse_unit(u).value);
+  for (const auto& u : a.units) fmt::print(" {}", parse_unit(u, true).value);
   fmt::print(")\n");
   std::fflush(stdout);
   asio::signal_set signals(ctx, SIGINT, SIGTERM);

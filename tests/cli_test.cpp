@@ -95,6 +95,8 @@ TEST_F(Cli, UsageErrors_Exit2_OneLine) {
        std::vector<std::vector<std::string>>{{"read", "--port", port_, "--unit", "5", "0", "126"},
                                              {"read", "--port", port_, "--unit", "5", "0x1G"},
                                              {"read", "--port", port_, "--unit", "300", "0"},
+           {"read", "--port", port_, "--unit", "248", "0"},  // RTU unicast is 1..247
+           {"slave", "--listen", "pty", "--unit", "0"},
                                              {"read", "--port", port_, "0", "--type", "u64"},
                                              {"write", "--port", port_, "0", "70000"},
                                              {"read", "--port", "udp://x:1", "0"},
