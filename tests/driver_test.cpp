@@ -358,3 +358,22 @@ TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {
   EXPECT_EQ(busy.code(), Errc::io_error);
   EXPECT_EQ(busy.os_error(), EBUSY);
 }
+
+TEST(LinkTiming, UsbAdapterChunks16msApart_StillMakeOneFrame) {
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port("/dev/ttyUSB0", false, &why);
+  ASSERT_TRUE(spec.ok());
+  RtuFramer framer(FrameShape::request, io::link_timing(*spec));
+  const uint8_t first[] = {0x15, 0x03, 0x00, 0x21};
+  const uint8_t second[] = {0x00, 0x04, 0x17, 0x17};
+  framer.feed(first, 0);
+  EXPECT_FALSE(framer.next(0));
+  framer.feed(second, 16'000);
+  const auto frame = framer.next(16'000);
+  ASSERT_TRUE(frame);
+  EXPECT_EQ(frame->adu.size(), 8U);
+  // A truncated frame is still dropped once the silence is real.
+  framer.feed(first, 100'000);
+  EXPECT_FALSE(framer.next(100'000 + io::kLinuxSilenceFloorUs + 1));
+  EXPECT_EQ(framer.buffered(), 0U);
+}

@@ -86,10 +86,10 @@ Result<PortSpec> parse_port(std::string_view text, bool listening, std::string* 
 }
 
 RtuTiming link_timing(const PortSpec& spec) noexcept {
-  if (spec.is_tcp()) return RtuTiming{0, 20000};
+  if (spec.is_tcp()) return RtuTiming{0, kLinuxSilenceFloorUs};
   RtuTiming t = RtuTiming::for_serial(spec.serial.baud, spec.serial.bits_per_char());
   t.t15_us = 0;
-  if (t.t35_us < 5000) t.t35_us = 5000;
+  if (t.t35_us < kLinuxSilenceFloorUs) t.t35_us = kLinuxSilenceFloorUs;
   return t;
 }
 

@@ -53,10 +53,15 @@ struct PortSpec {
 /// invalid_argument, with a one-line reason in `why`.
 Result<PortSpec> parse_port(std::string_view text, bool listening, std::string* why);
 
-/// The framer timing to use on a link of this kind. Serial and pty get the
-/// t3.5 of their baud rate, never less than 5 ms (Linux and USB adapters
-/// deliver bytes in chunks, up to a few ms late); t1.5 is not enforced for
-/// the same reason. TCP streams get a 20 ms silence.
+/// Silence that ends a frame on a Linux link, at least. USB serial adapters
+/// deliver bytes in chunks up to 16 ms apart (FTDI's default latency timer)
+/// when the low-latency flag is not honoured; a shorter silence would cut
+/// slow frames in the middle. Frames are delimited by length prediction
+/// anyway; silence only ends garbage and frames of unknown function.
+inline constexpr uint32_t kLinuxSilenceFloorUs = 20000;
+
+/// The framer timing to use on a link of this kind: the t3.5 of the baud
+/// rate, never less than kLinuxSilenceFloorUs; t1.5 is not enforced (chunks).
 RtuTiming link_timing(const PortSpec& spec) noexcept;
 
 }  // namespace rtukit::io
