@@ -104,29 +104,22 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
   if (avail < 2) return c;
   const uint8_t function = p[1];
   if (shape_ == FrameShape::request) {
-    switch (function) {
-      case 0x01:
-      case 0x02:
-      case 0x03:
-      case 0x04:
-      case 0x05:
-      case 0x06:
-        add(8);
-        return c;
-      case 0x0F:
-      case 0x10:
-        if (avail < 7) return c;
-        add(9 + size_t{p[6]});
-        // Short form (no byte count), FC10 only: length from the quantity.
-        if (function == 0x10) {
-          const uint16_t q = load_be16(p + 4);
-          if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
-        }
-        return c;
-      default:
-        c.predictable = false;
-        return c;
+    if (!is_supported_function(function)) {
+      c.predictable = false;
+      return c;
     }
+    if (function != 0x0F && function != 0x10) {
+      add(8);  // reads and single writes: address, function, 4 bytes, CRC
+      return c;
+    }
+    if (avail < 7) return c;
+    add(9 + size_t{p[6]});
+    // Short form (no byte count), FC10 only: length from the quantity.
+    if (function == 0x10) {
+      const uint16_t q = load_be16(p + 4);
+      if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
+    }
+    return c;
   }
   // Response shapes.
   if (function & kExceptionBit) {
