@@ -127,7 +127,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
         engine_(engine),
         framing_(framing),
         log_(log),
-        rtu_(engine, timing, log) {}
+        rtu_(engine, timing, log_) {}  // the session's own copy: it may outlive the server
 
   void start() { read(); }
 
@@ -187,7 +187,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   asio::ip::tcp::socket socket_;
   SlaveEngine& engine_;
   Framing framing_;
-  const RequestLog& log_;
+  RequestLog log_;
   RtuResponder rtu_;
   std::array<uint8_t, 2 * kMaxMbapAduSize> rx_{};
   size_t rx_len_ = 0;
