@@ -12,4 +12,10 @@ using Action = std::function<int()>;
 /// read, write, scan, slave.
 void add_generic_commands(CLI::App& app, Action& action);
 
+/// inverjet status|watch|start|pause|resume|stop|speed|plan|config|registers.
+void add_inverjet_commands(CLI::App& app, Action& action);
+
+/// sim inverjet (device simulators).
+void add_sim_commands(CLI::App& app, Action& action);
+
 }  // namespace rtukit::cli

@@ -88,6 +88,12 @@ UnitId parse_unit(const std::string& text, bool tcp) {
   return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : 247))};
 }
 
+std::string hex(std::span<const uint8_t> bytes) {
+  std::string s;
+  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
+  return s;
+}
+
 int exit_code(Error e) {
   if (e.ok()) return kOk;
   if (e.is_exception()) return kModbusException;

@@ -5,6 +5,7 @@
 #include <CLI/CLI.hpp>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <string>
 #include <string_view>
 
@@ -67,6 +68,9 @@ UnitId parse_unit(const std::string& text, bool tcp = false);
 int exit_code(Error e);
 /// Throws Failure with one clear line: what failed, on which port/unit.
 [[noreturn]] void fail(Error e, std::string_view context);
+
+/// Bytes as "15 03 00 21" (request logs).
+std::string hex(std::span<const uint8_t> bytes);
 
 /// Prints the master's counters to stderr (for --stats).
 void print_stats(const Master& master);

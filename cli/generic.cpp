@@ -296,12 +296,6 @@ void load_init(const std::string& path, MemoryBank& bank) {
   }
 }
 
-std::string hex(std::span<const uint8_t> bytes) {
-  std::string s;
-  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
-  return s;
-}
-
 int run_slave(const SlaveArgs& a) {
   const io::PortSpec spec = a.link.spec(true);
   const auto size = static_cast<size_t>(parse_number(a.registers, "--registers", 1, 65536));

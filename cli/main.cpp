@@ -14,6 +14,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "rtukit 0.1.0");
   Action action;
   add_generic_commands(app, action);
+  add_inverjet_commands(app, action);
+  add_sim_commands(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

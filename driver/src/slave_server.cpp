@@ -53,12 +53,13 @@ class RtuResponder {
 // RTU on a serial port or a pty master.
 class RtuStreamServer final : public SlaveListener {
  public:
-  RtuStreamServer(asio::io_context& ctx, SlaveEngine& engine, int fd, RtuTiming timing, std::string where,
+  RtuStreamServer(asio::io_context& ctx, SlaveEngine& engine, int fd, const io::PortSpec& spec, std::string where,
                   RequestLog log, io::Pty pty)
-      : stream_(ctx, fd),
+      : spec_(spec),
+        stream_(ctx, fd),
         timer_(ctx),
         log_(std::move(log)),
-        responder_(engine, timing, log_),
+        responder_(engine, io::link_timing(spec), log_),
         where_(std::move(where)),
         pty_(std::move(pty)) {
     read();
@@ -71,6 +72,15 @@ class RtuStreamServer final : public SlaveListener {
 
   std::string where() const override { return where_; }
   void set_timing(RtuTiming t) override { responder_.framer().set_timing(t); }
+  Error set_baud(uint32_t baud) override {
+    spec_.serial.baud = baud;
+    if (spec_.kind == io::PortSpec::Kind::serial) {
+      Result<io::SerialCapabilities> r = io::configure_serial(stream_.native_handle(), spec_.serial);
+      if (!r.ok()) return r.error();
+    }
+    set_timing(io::link_timing(spec_));
+    return {};
+  }
 
  private:
   void read() {
@@ -109,6 +119,7 @@ class RtuStreamServer final : public SlaveListener {
     });
   }
 
+  io::PortSpec spec_;
   asio::posix::stream_descriptor stream_;
   asio::steady_timer timer_;
   RequestLog log_;
@@ -260,7 +271,7 @@ Result<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ct
       if (fd < 0) return Error(Errc::io_error, errno);
       std::string where = pty->name();
       return std::unique_ptr<SlaveListener>(
-          new RtuStreamServer(ctx, engine, fd, timing, std::move(where), std::move(log), std::move(*pty)));
+          new RtuStreamServer(ctx, engine, fd, spec, std::move(where), std::move(log), std::move(*pty)));
     }
     case io::PortSpec::Kind::serial: {
       Result<int> fd = io::open_serial_port(spec.path, spec.serial);
@@ -269,7 +280,7 @@ Result<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ct
         return fd.error();
       }
       return std::unique_ptr<SlaveListener>(
-          new RtuStreamServer(ctx, engine, *fd, timing, spec.path, std::move(log), io::Pty{}));
+          new RtuStreamServer(ctx, engine, *fd, spec, spec.path, std::move(log), io::Pty{}));
     }
     case io::PortSpec::Kind::tcp:
     case io::PortSpec::Kind::rtu_tcp: {

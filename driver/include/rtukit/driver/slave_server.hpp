@@ -47,6 +47,10 @@ class SlaveListener {
   virtual uint16_t tcp_port() const { return 0; }
   /// Changes the framer timing (a device that switches baud rate).
   virtual void set_timing(RtuTiming) {}
+  /// A device that switches baud rate: a serial port is reconfigured (other
+  /// settings kept) and the framer timing follows; ptys and TCP only take
+  /// the new timing. Errors: io_error (the port refused the rate).
+  virtual Error set_baud(uint32_t /*baud*/) { return {}; }
 };
 
 }  // namespace rtukit

@@ -1,0 +1,24 @@
+// Training-plan files for `rtukit inverjet plan set`:
+//  - CSV: one `speed,end` per line (end as mm:ss or seconds); an optional
+//    header line `speed,end`; blank lines and lines starting with # skipped.
+//  - JSON: [{"speed": 40, "end": "05:00"}, ...] (end may also be a number of seconds).
+// The format is chosen by the first non-blank character ('[' = JSON).
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/devices/inverjet/machine.hpp"
+
+namespace rtukit::inverjet {
+
+/// Parses and validates (validate_plan) a plan. Errors: invalid_argument,
+/// with `why` naming the line (CSV) or entry (JSON): "line 3: end 00:50 is not after 01:00".
+Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why = nullptr);
+
+/// The plan as CSV with a header (what `plan show` prints; parse_plan reads it back).
+std::string plan_to_csv(const std::vector<Segment>& segments);
+
+}  // namespace rtukit::inverjet

@@ -1,0 +1,481 @@
+// The Inverjet behaviour model. Why things are as they are: the spec's D-n
+// decisions, and the B-n decisions of docs/inverjet.md where the spec is silent.
+#include "rtukit/devices/inverjet/machine.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace rtukit::inverjet {
+
+unsigned plan_length(const Plan& plan) noexcept {
+  unsigned n = 0;
+  uint16_t previous = 0;
+  for (const Segment& s : plan) {
+    if (s.end <= previous) break;
+    previous = s.end;
+    ++n;
+  }
+  return n;
+}
+
+std::array<Plan, kPlanCount> Settings::default_plans() noexcept {
+  std::array<Plan, kPlanCount> plans{};
+  for (Plan& p : plans) p[0] = Segment{20, 60};  // D-11: one minute at 20 %
+  return plans;
+}
+
+bool Settings::valid() const noexcept {
+  if (address < 1 || address > 254 || baud_code > 4 || control_mask > 7) return false;
+  if (free_speed > kMaxSpeed || timer_speed > kMaxSpeed || free_time > kMaxTime || timer_time > kMaxTime)
+    return false;
+  for (const Plan& p : plans) {
+    for (const Segment& s : p) {
+      if (s.speed > kMaxSpeed || s.end > kMaxTime) return false;
+    }
+  }
+  return true;
+}
+
+// A write to the control registers 0x0021..0x0024, then what it means.
+struct Machine::Control {
+  std::optional<uint16_t> mode, state, speed, time;
+  enum class Action : uint8_t { adjust, off, menu, start, resume, skip_delay, pause, end, fault_hold };
+  Action action = Action::adjust;
+  Family family = Family::none;
+  Phase phase = Phase::off;
+  uint16_t new_mode = 0;
+};
+
+Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& motor, const Versions& versions) noexcept
+    : settings_(settings),
+      motor_(motor),
+      versions_(versions),
+      now_(now_ms),
+      mosfet_c_(motor.ambient_c),
+      motor_c_(motor.ambient_c),
+      mains_v_(motor.mains_bus_v) {}
+
+// ---------------------------------------------------------------- reads
+
+uint16_t Machine::holding_value(uint16_t address) const noexcept {
+  switch (address) {
+    case reg::kAddress: return settings_.address;
+    case reg::kBaud: return settings_.baud_code;
+    case reg::kControlMask: return settings_.control_mask;
+    case reg::kPairing: return pairing_;
+    case reg::kPoleCount: return 5;
+    case reg::kWorkMode: return mode_;
+    case reg::kState: return state();
+    case reg::kSpeed: return speed_;
+    case reg::kRunTime: return time_s_;
+    case reg::kFreeSpeed: return settings_.free_speed;
+    case reg::kFreeTime: return settings_.free_time;
+    case reg::kTimerSpeed: return settings_.timer_speed;
+    case reg::kTimerTime: return settings_.timer_time;
+    default: break;
+  }
+  // Plan registers: 0x0100 + 0x80 * (plan - 1) + 2k (+1 for the end time).
+  const unsigned plan = (address - 0x0100U) / 0x80U;
+  const unsigned offset = (address - 0x0100U) % 0x80U;
+  const Segment& s = settings_.plans[plan][offset / 2];
+  return offset % 2 ? s.end : s.speed;
+}
+
+Errc Machine::read_holding(uint16_t address, std::span<uint16_t> out) const noexcept {
+  for (size_t i = 0; i < out.size(); ++i) {
+    if (!find_register(Table::holding, static_cast<uint16_t>(address + i))) return Errc::illegal_data_address;
+  }
+  for (size_t i = 0; i < out.size(); ++i) out[i] = holding_value(static_cast<uint16_t>(address + i));
+  return Errc::ok;
+}
+
+Errc Machine::read_input(uint16_t address, std::span<uint16_t> out) const noexcept {
+  if (size_t{address} + out.size() > reg::kInputCount) return Errc::illegal_data_address;
+  const auto clamp16 = [](double v) { return static_cast<uint32_t>(std::clamp(std::lround(v), 0L, 0xFFFFL)); };
+  const uint32_t rpm_x_poles = static_cast<uint32_t>(std::lround(motor_pct_ / 100.0 * motor_.full_speed_rpm * 5));
+  const uint32_t current = static_cast<uint32_t>(std::lround(motor_current() * 100));
+  const std::array<uint32_t, 17> words = {
+      versions_.display_software >> 16, versions_.display_software & 0xFFFF,
+      versions_.display_hardware >> 16, versions_.display_hardware & 0xFFFF,
+      versions_.driver_software >> 16,  versions_.driver_software & 0xFFFF,
+      versions_.driver_hardware >> 16,  versions_.driver_hardware & 0xFFFF,
+      faults(),                         0,
+      clamp16(mosfet_c_ * 10),          clamp16(motor_c_ * 10),
+      current >> 16,                    current & 0xFFFF,
+      rpm_x_poles >> 16,                rpm_x_poles & 0xFFFF,
+      clamp16(bus_voltage() * 10),
+  };
+  for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<uint16_t>(words[address + i]);
+  return Errc::ok;
+}
+
+double Machine::motor_current() const noexcept {
+  if (motor_pct_ <= 0) return 0;
+  const double p = motor_pct_ / 100.0;
+  return motor_.idle_current_a + (motor_.full_current_a - motor_.idle_current_a) * p * p;
+}
+
+double Machine::bus_voltage() const noexcept { return mains_v_ - motor_.bus_sag_v_per_a * motor_current(); }
+
+// ---------------------------------------------------------------- writes
+
+Errc Machine::write_holding(uint16_t address, std::span<const uint16_t> values) noexcept {
+  // Validate the whole request before touching anything (all or nothing).
+  bool control = false;
+  for (size_t i = 0; i < values.size(); ++i) {
+    const Register* r = find_register(Table::holding, static_cast<uint16_t>(address + i));
+    if (!r) return Errc::illegal_data_address;  // D-8
+    control = control || r->control;
+  }
+  for (size_t i = 0; i < values.size(); ++i) {
+    const Register* r = find_register(Table::holding, static_cast<uint16_t>(address + i));
+    if (Errc e = check_write(*r, values[i]); e != Errc::ok) return e;
+  }
+  if (control && (settings_.control_mask & 0x2)) return Errc::server_device_failure;  // D-5
+
+  Control c;
+  for (size_t i = 0; i < values.size(); ++i) {
+    switch (address + i) {
+      case reg::kWorkMode: c.mode = values[i]; break;
+      case reg::kState: c.state = values[i]; break;
+      case reg::kSpeed: c.speed = values[i]; break;
+      case reg::kRunTime: c.time = values[i]; break;
+      default: break;
+    }
+  }
+  const bool has_control = c.mode || c.state || c.speed || c.time;
+  if (has_control) {
+    if (Errc e = plan_control(c, &c); e != Errc::ok) return e;
+  }
+
+  // Apply.
+  const Settings before = settings_;
+  for (size_t i = 0; i < values.size(); ++i) {
+    const auto a = static_cast<uint16_t>(address + i);
+    const uint16_t v = values[i];
+    switch (a) {
+      case reg::kAddress:
+        if (v != settings_.address) link_change_.address = static_cast<uint8_t>(v);
+        settings_.address = v;
+        break;
+      case reg::kBaud:
+        if (v != settings_.baud_code) link_change_.baud = baud_of_code(v);
+        settings_.baud_code = v;
+        break;
+      case reg::kControlMask: settings_.control_mask = v; break;
+      case reg::kPairing:  // D-6
+        pairing_ = v;
+        pairing_until_ = v ? now_ + kPairingWindowMs : 0;
+        break;
+      case reg::kPoleCount: break;  // D-7: only 5 gets here
+      case reg::kWorkMode:
+      case reg::kState:
+      case reg::kSpeed:
+      case reg::kRunTime: break;  // below, as one control write
+      case reg::kFreeSpeed: settings_.free_speed = v; break;
+      case reg::kFreeTime: settings_.free_time = v; break;
+      case reg::kTimerSpeed: settings_.timer_speed = v; break;
+      case reg::kTimerTime: settings_.timer_time = v; break;
+      default: {
+        const unsigned plan = (a - 0x0100U) / 0x80U;
+        const unsigned offset = (a - 0x0100U) % 0x80U;
+        Segment& s = settings_.plans[plan][offset / 2];
+        (offset % 2 ? s.end : s.speed) = v;
+        break;
+      }
+    }
+  }
+  if (has_control) apply_control(c);
+  if (!(settings_ == before)) settings_changed_ = true;
+  return Errc::ok;
+}
+
+// Decides what a control write means, without changing anything.
+Errc Machine::plan_control(const Control& c, Control* out) const noexcept {
+  Control r = c;
+  r.new_mode = c.mode.value_or(mode_);
+  if (phase_ == Phase::fault) {
+    // Fault screen: nothing may start the motor; other writes are taken but
+    // the screen stays until the faults clear (B-3).
+    if (c.state) {
+      const Phase p = phase_of(*c.state);
+      if (p == Phase::initial || p == Phase::starting || p == Phase::running) return Errc::server_device_failure;
+    }
+    r.action = Control::Action::fault_hold;
+    *out = r;
+    return Errc::ok;
+  }
+  if (!c.state && !c.mode) {
+    r.action = Control::Action::adjust;
+    *out = r;
+    return Errc::ok;
+  }
+  // D-10: the written (or current) state's phase applies to the mode's family.
+  const uint16_t s = c.state ? *c.state : state();
+  if (c.state && r.new_mode == 0 && family_of(s) == Family::training)
+    return Errc::illegal_data_value;  // B-2: a training state needs a plan (mode 1..4)
+  const Phase p = phase_of(s);
+  const Family f = r.new_mode >= 1 ? Family::training : family_of(s) == Family::timer ? Family::timer : Family::free;
+  const bool same_run = active() && family_ == f && r.new_mode == mode_;
+  r.family = f;
+  r.phase = p;
+  switch (p) {
+    case Phase::off: r.action = Control::Action::off; break;
+    case Phase::menu: r.action = Control::Action::menu; break;
+    case Phase::initial: r.action = Control::Action::start; break;
+    case Phase::starting:
+    case Phase::running:
+      if (same_run && phase_ == Phase::paused) {
+        r.action = Control::Action::resume;
+      } else if (same_run && phase_ == Phase::initial) {
+        r.action = Control::Action::skip_delay;
+      } else if (same_run) {
+        r.action = Control::Action::adjust;
+      } else {
+        r.action = Control::Action::start;
+        r.phase = Phase::starting;  // B-1: 2 and 3 both start now; the motor ramps in "starting"
+      }
+      break;
+    case Phase::paused:
+      if (!same_run) return Errc::server_device_failure;  // B-4: nothing of that family runs
+      r.action = Control::Action::pause;
+      break;
+    case Phase::ended: r.action = Control::Action::end; break;
+    case Phase::fault: return Errc::illegal_data_value;  // not writable (table)
+  }
+  *out = r;
+  return Errc::ok;
+}
+
+void Machine::apply_control(const Control& c) noexcept {
+  mode_ = c.new_mode;
+  // Speed/time written with the state: time first (it may move a training run
+  // to another segment), then speed (it overrides the segment it lands in).
+  const auto adjust = [&] {
+    if (c.time) {
+      time_s_ = *c.time;
+      second_ms_ = 0;
+      if (family_ == Family::training) update_plan_speed();
+    }
+    if (c.speed) {
+      speed_ = *c.speed;
+      if (family_ == Family::training && active()) override_segment_ = static_cast<int>(segment_);
+    }
+    if (counting()) {
+      if (family_ == Family::timer && time_s_ == 0) enter(Phase::ended);
+    }
+  };
+  using A = Control::Action;
+  switch (c.action) {
+    case A::fault_hold:
+      if (c.speed) speed_ = *c.speed;
+      if (c.time) time_s_ = *c.time;
+      break;
+    case A::adjust: adjust(); break;
+    case A::off: enter(Phase::off); break;
+    case A::menu: enter(Phase::menu); break;
+    case A::start: start(c.family, c.phase, c); break;
+    case A::resume:
+      adjust();
+      if (phase_ == Phase::paused) enter(Phase::starting);
+      break;
+    case A::skip_delay:
+      adjust();
+      if (phase_ == Phase::initial) enter(Phase::starting);
+      break;
+    case A::pause:
+      adjust();
+      if (active()) enter(Phase::paused);
+      break;
+    case A::end:
+      family_ = c.family;
+      adjust();
+      enter(Phase::ended);
+      break;
+  }
+  // Flash memory rule (seed 3.2.3.4): mode 0, state initial after the write,
+  // and the write carried speed/time -> they become that mode's memory.
+  if (mode_ == 0 && phase_ == Phase::initial && (c.speed || c.time)) {
+    if (family_ == Family::free) {
+      if (c.speed) settings_.free_speed = *c.speed;
+      if (c.time) settings_.free_time = *c.time;
+    } else if (family_ == Family::timer) {
+      if (c.speed) settings_.timer_speed = *c.speed;
+      if (c.time) settings_.timer_time = *c.time;
+    }
+  }
+}
+
+void Machine::start(Family family, Phase phase, const Control& c) noexcept {
+  family_ = family;
+  initial_ms_ = 0;
+  second_ms_ = 0;
+  override_segment_ = -1;
+  switch (family) {
+    case Family::timer:
+      time_s_ = c.time.value_or(settings_.timer_time);
+      speed_ = c.speed.value_or(settings_.timer_speed);
+      break;
+    case Family::training:
+      time_s_ = c.time.value_or(0);  // "start P1 at 12:00"
+      segment_ = 0;
+      phase_ = phase;
+      update_plan_speed();
+      if (c.speed) {
+        speed_ = *c.speed;
+        override_segment_ = static_cast<int>(segment_);
+      }
+      break;
+    default:
+      time_s_ = c.time.value_or(settings_.free_time);
+      speed_ = c.speed.value_or(settings_.free_speed);
+      break;
+  }
+  enter(phase);
+}
+
+void Machine::enter(Phase phase) noexcept {
+  phase_ = phase;
+  switch (phase) {
+    case Phase::off:
+    case Phase::menu:
+      family_ = Family::none;
+      speed_ = 0;
+      time_s_ = 0;
+      segment_ = 0;
+      override_segment_ = -1;
+      break;
+    case Phase::initial: initial_ms_ = 0; break;
+    case Phase::starting:
+      // A run with nothing left to do ends at once.
+      if (family_ == Family::timer && time_s_ == 0) phase_ = Phase::ended;
+      if (family_ == Family::training) update_plan_speed();
+      break;
+    default: break;
+  }
+}
+
+// Training: the segment whose end time has not passed decides the speed.
+void Machine::update_plan_speed() noexcept {
+  if (mode_ < 1 || mode_ > kPlanCount) return;
+  const Plan& plan = settings_.plans[mode_ - 1];
+  const unsigned length = plan_length(plan);
+  unsigned seg = 0;
+  while (seg < length && plan[seg].end <= time_s_) ++seg;
+  if (seg != segment_) {
+    segment_ = seg;
+    override_segment_ = -1;
+  }
+  if (seg >= length) {
+    if (phase_ == Phase::starting || phase_ == Phase::running) phase_ = Phase::ended;
+    return;
+  }
+  if (override_segment_ != static_cast<int>(seg)) speed_ = plan[seg].speed;
+}
+
+// ---------------------------------------------------------------- time
+
+void Machine::advance_to(uint64_t now_ms) noexcept {
+  while (now_ < now_ms) {
+    // Slices end at every event (end of the initial delay, a run-time second,
+    // a pairing window) so events happen at exact device times; at most
+    // 100 ms so the motor and thermal model integrate smoothly.
+    uint64_t dt = std::min<uint64_t>(now_ms - now_, 100);
+    if (phase_ == Phase::initial) dt = std::min<uint64_t>(dt, kInitialDelayMs - initial_ms_);
+    if (counting()) dt = std::min<uint64_t>(dt, 1000 - second_ms_);
+    if (pairing_ && pairing_until_ > now_) dt = std::min<uint64_t>(dt, pairing_until_ - now_);
+    dt = std::max<uint64_t>(dt, 1);
+    now_ += dt;
+    step(static_cast<uint32_t>(dt));
+  }
+}
+
+void Machine::step(uint32_t dt_ms) noexcept {
+  if (phase_ == Phase::initial) {
+    initial_ms_ += dt_ms;
+    if (initial_ms_ >= kInitialDelayMs) {
+      second_ms_ = 0;
+      enter(Phase::starting);
+    }
+  } else if (counting()) {
+    second_ms_ += dt_ms;
+    if (second_ms_ >= 1000) {
+      second_ms_ -= 1000;
+      on_second();
+    }
+  }
+  if (pairing_ && now_ >= pairing_until_) pairing_ = 0;
+
+  // Motor: ramps towards the set speed while a run counts, else coasts to 0.
+  const double dt = dt_ms / 1000.0;
+  const double target = counting() ? speed_ : 0.0;
+  if (motor_pct_ < target)
+    motor_pct_ = std::min(target, motor_pct_ + motor_.ramp_up_pct_per_s * dt);
+  else
+    motor_pct_ = std::max(target, motor_pct_ - motor_.ramp_down_pct_per_s * dt);
+  if (phase_ == Phase::starting && motor_pct_ >= speed_) phase_ = Phase::running;
+
+  // Temperatures: first-order lag towards an equilibrium set by the current.
+  const double amps = motor_current();
+  mosfet_c_ += (motor_.ambient_c + motor_.mosfet_c_per_a * amps - mosfet_c_) * (1 - std::exp(-dt / motor_.mosfet_tau_s));
+  motor_c_ += (motor_.ambient_c + motor_.motor_c_per_a * amps - motor_c_) * (1 - std::exp(-dt / motor_.motor_tau_s));
+  update_faults();
+}
+
+void Machine::on_second() noexcept {
+  switch (family_) {
+    case Family::timer:
+      if (time_s_ > 0) --time_s_;
+      if (time_s_ == 0) enter(Phase::ended);
+      break;
+    case Family::training:
+      if (time_s_ < kMaxTime) ++time_s_;
+      update_plan_speed();
+      break;
+    default:
+      if (time_s_ < kMaxTime) ++time_s_;  // B-5: free mode holds at 99:59 and keeps running
+      break;
+  }
+}
+
+// ---------------------------------------------------------------- physical side
+
+void Machine::update_faults() noexcept {
+  uint16_t derived = derived_faults_;
+  if (mosfet_c_ >= motor_.mosfet_trip_c) derived |= kFaultMosfetTemperature;
+  if (mosfet_c_ < motor_.mosfet_reset_c) derived &= static_cast<uint16_t>(~kFaultMosfetTemperature);
+  const double bus = bus_voltage();
+  if (bus < motor_.bus_min_v || bus > motor_.bus_max_v)
+    derived |= kFaultVoltage;
+  else
+    derived &= static_cast<uint16_t>(~kFaultVoltage);
+  derived_faults_ = derived;
+  if (faults() != 0 && phase_ != Phase::fault) {
+    phase_ = Phase::fault;  // the motor target becomes 0 (not counting)
+  } else if (faults() == 0 && phase_ == Phase::fault) {
+    mode_ = 0;
+    enter(Phase::off);  // B-3: cleared faults leave the machine off
+  }
+}
+
+void Machine::set_injected_faults(uint16_t bits) noexcept {
+  injected_faults_ = bits & kFaultDefinedBits;
+  update_faults();
+}
+
+void Machine::set_mosfet_temperature(double celsius) noexcept {
+  mosfet_c_ = celsius;
+  update_faults();
+}
+
+void Machine::set_motor_temperature(double celsius) noexcept {
+  motor_c_ = celsius;
+  update_faults();
+}
+
+void Machine::set_mains_voltage(double volts) noexcept {
+  mains_v_ = volts;
+  update_faults();
+}
+
+}  // namespace rtukit::inverjet
