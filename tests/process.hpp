@@ -76,16 +76,24 @@ inline uint16_t free_tcp_port() {
 /// A started program. Output (stdout + stderr) goes to a log file.
 class Process {
  public:
-  explicit Process(const std::vector<std::string>& argv) {
+  /// `stdin_pipe`: the program reads what send() writes (else /dev/null).
+  explicit Process(const std::vector<std::string>& argv, bool stdin_pipe = false) {
     char tmpl[] = "/tmp/rtukit-proc-XXXXXX";
     const int fd = ::mkstemp(tmpl);
     log_ = tmpl;
+    int in[2] = {-1, -1};
+    if (stdin_pipe && ::pipe(in) != 0) in[0] = in[1] = -1;
     pid_ = ::fork();
     if (pid_ == 0) {
       ::dup2(fd, 1);
       ::dup2(fd, 2);
-      const int devnull = ::open("/dev/null", O_RDONLY);
-      ::dup2(devnull, 0);
+      if (in[0] >= 0) {
+        ::dup2(in[0], 0);
+        ::close(in[1]);
+      } else {
+        const int devnull = ::open("/dev/null", O_RDONLY);
+        ::dup2(devnull, 0);
+      }
       std::vector<char*> args;
       for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
       args.push_back(nullptr);
@@ -93,10 +101,18 @@ class Process {
       ::_exit(127);
     }
     ::close(fd);
+    if (in[0] >= 0) ::close(in[0]);
+    stdin_ = in[1];
   }
   ~Process() {
     stop();
+    if (stdin_ >= 0) ::close(stdin_);
     ::unlink(log_.c_str());
+  }
+  /// Writes `text` to the program's stdin (Process(argv, true)).
+  bool send(const std::string& text) {
+    ::signal(SIGPIPE, SIG_IGN);  // a program that died must fail the test, not kill it
+    return stdin_ >= 0 && ::write(stdin_, text.data(), text.size()) == static_cast<ssize_t>(text.size());
   }
   Process(const Process&) = delete;
   Process& operator=(const Process&) = delete;
@@ -140,6 +156,7 @@ class Process {
 
  private:
   pid_t pid_ = -1;
+  int stdin_ = -1;
   std::string log_;
   bool exited_ = false;
   int code_ = -1;

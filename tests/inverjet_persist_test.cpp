@@ -1,0 +1,128 @@
+// The simulated flash: round trip, damaged files fall back to defaults with a
+// warning, and a process killed in the middle of saving never leaves a file
+// that loads as a mix of two saves.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <fstream>
+#include <random>
+
+#include "process.hpp"
+#include "rtukit/devices/inverjet/state_file.hpp"
+
+namespace rtukit::inverjet {
+namespace {
+
+using test::TempDir;
+
+Settings changed_settings(uint16_t seed) {
+  Settings s;
+  s.address = static_cast<uint16_t>(1 + seed % 200);
+  s.baud_code = seed % 5;
+  s.control_mask = seed % 8;
+  s.free_speed = seed % 101;
+  s.free_time = static_cast<uint16_t>(seed * 7 % 6000);
+  s.timer_speed = (seed + 3) % 101;
+  s.timer_time = static_cast<uint16_t>(seed * 11 % 6000);
+  for (unsigned p = 0; p < kPlanCount; ++p)
+    for (unsigned k = 0; k < kSegmentsPerPlan; ++k)
+      s.plans[p][k] = Segment{static_cast<uint16_t>((seed + k + p) % 101), static_cast<uint16_t>((seed + 60 * (k + 1)) % 6000)};
+  return s;
+}
+
+void write_text(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+
+TEST(InverjetStateFile, SaveThenLoad_SameSettings) {
+  TempDir dir;
+  const Settings s = changed_settings(42);
+  ASSERT_FALSE(save_settings(dir / "sub/dir/state.json", s));  // creates the directories
+  const LoadedSettings loaded = load_settings(dir / "sub/dir/state.json");
+  EXPECT_TRUE(loaded.from_file);
+  EXPECT_TRUE(loaded.warning.empty());
+  EXPECT_EQ(loaded.settings, s);
+}
+
+TEST(InverjetStateFile, Missing_DefaultsWithWarning) {
+  TempDir dir;
+  const LoadedSettings loaded = load_settings(dir / "none.json");
+  EXPECT_FALSE(loaded.from_file);
+  EXPECT_NE(loaded.warning.find("no state file"), std::string::npos);
+  EXPECT_EQ(loaded.settings, Settings{});
+}
+
+TEST(InverjetStateFile, Truncated_DefaultsWithWarning) {
+  TempDir dir;
+  const std::string text = settings_to_text(changed_settings(7));
+  for (size_t cut : {size_t{0}, size_t{1}, text.size() / 3, text.size() / 2, text.size() - 3}) {
+    write_text(dir / "state.json", text.substr(0, cut));
+    const LoadedSettings loaded = load_settings(dir / "state.json");
+    EXPECT_FALSE(loaded.from_file) << cut;
+    EXPECT_NE(loaded.warning.find("damaged"), std::string::npos) << cut;
+    EXPECT_EQ(loaded.settings, Settings{}) << cut;
+  }
+}
+
+TEST(InverjetStateFile, ChangedValue_ChecksumCatchesIt) {
+  TempDir dir;
+  Settings s = changed_settings(9);
+  s.timer_speed = 77;
+  std::string text = settings_to_text(s);
+  const size_t at = text.find("\"timer_speed\": 77");
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, 17, "\"timer_speed\": 78");  // still valid JSON, still in range
+  write_text(dir / "state.json", text);
+  const LoadedSettings loaded = load_settings(dir / "state.json");
+  EXPECT_FALSE(loaded.from_file);
+  EXPECT_NE(loaded.warning.find("checksum"), std::string::npos);
+}
+
+TEST(InverjetStateFile, OutOfRangeValue_Rejected) {
+  TempDir dir;
+  Settings s;
+  s.address = 0;  // not a valid address, even with a correct checksum
+  write_text(dir / "state.json", settings_to_text(s));
+  const LoadedSettings loaded = load_settings(dir / "state.json");
+  EXPECT_FALSE(loaded.from_file);
+  EXPECT_NE(loaded.warning.find("range"), std::string::npos);
+}
+
+TEST(InverjetStateFile, NotOurs_Rejected) {
+  TempDir dir;
+  write_text(dir / "state.json", "{\"hello\": 1}");
+  EXPECT_FALSE(load_settings(dir / "state.json").from_file);
+  write_text(dir / "state.json", std::string("\x00\x01\x02garbage", 10));
+  EXPECT_FALSE(load_settings(dir / "state.json").from_file);
+}
+
+// A child saves A, B, A, B... as fast as it can; we kill it (SIGKILL) at a
+// random moment, 40 times. The file must always load, and be exactly A or B.
+TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
+  TempDir dir;
+  const std::string path = dir / "state.json";
+  const Settings a = changed_settings(1);
+  const Settings b = changed_settings(2);
+  ASSERT_FALSE(save_settings(path, a));
+  std::mt19937 rng(12345);
+  for (int round = 0; round < 40; ++round) {
+    const pid_t child = ::fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      for (unsigned i = 0;; ++i) (void)save_settings(path, i % 2 ? a : b);
+    }
+    ::usleep(std::uniform_int_distribution<unsigned>(500, 20000)(rng));
+    ::kill(child, SIGKILL);
+    int status = 0;
+    ::waitpid(child, &status, 0);
+    const LoadedSettings loaded = load_settings(path);
+    ASSERT_TRUE(loaded.from_file) << "round " << round << ": " << loaded.warning;
+    ASSERT_TRUE(loaded.settings == a || loaded.settings == b) << "round " << round;
+  }
+  // Proof that kills landed mid-save: temporary files left behind by them.
+  const test::RunResult ls = test::run({"sh", "-c", "ls '" + dir.path() + "' | grep -c tmp"});
+  EXPECT_GT(std::atoi(ls.output.c_str()), 0) << ls.output;
+}
+
+}  // namespace
+}  // namespace rtukit::inverjet

@@ -1,0 +1,309 @@
+// The simulated Inverjet as users meet it: the `rtukit sim inverjet` process
+// on a pty, driven by the typed client (in this process), by the rtukit CLI,
+// by its console (stdin), and by peers we did not write (pymodbus, libmodbus).
+// Device time runs scaled (--time-scale), so minutes pass in a second; tests
+// poll for conditions (eventually), never sleep for device time.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "process.hpp"
+#include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/io/link.hpp"
+#include "rtukit/io/port.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+
+// One simulator process on a fresh pty, with its own state file.
+class InverjetSim : public ::testing::Test {
+ protected:
+  void SetUp() override { start(); }
+
+  void start(const std::string& scale = "20", std::vector<std::string> extra = {}) {
+    sim_.reset();
+    std::vector<std::string> argv{kRtukit,        "sim", "inverjet", "--listen", "pty:" + tty_, "--state-file",
+                                  dir_ / "state.json", "--time-scale", scale};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    sim_ = std::make_unique<Process>(argv, /*stdin_pipe=*/true);
+    ASSERT_TRUE(sim_->wait_for_output("listening on")) << sim_->output();
+  }
+  RunResult cli(std::vector<std::string> args, bool with_port = true) {
+    args.insert(args.begin(), kRtukit);
+    if (with_port) {
+      args.push_back("--port");
+      args.push_back(tty_);
+    }
+    return run(args);
+  }
+  json status(const std::string& unit = "21") {
+    const RunResult r = cli({"inverjet", "status", "--json", "--unit", unit});
+    EXPECT_EQ(r.code, 0) << r.output;
+    return r.code == 0 ? json::parse(r.output) : json{};
+  }
+  std::unique_ptr<Master> master() {
+    std::string why;
+    auto spec = io::parse_port(tty_, false, &why);
+    return std::make_unique<Master>(io::make_link(*spec), MasterOptions{.response_timeout = 1000ms});
+  }
+
+  TempDir dir_;
+  std::string tty_ = dir_ / "tty";
+  std::unique_ptr<Process> sim_;
+};
+
+// ------------------------------------------------------------ typed client
+
+TEST_F(InverjetSim, Client_TimerRunCountsDownToEnded) {
+  auto m = master();
+  inverjet::Client jet(*m);
+  ASSERT_FALSE(jet.start_timer(60, 20));
+  Result<inverjet::Status> s = jet.status();
+  ASSERT_TRUE(s.ok()) << s.error().name();
+  EXPECT_EQ(s->family(), inverjet::Family::timer);
+  EXPECT_EQ(s->speed, 60);
+  EXPECT_LE(s->run_time, 20);
+  EXPECT_TRUE(s->fault_names().empty());
+  EXPECT_EQ(s->display_software, 0x00010002u);
+  // 20 device seconds at x20: about a second.
+  ASSERT_TRUE(eventually([&] { return jet.status()->state == 10; }, 10s));
+  EXPECT_EQ(jet.status()->run_time, 0);
+  EXPECT_EQ(jet.status()->state_name(), "timer ended");
+}
+
+TEST_F(InverjetSim, Client_PauseFreezesResumeCountsStopTurnsOff) {
+  auto m = master();
+  inverjet::Client jet(*m);
+  ASSERT_FALSE(jet.start_timer(50, 600));
+  ASSERT_TRUE(eventually([&] { return jet.status()->run_time < 598; }));
+  ASSERT_FALSE(jet.pause());
+  const uint16_t t1 = jet.status()->run_time;
+  EXPECT_EQ(jet.status()->state, 9);
+  std::this_thread::sleep_for(300ms);  // 6 device seconds
+  EXPECT_EQ(jet.status()->run_time, t1);
+  EXPECT_EQ(jet.resume(), Errc::ok);
+  EXPECT_TRUE(eventually([&] { return jet.status()->run_time < t1; }));
+  ASSERT_FALSE(jet.set_speed(80));
+  EXPECT_EQ(jet.status()->speed, 80);
+  ASSERT_FALSE(jet.stop());
+  EXPECT_EQ(jet.status()->state, 0);
+  EXPECT_EQ(jet.resume(), Errc::invalid_argument);  // nothing paused
+  const Error e = jet.pause();  // nothing runs: the machine says 04
+  EXPECT_TRUE(e.is_exception());
+  EXPECT_EQ(e.exception_code(), 0x04);
+}
+
+TEST_F(InverjetSim, Client_PlansRoundTripAndStartPartWay) {
+  auto m = master();
+  inverjet::Client jet(*m);
+  const std::vector<inverjet::Segment> three{{30, 60}, {60, 120}, {40, 180}};
+  ASSERT_FALSE(jet.write_plan(2, three));
+  EXPECT_EQ(*jet.read_plan(2), three);
+  std::vector<inverjet::Segment> fifty;
+  for (uint16_t k = 0; k < 50; ++k) fifty.push_back({static_cast<uint16_t>(k * 2), static_cast<uint16_t>(100 * (k + 1))});
+  ASSERT_FALSE(jet.write_plan(3, fifty));
+  EXPECT_EQ(*jet.read_plan(3), fifty);
+  // Over a longer plan, a shorter one ends where it should (terminator written).
+  ASSERT_FALSE(jet.write_plan(3, three));
+  EXPECT_EQ(*jet.read_plan(3), three);
+  ASSERT_FALSE(jet.start_plan(2, 90));
+  Result<inverjet::Status> s = jet.status();
+  EXPECT_EQ(s->mode, 2);
+  EXPECT_EQ(s->family(), inverjet::Family::training);
+  EXPECT_EQ(s->speed, 60);  // segment 2 (60..120 s)
+  EXPECT_GE(s->run_time, 90);
+  EXPECT_EQ(jet.start_plan(2, 180), Errc::invalid_argument);  // nothing left to run
+  ASSERT_FALSE(jet.clear_plan(2));
+  EXPECT_EQ(*jet.read_plan(2), (std::vector<inverjet::Segment>{{20, 60}}));
+  ASSERT_FALSE(jet.stop());
+}
+
+TEST_F(InverjetSim, Client_BadArgumentsSendNothing_MaskedControlAnswers04) {
+  auto m = master();
+  inverjet::Client jet(*m);
+  const std::vector<inverjet::Segment> decreasing{{30, 120}, {60, 60}};
+  std::string why;
+  EXPECT_EQ(inverjet::validate_plan(decreasing, &why), Errc::invalid_argument);
+  EXPECT_NE(why.find("segment 2"), std::string::npos) << why;
+  const uint64_t before = m->stats().requests;
+  EXPECT_EQ(jet.write_plan(1, decreasing), Errc::invalid_argument);
+  EXPECT_EQ(jet.set_speed(101), Errc::invalid_argument);
+  EXPECT_EQ(jet.start_timer(50, 6000), Errc::invalid_argument);
+  EXPECT_EQ(jet.set_baud(115200), Errc::invalid_argument);
+  EXPECT_EQ(m->stats().requests, before);
+  ASSERT_FALSE(jet.set_control_mask(2));
+  const Error e = jet.start_free(40);
+  EXPECT_TRUE(e.is_exception());
+  EXPECT_EQ(e.exception_code(), 0x04);
+  ASSERT_FALSE(jet.set_control_mask(0));
+  EXPECT_FALSE(jet.start_free(40));
+  ASSERT_FALSE(jet.stop());
+}
+
+// ------------------------------------------------------------ CLI
+
+TEST_F(InverjetSim, Cli_StartWatchStop) {
+  RunResult r = cli({"inverjet", "start", "--timer", "10:00", "--speed", "70"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("timer mode, 10:00 at 70 %"), std::string::npos) << r.output;
+  r = cli({"inverjet", "watch", "--count", "3", "--interval", "100"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  size_t lines = 0;
+  for (size_t at = 0; (at = r.output.find("speed  70 %", at)) != std::string::npos; ++at) ++lines;
+  EXPECT_EQ(lines, 3u) << r.output;
+  EXPECT_NE(r.output.find("remaining"), std::string::npos) << r.output;
+  r = cli({"inverjet", "watch", "--count", "2", "--interval", "100", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(json::parse(r.output.substr(0, r.output.find('\n')))["family"], "timer");
+  const json s = status();
+  EXPECT_EQ(s["speed"], 70);
+  EXPECT_EQ(s["family"], "timer");
+  EXPECT_LE(s["run_time"].get<int>(), 600);
+  r = cli({"inverjet", "stop"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(status()["state_name"], "off");
+  r = cli({"inverjet", "status"});
+  EXPECT_NE(r.output.find("state     off (0)"), std::string::npos) << r.output;
+}
+
+TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
+  std::ofstream(dir_ / "plan.csv") << "# warm-up, sprint, cool-down\nspeed,end\n30,05:00\n80, 6:00\n\n40,600\n";
+  RunResult r = cli({"inverjet", "plan", "set", "1", dir_ / "plan.csv"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("3 segment(s) written, ends at 10:00"), std::string::npos) << r.output;
+  r = cli({"inverjet", "plan", "show", "1", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(json::parse(r.output), json::parse(R"([{"speed":30,"end":"05:00"},{"speed":80,"end":"06:00"},{"speed":40,"end":"10:00"}])"));
+  std::ofstream(dir_ / "plan.json") << R"([{"speed": 25, "end": "01:30"}, {"speed": 55, "end": 300}])";
+  ASSERT_EQ(cli({"inverjet", "plan", "set", "4", dir_ / "plan.json"}).code, 0);
+  r = cli({"inverjet", "plan", "show", "4"});
+  EXPECT_NE(r.output.find("speed,end\n25,01:30\n55,05:00\n"), std::string::npos) << r.output;
+  // What `plan show` prints reads back with `plan set`.
+  std::ofstream(dir_ / "shown.csv") << r.output;
+  EXPECT_EQ(cli({"inverjet", "plan", "set", "3", dir_ / "shown.csv"}).code, 0);
+  EXPECT_EQ(cli({"inverjet", "plan", "clear", "4"}).code, 0);
+  EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "4", "--json"}).output),
+            json::parse(R"([{"speed":20,"end":"01:00"}])"));
+}
+
+TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
+  struct Case {
+    std::vector<std::string> args;
+    int code;
+    std::string says;
+    bool with_port = true;
+  };
+  std::ofstream(dir_ / "decreasing.csv") << "speed,end\n30,02:00\n40,01:00\n";
+  std::ofstream(dir_ / "fast.csv") << "101,01:00\n";
+  std::ofstream(dir_ / "broken.json") << R"([{"speed": 20, "end": "01:00"},)";
+  const std::vector<Case> cases = {
+      {{"inverjet", "speed", "101"}, 2, "speed (%) 101 is out of range 0..100"},
+      {{"inverjet", "start", "--timer", "6000", "--speed", "50"}, 2, "out of range 1..5999 s"},
+      {{"inverjet", "start", "--timer", "100:00", "--speed", "50"}, 2, "out of range 1..5999 s"},
+      {{"inverjet", "start", "--timer", "ten", "--speed", "50"}, 2, "not mm:ss"},
+      {{"inverjet", "start", "--free", "--timer", "1:00"}, 2, "choose one of"},
+      {{"inverjet", "plan", "set", "1", dir_ / "decreasing.csv"}, 2, "line 3: end 01:00 is not after 02:00"},
+      {{"inverjet", "plan", "set", "1", dir_ / "fast.csv"}, 2, "line 1: speed 101 % is out of range"},
+      {{"inverjet", "plan", "set", "1", dir_ / "broken.json"}, 2, "not a valid JSON array"},
+      {{"inverjet", "plan", "set", "1", dir_ / "missing.csv"}, 2, "cannot read plan file"},
+      {{"inverjet", "plan", "show", "5"}, 2, "plan 5 is out of range 1..4"},
+      {{"inverjet", "status", "--unit", "255"}, 2, "unit 255 is out of range 1..254"},
+      {{"inverjet", "config", "baud", "115200"}, 2, "19200"},
+      {{"inverjet", "resume"}, 2, "nothing is paused"},
+      {{"inverjet", "pause"}, 1, "Modbus exception 04"},
+      {{"inverjet", "status", "--unit", "22", "--timeout", "200"}, 3, "no response"},
+      {{"inverjet", "status", "--port", dir_ / "no-such-tty"}, 4, "No such file or directory", false},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = cli(c.args, c.with_port);
+    EXPECT_EQ(r.code, c.code) << c.args[1] << " " << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;  // one line
+  }
+  EXPECT_EQ(status()["state"], 0);  // nothing was half-applied
+}
+
+TEST_F(InverjetSim, Cli_Registers_PrintsTheTable) {
+  const RunResult r = cli({"inverjet", "registers"}, false);
+  ASSERT_EQ(r.code, 0);
+  EXPECT_NE(r.output.find("| 0x0022 | `state` | state machine | RW |"), std::string::npos) << r.output;
+  const RunResult j = cli({"inverjet", "registers", "--json"}, false);
+  EXPECT_EQ(json::parse(j.output).size(), 13u + 8u + 11u);
+}
+
+// ------------------------------------------------------------ console, persistence, address
+
+TEST_F(InverjetSim, Console_FaultShowsIn0008AndDrivesState17) {
+  ASSERT_EQ(cli({"inverjet", "start", "--free", "--speed", "50"}).code, 0);
+  ASSERT_TRUE(sim_->send("fault motor-drive\n"));
+  ASSERT_TRUE(sim_->wait_for_output("faults: motor drive (0x0080), state fault screen (17)")) << sim_->output();
+  json s = status();
+  EXPECT_EQ(s["faults"], 0x80);
+  EXPECT_EQ(s["state"], 17);
+  EXPECT_EQ(s["fault_names"], json::array({"motor drive"}));
+  const RunResult r = cli({"inverjet", "start", "--free", "--speed", "50"});
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("exception 04"), std::string::npos) << r.output;
+  ASSERT_TRUE(sim_->send("fault 1\nfault clear\n"));
+  ASSERT_TRUE(sim_->wait_for_output("faults: none (0x0000), state off (0)")) << sim_->output();
+  EXPECT_EQ(status()["state"], 0);
+  ASSERT_TRUE(sim_->send("temp mosfet 95\n"));
+  EXPECT_TRUE(eventually([&] { return status()["faults"] == 0x08; })) << sim_->output();
+  ASSERT_TRUE(sim_->send("status\nbogus\n"));
+  EXPECT_TRUE(sim_->wait_for_output("unknown command 'bogus'")) << sim_->output();
+  EXPECT_NE(sim_->output().find("machine fault bits"), std::string::npos);
+}
+
+TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
+  std::ofstream(dir_ / "plan.csv") << "35,02:00\n45,04:00\n";
+  ASSERT_EQ(cli({"inverjet", "plan", "set", "2", dir_ / "plan.csv"}).code, 0);
+  ASSERT_EQ(cli({"inverjet", "start", "--timer", "25:00", "--speed", "65", "--remember"}).code, 0);
+  ASSERT_EQ(cli({"inverjet", "config", "mask", "4"}).code, 0);
+  RunResult r = cli({"inverjet", "config", "address", "12"});  // seed 3.2.1: answered from 21
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(cli({"inverjet", "status", "--timeout", "200"}).code, 3);  // 21 is gone
+  EXPECT_EQ(status("12")["mode"], 0);
+
+  start();  // a new process on the same state file, no --unit: the saved address
+  EXPECT_NE(sim_->output().find("unit 12"), std::string::npos) << sim_->output();
+  r = cli({"inverjet", "config", "show", "--json", "--unit", "12"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json c = json::parse(r.output);
+  EXPECT_EQ(c["address"], 12);
+  EXPECT_EQ(c["control_mask"], 4);
+  EXPECT_EQ(c["timer_speed"], 65);
+  EXPECT_EQ(c["timer_time"], 1500);
+  r = cli({"inverjet", "plan", "show", "2", "--json", "--unit", "12"});
+  EXPECT_EQ(json::parse(r.output), json::parse(R"([{"speed":35,"end":"02:00"},{"speed":45,"end":"04:00"}])"));
+  EXPECT_EQ(status("12")["state"], 0);  // D-12: a restart is a power-on
+
+  std::ofstream(dir_ / "state.json", std::ios::trunc) << "{\"format\": \"rtukit-inv";  // damaged
+  start();
+  EXPECT_NE(sim_->output().find("is damaged"), std::string::npos) << sim_->output();
+  EXPECT_EQ(status("21")["state"], 0);  // factory settings: unit 21
+}
+
+// ------------------------------------------------------------ peers we did not write
+
+TEST_F(InverjetSim, PymodbusClient_TimerRun) {
+  start("10");
+  const RunResult r = run({"/usr/bin/python3", std::string(PEERS_DIR) + "/inverjet_pymodbus_run.py", tty_});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+TEST_F(InverjetSim, LibmodbusClient_TimerRun) {
+  start("10");
+  const RunResult r = run({INVERJET_LIBMODBUS_RUN_BIN, tty_});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+}  // namespace
