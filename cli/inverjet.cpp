@@ -47,13 +47,13 @@ struct Session {
     if (stats) print_stats(*master);
   }
   // One line naming the failure; exceptions get the Inverjet's reason for them.
-  [[noreturn]] void fail(Error e, std::string_view what) const {
+  [[noreturn]] void fail(Error e, std::string_view what) {
     if (e.is_exception()) {
-      std::string_view hint;
+      std::string hint;
       switch (e.exception_code()) {
         case 0x02: hint = "a reserved register"; break;
         case 0x03: hint = "a value out of range"; break;
-        case 0x04: hint = "control masked by 0x0002 bit 1, the machine in its fault screen, or nothing to pause"; break;
+        case 0x04: hint = reason_for_04(); break;
         default: break;
       }
       throw Failure{kModbusException, fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
@@ -61,8 +61,21 @@ struct Session {
     }
     cli::fail(e, fmt::format("{}: {}", context, what));
   }
-  void check(Error e, std::string_view what) const {
+  void check(Error e, std::string_view what) {
     if (e) fail(e, what);
+  }
+  // Exception 04 has three causes on the Inverjet; one more look says which.
+  std::string reason_for_04() {
+    Result<ij::Status> st = jet.status();
+    Result<ij::Config> cfg = jet.config();
+    if (st.ok() && st->state == 17) {
+      std::string names;
+      for (auto n : st->fault_names()) names += (names.empty() ? "" : ", ") + std::string(n);
+      return "the machine shows a fault (" + names + ")";
+    }
+    if (cfg.ok() && (cfg->control_mask & 0x2)) return "Modbus control is masked (control mask bit 1; `config mask 0` clears it)";
+    if (st.ok()) return fmt::format("not possible while {}", st->state_name());
+    return "control masked, fault screen, or nothing to pause";
   }
 
   std::unique_ptr<Master> master;
