@@ -51,13 +51,21 @@ struct Session {
     if (e.is_exception()) {
       std::string hint;
       switch (e.exception_code()) {
-        case 0x02: hint = "a reserved register"; break;
-        case 0x03: hint = "a value out of range"; break;
-        case 0x04: hint = reason_for_04(); break;
-        default: break;
+        case 0x02:
+          hint = "a reserved register";
+          break;
+        case 0x03:
+          hint = "a value out of range";
+          break;
+        case 0x04:
+          hint = reason_for_04();
+          break;
+        default:
+          break;
       }
-      throw Failure{kModbusException, fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
-                                                  e.exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
+      throw Failure{kModbusException,
+                    fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
+                                e.exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
     }
     cli::fail(e, fmt::format("{}: {}", context, what));
   }
@@ -73,7 +81,8 @@ struct Session {
       for (auto n : st->fault_names()) names += (names.empty() ? "" : ", ") + std::string(n);
       return "the machine shows a fault (" + names + ")";
     }
-    if (cfg.ok() && (cfg->control_mask & 0x2)) return "Modbus control is masked (control mask bit 1; `config mask 0` clears it)";
+    if (cfg.ok() && (cfg->control_mask & 0x2))
+      return "Modbus control is masked (control mask bit 1; `config mask 0` clears it)";
     if (st.ok()) return fmt::format("not possible while {}", st->state_name());
     return "control masked, fault screen, or nothing to pause";
   }
@@ -93,7 +102,8 @@ uint16_t parse_duration(const std::string& text, std::string_view what, uint32_t
   const Result<uint32_t> t = ij::parse_time(text);
   if (!t.ok()) throw Failure{kUsage, fmt::format("{} '{}' is not mm:ss or a number of seconds", what, text)};
   if (*t < min || *t > ij::kMaxTime)
-    throw Failure{kUsage, fmt::format("{} {} ({} s) is out of range {}..5999 s (99:59)", what, text, *t, min)};
+    throw Failure{kUsage,
+                  fmt::format("{} {} ({} s) is out of range {}..5999 s (99:59)", what, text, *t, min)};
   return static_cast<uint16_t>(*t);
 }
 
@@ -101,7 +111,9 @@ unsigned parse_plan_number(const std::string& text) {
   return static_cast<unsigned>(parse_number(text, "plan", 1, ij::kPlanCount));
 }
 
-std::string version_text(uint32_t v) { return fmt::format("V{}.{}", v >> 16, v & 0xFFFF); }
+std::string version_text(uint32_t v) {
+  return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
+}
 
 json status_json(const ij::Status& s) {
   json faults = json::array();
@@ -136,7 +148,8 @@ std::string faults_text(const ij::Status& s) {
 }
 
 std::string time_text(const ij::Status& s) {
-  return fmt::format("{} {}", ij::format_mm_ss(s.run_time), s.family() == ij::Family::timer ? "remaining" : "elapsed");
+  return fmt::format("{} {}", ij::format_mm_ss(s.run_time),
+                     s.family() == ij::Family::timer ? "remaining" : "elapsed");
 }
 
 std::string status_panel(const ij::Status& s) {
@@ -148,14 +161,17 @@ std::string status_panel(const ij::Status& s) {
       "temps     MOSFET {:.1f} degC, motor {:.1f} degC\n"
       "bus       {:.1f} V\n"
       "versions  display {} (hw {}), driver {} (hw {})\n",
-      s.state_name(), s.state, ij::format_value(*ij::find_register("work_mode"), s.mode), s.speed, s.rpm, s.current_a,
-      time_text(s), faults_text(s), s.mosfet_c, s.motor_c, s.bus_v, version_text(s.display_software),
-      version_text(s.display_hardware), version_text(s.driver_software), version_text(s.driver_hardware));
+      s.state_name(), s.state, ij::format_value(*ij::find_register("work_mode"), s.mode), s.speed, s.rpm,
+      s.current_a, time_text(s), faults_text(s), s.mosfet_c, s.motor_c, s.bus_v,
+      version_text(s.display_software), version_text(s.display_hardware), version_text(s.driver_software),
+      version_text(s.driver_hardware));
 }
 
 std::string status_line(const ij::Status& s) {
-  return fmt::format("{:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults {}",
-                     s.state_name(), s.speed, time_text(s), s.rpm, s.current_a, s.mosfet_c, s.motor_c, faults_text(s));
+  return fmt::format(
+      "{:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults "
+      "{}",
+      s.state_name(), s.speed, time_text(s), s.rpm, s.current_a, s.mosfet_c, s.motor_c, faults_text(s));
 }
 
 std::atomic<bool> g_stop{false};
@@ -181,20 +197,23 @@ int run_watch(const JetArgs& a, unsigned interval_ms, unsigned count) {
     if (n > 0) {
       // Sleep in small steps so Ctrl-C ends the watch at once.
       const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(interval_ms);
-      while (!g_stop && std::chrono::steady_clock::now() < until) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      while (!g_stop && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
       if (g_stop) break;
     }
     Result<ij::Status> st = s.jet.status();
     if (!st.ok()) {
       if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
-      fmt::print("{}\n", st.error().code() == Errc::timeout ? "(no response)" : std::string(st.error().name()));
+      fmt::print("{}\n",
+                 st.error().code() == Errc::timeout ? "(no response)" : std::string(st.error().name()));
       std::fflush(stdout);
       continue;
     }
     if (a.json) {
       fmt::print("{}\n", status_json(*st).dump());
     } else if (tty) {
-      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n{}", s.context, interval_ms, status_panel(*st));
+      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n{}", s.context, interval_ms,
+                 status_panel(*st));
     } else {
       fmt::print("{}\n", status_line(*st));
     }
@@ -227,7 +246,8 @@ int run_start(const JetArgs& a, const StartArgs& s) {
   std::string what;
   if (s.free) {
     e = s.speed.empty() ? session.jet.start_free_from_memory() : session.jet.start_free(speed, s.remember);
-    what = s.speed.empty() ? "free mode (speed and time from memory)" : fmt::format("free mode at {} %", speed);
+    what =
+        s.speed.empty() ? "free mode (speed and time from memory)" : fmt::format("free mode at {} %", speed);
   } else if (!s.timer.empty()) {
     e = session.jet.start_timer(speed, duration, s.remember);
     what = fmt::format("timer mode, {} at {} %", ij::format_mm_ss(duration), speed);
@@ -235,8 +255,8 @@ int run_start(const JetArgs& a, const StartArgs& s) {
     e = session.jet.start_plan(plan, from);
     what = fmt::format("plan P{} from {}", plan, ij::format_mm_ss(from));
     if (e == Errc::invalid_argument)
-      throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)", session.context,
-                                        plan, ij::format_mm_ss(from), plan)};
+      throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)",
+                                        session.context, plan, ij::format_mm_ss(from), plan)};
   }
   session.check(e, "start " + what);
   fmt::print("started {}{}\n", what, s.remember ? " (after 3 s; saved as memory)" : "");
@@ -272,7 +292,8 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
   if (!segments.ok()) s.fail(segments.error(), fmt::format("read plan P{}", plan));
   if (a.json) {
     json out = json::array();
-    for (const auto& seg : *segments) out.push_back({{"speed", seg.speed}, {"end", ij::format_mm_ss(seg.end)}});
+    for (const auto& seg : *segments)
+      out.push_back({{"speed", seg.speed}, {"end", ij::format_mm_ss(seg.end)}});
     fmt::print("{}\n", out.dump());
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
@@ -310,9 +331,9 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     Result<ij::Config> c = s.jet.config();
     if (!c.ok()) s.fail(c.error(), "config");
     const std::pair<const char*, uint16_t> rows[] = {
-        {"address", c->address},       {"baud", c->baud_code},          {"control_mask", c->control_mask},
-        {"pairing", c->pairing},       {"pole_count", c->pole_count},   {"free_speed", c->free_speed},
-        {"free_time", c->free_time},   {"timer_speed", c->timer_speed}, {"timer_time", c->timer_time}};
+        {"address", c->address},     {"baud", c->baud_code},          {"control_mask", c->control_mask},
+        {"pairing", c->pairing},     {"pole_count", c->pole_count},   {"free_speed", c->free_speed},
+        {"free_time", c->free_time}, {"timer_speed", c->timer_speed}, {"timer_time", c->timer_time}};
     json out;
     for (const auto& [key, v] : rows) {
       if (a.json)
@@ -331,7 +352,9 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     fmt::print("address {} -> {} (talk to --unit {} from now on)\n", a.unit, address, address);
   } else if (what == "baud") {
     const auto baud = static_cast<uint32_t>(parse_number(value, "baud", 0, 1000000));
-    if (ij::code_of_baud(baud) < 0) throw Failure{kUsage, fmt::format("baud {}: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200", baud)};
+    if (ij::code_of_baud(baud) < 0)
+      throw Failure{kUsage,
+                    fmt::format("baud {}: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200", baud)};
     Session s(a);
     s.check(s.jet.set_baud(baud), fmt::format("set baud {}", baud));
     fmt::print("baud rate {} (talk at --baud {} from now on)\n", baud, baud);
@@ -386,7 +409,8 @@ int run_registers(bool as_json) {
 }  // namespace
 
 void add_inverjet_commands(CLI::App& app, Action& action) {
-  CLI::App* jet = app.add_subcommand("inverjet", "the Inverjet swimming machine (unit 21, 9600 8N1 by default)");
+  CLI::App* jet =
+      app.add_subcommand("inverjet", "the Inverjet swimming machine (unit 21, 9600 8N1 by default)");
   jet->require_subcommand(1);
 
   {
@@ -401,9 +425,12 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     auto count = std::make_shared<unsigned>(0);
     CLI::App* cmd = jet->add_subcommand("watch", "live status, refreshed until Ctrl-C");
     add_link(*cmd, *args, true);
-    cmd->add_option("--interval", *interval, "ms between refreshes")->capture_default_str()->check(CLI::Range(50, 60000));
+    cmd->add_option("--interval", *interval, "ms between refreshes")
+        ->capture_default_str()
+        ->check(CLI::Range(50, 60000));
     cmd->add_option("--count", *count, "stop after N refreshes (0 = until Ctrl-C)")->capture_default_str();
-    cmd->callback([&action, args, interval, count] { action = [=] { return run_watch(*args, *interval, *count); }; });
+    cmd->callback(
+        [&action, args, interval, count] { action = [=] { return run_watch(*args, *interval, *count); }; });
   }
   {
     auto args = std::make_shared<JetArgs>();
@@ -415,7 +442,8 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     cmd->add_option("--plan", s->plan, "training plan 1..4");
     cmd->add_option("--speed", s->speed, "speed 0..100 % (free: default from memory)");
     cmd->add_option("--from", s->from, "with --plan: start this far into the plan (mm:ss)");
-    cmd->add_flag("--remember", s->remember, "start after the 3 s initial delay and save speed/time as the mode's memory");
+    cmd->add_flag("--remember", s->remember,
+                  "start after the 3 s initial delay and save speed/time as the mode's memory");
     cmd->callback([&action, args, s] { action = [=] { return run_start(*args, *s); }; });
   }
   for (const char* verb : {"pause", "resume", "stop"}) {
@@ -443,7 +471,8 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     CLI::App* show = plan->add_subcommand("show", "print a plan (CSV, or --json)");
     add_link(*show, *show_args, true);
     show->add_option("N", *show_n, "plan 1..4")->required();
-    show->callback([&action, show_args, show_n] { action = [=] { return run_plan_show(*show_args, *show_n); }; });
+    show->callback(
+        [&action, show_args, show_n] { action = [=] { return run_plan_show(*show_args, *show_n); }; });
 
     auto set_args = std::make_shared<JetArgs>();
     auto set_n = std::make_shared<std::string>();
@@ -452,14 +481,17 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     add_link(*set, *set_args, false);
     set->add_option("N", *set_n, "plan 1..4")->required();
     set->add_option("FILE", *file, "plan file")->required();
-    set->callback([&action, set_args, set_n, file] { action = [=] { return run_plan_set(*set_args, *set_n, *file); }; });
+    set->callback([&action, set_args, set_n, file] {
+      action = [=] { return run_plan_set(*set_args, *set_n, *file); };
+    });
 
     auto clear_args = std::make_shared<JetArgs>();
     auto clear_n = std::make_shared<std::string>();
     CLI::App* clear = plan->add_subcommand("clear", "reset a plan to the factory plan (01:00 at 20 %)");
     add_link(*clear, *clear_args, false);
     clear->add_option("N", *clear_n, "plan 1..4")->required();
-    clear->callback([&action, clear_args, clear_n] { action = [=] { return run_plan_clear(*clear_args, *clear_n); }; });
+    clear->callback(
+        [&action, clear_args, clear_n] { action = [=] { return run_plan_clear(*clear_args, *clear_n); }; });
   }
   {
     auto args = std::make_shared<JetArgs>();
@@ -467,13 +499,16 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     auto value = std::make_shared<std::string>();
     CLI::App* cmd = jet->add_subcommand("config", "show or set address, baud, mask, pairing");
     add_link(*cmd, *args, true);
-    cmd->add_option("WHAT", *what, "show | address A | baud B | mask M | pairing off|wifi|remote")->capture_default_str();
+    cmd->add_option("WHAT", *what, "show | address A | baud B | mask M | pairing off|wifi|remote")
+        ->capture_default_str();
     cmd->add_option("VALUE", *value, "the new value");
-    cmd->callback([&action, args, what, value] { action = [=] { return run_config(*args, *what, *value); }; });
+    cmd->callback(
+        [&action, args, what, value] { action = [=] { return run_config(*args, *what, *value); }; });
   }
   {
     auto as_json = std::make_shared<bool>(false);
-    CLI::App* cmd = jet->add_subcommand("registers", "the register reference (Markdown, or --json), from the device table");
+    CLI::App* cmd = jet->add_subcommand(
+        "registers", "the register reference (Markdown, or --json), from the device table");
     cmd->add_flag("--json", *as_json, "print JSON");
     cmd->callback([&action, as_json] { action = [=] { return run_registers(*as_json); }; });
   }

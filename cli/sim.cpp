@@ -129,18 +129,22 @@ int run_sim_inverjet(const SimArgs& a) {
 }  // namespace
 
 void add_sim_commands(CLI::App& app, Action& action) {
-  CLI::App* sim = app.add_subcommand("sim", "device simulators (a pty, serial port or TCP port you can talk to)");
+  CLI::App* sim =
+      app.add_subcommand("sim", "device simulators (a pty, serial port or TCP port you can talk to)");
   sim->require_subcommand(1);
   auto a = std::make_shared<SimArgs>();
   CLI::App* cmd = sim->add_subcommand("inverjet", "the Inverjet swimming machine, with a console on stdin");
-  cmd->add_option("--listen,-l", a->listen, "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
+  cmd->add_option("--listen,-l", a->listen,
+                  "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
       ->required();
   cmd->add_option("--unit,-u", a->unit, "slave address 1..254 (default: the saved one, factory 21)");
-  cmd->add_option("--baud,-b", a->baud, "1200, 2400, 4800, 9600, 19200 (default: the saved one, factory 9600)");
+  cmd->add_option("--baud,-b", a->baud,
+                  "1200, 2400, 4800, 9600, 19200 (default: the saved one, factory 9600)");
   cmd->add_option("--parity", a->parity, "N, E or O")->capture_default_str();
   cmd->add_option("--stop-bits", a->stop_bits, "1 or 2")->capture_default_str();
   cmd->add_flag("--rs485", a->rs485, "RS-485 direction control on a serial port");
-  cmd->add_option("--state-file", a->state_file, "where settings persist (default $XDG_STATE_HOME/rtukit/inverjet.json)");
+  cmd->add_option("--state-file", a->state_file,
+                  "where settings persist (default $XDG_STATE_HOME/rtukit/inverjet.json)");
   cmd->add_flag("--no-state", a->no_state, "keep settings in memory only");
   cmd->add_option("--time-scale", a->time_scale, "device seconds per real second (60: a minute per second)")
       ->capture_default_str();

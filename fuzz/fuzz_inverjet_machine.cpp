@@ -56,7 +56,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     switch (op % 6) {
       case 0: {  // write a few registers (near the interesting ones)
         const auto base = static_cast<uint16_t>(address % 0x0300);
-        std::array<uint16_t, 4> values{value, static_cast<uint16_t>(value >> 3), extra, static_cast<uint16_t>(value % 7)};
+        std::array<uint16_t, 4> values{value, static_cast<uint16_t>(value >> 3), extra,
+                                       static_cast<uint16_t>(value % 7)};
         const auto before = snapshot(m);
         const auto n = static_cast<size_t>(1 + extra % 4);
         if (m.write_holding(base, std::span<const uint16_t>(values.data(), n)) != rtukit::Errc::ok &&
@@ -65,8 +66,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         break;
       }
       case 1: {  // control block with small, meaningful values
-        const std::array<uint16_t, 4> values{static_cast<uint16_t>(value % 6), static_cast<uint16_t>(extra % 19),
-                                             static_cast<uint16_t>(address % 102), static_cast<uint16_t>(address % 6001)};
+        const std::array<uint16_t, 4> values{
+            static_cast<uint16_t>(value % 6), static_cast<uint16_t>(extra % 19),
+            static_cast<uint16_t>(address % 102), static_cast<uint16_t>(address % 6001)};
         (void)m.write_holding(0x0021, values);
         break;
       }

@@ -23,7 +23,8 @@ std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
   uint16_t c = 0xFFFF;
   for (uint8_t x : b) {
     c ^= x;
-    for (int i = 0; i < 8; ++i) c = (c & 1) ? static_cast<uint16_t>((c >> 1) ^ 0xA001) : static_cast<uint16_t>(c >> 1);
+    for (int i = 0; i < 8; ++i)
+      c = (c & 1) ? static_cast<uint16_t>((c >> 1) ^ 0xA001) : static_cast<uint16_t>(c >> 1);
   }
   b.push_back(static_cast<uint8_t>(c & 0xFF));
   b.push_back(static_cast<uint8_t>(c >> 8));
@@ -119,7 +120,7 @@ TEST(InverjetSeed, FreeRunningFc06_StartsAtOnce) {
   Rig rig;
   EXPECT_EQ(rig.send("15 06 00 22 00 03 6A D5"), "15 06 00 22 00 03 6A D5");
   EXPECT_EQ(phase_of(rig.holding(reg::kState)), Phase::starting);  // ramping
-  EXPECT_EQ(rig.holding(reg::kSpeed), 50);                          // free-mode memory
+  EXPECT_EQ(rig.holding(reg::kSpeed), 50);                         // free-mode memory
   rig.at(10000);
   EXPECT_EQ(rig.holding(reg::kState), 3);
   EXPECT_EQ(rig.holding(reg::kRunTime), 10);
@@ -166,7 +167,8 @@ INSTANTIATE_TEST_SUITE_P(
         Fc10Case{"P2Running", "15 10 00 21 00 02 00 02 00 0D 84 85", 2, 2, 12, 20, 0},
         Fc10Case{"Timer80pct30min", "15 10 00 21 00 04 00 00 00 06 00 50 07 08 97 5F", 4, 0, 6, 80, 1800},
         Fc10Case{"Free100pct", "15 10 00 21 00 04 00 00 00 01 00 64 00 00 60 A7", 4, 0, 1, 100, 0},
-        Fc10Case{"TimerRunning80pct12min", "15 10 00 21 00 04 00 00 00 08 00 50 02 D0 FD 94", 4, 0, 7, 80, 720},
+        Fc10Case{"TimerRunning80pct12min", "15 10 00 21 00 04 00 00 00 08 00 50 02 D0 FD 94", 4, 0, 7, 80,
+                 720},
         // D-10: mode 1 with state 8 = P1 in the running phase.
         Fc10Case{"P1State8At50pct", "15 10 00 21 00 04 00 01 00 08 00 32 00 00 4C 76", 4, 1, 12, 50, 0},
         Fc10Case{"P1State8From12min", "15 10 00 21 00 04 00 01 00 08 00 32 02 D0 4C 8A", 4, 1, 15, 50, 720}),
@@ -211,7 +213,7 @@ TEST(InverjetSeed, TimerExample_RunsAfter3sAndCountsDownFrom1800) {
 
 struct Step {
   uint64_t at_ms;
-  std::vector<uint16_t> write;  ///< values at `address` (empty: only look)
+  std::vector<uint16_t> write;                       ///< values at `address` (empty: only look)
   int state = -1, speed = -1, time = -1, mode = -1;  ///< expected after the step (-1: any)
   uint16_t address = reg::kWorkMode;
   Errc result = Errc::ok;
@@ -235,7 +237,8 @@ Settings with_plans(const Scenario& s) {
 
 std::vector<Segment> fifty_segments() {
   std::vector<Segment> s;
-  for (uint16_t k = 0; k < 50; ++k) s.push_back({static_cast<uint16_t>(k * 2), static_cast<uint16_t>(60 * (k + 1))});
+  for (uint16_t k = 0; k < 50; ++k)
+    s.push_back({static_cast<uint16_t>(k * 2), static_cast<uint16_t>(60 * (k + 1))});
   return s;
 }
 
@@ -258,77 +261,85 @@ TEST_P(InverjetStateMachine, FollowsTheSchedule) {
 INSTANTIATE_TEST_SUITE_P(
     Modes, InverjetStateMachine,
     ::testing::Values(
-        Scenario{"FreeInitialToEnded", {}, {
-            {0, {0, 1}, 1, 50, 0},
-            {2999, {}, 1, 50, 0},
-            {3000, {}, 2, 50, 0},          // starting: 50 % at 20 %/s takes 2.5 s
-            {5500, {}, 3, 50, 2},
-            {63000, {}, 3, 50, 60},        // counts up
-            {63500, {5}, 5, 50, 60, -1, reg::kState},  // ended: time frozen
-            {90000, {}, 5, 50, 60}}},
-        Scenario{"TimerInitialToEnded", {}, {
-            {0, {0, 6, 40, 90}, 6, 40, 90},
-            {3000, {}, 7, 40, 90},
-            {5000, {}, 8, 40, 88},
-            {92999, {}, 8, 40, 1},
-            {93000, {}, 10, 40, 0},        // exactly 3 s + 90 s
-            {200000, {}, 10, 40, 0}}},
-        Scenario{"TimerPauseResume", {}, {
-            {0, {0, 8, 50, 60}, 7, 50, 60},
-            {10000, {}, 8, 50, 50},
-            {10000, {9}, 9, 50, 50, -1, reg::kState},
-            {40000, {}, 9, 50, 50},        // paused: frozen
-            {40000, {8}, 7, 50, 50, -1, reg::kState},  // resumes: ramps again
-            {45000, {}, 8, 50, 45},
-            {89999, {}, 8, 50, 1},
-            {90000, {}, 10, 50, 0}}},
-        Scenario{"FreePausedThenOff", {}, {
-            {0, {0, 3, 30}, 2, 30, 0},
-            {5000, {4}, 4, 30, 5, -1, reg::kState},
-            {6000, {0}, 0, 0, 0, 0, reg::kState}}},
-        Scenario{"PlanOf3Segments", {{1, {{30, 60}, {60, 120}, {40, 180}}}}, {
-            {0, {1, 13}, 12, 30, 0, 1},
-            {59999, {}, 13, 30, 59},
-            {60000, {}, -1, 60, 60},
-            {120000, {}, 13, 40, 120},
-            {179999, {}, 13, 40, 179},
-            {180000, {}, 15, -1, 180}}},
-        Scenario{"PlanOf50Segments", {{2, fifty_segments()}}, {
-            {0, {2, 13}, 12, 0, 0, 2},
-            {60000, {}, 13, 2, 60},
-            {1500000, {}, 13, 50, 1500},
-            {2999999, {}, 13, 98, 2999},
-            {3000000, {}, 15, -1, 3000}}},
-        Scenario{"PlanEndsAtNonIncreasingEnd", {{3, {{20, 60}, {40, 120}, {60, 100}, {80, 300}}}}, {
-            {0, {3, 13}, 12, 20, 0, 3},
-            {119999, {}, 13, 40, 119},
-            {120000, {}, 15, -1, 120}}},
-        Scenario{"PlanStartAt12Minutes", {{1, {{20, 600}, {50, 900}, {70, 1200}}}}, {
-            {0, {1, 8, 50, 720}, 12, 50, 720, 1},   // D-10: state 8 with mode 1 = P1 running
-            {179999, {}, 13, 50, 899},
-            {180000, {}, 13, 70, 900},               // next segment: the plan decides
-            {479999, {}, 13, 70, 1199},
-            {480000, {}, 15, -1, 1200}}},
-        Scenario{"SpeedWriteOverridesOnlyTheCurrentSegment", {{4, {{20, 60}, {30, 120}}}}, {
-            {0, {4, 13}, 12, 20, 0, 4},
-            {10000, {55}, 13, 55, 10, -1, reg::kSpeed},
-            {60000, {}, 13, 30, 60}}},
-        Scenario{"ModeChangeSwitchesProgram", {}, {
-            {0, {0, 8, 60, 100}, 7, 60, 100},
-            {10000, {0, 3}, 2, 50, 0, 0},           // timer -> free: a new run from free memory
-            {20000, {}, 3, 50, 10}}},
-        Scenario{"MenuStopsTheMotor", {}, {
-            {0, {0, 3}, 2, 50, 0},
-            {5000, {16}, 16, 0, 0, -1, reg::kState}}},
-        Scenario{"TimerWithZeroTimeEndsAtOnce", {}, {
-            {0, {0, 8, 50, 0}, 10, 50, 0}}},
-        Scenario{"BadTransitionsAndValues", {}, {
-            {0, {9}, 0, 0, 0, -1, reg::kState, Errc::server_device_failure},  // pause: nothing runs
-            {0, {17}, 0, -1, -1, -1, reg::kState, Errc::illegal_data_value},  // fault screen is not writable
-            {0, {0, 13}, 0, -1, -1, -1, reg::kWorkMode, Errc::illegal_data_value},  // training needs a plan
-            {0, {0, 8, 101, 10}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value},  // whole write refused
-            {0, {0, 8, 50, 6000}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value},
-            {0, {5, 3}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value}}}),
+        Scenario{"FreeInitialToEnded",
+                 {},
+                 {{0, {0, 1}, 1, 50, 0},
+                  {2999, {}, 1, 50, 0},
+                  {3000, {}, 2, 50, 0},  // starting: 50 % at 20 %/s takes 2.5 s
+                  {5500, {}, 3, 50, 2},
+                  {63000, {}, 3, 50, 60},                    // counts up
+                  {63500, {5}, 5, 50, 60, -1, reg::kState},  // ended: time frozen
+                  {90000, {}, 5, 50, 60}}},
+        Scenario{"TimerInitialToEnded",
+                 {},
+                 {{0, {0, 6, 40, 90}, 6, 40, 90},
+                  {3000, {}, 7, 40, 90},
+                  {5000, {}, 8, 40, 88},
+                  {92999, {}, 8, 40, 1},
+                  {93000, {}, 10, 40, 0},  // exactly 3 s + 90 s
+                  {200000, {}, 10, 40, 0}}},
+        Scenario{"TimerPauseResume",
+                 {},
+                 {{0, {0, 8, 50, 60}, 7, 50, 60},
+                  {10000, {}, 8, 50, 50},
+                  {10000, {9}, 9, 50, 50, -1, reg::kState},
+                  {40000, {}, 9, 50, 50},                    // paused: frozen
+                  {40000, {8}, 7, 50, 50, -1, reg::kState},  // resumes: ramps again
+                  {45000, {}, 8, 50, 45},
+                  {89999, {}, 8, 50, 1},
+                  {90000, {}, 10, 50, 0}}},
+        Scenario{"FreePausedThenOff",
+                 {},
+                 {{0, {0, 3, 30}, 2, 30, 0},
+                  {5000, {4}, 4, 30, 5, -1, reg::kState},
+                  {6000, {0}, 0, 0, 0, 0, reg::kState}}},
+        Scenario{"PlanOf3Segments",
+                 {{1, {{30, 60}, {60, 120}, {40, 180}}}},
+                 {{0, {1, 13}, 12, 30, 0, 1},
+                  {59999, {}, 13, 30, 59},
+                  {60000, {}, -1, 60, 60},
+                  {120000, {}, 13, 40, 120},
+                  {179999, {}, 13, 40, 179},
+                  {180000, {}, 15, -1, 180}}},
+        Scenario{"PlanOf50Segments",
+                 {{2, fifty_segments()}},
+                 {{0, {2, 13}, 12, 0, 0, 2},
+                  {60000, {}, 13, 2, 60},
+                  {1500000, {}, 13, 50, 1500},
+                  {2999999, {}, 13, 98, 2999},
+                  {3000000, {}, 15, -1, 3000}}},
+        Scenario{"PlanEndsAtNonIncreasingEnd",
+                 {{3, {{20, 60}, {40, 120}, {60, 100}, {80, 300}}}},
+                 {{0, {3, 13}, 12, 20, 0, 3}, {119999, {}, 13, 40, 119}, {120000, {}, 15, -1, 120}}},
+        Scenario{"PlanStartAt12Minutes",
+                 {{1, {{20, 600}, {50, 900}, {70, 1200}}}},
+                 {{0, {1, 8, 50, 720}, 12, 50, 720, 1},  // D-10: state 8 with mode 1 = P1 running
+                  {179999, {}, 13, 50, 899},
+                  {180000, {}, 13, 70, 900},  // next segment: the plan decides
+                  {479999, {}, 13, 70, 1199},
+                  {480000, {}, 15, -1, 1200}}},
+        Scenario{"SpeedWriteOverridesOnlyTheCurrentSegment",
+                 {{4, {{20, 60}, {30, 120}}}},
+                 {{0, {4, 13}, 12, 20, 0, 4},
+                  {10000, {55}, 13, 55, 10, -1, reg::kSpeed},
+                  {60000, {}, 13, 30, 60}}},
+        Scenario{"ModeChangeSwitchesProgram",
+                 {},
+                 {{0, {0, 8, 60, 100}, 7, 60, 100},
+                  {10000, {0, 3}, 2, 50, 0, 0},  // timer -> free: a new run from free memory
+                  {20000, {}, 3, 50, 10}}},
+        Scenario{"MenuStopsTheMotor", {}, {{0, {0, 3}, 2, 50, 0}, {5000, {16}, 16, 0, 0, -1, reg::kState}}},
+        Scenario{"TimerWithZeroTimeEndsAtOnce", {}, {{0, {0, 8, 50, 0}, 10, 50, 0}}},
+        Scenario{
+            "BadTransitionsAndValues",
+            {},
+            {{0, {9}, 0, 0, 0, -1, reg::kState, Errc::server_device_failure},  // pause: nothing runs
+             {0, {17}, 0, -1, -1, -1, reg::kState, Errc::illegal_data_value},  // fault screen is not writable
+             {0, {0, 13}, 0, -1, -1, -1, reg::kWorkMode, Errc::illegal_data_value},  // training needs a plan
+             {0, {0, 8, 101, 10}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value},  // whole write
+                                                                                          // refused
+             {0, {0, 8, 50, 6000}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value},
+             {0, {5, 3}, 0, 0, 0, 0, reg::kWorkMode, Errc::illegal_data_value}}}),
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(InverjetFault, InjectedWhileRunning_StopsMotorRefusesStartThenOff) {
@@ -407,16 +418,18 @@ TEST(InverjetRegisters, ValuesOutOfRangeAnswer03) {
     uint16_t address, value;
     Errc result;
   };
-  for (const W& w : {W{reg::kAddress, 0, Errc::illegal_data_value}, W{reg::kAddress, 255, Errc::illegal_data_value},
-                     W{reg::kAddress, 254, Errc::ok}, W{reg::kBaud, 5, Errc::illegal_data_value},
-                     W{reg::kBaud, 4, Errc::ok}, W{reg::kControlMask, 8, Errc::illegal_data_value},
-                     W{reg::kPairing, 3, Errc::illegal_data_value}, W{reg::kPoleCount, 4, Errc::illegal_data_value},
-                     W{reg::kPoleCount, 5, Errc::ok}, W{reg::kSpeed, 101, Errc::illegal_data_value},
-                     W{reg::kRunTime, 6000, Errc::illegal_data_value}, W{reg::kFreeSpeed, 101, Errc::illegal_data_value},
-                     W{reg::kTimerTime, 6000, Errc::illegal_data_value}, W{0x0100, 101, Errc::illegal_data_value},
-                     W{0x02E3, 6000, Errc::illegal_data_value}, W{0x02E3, 5999, Errc::ok}}) {
+  for (const W& w :
+       {W{reg::kAddress, 0, Errc::illegal_data_value}, W{reg::kAddress, 255, Errc::illegal_data_value},
+        W{reg::kAddress, 254, Errc::ok}, W{reg::kBaud, 5, Errc::illegal_data_value},
+        W{reg::kBaud, 4, Errc::ok}, W{reg::kControlMask, 8, Errc::illegal_data_value},
+        W{reg::kPairing, 3, Errc::illegal_data_value}, W{reg::kPoleCount, 4, Errc::illegal_data_value},
+        W{reg::kPoleCount, 5, Errc::ok}, W{reg::kSpeed, 101, Errc::illegal_data_value},
+        W{reg::kRunTime, 6000, Errc::illegal_data_value}, W{reg::kFreeSpeed, 101, Errc::illegal_data_value},
+        W{reg::kTimerTime, 6000, Errc::illegal_data_value}, W{0x0100, 101, Errc::illegal_data_value},
+        W{0x02E3, 6000, Errc::illegal_data_value}, W{0x02E3, 5999, Errc::ok}}) {
     Rig rig;
-    EXPECT_EQ(rig.write(w.address, {w.value}), w.result) << std::hex << w.address << " = " << std::dec << w.value;
+    EXPECT_EQ(rig.write(w.address, {w.value}), w.result)
+        << std::hex << w.address << " = " << std::dec << w.value;
   }
 }
 
@@ -493,7 +506,7 @@ TEST(InverjetRegisters, FormatsValuesFromTheTable) {
 TEST(InverjetMotor, PlausibleAtFullSpeed) {
   Rig rig;
   rig.write(reg::kWorkMode, {0, 3, 100});
-  rig.at(600000);  // 10 minutes
+  rig.at(600000);                                     // 10 minutes
   EXPECT_EQ(rig.input(reg::kMotorSpeed + 1), 15000);  // 3000 rpm x 5 poles
   const uint32_t centiamps = rig.input(reg::kMotorCurrent + 1);
   EXPECT_EQ(centiamps, 1200u);

@@ -28,11 +28,14 @@ Settings changed_settings(uint16_t seed) {
   s.timer_time = static_cast<uint16_t>(seed * 11 % 6000);
   for (unsigned p = 0; p < kPlanCount; ++p)
     for (unsigned k = 0; k < kSegmentsPerPlan; ++k)
-      s.plans[p][k] = Segment{static_cast<uint16_t>((seed + k + p) % 101), static_cast<uint16_t>((seed + 60 * (k + 1)) % 6000)};
+      s.plans[p][k] = Segment{static_cast<uint16_t>((seed + k + p) % 101),
+                              static_cast<uint16_t>((seed + 60 * (k + 1)) % 6000)};
   return s;
 }
 
-void write_text(const std::string& path, const std::string& text) { std::ofstream(path, std::ios::binary) << text; }
+void write_text(const std::string& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
 
 TEST(InverjetStateFile, SaveThenLoad_SameSettings) {
   TempDir dir;

@@ -29,8 +29,9 @@ class InverjetSim : public ::testing::Test {
 
   void start(const std::string& scale = "20", std::vector<std::string> extra = {}) {
     sim_.reset();
-    std::vector<std::string> argv{kRtukit,        "sim", "inverjet", "--listen", "pty:" + tty_, "--state-file",
-                                  dir_ / "state.json", "--time-scale", scale};
+    std::vector<std::string> argv{kRtukit,       "sim",          "inverjet",          "--listen",
+                                  "pty:" + tty_, "--state-file", dir_ / "state.json", "--time-scale",
+                                  scale};
     argv.insert(argv.end(), extra.begin(), extra.end());
     sim_ = std::make_unique<Process>(argv, /*stdin_pipe=*/true);
     ASSERT_TRUE(sim_->wait_for_output("listening on")) << sim_->output();
@@ -95,7 +96,7 @@ TEST_F(InverjetSim, Client_PauseFreezesResumeCountsStopTurnsOff) {
   ASSERT_FALSE(jet.stop());
   EXPECT_EQ(jet.status()->state, 0);
   EXPECT_EQ(jet.resume(), Errc::invalid_argument);  // nothing paused
-  const Error e = jet.pause();  // nothing runs: the machine says 04
+  const Error e = jet.pause();                      // nothing runs: the machine says 04
   EXPECT_TRUE(e.is_exception());
   EXPECT_EQ(e.exception_code(), 0x04);
 }
@@ -107,7 +108,8 @@ TEST_F(InverjetSim, Client_PlansRoundTripAndStartPartWay) {
   ASSERT_FALSE(jet.write_plan(2, three));
   EXPECT_EQ(*jet.read_plan(2), three);
   std::vector<inverjet::Segment> fifty;
-  for (uint16_t k = 0; k < 50; ++k) fifty.push_back({static_cast<uint16_t>(k * 2), static_cast<uint16_t>(100 * (k + 1))});
+  for (uint16_t k = 0; k < 50; ++k)
+    fifty.push_back({static_cast<uint16_t>(k * 2), static_cast<uint16_t>(100 * (k + 1))});
   ASSERT_FALSE(jet.write_plan(3, fifty));
   EXPECT_EQ(*jet.read_plan(3), fifty);
   // Over a longer plan, a shorter one ends where it should (terminator written).
@@ -174,13 +176,16 @@ TEST_F(InverjetSim, Cli_StartWatchStop) {
 }
 
 TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
-  std::ofstream(dir_ / "plan.csv") << "# warm-up, sprint, cool-down\nspeed,end\n30,05:00\n80, 6:00\n\n40,600\n";
+  std::ofstream(dir_ / "plan.csv")
+      << "# warm-up, sprint, cool-down\nspeed,end\n30,05:00\n80, 6:00\n\n40,600\n";
   RunResult r = cli({"inverjet", "plan", "set", "1", dir_ / "plan.csv"});
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("3 segment(s) written, ends at 10:00"), std::string::npos) << r.output;
   r = cli({"inverjet", "plan", "show", "1", "--json"});
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_EQ(json::parse(r.output), json::parse(R"([{"speed":30,"end":"05:00"},{"speed":80,"end":"06:00"},{"speed":40,"end":"10:00"}])"));
+  EXPECT_EQ(
+      json::parse(r.output),
+      json::parse(R"([{"speed":30,"end":"05:00"},{"speed":80,"end":"06:00"},{"speed":40,"end":"10:00"}])"));
   std::ofstream(dir_ / "plan.json") << R"([{"speed": 25, "end": "01:30"}, {"speed": 55, "end": 300}])";
   ASSERT_EQ(cli({"inverjet", "plan", "set", "4", dir_ / "plan.json"}).code, 0);
   r = cli({"inverjet", "plan", "show", "4"});
@@ -256,7 +261,8 @@ TEST(InverjetDocs, RegisterReferenceIsGeneratedFromTheTable) {
 TEST_F(InverjetSim, Console_FaultShowsIn0008AndDrivesState17) {
   ASSERT_EQ(cli({"inverjet", "start", "--free", "--speed", "50"}).code, 0);
   ASSERT_TRUE(sim_->send("fault motor-drive\n"));
-  ASSERT_TRUE(sim_->wait_for_output("faults: motor drive (0x0080), state fault screen (17)")) << sim_->output();
+  ASSERT_TRUE(sim_->wait_for_output("faults: motor drive (0x0080), state fault screen (17)"))
+      << sim_->output();
   json s = status();
   EXPECT_EQ(s["faults"], 0x80);
   EXPECT_EQ(s["state"], 17);

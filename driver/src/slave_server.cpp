@@ -53,8 +53,8 @@ class RtuResponder {
 // RTU on a serial port or a pty master.
 class RtuStreamServer final : public SlaveListener {
  public:
-  RtuStreamServer(asio::io_context& ctx, SlaveEngine& engine, int fd, const io::PortSpec& spec, std::string where,
-                  RequestLog log, io::Pty pty)
+  RtuStreamServer(asio::io_context& ctx, SlaveEngine& engine, int fd, const io::PortSpec& spec,
+                  std::string where, RequestLog log, io::Pty pty)
       : spec_(spec),
         stream_(ctx, fd),
         timer_(ctx),

@@ -9,13 +9,13 @@
 #include <chrono>
 #include <cstdio>
 
-#define CHECK(cond, ...)                                       \
-  do {                                                         \
-    if (!(cond)) {                                             \
+#define CHECK(cond, ...)                                            \
+  do {                                                              \
+    if (!(cond)) {                                                  \
       std::fprintf(stderr, "inverjet_libmodbus_run: " __VA_ARGS__); \
-      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno)); \
-      return 1;                                                \
-    }                                                          \
+      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno));      \
+      return 1;                                                     \
+    }                                                               \
   } while (0)
 
 int main(int argc, char** argv) {
@@ -36,7 +36,8 @@ int main(int argc, char** argv) {
   CHECK(modbus_read_registers(ctx, 0x21, 4, r) == 4 && r[1] == 9, "paused: state %u", r[1]);
   const uint16_t t1 = r[3];
   usleep(300000);  // several device seconds at --time-scale 10
-  CHECK(modbus_read_registers(ctx, 0x21, 4, r) == 4 && r[1] == 9 && r[3] == t1, "frozen: %u then %u", t1, r[3]);
+  CHECK(modbus_read_registers(ctx, 0x21, 4, r) == 4 && r[1] == 9 && r[3] == t1, "frozen: %u then %u", t1,
+        r[3]);
 
   CHECK(modbus_write_register(ctx, 0x22, 8) == 1, "resume");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(5);
@@ -54,7 +55,8 @@ int main(int argc, char** argv) {
   errno = 0;
   CHECK(modbus_write_register(ctx, 0x23, 101) == -1 && errno == EMBXILVAL, "speed 101 -> exception 03");
   errno = 0;
-  CHECK(modbus_read_registers(ctx, 0x05, 1, r) == -1 && errno == EMBXILADD, "reserved 0x0005 -> exception 02");
+  CHECK(modbus_read_registers(ctx, 0x05, 1, r) == -1 && errno == EMBXILADD,
+        "reserved 0x0005 -> exception 02");
 
   std::printf("OK\n");
   modbus_close(ctx);

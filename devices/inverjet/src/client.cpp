@@ -25,15 +25,19 @@ Error validate_plan(std::span<const Segment> segments, std::string* why) {
     return Error(Errc::invalid_argument);
   };
   if (segments.empty()) return bad("a plan needs at least one segment");
-  if (segments.size() > kSegmentsPerPlan) return bad(fmt::format("{} segments; a plan holds at most 50", segments.size()));
+  if (segments.size() > kSegmentsPerPlan)
+    return bad(fmt::format("{} segments; a plan holds at most 50", segments.size()));
   uint16_t previous = 0;
   for (size_t i = 0; i < segments.size(); ++i) {
     const Segment& s = segments[i];
-    if (s.speed > kMaxSpeed) return bad(fmt::format("segment {}: speed {} % is out of range 0..100", i + 1, s.speed));
+    if (s.speed > kMaxSpeed)
+      return bad(fmt::format("segment {}: speed {} % is out of range 0..100", i + 1, s.speed));
     if (s.end > kMaxTime)
-      return bad(fmt::format("segment {}: end time {} s is out of range (at most 5999 s = 99:59)", i + 1, s.end));
+      return bad(
+          fmt::format("segment {}: end time {} s is out of range (at most 5999 s = 99:59)", i + 1, s.end));
     if (s.end <= previous)
-      return bad(fmt::format("segment {}: end {} is not after {}", i + 1, format_mm_ss(s.end), format_mm_ss(previous)));
+      return bad(fmt::format("segment {}: end {} is not after {}", i + 1, format_mm_ss(s.end),
+                             format_mm_ss(previous)));
     previous = s.end;
   }
   return {};
@@ -79,7 +83,8 @@ Result<Config> Client::config() {
 
 Error Client::start_free(uint16_t speed, bool remember) {
   if (speed > kMaxSpeed) return Errc::invalid_argument;
-  const std::array<uint16_t, 3> v{0, state_value(Family::free, remember ? Phase::initial : Phase::running), speed};
+  const std::array<uint16_t, 3> v{0, state_value(Family::free, remember ? Phase::initial : Phase::running),
+                                  speed};
   return write(reg::kWorkMode, v);
 }
 
@@ -90,8 +95,8 @@ Error Client::start_free_from_memory() {
 
 Error Client::start_timer(uint16_t speed, uint16_t duration_s, bool remember) {
   if (speed > kMaxSpeed || duration_s == 0 || duration_s > kMaxTime) return Errc::invalid_argument;
-  const std::array<uint16_t, 4> v{0, state_value(Family::timer, remember ? Phase::initial : Phase::running), speed,
-                                  duration_s};
+  const std::array<uint16_t, 4> v{0, state_value(Family::timer, remember ? Phase::initial : Phase::running),
+                                  speed, duration_s};
   return write(reg::kWorkMode, v);
 }
 
@@ -131,7 +136,9 @@ Error Client::resume() {
   return master_.write_single_register(unit_, reg::kState, state_value(family_of(state[0]), Phase::running));
 }
 
-Error Client::stop() { return master_.write_single_register(unit_, reg::kState, 0); }
+Error Client::stop() {
+  return master_.write_single_register(unit_, reg::kState, 0);
+}
 
 Error Client::set_speed(uint16_t speed) {
   if (speed > kMaxSpeed) return Errc::invalid_argument;

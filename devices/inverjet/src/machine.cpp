@@ -46,7 +46,8 @@ struct Machine::Control {
   uint16_t new_mode = 0;
 };
 
-Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& motor, const Versions& versions) noexcept
+Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& motor,
+                 const Versions& versions) noexcept
     : settings_(settings),
       motor_(motor),
       versions_(versions),
@@ -59,20 +60,34 @@ Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& mo
 
 uint16_t Machine::holding_value(uint16_t address) const noexcept {
   switch (address) {
-    case reg::kAddress: return settings_.address;
-    case reg::kBaud: return settings_.baud_code;
-    case reg::kControlMask: return settings_.control_mask;
-    case reg::kPairing: return pairing_;
-    case reg::kPoleCount: return 5;
-    case reg::kWorkMode: return mode_;
-    case reg::kState: return state();
-    case reg::kSpeed: return speed_;
-    case reg::kRunTime: return time_s_;
-    case reg::kFreeSpeed: return settings_.free_speed;
-    case reg::kFreeTime: return settings_.free_time;
-    case reg::kTimerSpeed: return settings_.timer_speed;
-    case reg::kTimerTime: return settings_.timer_time;
-    default: break;
+    case reg::kAddress:
+      return settings_.address;
+    case reg::kBaud:
+      return settings_.baud_code;
+    case reg::kControlMask:
+      return settings_.control_mask;
+    case reg::kPairing:
+      return pairing_;
+    case reg::kPoleCount:
+      return 5;
+    case reg::kWorkMode:
+      return mode_;
+    case reg::kState:
+      return state();
+    case reg::kSpeed:
+      return speed_;
+    case reg::kRunTime:
+      return time_s_;
+    case reg::kFreeSpeed:
+      return settings_.free_speed;
+    case reg::kFreeTime:
+      return settings_.free_time;
+    case reg::kTimerSpeed:
+      return settings_.timer_speed;
+    case reg::kTimerTime:
+      return settings_.timer_time;
+    default:
+      break;
   }
   // Plan registers: 0x0100 + 0x80 * (plan - 1) + 2k (+1 for the end time).
   const unsigned plan = (address - 0x0100U) / 0x80U;
@@ -91,18 +106,29 @@ Errc Machine::read_holding(uint16_t address, std::span<uint16_t> out) const noex
 
 Errc Machine::read_input(uint16_t address, std::span<uint16_t> out) const noexcept {
   if (size_t{address} + out.size() > reg::kInputCount) return Errc::illegal_data_address;
-  const auto clamp16 = [](double v) { return static_cast<uint32_t>(std::clamp(std::lround(v), 0L, 0xFFFFL)); };
-  const uint32_t rpm_x_poles = static_cast<uint32_t>(std::lround(motor_pct_ / 100.0 * motor_.full_speed_rpm * 5));
+  const auto clamp16 = [](double v) {
+    return static_cast<uint32_t>(std::clamp(std::lround(v), 0L, 0xFFFFL));
+  };
+  const uint32_t rpm_x_poles =
+      static_cast<uint32_t>(std::lround(motor_pct_ / 100.0 * motor_.full_speed_rpm * 5));
   const uint32_t current = static_cast<uint32_t>(std::lround(motor_current() * 100));
   const std::array<uint32_t, 17> words = {
-      versions_.display_software >> 16, versions_.display_software & 0xFFFF,
-      versions_.display_hardware >> 16, versions_.display_hardware & 0xFFFF,
-      versions_.driver_software >> 16,  versions_.driver_software & 0xFFFF,
-      versions_.driver_hardware >> 16,  versions_.driver_hardware & 0xFFFF,
-      faults(),                         0,
-      clamp16(mosfet_c_ * 10),          clamp16(motor_c_ * 10),
-      current >> 16,                    current & 0xFFFF,
-      rpm_x_poles >> 16,                rpm_x_poles & 0xFFFF,
+      versions_.display_software >> 16,
+      versions_.display_software & 0xFFFF,
+      versions_.display_hardware >> 16,
+      versions_.display_hardware & 0xFFFF,
+      versions_.driver_software >> 16,
+      versions_.driver_software & 0xFFFF,
+      versions_.driver_hardware >> 16,
+      versions_.driver_hardware & 0xFFFF,
+      faults(),
+      0,
+      clamp16(mosfet_c_ * 10),
+      clamp16(motor_c_ * 10),
+      current >> 16,
+      current & 0xFFFF,
+      rpm_x_poles >> 16,
+      rpm_x_poles & 0xFFFF,
       clamp16(bus_voltage() * 10),
   };
   for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<uint16_t>(words[address + i]);
@@ -115,7 +141,9 @@ double Machine::motor_current() const noexcept {
   return motor_.idle_current_a + (motor_.full_current_a - motor_.idle_current_a) * p * p;
 }
 
-double Machine::bus_voltage() const noexcept { return mains_v_ - motor_.bus_sag_v_per_a * motor_current(); }
+double Machine::bus_voltage() const noexcept {
+  return mains_v_ - motor_.bus_sag_v_per_a * motor_current();
+}
 
 // ---------------------------------------------------------------- writes
 
@@ -136,11 +164,20 @@ Errc Machine::write_holding(uint16_t address, std::span<const uint16_t> values) 
   Control c;
   for (size_t i = 0; i < values.size(); ++i) {
     switch (address + i) {
-      case reg::kWorkMode: c.mode = values[i]; break;
-      case reg::kState: c.state = values[i]; break;
-      case reg::kSpeed: c.speed = values[i]; break;
-      case reg::kRunTime: c.time = values[i]; break;
-      default: break;
+      case reg::kWorkMode:
+        c.mode = values[i];
+        break;
+      case reg::kState:
+        c.state = values[i];
+        break;
+      case reg::kSpeed:
+        c.speed = values[i];
+        break;
+      case reg::kRunTime:
+        c.time = values[i];
+        break;
+      default:
+        break;
     }
   }
   const bool has_control = c.mode || c.state || c.speed || c.time;
@@ -162,20 +199,32 @@ Errc Machine::write_holding(uint16_t address, std::span<const uint16_t> values) 
         if (v != settings_.baud_code) link_change_.baud = baud_of_code(v);
         settings_.baud_code = v;
         break;
-      case reg::kControlMask: settings_.control_mask = v; break;
+      case reg::kControlMask:
+        settings_.control_mask = v;
+        break;
       case reg::kPairing:  // D-6
         pairing_ = v;
         pairing_until_ = v ? now_ + kPairingWindowMs : 0;
         break;
-      case reg::kPoleCount: break;  // D-7: only 5 gets here
+      case reg::kPoleCount:
+        break;  // D-7: only 5 gets here
       case reg::kWorkMode:
       case reg::kState:
       case reg::kSpeed:
-      case reg::kRunTime: break;  // below, as one control write
-      case reg::kFreeSpeed: settings_.free_speed = v; break;
-      case reg::kFreeTime: settings_.free_time = v; break;
-      case reg::kTimerSpeed: settings_.timer_speed = v; break;
-      case reg::kTimerTime: settings_.timer_time = v; break;
+      case reg::kRunTime:
+        break;  // below, as one control write
+      case reg::kFreeSpeed:
+        settings_.free_speed = v;
+        break;
+      case reg::kFreeTime:
+        settings_.free_time = v;
+        break;
+      case reg::kTimerSpeed:
+        settings_.timer_speed = v;
+        break;
+      case reg::kTimerTime:
+        settings_.timer_time = v;
+        break;
       default: {
         const unsigned plan = (a - 0x0100U) / 0x80U;
         const unsigned offset = (a - 0x0100U) % 0x80U;
@@ -199,7 +248,8 @@ Errc Machine::plan_control(const Control& c, Control* out) const noexcept {
     // the screen stays until the faults clear (B-3).
     if (c.state) {
       const Phase p = phase_of(*c.state);
-      if (p == Phase::initial || p == Phase::starting || p == Phase::running) return Errc::server_device_failure;
+      if (p == Phase::initial || p == Phase::starting || p == Phase::running)
+        return Errc::server_device_failure;
     }
     r.action = Control::Action::fault_hold;
     *out = r;
@@ -215,14 +265,22 @@ Errc Machine::plan_control(const Control& c, Control* out) const noexcept {
   if (c.state && r.new_mode == 0 && family_of(s) == Family::training)
     return Errc::illegal_data_value;  // B-2: a training state needs a plan (mode 1..4)
   const Phase p = phase_of(s);
-  const Family f = r.new_mode >= 1 ? Family::training : family_of(s) == Family::timer ? Family::timer : Family::free;
+  const Family f = r.new_mode >= 1                 ? Family::training
+                   : family_of(s) == Family::timer ? Family::timer
+                                                   : Family::free;
   const bool same_run = active() && family_ == f && r.new_mode == mode_;
   r.family = f;
   r.phase = p;
   switch (p) {
-    case Phase::off: r.action = Control::Action::off; break;
-    case Phase::menu: r.action = Control::Action::menu; break;
-    case Phase::initial: r.action = Control::Action::start; break;
+    case Phase::off:
+      r.action = Control::Action::off;
+      break;
+    case Phase::menu:
+      r.action = Control::Action::menu;
+      break;
+    case Phase::initial:
+      r.action = Control::Action::start;
+      break;
     case Phase::starting:
     case Phase::running:
       if (same_run && phase_ == Phase::paused) {
@@ -240,8 +298,11 @@ Errc Machine::plan_control(const Control& c, Control* out) const noexcept {
       if (!same_run) return Errc::server_device_failure;  // B-4: nothing of that family runs
       r.action = Control::Action::pause;
       break;
-    case Phase::ended: r.action = Control::Action::end; break;
-    case Phase::fault: return Errc::illegal_data_value;  // not writable (table)
+    case Phase::ended:
+      r.action = Control::Action::end;
+      break;
+    case Phase::fault:
+      return Errc::illegal_data_value;  // not writable (table)
   }
   *out = r;
   return Errc::ok;
@@ -271,10 +332,18 @@ void Machine::apply_control(const Control& c) noexcept {
       if (c.speed) speed_ = *c.speed;
       if (c.time) time_s_ = *c.time;
       break;
-    case A::adjust: adjust(); break;
-    case A::off: enter(Phase::off); break;
-    case A::menu: enter(Phase::menu); break;
-    case A::start: start(c.family, c.phase, c); break;
+    case A::adjust:
+      adjust();
+      break;
+    case A::off:
+      enter(Phase::off);
+      break;
+    case A::menu:
+      enter(Phase::menu);
+      break;
+    case A::start:
+      start(c.family, c.phase, c);
+      break;
     case A::resume:
       adjust();
       if (phase_ == Phase::paused) enter(Phase::starting);
@@ -345,13 +414,16 @@ void Machine::enter(Phase phase) noexcept {
       segment_ = 0;
       override_segment_ = -1;
       break;
-    case Phase::initial: initial_ms_ = 0; break;
+    case Phase::initial:
+      initial_ms_ = 0;
+      break;
     case Phase::starting:
       // A run with nothing left to do ends at once.
       if (family_ == Family::timer && time_s_ == 0) phase_ = Phase::ended;
       if (family_ == Family::training) update_plan_speed();
       break;
-    default: break;
+    default:
+      break;
   }
 }
 
@@ -417,8 +489,10 @@ void Machine::step(uint32_t dt_ms) noexcept {
 
   // Temperatures: first-order lag towards an equilibrium set by the current.
   const double amps = motor_current();
-  mosfet_c_ += (motor_.ambient_c + motor_.mosfet_c_per_a * amps - mosfet_c_) * (1 - std::exp(-dt / motor_.mosfet_tau_s));
-  motor_c_ += (motor_.ambient_c + motor_.motor_c_per_a * amps - motor_c_) * (1 - std::exp(-dt / motor_.motor_tau_s));
+  mosfet_c_ += (motor_.ambient_c + motor_.mosfet_c_per_a * amps - mosfet_c_) *
+               (1 - std::exp(-dt / motor_.mosfet_tau_s));
+  motor_c_ +=
+      (motor_.ambient_c + motor_.motor_c_per_a * amps - motor_c_) * (1 - std::exp(-dt / motor_.motor_tau_s));
   update_faults();
 }
 

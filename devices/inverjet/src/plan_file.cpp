@@ -17,8 +17,8 @@ std::string_view trim(std::string_view s) {
 }
 
 // One segment from its two fields; `where` prefixes errors ("line 3", "entry 2").
-bool make_segment(std::string_view speed_text, std::string_view end_text, const std::string& where, Segment* out,
-                  std::string* why) {
+bool make_segment(std::string_view speed_text, std::string_view end_text, const std::string& where,
+                  Segment* out, std::string* why) {
   unsigned speed = 0;
   const auto [p, ec] = std::from_chars(speed_text.data(), speed_text.data() + speed_text.size(), speed);
   if (speed_text.empty() || ec != std::errc{} || p != speed_text.data() + speed_text.size()) {
@@ -43,13 +43,15 @@ bool make_segment(std::string_view speed_text, std::string_view end_text, const 
 }
 
 // Order: 1..50 segments, end times increasing. Names the line of the culprit.
-bool check_order(const std::vector<Segment>& segments, const std::vector<std::string>& where, std::string* why) {
+bool check_order(const std::vector<Segment>& segments, const std::vector<std::string>& where,
+                 std::string* why) {
   if (segments.empty()) {
     *why = "the plan has no segments";
     return false;
   }
   if (segments.size() > kSegmentsPerPlan) {
-    *why = fmt::format("{}: segment {}; a plan holds at most 50", where[kSegmentsPerPlan], kSegmentsPerPlan + 1);
+    *why =
+        fmt::format("{}: segment {}; a plan holds at most 50", where[kSegmentsPerPlan], kSegmentsPerPlan + 1);
     return false;
   }
   uint16_t previous = 0;
@@ -85,7 +87,9 @@ Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why)
           break;
         }
         const auto field = [](const nlohmann::json& v) {
-          return v.is_string() ? v.get<std::string>() : v.is_number_unsigned() ? std::to_string(v.get<uint64_t>()) : v.dump();
+          return v.is_string()            ? v.get<std::string>()
+                 : v.is_number_unsigned() ? std::to_string(v.get<uint64_t>())
+                                          : v.dump();
         };
         Segment s;
         if (!make_segment(field(e["speed"]), field(e["end"]), at, &s, &reason)) break;
@@ -98,7 +102,8 @@ Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why)
     size_t pos = 0;
     while (pos <= text.size() && reason.empty()) {
       const size_t nl = text.find('\n', pos);
-      const std::string_view line = trim(text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos));
+      const std::string_view line =
+          trim(text.substr(pos, nl == std::string_view::npos ? std::string_view::npos : nl - pos));
       pos = nl == std::string_view::npos ? text.size() + 1 : nl + 1;
       ++line_no;
       if (line.empty() || line.front() == '#') continue;

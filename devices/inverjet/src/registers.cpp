@@ -12,15 +12,27 @@ namespace {
 constexpr Choice kBaudCodes[] = {{0, "1200"}, {1, "2400"}, {2, "4800"}, {3, "9600"}, {4, "19200"}};
 constexpr Choice kMaskBits[] = {{0, "Bluetooth"}, {1, "Modbus-RS485"}, {2, "Wi-Fi"}};
 constexpr Choice kPairing[] = {{0, "none"}, {1, "Wi-Fi pairing"}, {2, "remote-control pairing"}};
-constexpr Choice kModes[] = {{0, "free & timer"}, {1, "plan P1"}, {2, "plan P2"}, {3, "plan P3"}, {4, "plan P4"}};
+constexpr Choice kModes[] = {
+    {0, "free & timer"}, {1, "plan P1"}, {2, "plan P2"}, {3, "plan P3"}, {4, "plan P4"}};
 constexpr Choice kStates[] = {
     {0, "off"},
-    {1, "free initial"},      {2, "free starting"},      {3, "free running"},
-    {4, "free paused"},       {5, "free ended"},         {6, "timer initial"},
-    {7, "timer starting"},    {8, "timer running"},      {9, "timer paused"},
-    {10, "timer ended"},      {11, "training initial"},  {12, "training starting"},
-    {13, "training running"}, {14, "training paused"},   {15, "training ended"},
-    {16, "operation menu"},   {17, "fault screen"},
+    {1, "free initial"},
+    {2, "free starting"},
+    {3, "free running"},
+    {4, "free paused"},
+    {5, "free ended"},
+    {6, "timer initial"},
+    {7, "timer starting"},
+    {8, "timer running"},
+    {9, "timer paused"},
+    {10, "timer ended"},
+    {11, "training initial"},
+    {12, "training starting"},
+    {13, "training running"},
+    {14, "training paused"},
+    {15, "training ended"},
+    {16, "operation menu"},
+    {17, "fault screen"},
 };
 constexpr Choice kFaultBits[] = {
     {0, "voltage"},
@@ -43,9 +55,22 @@ constexpr Register holding(uint16_t address, std::string_view key, std::string_v
                            std::string_view unit, Range range, uint16_t default_value, bool persisted,
                            bool control, std::span<const Choice> choices = {}, std::string_view notes = {},
                            Range writable = {1, 0}) {
-  return Register{Table::holding, address, 1,       key,     title,          true,
-                  format,         unit,    1,       range,   writable.min > writable.max ? range : writable,
-                  default_value,  default_value,    persisted, control,      choices,
+  return Register{Table::holding,
+                  address,
+                  1,
+                  key,
+                  title,
+                  true,
+                  format,
+                  unit,
+                  1,
+                  range,
+                  writable.min > writable.max ? range : writable,
+                  default_value,
+                  default_value,
+                  persisted,
+                  control,
+                  choices,
                   notes};
 }
 
@@ -72,9 +97,10 @@ constexpr Register plan_row(unsigned plan, bool end_time) {
              true,
              true,
              {},
-             end_time ? "segment k+1 at +2k; the plan ends at the first end time not greater than the previous "
-                        "one (D-11: a fresh plan is 60 s at 20 %)"
-                      : "segment k+1 at +2k, k = 0..49",
+             end_time
+                 ? "segment k+1 at +2k; the plan ends at the first end time not greater than the previous "
+                   "one (D-11: a fresh plan is 60 s at 20 %)"
+                 : "segment k+1 at +2k, k = 0..49",
              kSegmentsPerPlan,
              2};
   return r;
@@ -83,8 +109,8 @@ constexpr Register plan_row(unsigned plan, bool end_time) {
 constexpr Register input(uint16_t address, uint16_t words, std::string_view key, std::string_view title,
                          Format format, std::string_view unit, uint16_t scale,
                          std::span<const Choice> choices = {}, std::string_view notes = {}) {
-  return Register{Table::input, address, words, key,   title, false, format, unit,  scale, kAny,
-                  kAny,         0,       0,     false, false, choices, notes};
+  return Register{Table::input, address, words, key, title, false, format,  unit, scale,
+                  kAny,         kAny,    0,     0,   false, false, choices, notes};
 }
 
 constexpr std::array kRegisters = {
@@ -110,11 +136,18 @@ constexpr std::array kRegisters = {
     // ---- holding registers: free/timer memory (flash) ----
     holding(reg::kFreeSpeed, "free_speed", "free-mode speed", Format::number, "%", kPercent, 50, true, true),
     holding(reg::kFreeTime, "free_time", "free-mode time", Format::seconds, "s", kTime, 0, true, true),
-    holding(reg::kTimerSpeed, "timer_speed", "timer-mode speed", Format::number, "%", kPercent, 50, true, true),
+    holding(reg::kTimerSpeed, "timer_speed", "timer-mode speed", Format::number, "%", kPercent, 50, true,
+            true),
     holding(reg::kTimerTime, "timer_time", "timer-mode time", Format::seconds, "s", kTime, 1800, true, true),
     // ---- holding registers: training plans ----
-    plan_row(1, false), plan_row(1, true), plan_row(2, false), plan_row(2, true),
-    plan_row(3, false), plan_row(3, true), plan_row(4, false), plan_row(4, true),
+    plan_row(1, false),
+    plan_row(1, true),
+    plan_row(2, false),
+    plan_row(2, true),
+    plan_row(3, false),
+    plan_row(3, true),
+    plan_row(4, false),
+    plan_row(4, true),
     // ---- input registers (read only) ----
     input(0x0000, 2, "display_software", "display board software version", Format::version, "", 1),
     input(0x0002, 2, "display_hardware", "display board hardware version", Format::version, "", 1),
@@ -131,10 +164,11 @@ constexpr std::array kRegisters = {
     input(reg::kBusVoltage, 1, "bus_voltage", "DC bus voltage", Format::scaled, "V", 10),
 };
 
-
 }  // namespace
 
-std::span<const Register> registers() noexcept { return kRegisters; }
+std::span<const Register> registers() noexcept {
+  return kRegisters;
+}
 
 const Register* find_register(Table table, uint16_t address, unsigned* index, unsigned* word) noexcept {
   for (const Register& r : kRegisters) {
@@ -157,7 +191,8 @@ const Register* find_register(std::string_view key) noexcept {
 
 Errc check_write(const Register& reg, uint16_t value) noexcept {
   if (!reg.writable) return Errc::illegal_data_address;
-  return value < reg.writable_range.min || value > reg.writable_range.max ? Errc::illegal_data_value : Errc::ok;
+  return value < reg.writable_range.min || value > reg.writable_range.max ? Errc::illegal_data_value
+                                                                          : Errc::ok;
 }
 
 std::string_view choice_name(const Register& reg, uint16_t value) noexcept {
@@ -167,7 +202,9 @@ std::string_view choice_name(const Register& reg, uint16_t value) noexcept {
   return {};
 }
 
-std::string format_mm_ss(unsigned seconds) { return fmt::format("{:02}:{:02}", seconds / 60, seconds % 60); }
+std::string format_mm_ss(unsigned seconds) {
+  return fmt::format("{:02}:{:02}", seconds / 60, seconds % 60);
+}
 
 Result<uint32_t> parse_time(std::string_view text) noexcept {
   const auto number = [](std::string_view t, uint32_t* out) {
@@ -250,7 +287,8 @@ std::string registers_markdown() {
                                           : fmt::format("{} {}", c.value, c.name);
       }
       if (!r.notes.empty()) notes += (notes.empty() ? "" : "; ") + std::string(r.notes);
-      if (r.control) notes += notes.empty() ? "masked by control-mask bit 1" : "; masked by control-mask bit 1";
+      if (r.control)
+        notes += notes.empty() ? "masked by control-mask bit 1" : "; masked by control-mask bit 1";
       std::string unit(r.unit);
       if (r.format == Format::scaled) unit = fmt::format("{} {}", r.scale == 10 ? "0.1" : "0.01", r.unit);
       out += fmt::format("| {} | `{}` | {} | {} | {} | {} | {} | {} | {} |\n", address, r.key, r.title,
@@ -296,7 +334,9 @@ std::string_view family_name(Family family) noexcept {
   return kNames[static_cast<size_t>(family)];
 }
 
-std::span<const Choice> fault_names() noexcept { return kFaultBits; }
+std::span<const Choice> fault_names() noexcept {
+  return kFaultBits;
+}
 
 uint32_t baud_of_code(uint16_t code) noexcept {
   constexpr uint32_t kRates[] = {1200, 2400, 4800, 9600, 19200};

@@ -34,9 +34,12 @@ Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, Simul
     if (why) *why = reason;
     return Result<std::unique_ptr<Simulator>>(Errc::invalid_argument);
   };
-  if (!(options.time_scale > 0) || options.time_scale > 100000) return bad("--time-scale must be > 0 (and at most 100000)");
-  if (options.unit && (*options.unit < 1 || *options.unit > 254)) return bad("the Inverjet's address is 1..254");
-  if (options.baud && code_of_baud(*options.baud) < 0) return bad("the Inverjet runs at 1200, 2400, 4800, 9600 or 19200 baud");
+  if (!(options.time_scale > 0) || options.time_scale > 100000)
+    return bad("--time-scale must be > 0 (and at most 100000)");
+  if (options.unit && (*options.unit < 1 || *options.unit > 254))
+    return bad("the Inverjet's address is 1..254");
+  if (options.baud && code_of_baud(*options.baud) < 0)
+    return bad("the Inverjet runs at 1200, 2400, 4800, 9600 or 19200 baud");
 
   std::unique_ptr<Simulator> sim(new Simulator(ctx, std::move(options)));
   SimulatorOptions& o = sim->options_;
@@ -70,7 +73,9 @@ Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, Simul
   return sim;
 }
 
-std::string Simulator::where() const { return listener_->where(); }
+std::string Simulator::where() const {
+  return listener_->where();
+}
 
 uint64_t Simulator::device_ms() const {
   const auto real = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_).count();
@@ -118,14 +123,15 @@ void Simulator::save() {
 
 std::string Simulator::status_text() {
   Machine& m = machine();
-  std::string out = fmt::format("device time {} (x{:g})\n", format_mm_ss(static_cast<unsigned>(m.now_ms() / 1000)),
-                                options_.time_scale);
+  std::string out = fmt::format("device time {} (x{:g})\n",
+                                format_mm_ss(static_cast<unsigned>(m.now_ms() / 1000)), options_.time_scale);
   // Every named register, decoded by the same table the CLI uses.
   for (const Register& r : registers()) {
     if (r.repeat > 1) continue;
     std::array<uint16_t, 2> w{};
     const std::span<uint16_t> words(w.data(), r.words);
-    const Errc e = r.table == Table::holding ? m.read_holding(r.address, words) : m.read_input(r.address, words);
+    const Errc e =
+        r.table == Table::holding ? m.read_holding(r.address, words) : m.read_input(r.address, words);
     if (e != Errc::ok) continue;
     const uint32_t raw = r.words == 2 ? (uint32_t{w[0]} << 16) | w[1] : w[0];
     out += fmt::format("  {:<32} {}\n", r.title, format_value(r, raw));
@@ -198,7 +204,8 @@ std::string Simulator::command(std::string_view line) {
            "  temp mosfet|motor DEGC       set a temperature (the model carries on from there)\n"
            "  mains VOLTS                  set the mains (unloaded DC bus) voltage\n"
            "  quit                         stop the simulator\n"
-           "fault bits:" + names + "\n";
+           "fault bits:" +
+           names + "\n";
   }
   if (verb == "status") return status_text();
   if (verb == "quit" || verb == "exit") {
@@ -213,7 +220,8 @@ std::string Simulator::command(std::string_view line) {
       const std::optional<uint16_t> mask = fault_mask(w[1]);
       if (!mask) return fmt::format("unknown fault '{}' (see help)", w[1]);
       const bool on = w.size() < 3 || w[2] != "off";
-      m.set_injected_faults(static_cast<uint16_t>(on ? m.injected_faults() | *mask : m.injected_faults() & ~*mask));
+      m.set_injected_faults(
+          static_cast<uint16_t>(on ? m.injected_faults() | *mask : m.injected_faults() & ~*mask));
     }
     const Register& faults = *find_register(Table::input, reg::kFaults);
     return fmt::format("faults: {} (0x{:04X}), state {}", format_value(faults, m.faults()), m.faults(),

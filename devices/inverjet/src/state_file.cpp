@@ -30,9 +30,10 @@ json settings_json(const Settings& s) {
     for (const Segment& seg : p) segments.push_back({seg.speed, seg.end});
     plans.push_back(segments);
   }
-  return json{{"address", s.address},         {"baud_code", s.baud_code},     {"control_mask", s.control_mask},
-              {"free_speed", s.free_speed},   {"free_time", s.free_time},     {"timer_speed", s.timer_speed},
-              {"timer_time", s.timer_time},   {"plans", plans}};
+  return json{{"address", s.address},           {"baud_code", s.baud_code},
+              {"control_mask", s.control_mask}, {"free_speed", s.free_speed},
+              {"free_time", s.free_time},       {"timer_speed", s.timer_speed},
+              {"timer_time", s.timer_time},     {"plans", plans}};
 }
 
 uint16_t checksum(const json& settings) {
@@ -54,7 +55,8 @@ Error fail(std::string* why, const std::string& what, int err) {
 }  // namespace
 
 std::string default_state_path() {
-  if (const char* xdg = std::getenv("XDG_STATE_HOME"); xdg && *xdg) return std::string(xdg) + "/rtukit/inverjet.json";
+  if (const char* xdg = std::getenv("XDG_STATE_HOME"); xdg && *xdg)
+    return std::string(xdg) + "/rtukit/inverjet.json";
   const char* home = std::getenv("HOME");
   return std::string(home && *home ? home : ".") + "/.local/state/rtukit/inverjet.json";
 }
@@ -74,14 +76,16 @@ Result<Settings> settings_from_text(const std::string& text, std::string* why) {
   };
   const json file = json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (file.is_discarded()) return bad(Errc::malformed, "not valid JSON (truncated?)");
-  if (!file.is_object() || file.value("format", "") != kFormat) return bad(Errc::malformed, "not an rtukit Inverjet state file");
+  if (!file.is_object() || file.value("format", "") != kFormat)
+    return bad(Errc::malformed, "not an rtukit Inverjet state file");
   if (file.value("version", 0) != kVersion) return bad(Errc::malformed, "unknown version");
   if (!file.contains("settings") || !file.contains("checksum") || !file["checksum"].is_string())
     return bad(Errc::malformed, "settings or checksum missing");
   const json& s = file["settings"];
   char crc[8];
   std::snprintf(crc, sizeof crc, "0x%04X", checksum(s));
-  if (file["checksum"].get<std::string>() != crc) return bad(Errc::bad_crc, "checksum does not match the settings");
+  if (file["checksum"].get<std::string>() != crc)
+    return bad(Errc::bad_crc, "checksum does not match the settings");
   Settings out;
   try {
     out.address = s.at("address").get<uint16_t>();

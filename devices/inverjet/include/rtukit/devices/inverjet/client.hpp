@@ -35,7 +35,7 @@ struct Status {
   double mosfet_c = 0;
   double motor_c = 0;
   double current_a = 0;
-  uint32_t rpm = 0;        ///< mechanical rpm (register value / pole count)
+  uint32_t rpm = 0;  ///< mechanical rpm (register value / pole count)
   uint32_t rpm_x_poles = 0;
   double bus_v = 0;
   uint32_t display_software = 0, display_hardware = 0, driver_software = 0, driver_hardware = 0;
@@ -62,7 +62,8 @@ Error validate_plan(std::span<const Segment> segments, std::string* why = nullpt
 class Client {
  public:
   /// `master` must outlive the client. Units 1..254 (the Inverjet's range).
-  explicit Client(Master& master, UnitId unit = UnitId{kDefaultAddress}) noexcept : master_(master), unit_(unit) {}
+  explicit Client(Master& master, UnitId unit = UnitId{kDefaultAddress}) noexcept
+      : master_(master), unit_(unit) {}
 
   UnitId unit() const noexcept { return unit_; }
 

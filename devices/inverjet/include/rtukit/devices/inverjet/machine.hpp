@@ -59,15 +59,15 @@ struct MotorModel {
   double idle_current_a = 0.4;      ///< while turning
   double full_current_a = 12.0;     ///< at 100 % (pump load grows with speed squared)
   double ambient_c = 25.0;
-  double mosfet_c_per_a = 4.5;      ///< MOSFET equilibrium rise per amp
+  double mosfet_c_per_a = 4.5;  ///< MOSFET equilibrium rise per amp
   double mosfet_tau_s = 60;
-  double motor_c_per_a = 1.5;       ///< water-cooled motor
+  double motor_c_per_a = 1.5;  ///< water-cooled motor
   double motor_tau_s = 300;
-  double mains_bus_v = 311.0;       ///< rectified 220 V
+  double mains_bus_v = 311.0;  ///< rectified 220 V
   double bus_sag_v_per_a = 0.6;
-  double mosfet_trip_c = 90.0;      ///< sets fault bit 3 ...
-  double mosfet_reset_c = 80.0;     ///< ... cleared below this
-  double bus_min_v = 260.0;         ///< outside: fault bit 0
+  double mosfet_trip_c = 90.0;   ///< sets fault bit 3 ...
+  double mosfet_reset_c = 80.0;  ///< ... cleared below this
+  double bus_min_v = 260.0;      ///< outside: fault bit 0
   double bus_max_v = 360.0;
 };
 
@@ -115,7 +115,9 @@ class Machine {
 
   // ---- what the registers show ----
   uint16_t mode() const noexcept { return mode_; }
-  uint16_t state() const noexcept { return state_value(phase_ == Phase::fault ? Family::none : family_, phase_); }
+  uint16_t state() const noexcept {
+    return state_value(phase_ == Phase::fault ? Family::none : family_, phase_);
+  }
   Phase phase() const noexcept { return phase_; }
   Family family() const noexcept { return family_; }
   uint16_t speed() const noexcept { return speed_; }
@@ -166,12 +168,12 @@ class Machine {
   uint16_t mode_ = 0;
   Phase phase_ = Phase::off;
   Family family_ = Family::none;
-  uint16_t speed_ = 0;        ///< register 0x0023: the set speed
-  uint16_t time_s_ = 0;       ///< register 0x0024
-  uint32_t second_ms_ = 0;    ///< run time within the current second
-  uint32_t initial_ms_ = 0;   ///< time spent in `initial`
-  unsigned segment_ = 0;      ///< training: current segment
-  int override_segment_ = -1; ///< training: a written speed holds until this segment ends
+  uint16_t speed_ = 0;         ///< register 0x0023: the set speed
+  uint16_t time_s_ = 0;        ///< register 0x0024
+  uint32_t second_ms_ = 0;     ///< run time within the current second
+  uint32_t initial_ms_ = 0;    ///< time spent in `initial`
+  unsigned segment_ = 0;       ///< training: current segment
+  int override_segment_ = -1;  ///< training: a written speed holds until this segment ends
 
   uint16_t pairing_ = 0;
   uint64_t pairing_until_ = 0;

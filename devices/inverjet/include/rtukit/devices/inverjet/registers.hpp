@@ -49,9 +49,9 @@ struct Choice {
 /// `stride` registers apart (the 50 segments of a training plan).
 struct Register {
   Table table;
-  uint16_t address;     ///< first (lowest) address
-  uint16_t words;       ///< 1, or 2 for 32-bit values (high word first, D-9)
-  std::string_view key; ///< stable identifier: JSON keys, CLI names
+  uint16_t address;      ///< first (lowest) address
+  uint16_t words;        ///< 1, or 2 for 32-bit values (high word first, D-9)
+  std::string_view key;  ///< stable identifier: JSON keys, CLI names
   std::string_view title;
   bool writable;
   Format format;
@@ -152,7 +152,9 @@ inline constexpr uint16_t kFreeTime = 0x0081;
 inline constexpr uint16_t kTimerSpeed = 0x0082;
 inline constexpr uint16_t kTimerTime = 0x0083;
 /// First register of plan `plan` (1..4): 0x0100, 0x0180, 0x0200, 0x0280.
-constexpr uint16_t plan_base(unsigned plan) noexcept { return static_cast<uint16_t>(0x0100 + 0x80 * (plan - 1)); }
+constexpr uint16_t plan_base(unsigned plan) noexcept {
+  return static_cast<uint16_t>(0x0100 + 0x80 * (plan - 1));
+}
 
 // Input registers.
 inline constexpr uint16_t kDisplaySoftware = 0x0000;

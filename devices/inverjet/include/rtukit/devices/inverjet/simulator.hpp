@@ -58,12 +58,12 @@ class MachineBank final : public RegisterBank {
 };
 
 struct SimulatorOptions {
-  io::PortSpec listen;                  ///< listening form (pty, serial device, tcp://, rtu+tcp://)
-  std::optional<uint8_t> unit;          ///< overrides the persisted address
-  std::optional<uint32_t> baud;         ///< overrides the persisted baud rate (1200..19200 with a code)
-  std::string state_file;               ///< empty: settings live in memory only
-  double time_scale = 1.0;              ///< device seconds per real second (> 0)
-  RequestLog log;                       ///< every request/response, for -v
+  io::PortSpec listen;           ///< listening form (pty, serial device, tcp://, rtu+tcp://)
+  std::optional<uint8_t> unit;   ///< overrides the persisted address
+  std::optional<uint32_t> baud;  ///< overrides the persisted baud rate (1200..19200 with a code)
+  std::string state_file;        ///< empty: settings live in memory only
+  double time_scale = 1.0;       ///< device seconds per real second (> 0)
+  RequestLog log;                ///< every request/response, for -v
   std::function<void(std::string_view)> notice;  ///< one-line notices (warnings, address changes)
 };
 

@@ -19,7 +19,7 @@ namespace rtukit::inverjet {
 std::string default_state_path();
 
 struct LoadedSettings {
-  Settings settings;    ///< what was loaded, or the factory defaults
+  Settings settings;  ///< what was loaded, or the factory defaults
   bool from_file = false;
   std::string warning;  ///< why the defaults are used (missing, truncated, bad checksum...), else empty
 };
