@@ -12,6 +12,8 @@
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/port.hpp"
+#include "rtukit/io/serial_config.hpp"
+#include "wire.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;
@@ -59,6 +61,42 @@ class InverjetSim : public ::testing::Test {
   std::string tty_ = dir_ / "tty";
   std::unique_ptr<Process> sim_;
 };
+
+// ------------------------------------------------------------ seed frames, raw bytes on the pty
+
+// Writes `request` to the pty as is and returns what comes back within
+// `wait` (hex), the way a logic analyser would see it.
+std::string exchange(int fd, const std::string& request, std::chrono::milliseconds wait = 300ms) {
+  const auto out = bytes(request);
+  if (::write(fd, out.data(), out.size()) != static_cast<ssize_t>(out.size())) return "write failed";
+  std::vector<uint8_t> in;
+  const auto end = std::chrono::steady_clock::now() + wait;
+  while (std::chrono::steady_clock::now() < end) {
+    uint8_t buf[256];
+    const ssize_t n = ::read(fd, buf, sizeof buf);
+    if (n > 0) in.insert(in.end(), buf, buf + n);
+    std::this_thread::sleep_for(5ms);
+  }
+  return hex(in);
+}
+
+TEST_F(InverjetSim, SeedFramesByteForByte_OverThePty) {
+  start("1");  // real time: the 3-s initial state lasts while we look
+  const int fd = ::open(tty_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+  ASSERT_GE(fd, 0);
+  ASSERT_FALSE(io::make_raw(fd));
+  EXPECT_EQ(exchange(fd, "15 03 00 00 00 01 87 1E"), "15 03 02 00 15 49 88");
+  EXPECT_EQ(exchange(fd, "15 03 00 21 00 04 17 17"), "15 03 08 00 00 00 00 00 00 00 00 D4 27");
+  EXPECT_EQ(exchange(fd, "15 10 00 21 00 04 00 00 00 06 00 50 07 08 97 5F"), "15 10 00 21 00 04 92 D4");
+  EXPECT_EQ(exchange(fd, "15 03 00 21 00 04 17 17"), "15 03 08 00 00 00 06 00 50 07 08 5F C0");
+  EXPECT_EQ(exchange(fd, "15 10 00 21 00 02 00 00 00 01 25 40"), "15 10 00 21 00 02 12 D6");  // short form
+  EXPECT_EQ(exchange(fd, "15 10 00 21 00 02 04 00 00 00 06 F1 89"),
+            "15 10 00 21 00 02 12 D6");                                           // standard form
+  EXPECT_EQ(exchange(fd, "15 06 00 00 00 0C 8A DB"), "15 06 00 00 00 0C 8A DB");  // answered from 0x15...
+  EXPECT_EQ(exchange(fd, "15 03 00 00 00 01 87 1E"), "");                         // ...which is gone
+  EXPECT_EQ(exchange(fd, "0C 03 00 00 00 01 85 17"), "0C 03 02 00 0C 95 80");
+  ::close(fd);
+}
 
 // ------------------------------------------------------------ typed client
 
@@ -285,18 +323,21 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
   ASSERT_EQ(cli({"inverjet", "plan", "set", "2", dir_ / "plan.csv"}).code, 0);
   ASSERT_EQ(cli({"inverjet", "start", "--timer", "25:00", "--speed", "65", "--remember"}).code, 0);
   ASSERT_EQ(cli({"inverjet", "config", "mask", "4"}).code, 0);
+  ASSERT_EQ(cli({"inverjet", "config", "baud", "19200"}).code, 0);  // a pty carries any rate
+  EXPECT_TRUE(sim_->wait_for_output("baud rate changed to 19200")) << sim_->output();
   RunResult r = cli({"inverjet", "config", "address", "12"});  // seed 3.2.1: answered from 21
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(cli({"inverjet", "status", "--timeout", "200"}).code, 3);  // 21 is gone
   EXPECT_EQ(status("12")["mode"], 0);
 
   start();  // a new process on the same state file, no --unit: the saved address
-  EXPECT_NE(sim_->output().find("unit 12"), std::string::npos) << sim_->output();
+  EXPECT_NE(sim_->output().find("unit 12, 19200 baud"), std::string::npos) << sim_->output();
   r = cli({"inverjet", "config", "show", "--json", "--unit", "12"});
   ASSERT_EQ(r.code, 0) << r.output;
   const json c = json::parse(r.output);
   EXPECT_EQ(c["address"], 12);
   EXPECT_EQ(c["control_mask"], 4);
+  EXPECT_EQ(c["baud"], 4);
   EXPECT_EQ(c["timer_speed"], 65);
   EXPECT_EQ(c["timer_time"], 1500);
   r = cli({"inverjet", "plan", "show", "2", "--json", "--unit", "12"});
