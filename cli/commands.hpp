@@ -15,7 +15,10 @@ void add_generic_commands(CLI::App& app, Action& action);
 /// inverjet status|watch|start|pause|resume|stop|speed|plan|config|registers.
 void add_inverjet_commands(CLI::App& app, Action& action);
 
-/// sim inverjet (device simulators).
+/// rehand6600 status|watch|hold|pulse|set|errors|registers.
+void add_rehand6600_commands(CLI::App& app, Action& action);
+
+/// sim inverjet, sim rehand6600 (device simulators).
 void add_sim_commands(CLI::App& app, Action& action);
 
 }  // namespace rtukit::cli

@@ -21,6 +21,7 @@ enum Exit : int {
   kUsage = 2,
   kNoResponse = 3,
   kIoError = 4,
+  kRefused = 5,  ///< the device is not the expected one (handshake) or its rules refuse the command
 };
 
 /// Thrown inside a subcommand to leave with a message and an exit code;

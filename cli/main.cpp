@@ -1,5 +1,5 @@
 // rtukit: one binary, subcommands. Exit codes: 0 ok, 1 Modbus exception,
-// 2 usage, 3 no response, 4 I/O error. Errors are one line on stderr.
+// 2 usage, 3 no response, 4 I/O error, 5 refused (wrong device, device rules). Errors are one line on stderr.
 #include <fmt/core.h>
 
 #include <CLI/CLI.hpp>
@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   Action action;
   add_generic_commands(app, action);
   add_inverjet_commands(app, action);
+  add_rehand6600_commands(app, action);
   add_sim_commands(app, action);
   try {
     app.parse(argc, argv);

@@ -1,0 +1,417 @@
+// `rtukit rehand6600 ...`: the wheelchair controller as the RK3588 host sees
+// it. One-shot reads go through the handshake first; watch and hold run the
+// host controller library (devices/rehand6600/host.hpp) with its leases and
+// UI rules. Decoding comes from the register table.
+#include <fmt/core.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "rtukit/devices/rehand6600/host.hpp"
+#include "rtukit/devices/rehand6600/registers.hpp"
+
+namespace rtukit::cli {
+namespace {
+
+namespace rh = rtukit::rehand6600;
+using nlohmann::json;
+
+struct ChairArgs {
+  LinkOptions link;
+  std::string unit = "1";
+  bool json = false;
+  bool mph = false;
+};
+
+void add_link(CLI::App& cmd, ChairArgs& a, bool reads) {
+  a.link.timeout_ms = 200;
+  a.link.add_to(cmd, false, rh::kDefaultBaud);
+  cmd.add_option("--unit,-u", a.unit, "the controller's address")->capture_default_str();
+  if (reads) {
+    cmd.add_flag("--json", a.json, "print JSON");
+    cmd.add_flag("--mph", a.mph, "speed in mph (default km/h)");
+  }
+}
+
+UnitId unit_of(const ChairArgs& a) {
+  return UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247))};
+}
+
+[[noreturn]] void master_error(const std::string& context, const std::string& reason) {
+  const bool silent = reason.find("timeout") != std::string::npos;
+  throw Failure{silent ? kNoResponse : kRefused,
+                fmt::format("{}: {}: {}", context, rh::error_text(rh::kMasterCommunicationError), reason)};
+}
+
+// The host's handshake, once: read 0x0000, expect 0x68.
+void handshake(Master& m, UnitId unit, const std::string& context) {
+  std::array<uint16_t, 1> id{};
+  if (Error e = m.read_holding_registers(unit, rh::reg::kDeviceId, id)) {
+    if (e.code() == Errc::io_error || e.code() == Errc::not_connected) fail(e, context);
+    master_error(context, e.is_exception()
+                              ? fmt::format("handshake: Modbus exception {:02X}", e.exception_code())
+                              : "handshake: no answer (" + std::string(e.name()) + ")");
+  }
+  if (id[0] != rh::kDeviceId)
+    master_error(
+        context,
+        fmt::format("handshake: device ID 0x{:02X}, expected 0x68 (not a Rehand 6600 controller?)", id[0]));
+}
+
+std::string v(const rh::Snapshot& s, std::string_view key) {
+  const rh::Register& r = *rh::find_register(key);
+  const std::string_view name = rh::choice_name(r, s[r.address]);
+  return name.empty() ? rh::format_value(r, s[r.address]) : std::string(name);
+}
+
+std::string speed_text(const rh::Snapshot& s, bool mph) {
+  return mph ? fmt::format("{:.1f} mph", s.speed_mph()) : fmt::format("{} km/h", s.speed_kmh());
+}
+
+std::string panel(const rh::Snapshot& s, bool mph) {
+  std::string out;
+  if (s.error_code())
+    out += fmt::format("!!! {} : every function is disabled !!!\n", rh::error_text(s.error_code()));
+  out += fmt::format("battery   {} %{}   clutch {}\n", s.battery(), s.charging() ? " (charging)" : "",
+                     v(s, "clutch"));
+  out += fmt::format("motion    {}   speed {}\n", v(s, "motion"), speed_text(s, mph));
+  out += fmt::format("lights    main {}, left {}, right {}\n", v(s, "main_light"), v(s, "left_signal"),
+                     v(s, "right_signal"));
+  out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}, seat tilt {}, leg rest {}\n",
+                     v(s, "seat_lift_status"), v(s, "backrest_status"), v(s, "stand_status"),
+                     v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
+  out += "actuators";
+  for (unsigned i = 0; i < 6; ++i)
+    out += fmt::format(" {}:{} {}", i + 1, s[static_cast<uint16_t>(rh::reg::kActuatorPosition + i)],
+                       v(s, fmt::format("actuator{}_state", i + 1)));
+  out += fmt::format("\ndistances front {} mm, rear {} mm, left {} mm, right {} mm\n",
+                     s[rh::reg::kDistanceFront], s[rh::reg::kDistanceFront + 1],
+                     s[rh::reg::kDistanceFront + 2], s[rh::reg::kDistanceFront + 3]);
+  out += fmt::format("buttons   horn {}, 360 view {}   error {}\n", v(s, "horn_button"), v(s, "view_button"),
+                     s.error_code() ? rh::error_text(s.error_code()) : "none");
+  return out;
+}
+
+std::string line(const rh::Snapshot& s, bool mph) {
+  return fmt::format(
+      "battery {}%{} | {} {} | light {} | seat {} stand {} legs {} | act {} {} {} {} {} {} | error {}",
+      s.battery(), s.charging() ? "+" : "", v(s, "motion"), speed_text(s, mph), v(s, "main_light"),
+      v(s, "seat_lift_status"), v(s, "stand_status"), v(s, "leg_rest_status"), s[0x15], s[0x16], s[0x17],
+      s[0x18], s[0x19], s[0x1A], s.error_code() ? rh::error_text(s.error_code()) : "none");
+}
+
+json snapshot_json(const rh::Snapshot& s, bool mph) {
+  json out;
+  for (const rh::Register& r : rh::registers()) {
+    if (r.table != rh::Table::status || r.key.starts_with("reserved")) continue;
+    out[std::string(r.key)] = r.is_signed ? json(static_cast<int16_t>(s[r.address])) : json(s[r.address]);
+  }
+  if (mph) out["speed_mph"] = s.speed_mph();
+  out["motion_name"] = v(s, "motion");
+  out["error_text"] = s.error_code() ? rh::error_text(s.error_code()) : "";
+  return out;
+}
+
+int run_status(const ChairArgs& a) {
+  const UnitId unit = unit_of(a);
+  auto master = a.link.make_master();
+  const std::string context = fmt::format("Rehand 6600 unit {} on {}", unit.value, master->describe());
+  handshake(*master, unit, context);
+  rh::Snapshot s;
+  if (Error e = master->read_holding_registers(unit, 0, s.regs)) fail(e, context);
+  s.valid = true;
+  if (a.json)
+    fmt::print("{}\n", snapshot_json(s, a.mph).dump());
+  else
+    fmt::print("{}", panel(s, a.mph));
+  return kOk;
+}
+
+std::atomic<bool> g_stop{false};
+
+// A running host controller for watch and hold; fails with 1010 when the
+// handshake does not succeed within `wait`.
+std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
+  rh::HostOptions o;
+  o.unit = unit_of(a);
+  o.response_timeout = std::chrono::milliseconds(a.link.timeout_ms);
+  auto host = std::make_unique<rh::Host>(io::make_link(a.link.spec(false)), o);
+  *context = fmt::format("Rehand 6600 unit {} on {}", o.unit.value, host->describe());
+  host->start();
+  if (!host->wait_connected(std::chrono::milliseconds(2000 + 4 * a.link.timeout_ms))) {
+    const std::string why = host->last_failure();
+    host->stop();
+    if (why.find("I/O error") != std::string::npos || why.find("not connected") != std::string::npos)
+      throw Failure{kIoError,
+                    fmt::format("{}: {}: {}", *context, rh::error_text(rh::kMasterCommunicationError), why)};
+    master_error(*context, why.empty() ? "no handshake" : why);
+  }
+  return host;
+}
+
+void catch_signals() {
+  g_stop = false;
+  std::signal(SIGINT, [](int) { g_stop = true; });
+  std::signal(SIGTERM, [](int) { g_stop = true; });
+}
+
+int run_watch(const ChairArgs& a, unsigned interval_ms, unsigned count) {
+  std::string context;
+  auto host = start_host(a, &context);
+  catch_signals();
+  host->on_event([](const rh::Event&) {});
+  const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
+  for (unsigned n = 0; !g_stop && (count == 0 || n < count); ++n) {
+    if (n > 0) {
+      const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(interval_ms);
+      while (!g_stop && std::chrono::steady_clock::now() < until)
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+      if (g_stop) break;
+    }
+    const rh::Snapshot s = host->snapshot();
+    const uint16_t err = host->active_error();
+    if (a.json) {
+      json j = snapshot_json(s, a.mph);
+      j["active_error"] = err ? rh::error_text(err) : "";
+      fmt::print("{}\n", j.dump());
+    } else if (tty) {
+      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n", context, interval_ms);
+      if (err == rh::kMasterCommunicationError)
+        fmt::print("!!! {}: {} !!!\n", rh::error_text(err), host->last_failure());
+      fmt::print("{}", panel(s, a.mph));
+    } else {
+      fmt::print("{}{}\n", err == rh::kMasterCommunicationError ? "[1010 Master Error] " : "",
+                 line(s, a.mph));
+    }
+    std::fflush(stdout);
+  }
+  host->stop();
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+  return kOk;
+}
+
+// "up", "down", "stand", "sit", "forward", "back", "extend", "retract", "on" or a number.
+uint16_t command_value(const rh::Register& r, const std::string& text) {
+  if (text.empty()) return 1;
+  for (const rh::Choice& c : r.choices) {
+    if (c.name == text && c.value != 0) return c.value;
+  }
+  const auto value = static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF));
+  if (rh::check_value(r, value) != Errc::ok) {
+    std::string names;
+    for (const rh::Choice& c : r.choices)
+      names += fmt::format("{}{} {}", names.empty() ? "" : ", ", c.value, c.name);
+    throw Failure{kUsage, fmt::format("{}: value {} is not one of: {}", r.key, text, names)};
+  }
+  return value;
+}
+
+const rh::Register& command_register(const std::string& key, rh::Kind kind) {
+  const rh::Register* r = rh::find_register(key);
+  if (!r || r->kind != kind || r->address == rh::reg::kHostReady) {
+    std::string names;
+    for (const rh::Register& x : rh::registers()) {
+      if (x.kind == kind && x.address != rh::reg::kHostReady)
+        names += (names.empty() ? "" : ", ") + std::string(x.key);
+    }
+    throw Failure{kUsage, fmt::format("'{}' is not a {} command ({})", key,
+                                      kind == rh::Kind::hold ? "hold" : "pulse", names)};
+  }
+  return *r;
+}
+
+// "2s", "500ms", "1.5" (seconds).
+std::chrono::milliseconds parse_duration(const std::string& text) {
+  std::string t = text;
+  double scale = 1000;
+  if (t.ends_with("ms")) {
+    scale = 1;
+    t.resize(t.size() - 2);
+  } else if (t.ends_with("s")) {
+    t.resize(t.size() - 1);
+  }
+  char* end = nullptr;
+  const double v = std::strtod(t.c_str(), &end);
+  if (t.empty() || *end != '\0' || !(v > 0) || v * scale > 600000)
+    throw Failure{kUsage, fmt::format("duration '{}': e.g. 2s, 500ms (at most 10 minutes)", text)};
+  return std::chrono::milliseconds(static_cast<long>(v * scale));
+}
+
+int run_hold(const ChairArgs& a, const std::string& key, const std::string& value_text,
+             const std::string& duration) {
+  const rh::Register& r = command_register(key, rh::Kind::hold);
+  const uint16_t value = command_value(r, value_text);
+  const auto length = parse_duration(duration);
+  std::string context;
+  auto host = start_host(a, &context);
+  catch_signals();
+  std::string why;
+  const auto start = std::chrono::steady_clock::now();
+  // Renew the lease well within its 300 ms, as a UI does while the button is held.
+  while (!g_stop && std::chrono::steady_clock::now() - start < length) {
+    if (Error e = host->hold(r.address, value, &why)) {
+      host->stop();
+      if (e.code() == Errc::invalid_argument)
+        throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, why)};
+      fail(e, context + ": hold " + std::string(key));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  (void)host->release(r.address);
+  (void)host->wait_poll(std::chrono::milliseconds(500));
+  const rh::Snapshot s = host->snapshot();
+  host->stop();
+  const auto held = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  fmt::print("held {} = {} for {:.1f} s, released\n", key, rh::format_value(r, value), held);
+  fmt::print("{}", panel(s, a.mph));
+  return kOk;
+}
+
+int run_pulse(const ChairArgs& a, const std::string& key) {
+  const rh::Register& r = command_register(key, rh::Kind::pulse);
+  std::string context;
+  auto host = start_host(a, &context);
+  std::string why;
+  Error e = host->pulse(r.address, &why);
+  (void)host->wait_poll(std::chrono::milliseconds(500));
+  const rh::Snapshot s = host->snapshot();
+  host->stop();
+  if (e.code() == Errc::invalid_argument)
+    throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, why)};
+  if (e) fail(e, context + ": pulse " + key);
+  fmt::print("pulsed {}: main light {}, left signal {}, right signal {}\n", key, v(s, "main_light"),
+             v(s, "left_signal"), v(s, "right_signal"));
+  return kOk;
+}
+
+int run_set(const ChairArgs& a, const std::string& what, const std::string& value) {
+  uint16_t n = 0;
+  if (what == "drive-mode") {
+    n = value == "normal" ? 1 : value == "indoor" ? 2 : value == "outdoor" ? 3 : 0;
+    if (!n)
+      n = static_cast<uint16_t>(parse_number(value, "drive mode (normal, indoor, outdoor or 1..3)", 1, 3));
+  } else if (what == "speed-level") {
+    n = static_cast<uint16_t>(parse_number(value, "speed level", 1, 5));
+  } else if (what == "host-fault") {
+    n = static_cast<uint16_t>(parse_number(value, "host fault code", 0, 0xFFFF));
+  } else {
+    throw Failure{kUsage, fmt::format("set {}: expected drive-mode, speed-level or host-fault", what)};
+  }
+  std::string context;
+  auto host = start_host(a, &context);
+  std::string why;
+  Error e = what == "drive-mode"    ? host->set_drive_mode(n, &why)
+            : what == "speed-level" ? host->set_speed_level(n, &why)
+                                    : host->set_host_fault(n);
+  host->stop();
+  if (e.code() == Errc::invalid_argument)
+    throw Failure{kRefused, fmt::format("{}: set {} refused: {}", context, what, why)};
+  if (e) fail(e, context + ": set " + what);
+  fmt::print("{} = {}\n", what, value);
+  return kOk;
+}
+
+int run_errors(bool as_json) {
+  if (!as_json) {
+    fmt::print("{}", rh::errors_markdown());
+    return kOk;
+  }
+  json out = json::array();
+  for (uint16_t c : rh::error_codes())
+    out.push_back({{"code", fmt::format("{:04X}", c)},
+                   {"function", rh::error_function(c)},
+                   {"text", rh::error_text(c)}});
+  fmt::print("{}\n", out.dump());
+  return kOk;
+}
+
+}  // namespace
+
+void add_rehand6600_commands(CLI::App& app, Action& action) {
+  CLI::App* chair = app.add_subcommand(
+      "rehand6600", "the Rehand 6600 wheelchair controller (unit 1, 115200 8N1 by default)");
+  chair->require_subcommand(1);
+  {
+    auto a = std::make_shared<ChairArgs>();
+    CLI::App* cmd =
+        chair->add_subcommand("status", "handshake, then table 1: battery, motion, lights, posture, error");
+    add_link(*cmd, *a, true);
+    cmd->callback([&action, a] { action = [a] { return run_status(*a); }; });
+  }
+  {
+    auto a = std::make_shared<ChairArgs>();
+    auto interval = std::make_shared<unsigned>(250);
+    auto count = std::make_shared<unsigned>(0);
+    CLI::App* cmd = chair->add_subcommand("watch", "live panel from the host controller until Ctrl-C");
+    add_link(*cmd, *a, true);
+    cmd->add_option("--interval", *interval, "ms between refreshes")
+        ->capture_default_str()
+        ->check(CLI::Range(50, 60000));
+    cmd->add_option("--count", *count, "stop after N refreshes (0 = until Ctrl-C)")->capture_default_str();
+    cmd->callback(
+        [&action, a, interval, count] { action = [=] { return run_watch(*a, *interval, *count); }; });
+  }
+  {
+    auto a = std::make_shared<ChairArgs>();
+    auto key = std::make_shared<std::string>();
+    auto value = std::make_shared<std::string>();
+    auto duration = std::make_shared<std::string>("1s");
+    CLI::App* cmd = chair->add_subcommand(
+        "hold", "hold a command (posture, phone drive, anti-pinch...) for a while, then release");
+    add_link(*cmd, *a, false);
+    cmd->add_option("CMD", *key,
+                    "stand, seat_lift, backrest, seat_tilt, leg_rotate, leg_extend, plate_tilt, anti_pinch, "
+                    "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
+        ->required();
+    cmd->add_option("VALUE", *value,
+                    "up|down, stand|sit, forward|back, extend|retract, on, or the number (default 1)");
+    cmd->add_option("--for", *duration, "how long (2s, 500ms)")->capture_default_str();
+    cmd->callback([&action, a, key, value, duration] {
+      action = [=] { return run_hold(*a, *key, *value, *duration); };
+    });
+  }
+  {
+    auto a = std::make_shared<ChairArgs>();
+    auto key = std::make_shared<std::string>();
+    CLI::App* cmd = chair->add_subcommand(
+        "pulse", "a pulse command: light, phone_left_signal, phone_right_signal, phone_light");
+    add_link(*cmd, *a, false);
+    cmd->add_option("CMD", *key, "the command")->required();
+    cmd->callback([&action, a, key] { action = [=] { return run_pulse(*a, *key); }; });
+  }
+  {
+    auto a = std::make_shared<ChairArgs>();
+    auto what = std::make_shared<std::string>();
+    auto value = std::make_shared<std::string>();
+    CLI::App* cmd =
+        chair->add_subcommand("set", "drive-mode normal|indoor|outdoor, speed-level 1..5, host-fault CODE");
+    add_link(*cmd, *a, false);
+    cmd->add_option("WHAT", *what, "drive-mode | speed-level | host-fault")->required();
+    cmd->add_option("VALUE", *value, "the value")->required();
+    cmd->callback([&action, a, what, value] { action = [=] { return run_set(*a, *what, *value); }; });
+  }
+  {
+    auto as_json = std::make_shared<bool>(false);
+    CLI::App* cmd = chair->add_subcommand("errors", "table 3: error codes, functions and UI texts");
+    cmd->add_flag("--json", *as_json, "print JSON");
+    cmd->callback([&action, as_json] { action = [=] { return run_errors(*as_json); }; });
+  }
+  {
+    CLI::App* cmd = chair->add_subcommand("registers", "tables 1 and 2 (Markdown), from the device table");
+    cmd->callback([&action] {
+      action = [] {
+        fmt::print("{}", rh::registers_markdown());
+        return kOk;
+      };
+    });
+  }
+}
+
+}  // namespace rtukit::cli

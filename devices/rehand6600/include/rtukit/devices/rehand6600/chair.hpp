@@ -1,0 +1,125 @@
+// The Rehand 6600 controller as a behaviour model: a pure step function over
+// an injected clock (device milliseconds), no I/O, no threads.
+//
+// Modbus side: read (table 1) and write (table 2) with the spec's strict
+// tables (D-3), the fault lock-out (D-6) and the communication watchdog (D-5):
+// `frame_received(now)` is called for every valid frame addressed to the
+// controller; when none came for `watchdog_ms`, every hold-type motion
+// command is reset to 0 and the chair stops.
+//
+// Physical side (the simulator's console, or a test): joystick, physical
+// posture buttons (they outrank UI commands), charger, clutch, obstacle
+// distances, battery, joystick buttons, error codes, actuator over-current.
+//
+// Decisions where the spec is silent are listed in docs/rehand6600.md (R-n).
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <span>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/devices/rehand6600/registers.hpp"
+
+namespace rtukit::rehand6600 {
+
+struct ChairModel {
+  double full_stroke_s = 10.0;  ///< an actuator from 0 to 1000 per-mille
+  double accel_kmh_per_s = 2.0;
+  double decel_kmh_per_s = 4.0;
+  double drain_pct_per_s = 0.05;  ///< battery while moving
+  double charge_pct_per_s = 0.1;
+  uint16_t stop_distance_mm = 300;     ///< an obstacle closer than this stops motion towards it
+  uint16_t software_version = 0x0102;  ///< V1.2
+};
+
+class Chair {
+ public:
+  static constexpr unsigned kActuators = 6;
+
+  /// Power-on (D-7), at device time `now_ms`. `watchdog_ms` 0 disables D-5.
+  explicit Chair(uint64_t now_ms = 0, uint32_t watchdog_ms = 500, const ChairModel& model = {}) noexcept;
+
+  // ---- clock ----
+  void advance_to(uint64_t now_ms) noexcept;
+  uint64_t now_ms() const noexcept { return now_; }
+
+  // ---- Modbus side ----
+  /// A valid frame addressed to the controller arrived (feeds the watchdog).
+  void frame_received() noexcept { last_frame_ = now_; }
+  /// FC03: table 1 only. Errors: 02 for table 2, the gap, or past 0x007F.
+  Errc read(uint16_t address, std::span<uint16_t> out) const noexcept;
+  /// FC06/FC10: table 2 only. Errors: 02 (table 1, gap), 03 (value not
+  /// listed), 04 (a motion command during a local fault, D-6; a phone drive
+  /// command while the joystick is used or the chair moves under local
+  /// control). All or nothing.
+  Errc write(uint16_t address, std::span<const uint16_t> values) noexcept;
+
+  // ---- physical side ----
+  /// Joystick deflection, -100..100 each (x: right positive, y: forward positive).
+  void set_joystick(int x, int y) noexcept;
+  /// A physical posture button: `command` is a posture register (0x0062..0x0068),
+  /// `value` its direction (1/2), 0 releases. Outranks UI commands while held.
+  void press_button(uint16_t command, uint16_t value) noexcept;
+  void set_charging(bool on) noexcept { charging_ = on; }
+  void set_clutch_drive(bool drive) noexcept { clutch_drive_ = drive; }
+  void set_distance(unsigned side, uint16_t mm) noexcept;  ///< 0 front, 1 rear, 2 left, 3 right
+  void set_battery(double percent) noexcept;
+  void set_error(uint16_t code) noexcept { error_ = code; }
+  void set_actuator_overcurrent(unsigned actuator, bool on) noexcept;  ///< actuator 1..6
+  void set_horn_button(bool on) noexcept { horn_button_ = on; }
+  void set_view_button(bool on) noexcept { view_button_ = on; }
+  /// The device ID register (0x68; another value simulates a wrong device).
+  void set_device_id(uint16_t id) noexcept { device_id_ = id; }
+
+  // ---- state ----
+  /// A table-1 register's value (0x0000..0x002F).
+  uint16_t status(uint16_t address) const noexcept;
+  /// A table-2 register's value as last written (or reset by the watchdog).
+  uint16_t command(uint16_t address) const noexcept { return commands_[address - reg::kCommandFirst]; }
+  double speed_kmh() const noexcept { return speed_; }
+  double actuator(unsigned i) const noexcept { return position_[i - 1]; }  ///< 1..6, per-mille
+  /// Times the watchdog has reset the motion commands.
+  unsigned watchdog_trips() const noexcept { return watchdog_trips_; }
+
+ private:
+  struct Drive {
+    uint16_t motion = 1;  ///< table 1 motion code
+    double target = 0;    ///< km/h
+  };
+  Drive drive_demand() const noexcept;
+  void step(uint32_t dt_ms) noexcept;
+  void move_actuators(double dt) noexcept;
+  bool joystick_neutral() const noexcept {
+    return joy_x_ > -10 && joy_x_ < 10 && joy_y_ > -10 && joy_y_ < 10;
+  }
+  bool phone_driving() const noexcept;
+
+  ChairModel model_;
+  uint64_t now_ = 0;
+  uint64_t last_frame_ = 0;
+  uint32_t watchdog_ms_;
+  unsigned watchdog_trips_ = 0;
+
+  std::array<uint16_t, reg::kCommandCount> commands_{};
+  int joy_x_ = 0, joy_y_ = 0;
+  uint16_t button_command_ = 0, button_value_ = 0;
+  bool charging_ = false;
+  bool clutch_drive_ = true;
+  std::array<uint16_t, 4> distance_{2000, 2000, 2000, 2000};
+  double battery_ = 80;
+  uint16_t error_ = 0;
+  bool horn_button_ = false, view_button_ = false;
+  uint16_t device_id_ = kDeviceId;
+
+  bool main_light_ = false, left_signal_ = false, right_signal_ = false;
+  double speed_ = 0;
+  uint16_t motion_ = 1;
+  bool local_control_ = false;  ///< the current motion comes from the joystick
+  std::array<double, kActuators> position_{};
+  std::array<uint16_t, kActuators> actuator_state_{};  ///< 0x001B..0x0020
+  std::array<bool, kActuators> overcurrent_{};
+  std::array<uint16_t, 5> posture_status_{};  ///< 0x0010..0x0014
+};
+
+}  // namespace rtukit::rehand6600

@@ -1,0 +1,162 @@
+// The RK3588 host's side of the Rehand 6600 protocol, as a library: one
+// object owns the link and runs the host protocol on its own thread.
+//
+//  - Handshake: read 0x0000; an answer other than 0x68 (or none) raises Master
+//    error 1010 and is retried every `handshake_retry`; on success, write
+//    0x006B = 1 (boot complete) and start polling.
+//  - Polling: table 1 (48 registers, one FC03) at `poll_hz`; each poll gives a
+//    consistent Snapshot and change events. `failures_to_error` consecutive
+//    failures raise 1010 and go back to the handshake; recovery clears it.
+//  - Commands: hold(command, value) keeps a hold-type command active under a
+//    lease: the UI must renew it (call hold again) within `lease`, else the
+//    library releases it (writes 0) by itself. The held value is rewritten
+//    every poll, so the controller's watchdog (D-5) never sees a stale hold.
+//    pulse() writes 1 then 0. Settings: drive mode, speed level, host fault.
+//  - UI rules, enforced with a reason: no driving while charging or in push,
+//    phone drive only while static, nothing but releasing (and reporting a
+//    host fault) while an error overlay is active (local 0x0026 or 1010).
+//
+//   rtukit::rehand6600::Host host(rtukit::io::make_link(spec));
+//   host.on_event([](const rtukit::rehand6600::Event& e) { ... });  // on the host's thread
+//   host.start();
+//   std::string why;
+//   if (rtukit::Error e = host.hold(rtukit::rehand6600::reg::kSeatLift, 1, &why)) { ... why ... }
+#pragma once
+
+#include <array>
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "rtukit/core/error.hpp"
+#include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/driver/master.hpp"
+#include "rtukit/io/link.hpp"
+
+namespace rtukit::rehand6600 {
+
+struct HostOptions {
+  UnitId unit{kDefaultAddress};
+  double poll_hz = 20;
+  unsigned failures_to_error = 3;
+  std::chrono::milliseconds lease{300};
+  std::chrono::milliseconds handshake_retry{1000};
+  std::chrono::milliseconds response_timeout{100};
+};
+
+/// Table 1 as one consistent reading.
+struct Snapshot {
+  std::array<uint16_t, reg::kStatusCount> regs{};
+  bool valid = false;  ///< false until the first successful poll
+  uint64_t sequence = 0;
+
+  uint16_t operator[](uint16_t address) const noexcept { return regs[address]; }
+  unsigned battery() const noexcept { return regs[reg::kBattery]; }
+  bool charging() const noexcept { return regs[reg::kCharging] != 0; }
+  unsigned speed_kmh() const noexcept { return regs[reg::kSpeed]; }
+  double speed_mph() const noexcept { return regs[reg::kSpeed] * 0.621371; }
+  bool clutch_drive() const noexcept { return regs[reg::kClutch] == 1; }
+  uint16_t motion() const noexcept { return regs[reg::kMotion]; }
+  bool is_static() const noexcept { return regs[reg::kMotion] == 1 && regs[reg::kSpeed] == 0; }
+  uint16_t error_code() const noexcept { return regs[reg::kErrorCode]; }
+};
+
+struct Event {
+  enum class Type : uint8_t {
+    connected,      ///< handshake succeeded
+    changed,        ///< a table-1 register changed (address, before, value)
+    horn,           ///< rising edge of 0x0023: play the horn
+    view,           ///< rising edge of 0x0024: show the 360-degree view
+    error_raised,   ///< code = the error (local 0x0026 or 1010)
+    error_cleared,  ///< code = the error that went away
+    released,       ///< the library released a hold whose lease ran out (address)
+  };
+  Event(Type t, uint16_t address_ = 0, uint16_t before_ = 0, uint16_t value_ = 0, uint16_t code_ = 0,
+        std::string reason_ = {})
+      : type(t), address(address_), before(before_), value(value_), code(code_), reason(std::move(reason_)) {}
+  Type type;
+  uint16_t address = 0;
+  uint16_t before = 0;
+  uint16_t value = 0;
+  uint16_t code = 0;
+  std::string reason;  ///< for error_raised: why (e.g. "device ID 0x69, expected 0x68", "timeout")
+};
+
+class Host {
+ public:
+  /// Takes the link (opened by the host's thread).
+  explicit Host(std::unique_ptr<io::Link> link, HostOptions options = {});
+  ~Host();  ///< stops the thread (releasing every hold first)
+  Host(const Host&) = delete;
+  Host& operator=(const Host&) = delete;
+
+  /// Called on the host's thread for every event. Set before start().
+  void on_event(std::function<void(const Event&)> handler);
+  void start();
+  /// Releases every hold, then stops the thread. Idempotent.
+  void stop();
+
+  Snapshot snapshot() const;
+  bool connected() const;
+  /// The error the overlay shows: 1010 while the link is down, else 0x0026; 0 = none.
+  uint16_t active_error() const;
+  /// Why the last handshake or poll failed ("timeout", "device ID 0x69, expected 0x68").
+  std::string last_failure() const;
+  /// Blocks until connected or `timeout`; true when connected.
+  bool wait_connected(std::chrono::milliseconds timeout) const;
+  /// Blocks until a poll newer than the current snapshot arrived (or timeout).
+  bool wait_poll(std::chrono::milliseconds timeout) const;
+
+  /// Holds a hold-type command (posture 0x0062..0x0068, anti-pinch, phone
+  /// drive 0x006E..0x0071, phone horn, SOS) at `value` for one lease; call
+  /// again to renew. Errors: invalid_argument with `why` (not a hold
+  /// command, a value not listed, a UI rule), or the write's error.
+  Error hold(uint16_t command, uint16_t value, std::string* why = nullptr);
+  /// Releases a hold now (writes 0). Always allowed.
+  Error release(uint16_t command);
+  /// A pulse command (0x0061, 0x0072, 0x0073, 0x0075): writes 1 (2 for
+  /// 0x0075, as the seed does), then 0.
+  Error pulse(uint16_t command, std::string* why = nullptr);
+  Error set_drive_mode(uint16_t mode, std::string* why = nullptr);    ///< 1 normal, 2 indoor, 3 outdoor
+  Error set_speed_level(uint16_t level, std::string* why = nullptr);  ///< 1..5
+  Error set_host_fault(uint16_t code);                                ///< 0 = none; allowed during an overlay
+
+  const HostOptions& options() const noexcept { return options_; }
+  std::string describe() const { return master_.describe(); }
+
+ private:
+  void run();
+  bool handshake();
+  bool poll();
+  void service_holds();
+  void emit(const Event& e);
+  void raise_comm_error(const std::string& reason);
+  Error check_ui_rules(const Register& r, uint16_t value, std::string* why) const;
+  Error write_command(uint16_t address, uint16_t value);
+
+  HostOptions options_;
+  Master master_;
+  std::function<void(const Event&)> handler_;
+  std::thread thread_;
+
+  mutable std::mutex mutex_;
+  mutable std::condition_variable cv_;
+  bool stopping_ = false;
+  bool connected_ = false;
+  bool comm_error_ = false;
+  unsigned failures_ = 0;
+  std::string last_failure_;
+  Snapshot snapshot_{};
+  struct Lease {
+    uint16_t value = 0;
+    std::chrono::steady_clock::time_point until{};
+  };
+  std::array<Lease, reg::kCommandCount> holds_{};
+};
+
+}  // namespace rtukit::rehand6600
