@@ -217,17 +217,6 @@ Chair::Drive Chair::drive_demand() const noexcept {
 
 void Chair::step(uint32_t dt_ms) noexcept {
   const double dt = dt_ms / 1000.0;
-  // D-5: no frame for the watchdog time -> every hold-type motion command off.
-  if (watchdog_ms_ && now_ >= last_frame_ + watchdog_ms_) {
-    bool reset = false;
-    for (uint16_t r : kWatchdogHolds) {
-      uint16_t& slot = commands_[r - reg::kCommandFirst];
-      reset = reset || slot != 0;
-      slot = 0;
-    }
-    if (reset) ++watchdog_trips_;
-  }
-
   // Driving: a change of direction first brings the chair to a stop.
   const Drive d = drive_demand();
   double target = d.target;
@@ -248,6 +237,17 @@ void Chair::step(uint32_t dt_ms) noexcept {
     battery_ = std::max(0.0, battery_ - model_.drain_pct_per_s * dt);
 
   move_actuators(dt);
+
+  // D-5: no frame for the watchdog time -> every hold-type motion command off.
+  if (watchdog_ms_ && now_ >= last_frame_ + watchdog_ms_) {
+    bool reset = false;
+    for (uint16_t r : kWatchdogHolds) {
+      uint16_t& slot = commands_[r - reg::kCommandFirst];
+      reset = reset || slot != 0;
+      slot = 0;
+    }
+    if (reset) ++watchdog_trips_;
+  }
 }
 
 void Chair::move_actuators(double dt) noexcept {
