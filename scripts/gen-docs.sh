@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Regenerates the register references in docs/ from the device tables
-# (`rtukit inverjet registers`). A test fails when the docs are stale.
+# (`rtukit inverjet registers`, `rtukit rehand6600 registers|errors`). A test fails when the docs are stale.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh default >/dev/null
@@ -21,4 +21,6 @@ open(path, "w").write(text[:a] + "\n" + body + "\n" + text[b:])
 PY
 }
 replace docs/inverjet.md "rtukit inverjet registers" inverjet registers
+replace docs/rehand6600.md "rtukit rehand6600 registers" rehand6600 registers
+replace docs/rehand6600.md "rtukit rehand6600 errors" rehand6600 errors
 echo "docs regenerated"

@@ -1,0 +1,351 @@
+// The simulated Rehand 6600 controller as the RK3588 host meets it: the
+// `rtukit sim rehand6600` process on a pty, driven by the host controller
+// library (in this process), by the rtukit CLI, by its console (stdin), and
+// by peers we did not write. The host controller is also run against a
+// generic libmodbus slave. Tests poll for conditions, never sleep for them.
+#include <gtest/gtest.h>
+#include <signal.h>
+
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "process.hpp"
+#include "rtukit/devices/rehand6600/host.hpp"
+#include "rtukit/io/link.hpp"
+#include "rtukit/io/port.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+using namespace rtukit::rehand6600;
+using namespace std::chrono_literals;
+using nlohmann::json;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+
+// Events as the host delivered them, for polling from the test thread.
+class Recorder {
+ public:
+  void operator()(const Event& e) {
+    std::lock_guard lock(mutex_);
+    events_.push_back(e);
+  }
+  size_t count(Event::Type t, uint16_t code = 0) const {
+    std::lock_guard lock(mutex_);
+    size_t n = 0;
+    for (const Event& e : events_) n += e.type == t && (code == 0 || e.code == code || e.address == code);
+    return n;
+  }
+  std::string reason(Event::Type t) const {
+    std::lock_guard lock(mutex_);
+    for (const Event& e : events_) {
+      if (e.type == t) return e.reason;
+    }
+    return {};
+  }
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<Event> events_;
+};
+
+std::unique_ptr<Host> make_host(const std::string& port, Recorder& rec) {
+  std::string why;
+  auto spec = io::parse_port(port, false, &why);
+  spec->serial.baud = 115200;
+  HostOptions o;
+  o.response_timeout = 100ms;
+  auto host = std::make_unique<Host>(io::make_link(*spec), o);
+  host->on_event([&rec](const Event& e) { rec(e); });
+  return host;
+}
+
+class RehandSim : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    sim_ = std::make_unique<Process>(
+        std::vector<std::string>{kRtukit, "sim", "rehand6600", "--listen", "pty:" + tty_}, /*stdin_pipe=*/true);
+    ASSERT_TRUE(sim_->wait_for_output("listening on")) << sim_->output();
+  }
+  void console(const std::string& line) {
+    const size_t before = sim_->output().size();
+    ASSERT_TRUE(sim_->send(line + "\n"));
+    // Wait for the reply so the next step sees the effect.
+    ASSERT_TRUE(eventually([&] { return sim_->output().size() > before; })) << line;
+  }
+  RunResult cli(std::vector<std::string> args, bool with_port = true) {
+    args.insert(args.begin(), kRtukit);
+    if (with_port) {
+      args.push_back("--port");
+      args.push_back(tty_);
+    }
+    return run(args);
+  }
+
+  TempDir dir_;
+  std::string tty_ = dir_ / "tty";
+  std::unique_ptr<Process> sim_;
+};
+
+// ------------------------------------------------------------ host controller
+
+TEST_F(RehandSim, Host_HandshakeWritesBootCompleteAndPolls) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s)) << host->last_failure();
+  EXPECT_EQ(rec.count(Event::Type::connected), 1u);
+  const Snapshot s = host->snapshot();
+  EXPECT_EQ(s[reg::kDeviceId], 0x68);
+  EXPECT_EQ(s.battery(), 80u);
+  EXPECT_TRUE(s.is_static());
+  EXPECT_EQ(host->active_error(), 0);
+  console("status");
+  EXPECT_TRUE(sim_->wait_for_output("host_ready=1")) << sim_->output();
+  // 20 Hz: a second brings about twenty polls.
+  const uint64_t first = host->snapshot().sequence;
+  std::this_thread::sleep_for(1s);
+  EXPECT_GE(host->snapshot().sequence - first, 12u);
+}
+
+TEST_F(RehandSim, Host_WrongDeviceId_Raises1010UntilFixed) {
+  console("id 0x69");
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }));
+  EXPECT_NE(rec.reason(Event::Type::error_raised).find("device ID 0x69"), std::string::npos);
+  EXPECT_EQ(host->active_error(), kMasterCommunicationError);
+  std::string why;
+  EXPECT_EQ(host->hold(reg::kSeatLift, 1, &why), Errc::invalid_argument);
+  EXPECT_NE(why.find("1010 Master Error"), std::string::npos) << why;
+  console("id 0x68");
+  ASSERT_TRUE(host->wait_connected(3s));  // the handshake is retried every second
+  EXPECT_EQ(rec.count(Event::Type::error_cleared, kMasterCommunicationError), 1u);
+  EXPECT_EQ(host->active_error(), 0);
+}
+
+TEST_F(RehandSim, Host_LinkCut_1010AfterThreeFailures_RecoversWhenBack) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s));
+  ::kill(sim_->pid(), SIGSTOP);  // the controller stops answering
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }, 3s));
+  EXPECT_NE(rec.reason(Event::Type::error_raised).find("3 consecutive polls failed"), std::string::npos)
+      << rec.reason(Event::Type::error_raised);
+  EXPECT_FALSE(host->connected());
+  ::kill(sim_->pid(), SIGCONT);
+  ASSERT_TRUE(eventually([&] { return host->connected(); }, 5s));
+  EXPECT_EQ(rec.count(Event::Type::error_cleared, kMasterCommunicationError), 1u);
+  EXPECT_EQ(rec.count(Event::Type::connected), 2u);
+}
+
+TEST_F(RehandSim, Host_HornAndViewRisingEdges) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s));
+  console("horn on");
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::horn) == 1; }));
+  ASSERT_TRUE(host->wait_poll(1s));
+  EXPECT_EQ(rec.count(Event::Type::horn), 1u);  // held: no new edge
+  console("horn off");
+  ASSERT_TRUE(eventually([&] { return host->snapshot()[reg::kHornButton] == 0; }));
+  console("horn on");
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::horn) == 2; }));
+  console("view on");
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::view) == 1; }));
+  EXPECT_GE(rec.count(Event::Type::changed, reg::kViewButton), 1u);
+}
+
+TEST_F(RehandSim, Host_LeaseExpiryReleasesAHold_RenewalKeepsIt) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s));
+  // Renewed every 100 ms for a second: the seat keeps rising.
+  for (int i = 0; i < 10; ++i) {
+    ASSERT_FALSE(host->hold(reg::kSeatLift, 1));
+    std::this_thread::sleep_for(100ms);
+  }
+  EXPECT_EQ(rec.count(Event::Type::released), 0u);
+  EXPECT_EQ(host->snapshot()[reg::kSeatLiftStatus], 1);
+  // Not renewed: the library releases it after the 300-ms lease.
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::released, reg::kSeatLift) == 1; }, 2s));
+  ASSERT_TRUE(eventually([&] { return host->snapshot()[reg::kSeatLiftStatus] == 0; }));
+  const uint16_t at = host->snapshot()[reg::kActuatorPosition];
+  EXPECT_GE(at, 90);
+  std::this_thread::sleep_for(300ms);
+  EXPECT_EQ(host->snapshot()[reg::kActuatorPosition], at);  // stopped
+}
+
+TEST_F(RehandSim, Host_ErrorOverlayRefusesCommandsButReleasing) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s));
+  console("error 10C3");
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, 0x10C3) == 1; }));
+  EXPECT_EQ(rec.reason(Event::Type::error_raised), "10C3 Seat lift Error");
+  EXPECT_EQ(host->active_error(), 0x10C3);
+  std::string why;
+  EXPECT_EQ(host->hold(reg::kStandSit, 1, &why), Errc::invalid_argument);
+  EXPECT_NE(why.find("10C3 Seat lift Error"), std::string::npos) << why;
+  EXPECT_EQ(host->pulse(reg::kLight, &why), Errc::invalid_argument);
+  EXPECT_EQ(host->set_speed_level(3, &why), Errc::invalid_argument);
+  EXPECT_FALSE(host->release(reg::kStandSit));
+  EXPECT_FALSE(host->set_host_fault(0x0042));
+  console("error clear");
+  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_cleared, 0x10C3) == 1; }));
+  EXPECT_FALSE(host->pulse(reg::kLight));
+  ASSERT_TRUE(eventually([&] { return host->snapshot()[reg::kMainLight] == 1; }));
+}
+
+TEST_F(RehandSim, Host_UiRules_ChargingPushAndPhoneOnlyWhileStatic) {
+  Recorder rec;
+  auto host = make_host(tty_, rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(3s));
+  std::string why;
+  console("charger on");
+  ASSERT_TRUE(eventually([&] { return host->snapshot().charging(); }));
+  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
+  EXPECT_EQ(why, "no driving while charging");
+  console("charger off");
+  console("clutch push");
+  ASSERT_TRUE(eventually([&] { return !host->snapshot().clutch_drive(); }));
+  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
+  EXPECT_NE(why.find("push"), std::string::npos);
+  console("clutch drive");
+  console("joystick 0 80");
+  ASSERT_TRUE(eventually([&] { return !host->snapshot().is_static(); }));
+  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
+  EXPECT_EQ(why, "phone drive only while the chair is static");
+  console("joystick 0 0");
+  ASSERT_TRUE(eventually([&] { return host->snapshot().is_static(); }, 5s));
+  EXPECT_FALSE(host->hold(reg::kPhoneForward, 1));
+  ASSERT_TRUE(eventually([&] {
+    (void)host->hold(reg::kPhoneForward, 1);  // the UI renews while the button is held
+    return host->snapshot().motion() == 2;
+  }));
+  host->stop();  // releases every hold
+  console("status");
+  EXPECT_TRUE(sim_->wait_for_output("held commands: host_ready=1\n")) << sim_->output();
+}
+
+// ------------------------------------------------------------ CLI
+
+TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
+  RunResult r = cli({"rehand6600", "status", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  const json s = json::parse(r.output);
+  EXPECT_EQ(s["device_id"], 0x68);
+  EXPECT_EQ(s["motion_name"], "static");
+  r = cli({"rehand6600", "hold", "seat_lift", "up", "--for", "1s"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("held seat_lift = up (1)"), std::string::npos) << r.output;
+  EXPECT_EQ(json::parse(cli({"rehand6600", "status", "--json"}).output)["seat_lift_status"], 0);  // released
+  EXPECT_GE(json::parse(cli({"rehand6600", "status", "--json"}).output)["actuator1_position"].get<int>(), 80);
+  r = cli({"rehand6600", "pulse", "light"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("main light on"), std::string::npos) << r.output;
+  EXPECT_EQ(cli({"rehand6600", "set", "drive-mode", "outdoor"}).code, 0);
+  EXPECT_EQ(cli({"rehand6600", "set", "speed-level", "4"}).code, 0);
+  r = cli({"rehand6600", "watch", "--count", "2", "--interval", "100", "--mph"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
+  EXPECT_NE(r.output.find("0.0 mph"), std::string::npos) << r.output;
+  r = cli({"rehand6600", "errors"}, false);
+  EXPECT_NE(r.output.find("| 10C1..10CB | Seat lift | 10C1 Seat lift Error |"), std::string::npos) << r.output;
+}
+
+TEST_F(RehandSim, Cli_FailuresExitCodes) {
+  struct Case {
+    std::vector<std::string> args;
+    int code;
+    std::string says;
+  };
+  const std::vector<Case> usage = {
+      {{"rehand6600", "hold", "fly"}, 2, "'fly' is not a hold command"},
+      {{"rehand6600", "hold", "seat_lift", "7"}, 2, "seat_lift: value 7 is not one of"},
+      {{"rehand6600", "hold", "seat_lift", "--for", "0s"}, 2, "duration '0s'"},
+      {{"rehand6600", "pulse", "stand"}, 2, "'stand' is not a pulse command"},
+      {{"rehand6600", "set", "speed-level", "6"}, 2, "speed level 6 is out of range 1..5"},
+      {{"rehand6600", "set", "drive-mode", "fast"}, 2, "drive mode"},
+      {{"rehand6600", "status", "--unit", "9"}, 3, "1010 Master Error: handshake: no answer"},
+  };
+  for (const Case& c : usage) {
+    const RunResult r = cli(c.args);
+    EXPECT_EQ(r.code, c.code) << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  RunResult r = cli({"rehand6600", "status", "--port", dir_ / "nothing"}, false);
+  EXPECT_EQ(r.code, 4) << r.output;
+  console("error 10C3");
+  r = cli({"rehand6600", "hold", "stand", "stand"});
+  EXPECT_EQ(r.code, 5) << r.output;
+  EXPECT_NE(r.output.find("error overlay active (10C3 Seat lift Error)"), std::string::npos) << r.output;
+  console("error clear");
+  console("id 0x42");
+  for (const std::string cmd : {"status", "watch"}) {
+    r = cli({"rehand6600", cmd});
+    EXPECT_EQ(r.code, 5) << r.output;
+    EXPECT_NE(r.output.find("1010 Master Error: handshake: device ID 0x42, expected 0x68"), std::string::npos)
+        << r.output;
+  }
+}
+
+// ------------------------------------------------------------ peers we did not write
+
+TEST_F(RehandSim, PymodbusClient_ReadsTable1WritesTable2) {
+  const RunResult r = run({"/usr/bin/python3", std::string(PEERS_DIR) + "/rehand_pymodbus.py", tty_});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+TEST_F(RehandSim, LibmodbusClient_ReadsTable1WritesTable2) {
+  const RunResult r = run({REHAND_LIBMODBUS_BIN, tty_});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+TEST(RehandInterop, HostController_GenericLibmodbusSlaveWithId68) {
+  TempDir dir;
+  PtyPair pair(dir);
+  ASSERT_TRUE(pair.ready());
+  ::setenv("LIBMODBUS_SERVER_REG0", "0x68", 1);
+  Process server({LIBMODBUS_SERVER_BIN, "rtu", pair.b(), "115200"});
+  ::unsetenv("LIBMODBUS_SERVER_REG0");
+  ASSERT_TRUE(server.wait_for_output("ready")) << server.output();
+  Recorder rec;
+  auto host = make_host(pair.a(), rec);
+  host->start();
+  ASSERT_TRUE(host->wait_connected(5s)) << host->last_failure();
+  const Snapshot s = host->snapshot();
+  EXPECT_EQ(s[reg::kDeviceId], 0x68);
+  EXPECT_EQ(s.battery(), 10u);  // the generic slave holds 10 x address
+  // ... so 0x0026 holds 380: an error code table 3 does not list, shown as such.
+  EXPECT_EQ(host->active_error(), 380);
+  EXPECT_EQ(error_text(host->active_error()), "017C Unknown Error");
+  EXPECT_EQ(rec.count(Event::Type::error_raised, 380), 1u);
+  host->stop();
+}
+
+TEST(RehandDocs, ReferencesAreGeneratedFromTheTables) {
+  const std::string doc = read_file(std::string(DOCS_DIR) + "/rehand6600.md");
+  for (const std::string name : {"registers", "errors"}) {
+    const std::string begin = "<!-- BEGIN GENERATED: rtukit rehand6600 " + name + " -->\n";
+    const std::string end = "\n<!-- END GENERATED: rtukit rehand6600 " + name + " -->";
+    const size_t a = doc.find(begin), b = doc.find(end);
+    ASSERT_NE(a, std::string::npos) << name;
+    ASSERT_NE(b, std::string::npos) << name;
+    const RunResult r = run({kRtukit, "rehand6600", name});
+    EXPECT_EQ(doc.substr(a + begin.size(), b - a - begin.size()) + "\n", r.output)
+        << "docs/rehand6600.md is stale: run scripts/gen-docs.sh";
+  }
+}
+
+}  // namespace
