@@ -3,14 +3,17 @@
 #  1. the Inverjet simulator on a new pty, time x30, driven through
 #     `rtukit inverjet`: a timer run started, watched, paused, resumed, a plan
 #     written and read, a fault injected on the simulator's console, stopped;
-#  2. a generic slave written and read with the generic commands.
+#  2. the Rehand 6600 controller simulated on a pty and the host controller
+#     against it: handshake, a posture command held and released (lease),
+#     a light pulsed, a fault injected (overlay: commands refused), a wrong ID;
+#  3. a generic slave written and read with the generic commands.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/build.sh default >/dev/null
 rtukit=build/default/cli/rtukit
 dir=$(mktemp -d /tmp/rtukit-demo.XXXXXX)
 pids=()
-trap 'exec 3>&- 2>/dev/null; for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done; rm -rf "$dir"' EXIT
+trap 'exec 3>&- 4>&- 2>/dev/null; for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done; rm -rf "$dir"' EXIT
 run() { echo "\$ rtukit $*"; "$rtukit" "$@" 2>&1 && echo "(exit 0)" || echo "(exit $?)"; }
 wait_for() { for _ in $(seq 100); do [ -e "$1" ] && return 0; sleep 0.05; done; echo "no $1"; exit 1; }
 
@@ -47,7 +50,34 @@ echo "== what the simulator's console printed:"
 grep -E "^faults" "$dir/sim.log" || true
 
 echo
-echo "===== 2. a generic slave"
+echo "===== 2. Rehand 6600 wheelchair (simulated controller, host controller against it)"
+chair="$dir/chair"
+mkfifo "$dir/chair-console"
+"$rtukit" sim rehand6600 --listen "pty:$chair" <"$dir/chair-console" >"$dir/chair.log" 2>&1 &
+pids+=($!)
+exec 4>"$dir/chair-console"
+wait_for "$chair"
+echo "== simulator: $(grep 'listening on' "$dir/chair.log")"
+run rehand6600 status --port "$chair" --json
+run rehand6600 hold stand stand --for 2s --port "$chair"      # one-touch stand, held 2 s, then released
+run rehand6600 pulse light --port "$chair"
+echo "== console: joystick 0 100 (the user drives)"
+echo "joystick 0 100" >&4
+run rehand6600 watch --port "$chair" --count 3 --interval 300
+run rehand6600 hold phone_forward --port "$chair"              # refused: phone drive only while static (exit 5)
+echo "joystick 0 0" >&4
+echo "== console: error 10C3 (seat lift fault)"
+echo "error 10C3" >&4
+sleep 0.3
+run rehand6600 hold seat_lift up --port "$chair"               # refused: the error overlay (exit 5)
+echo "error clear" >&4
+echo "id 0x42" >&4
+sleep 0.2
+run rehand6600 status --port "$chair"                          # handshake: wrong device, 1010 Master Error (exit 5)
+exec 4>&-
+
+echo
+echo "===== 3. a generic slave"
 tty="$dir/tty"
 "$rtukit" slave --listen "pty:$tty" --unit 1 --registers 100 -v >"$dir/slave.log" 2>&1 &
 pids+=($!)

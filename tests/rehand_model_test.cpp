@@ -49,20 +49,20 @@ TEST(RehandTables, ExceptionMatrixThroughTheEngine) {
     const size_t n = engine.handle_pdu(1, req, out);
     return test::hex({out.data(), n});
   };
-  EXPECT_EQ(pdu("03 00 00 00 01"), "03 02 00 68");                // device ID
-  EXPECT_EQ(pdu("03 00 00 00 30").substr(0, 5), "03 60");         // all of table 1: 96 bytes
-  EXPECT_EQ(pdu("03 00 2F 00 02"), "83 02");                      // runs into the gap
-  EXPECT_EQ(pdu("03 00 30 00 01"), "83 02");                      // the gap
-  EXPECT_EQ(pdu("03 00 60 00 01"), "83 02");                      // table 2 is write-only
-  EXPECT_EQ(pdu("06 00 01 00 05"), "86 02");                      // table 1 is read-only
-  EXPECT_EQ(pdu("06 00 40 00 01"), "86 02");                      // the gap
-  EXPECT_EQ(pdu("06 00 80 00 01"), "86 02");                      // past table 2
-  EXPECT_EQ(pdu("06 00 60 00 04"), "86 03");                      // drive mode 4
-  EXPECT_EQ(pdu("06 00 60 00 03"), "06 00 60 00 03");             // outdoor
-  EXPECT_EQ(pdu("10 00 62 00 02 04 00 01 00 07"), "90 03");       // 7 is no seat-lift value: all refused
-  EXPECT_EQ(rig.chair.command(reg::kStandSit), 0);                // nothing applied
-  EXPECT_EQ(pdu("10 00 7F 00 02 04 00 01 00 01"), "90 02");       // runs past 0x007F
-  EXPECT_EQ(pdu("04 00 00 00 01"), "84 01");                      // only 03, 06, 10
+  EXPECT_EQ(pdu("03 00 00 00 01"), "03 02 00 68");           // device ID
+  EXPECT_EQ(pdu("03 00 00 00 30").substr(0, 5), "03 60");    // all of table 1: 96 bytes
+  EXPECT_EQ(pdu("03 00 2F 00 02"), "83 02");                 // runs into the gap
+  EXPECT_EQ(pdu("03 00 30 00 01"), "83 02");                 // the gap
+  EXPECT_EQ(pdu("03 00 60 00 01"), "83 02");                 // table 2 is write-only
+  EXPECT_EQ(pdu("06 00 01 00 05"), "86 02");                 // table 1 is read-only
+  EXPECT_EQ(pdu("06 00 40 00 01"), "86 02");                 // the gap
+  EXPECT_EQ(pdu("06 00 80 00 01"), "86 02");                 // past table 2
+  EXPECT_EQ(pdu("06 00 60 00 04"), "86 03");                 // drive mode 4
+  EXPECT_EQ(pdu("06 00 60 00 03"), "06 00 60 00 03");        // outdoor
+  EXPECT_EQ(pdu("10 00 62 00 02 04 00 01 00 07"), "90 03");  // 7 is no seat-lift value: all refused
+  EXPECT_EQ(rig.chair.command(reg::kStandSit), 0);           // nothing applied
+  EXPECT_EQ(pdu("10 00 7F 00 02 04 00 01 00 01"), "90 02");  // runs past 0x007F
+  EXPECT_EQ(pdu("04 00 00 00 01"), "84 01");                 // only 03, 06, 10
   EXPECT_EQ(pdu("01 00 00 00 01"), "81 01");
   EXPECT_EQ(pdu("05 00 00 FF 00"), "85 01");
 }
@@ -149,7 +149,8 @@ TEST_P(RehandPosture, MovesTheDocumentedActuatorsAndStopsAtTheLimit) {
     if (c.moves[i] > 0) EXPECT_EQ(delta, 100) << "actuator " << i + 1;
     if (c.moves[i] < 0) EXPECT_EQ(delta, -100) << "actuator " << i + 1;
     if (c.moves[i] == 0) EXPECT_EQ(delta, 0) << "actuator " << i + 1;
-    EXPECT_EQ(rig.at(static_cast<uint16_t>(reg::kActuatorState + i)), c.moves[i] ? 1 : 0) << "actuator " << i + 1;
+    EXPECT_EQ(rig.at(static_cast<uint16_t>(reg::kActuatorState + i)), c.moves[i] ? 1 : 0)
+        << "actuator " << i + 1;
   }
   if (c.status_register) EXPECT_EQ(rig.at(c.status_register), c.status_value);
 
@@ -157,7 +158,8 @@ TEST_P(RehandPosture, MovesTheDocumentedActuatorsAndStopsAtTheLimit) {
   for (unsigned i = 0; i < 6; ++i) {
     if (!c.moves[i]) continue;
     EXPECT_EQ(rig.at(static_cast<uint16_t>(reg::kActuatorPosition + i)), c.moves[i] > 0 ? 1000 : 0);
-    EXPECT_EQ(rig.at(static_cast<uint16_t>(reg::kActuatorState + i)), c.moves[i] > 0 ? 2 : 3);  // at its limit
+    EXPECT_EQ(rig.at(static_cast<uint16_t>(reg::kActuatorState + i)),
+              c.moves[i] > 0 ? 2 : 3);  // at its limit
   }
   if (c.status_register) EXPECT_EQ(rig.at(c.status_register), 0);  // nothing moves any more
   ASSERT_EQ(rig.write(c.command, {0}), Errc::ok);
@@ -167,20 +169,21 @@ TEST_P(RehandPosture, MovesTheDocumentedActuatorsAndStopsAtTheLimit) {
 
 INSTANTIATE_TEST_SUITE_P(
     Commands, RehandPosture,
-    ::testing::Values(PostureCase{"Stand", reg::kStandSit, 1, {1, 1, 0, 1, 0, 0}, reg::kStandStatus, 1},
-                      PostureCase{"Sit", reg::kStandSit, 2, {-1, -1, 0, -1, 0, 0}, reg::kStandStatus, 2},
-                      PostureCase{"SeatUp", reg::kSeatLift, 1, {1, 0, 0, 0, 0, 0}, reg::kSeatLiftStatus, 1},
-                      PostureCase{"SeatDown", reg::kSeatLift, 2, {-1, 0, 0, 0, 0, 0}, reg::kSeatLiftStatus, 2},
-                      PostureCase{"BackForward", reg::kBackrest, 1, {0, 1, 0, 0, 0, 0}, reg::kBackrestStatus, 1},
-                      PostureCase{"BackBack", reg::kBackrest, 2, {0, -1, 0, 0, 0, 0}, reg::kBackrestStatus, 2},
-                      PostureCase{"TiltForward", reg::kSeatTilt, 1, {0, 0, 1, 0, 0, 0}, reg::kSeatTiltStatus, 1},
-                      PostureCase{"TiltBack", reg::kSeatTilt, 2, {0, 0, -1, 0, 0, 0}, reg::kSeatTiltStatus, 2},
-                      PostureCase{"LegsUp", reg::kLegRotate, 1, {0, 0, 0, 1, 1, 0}, reg::kLegRestStatus, 1},
-                      PostureCase{"LegsDown", reg::kLegRotate, 2, {0, 0, 0, -1, -1, 0}, reg::kLegRestStatus, 2},
-                      PostureCase{"LegsExtend", reg::kLegExtend, 1, {0, 0, 0, 0, 1, 0}, reg::kLegRestStatus, 3},
-                      PostureCase{"LegsRetract", reg::kLegExtend, 2, {0, 0, 0, 0, -1, 0}, reg::kLegRestStatus, 3},
-                      PostureCase{"PlateForward", reg::kPlateTilt, 1, {0, 0, 0, 0, 0, 1}, 0, 0},
-                      PostureCase{"PlateBack", reg::kPlateTilt, 2, {0, 0, 0, 0, 0, -1}, 0, 0}),
+    ::testing::Values(
+        PostureCase{"Stand", reg::kStandSit, 1, {1, 1, 0, 1, 0, 0}, reg::kStandStatus, 1},
+        PostureCase{"Sit", reg::kStandSit, 2, {-1, -1, 0, -1, 0, 0}, reg::kStandStatus, 2},
+        PostureCase{"SeatUp", reg::kSeatLift, 1, {1, 0, 0, 0, 0, 0}, reg::kSeatLiftStatus, 1},
+        PostureCase{"SeatDown", reg::kSeatLift, 2, {-1, 0, 0, 0, 0, 0}, reg::kSeatLiftStatus, 2},
+        PostureCase{"BackForward", reg::kBackrest, 1, {0, 1, 0, 0, 0, 0}, reg::kBackrestStatus, 1},
+        PostureCase{"BackBack", reg::kBackrest, 2, {0, -1, 0, 0, 0, 0}, reg::kBackrestStatus, 2},
+        PostureCase{"TiltForward", reg::kSeatTilt, 1, {0, 0, 1, 0, 0, 0}, reg::kSeatTiltStatus, 1},
+        PostureCase{"TiltBack", reg::kSeatTilt, 2, {0, 0, -1, 0, 0, 0}, reg::kSeatTiltStatus, 2},
+        PostureCase{"LegsUp", reg::kLegRotate, 1, {0, 0, 0, 1, 1, 0}, reg::kLegRestStatus, 1},
+        PostureCase{"LegsDown", reg::kLegRotate, 2, {0, 0, 0, -1, -1, 0}, reg::kLegRestStatus, 2},
+        PostureCase{"LegsExtend", reg::kLegExtend, 1, {0, 0, 0, 0, 1, 0}, reg::kLegRestStatus, 3},
+        PostureCase{"LegsRetract", reg::kLegExtend, 2, {0, 0, 0, 0, -1, 0}, reg::kLegRestStatus, 3},
+        PostureCase{"PlateForward", reg::kPlateTilt, 1, {0, 0, 0, 0, 0, 1}, 0, 0},
+        PostureCase{"PlateBack", reg::kPlateTilt, 2, {0, 0, 0, 0, 0, -1}, 0, 0}),
     [](const auto& info) { return std::string(info.param.name); });
 
 TEST(RehandPostureRules, AntiPinchStopsEverything) {

@@ -65,7 +65,8 @@ class RehandSim : public ::testing::Test {
  protected:
   void SetUp() override {
     sim_ = std::make_unique<Process>(
-        std::vector<std::string>{kRtukit, "sim", "rehand6600", "--listen", "pty:" + tty_}, /*stdin_pipe=*/true);
+        std::vector<std::string>{kRtukit, "sim", "rehand6600", "--listen", "pty:" + tty_},
+        /*stdin_pipe=*/true);
     ASSERT_TRUE(sim_->wait_for_output("listening on")) << sim_->output();
   }
   void console(const std::string& line) {
@@ -114,7 +115,8 @@ TEST_F(RehandSim, Host_WrongDeviceId_Raises1010UntilFixed) {
   Recorder rec;
   auto host = make_host(tty_, rec);
   host->start();
-  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }));
+  ASSERT_TRUE(
+      eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }));
   EXPECT_NE(rec.reason(Event::Type::error_raised).find("device ID 0x69"), std::string::npos);
   EXPECT_EQ(host->active_error(), kMasterCommunicationError);
   std::string why;
@@ -132,7 +134,8 @@ TEST_F(RehandSim, Host_LinkCut_1010AfterThreeFailures_RecoversWhenBack) {
   host->start();
   ASSERT_TRUE(host->wait_connected(3s));
   ::kill(sim_->pid(), SIGSTOP);  // the controller stops answering
-  ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }, 3s));
+  ASSERT_TRUE(
+      eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }, 3s));
   EXPECT_NE(rec.reason(Event::Type::error_raised).find("3 consecutive polls failed"), std::string::npos)
       << rec.reason(Event::Type::error_raised);
   EXPECT_FALSE(host->connected());
@@ -258,7 +261,8 @@ TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
   EXPECT_NE(r.output.find("0.0 mph"), std::string::npos) << r.output;
   r = cli({"rehand6600", "errors"}, false);
-  EXPECT_NE(r.output.find("| 10C1..10CB | Seat lift | 10C1 Seat lift Error |"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("| 10C1..10CB | Seat lift | 10C1 Seat lift Error |"), std::string::npos)
+      << r.output;
 }
 
 TEST_F(RehandSim, Cli_FailuresExitCodes) {

@@ -26,7 +26,8 @@ modbus_mapping_t* make_mapping() {
     m->tab_input_bits[i] = static_cast<uint8_t>((i + 1) % 2);
   }
   // A device ID at holding register 0 (the Rehand 6600 host's handshake reads it).
-  if (const char* id = std::getenv("LIBMODBUS_SERVER_REG0")) m->tab_registers[0] = static_cast<uint16_t>(std::strtoul(id, nullptr, 0));
+  if (const char* id = std::getenv("LIBMODBUS_SERVER_REG0"))
+    m->tab_registers[0] = static_cast<uint16_t>(std::strtoul(id, nullptr, 0));
   return m;
 }
 

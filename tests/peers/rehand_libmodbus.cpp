@@ -8,13 +8,13 @@
 #include <chrono>
 #include <cstdio>
 
-#define CHECK(cond, ...)                                        \
-  do {                                                          \
-    if (!(cond)) {                                              \
-      std::fprintf(stderr, "rehand_libmodbus: " __VA_ARGS__);   \
-      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno));  \
-      return 1;                                                 \
-    }                                                           \
+#define CHECK(cond, ...)                                       \
+  do {                                                         \
+    if (!(cond)) {                                             \
+      std::fprintf(stderr, "rehand_libmodbus: " __VA_ARGS__);  \
+      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno)); \
+      return 1;                                                \
+    }                                                          \
   } while (0)
 
 int main(int argc, char** argv) {
@@ -26,7 +26,8 @@ int main(int argc, char** argv) {
 
   uint16_t t1[48] = {};
   CHECK(modbus_read_registers(ctx, 0, 48, t1) == 48, "read table 1");
-  CHECK(t1[0] == 0x68 && t1[1] == 80 && t1[5] == 1, "ID 0x68, battery 80, static: %x %u %u", t1[0], t1[1], t1[5]);
+  CHECK(t1[0] == 0x68 && t1[1] == 80 && t1[5] == 1, "ID 0x68, battery 80, static: %x %u %u", t1[0], t1[1],
+        t1[5]);
 
   CHECK(modbus_write_register(ctx, 0x0062, 1) == 1, "hold stand");
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(3);
