@@ -96,7 +96,7 @@ TEST_F(RehandSim, Host_HandshakeWritesBootCompleteAndPolls) {
   auto host = make_host(tty_, rec);
   host->start();
   ASSERT_TRUE(host->wait_connected(3s)) << host->last_failure();
-  EXPECT_EQ(rec.count(Event::Type::connected), 1u);
+  EXPECT_TRUE(eventually([&] { return rec.count(Event::Type::connected) == 1; }));
   const Snapshot s = host->snapshot();
   EXPECT_EQ(s[reg::kDeviceId], 0x68);
   EXPECT_EQ(s.battery(), 80u);
@@ -107,7 +107,7 @@ TEST_F(RehandSim, Host_HandshakeWritesBootCompleteAndPolls) {
   // 20 Hz: a second brings about twenty polls.
   const uint64_t first = host->snapshot().sequence;
   std::this_thread::sleep_for(1s);
-  EXPECT_GE(host->snapshot().sequence - first, 12u);
+  EXPECT_GE(host->snapshot().sequence - first, 10u);
 }
 
 TEST_F(RehandSim, Host_WrongDeviceId_Raises1010UntilFixed) {
@@ -124,7 +124,8 @@ TEST_F(RehandSim, Host_WrongDeviceId_Raises1010UntilFixed) {
   EXPECT_NE(why.find("1010 Master Error"), std::string::npos) << why;
   console("id 0x68");
   ASSERT_TRUE(host->wait_connected(3s));  // the handshake is retried every second
-  EXPECT_EQ(rec.count(Event::Type::error_cleared, kMasterCommunicationError), 1u);
+  EXPECT_TRUE(
+      eventually([&] { return rec.count(Event::Type::error_cleared, kMasterCommunicationError) == 1; }));
   EXPECT_EQ(host->active_error(), 0);
 }
 
@@ -141,8 +142,10 @@ TEST_F(RehandSim, Host_LinkCut_1010AfterThreeFailures_RecoversWhenBack) {
   EXPECT_FALSE(host->connected());
   ::kill(sim_->pid(), SIGCONT);
   ASSERT_TRUE(eventually([&] { return host->connected(); }, 5s));
-  EXPECT_EQ(rec.count(Event::Type::error_cleared, kMasterCommunicationError), 1u);
-  EXPECT_EQ(rec.count(Event::Type::connected), 2u);
+  // Events arrive on the host's thread just after the state changed.
+  EXPECT_TRUE(
+      eventually([&] { return rec.count(Event::Type::error_cleared, kMasterCommunicationError) == 1; }));
+  EXPECT_TRUE(eventually([&] { return rec.count(Event::Type::connected) == 2; }));
 }
 
 TEST_F(RehandSim, Host_HornAndViewRisingEdges) {
@@ -334,7 +337,7 @@ TEST(RehandInterop, HostController_GenericLibmodbusSlaveWithId68) {
   // ... so 0x0026 holds 380: an error code table 3 does not list, shown as such.
   EXPECT_EQ(host->active_error(), 380);
   EXPECT_EQ(error_text(host->active_error()), "017C Unknown Error");
-  EXPECT_EQ(rec.count(Event::Type::error_raised, 380), 1u);
+  EXPECT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, 380) == 1; }));
   host->stop();
 }
 
