@@ -2,9 +2,12 @@
 
 #include <fmt/core.h>
 
+#include <atomic>
 #include <cctype>
 #include <charconv>
+#include <csignal>
 #include <cstring>
+#include <thread>
 
 namespace rtukit::cli {
 
@@ -86,6 +89,49 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
 
 UnitId parse_unit(const std::string& text, bool tcp) {
   return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : 247))};
+}
+
+namespace {
+std::atomic<bool> g_interrupted{false};
+}
+
+Interruptible::Interruptible() {
+  g_interrupted = false;
+  std::signal(SIGINT, [](int) { g_interrupted = true; });
+  std::signal(SIGTERM, [](int) { g_interrupted = true; });
+}
+
+Interruptible::~Interruptible() {
+  std::signal(SIGINT, SIG_DFL);
+  std::signal(SIGTERM, SIG_DFL);
+}
+
+bool Interruptible::interrupted() const {
+  return g_interrupted;
+}
+
+bool Interruptible::sleep(std::chrono::milliseconds d) const {
+  // Small steps, so Ctrl-C ends the command at once.
+  const auto until = std::chrono::steady_clock::now() + d;
+  while (!g_interrupted && std::chrono::steady_clock::now() < until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  return !g_interrupted;
+}
+
+void WatchOptions::add_to(CLI::App& cmd) {
+  cmd.add_option("--interval", interval_ms, "ms between refreshes")
+      ->capture_default_str()
+      ->check(CLI::Range(50, 60000));
+  cmd.add_option("--count", count, "stop after N refreshes (0 = until Ctrl-C)")->capture_default_str();
+}
+
+void watch_loop(const WatchOptions& options, const std::function<void(unsigned n)>& refresh) {
+  Interruptible interrupt;
+  for (unsigned n = 0; options.count == 0 || n < options.count; ++n) {
+    if (n > 0 && !interrupt.sleep(std::chrono::milliseconds(options.interval_ms))) break;
+    refresh(n);
+    std::fflush(stdout);
+  }
 }
 
 std::string hex(std::span<const uint8_t> bytes) {

@@ -3,7 +3,9 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -69,6 +71,30 @@ UnitId parse_unit(const std::string& text, bool tcp = false);
 int exit_code(Error e);
 /// Throws Failure with one clear line: what failed, on which port/unit.
 [[noreturn]] void fail(Error e, std::string_view context);
+
+/// Ctrl-C and SIGTERM for commands that run until interrupted (watch, hold):
+/// while one exists, those signals set interrupted() instead of killing us.
+class Interruptible {
+ public:
+  Interruptible();
+  ~Interruptible();
+  Interruptible(const Interruptible&) = delete;
+  Interruptible& operator=(const Interruptible&) = delete;
+  bool interrupted() const;
+  /// Sleeps `d` in small steps; false when interrupted meanwhile.
+  bool sleep(std::chrono::milliseconds d) const;
+};
+
+/// --interval and --count of a `watch` command.
+struct WatchOptions {
+  unsigned interval_ms;
+  unsigned count = 0;
+  void add_to(CLI::App& cmd);
+};
+
+/// Calls refresh(n) for n = 0, 1, ... `interval_ms` apart, until Ctrl-C or
+/// `count` refreshes (0 = no limit).
+void watch_loop(const WatchOptions& options, const std::function<void(unsigned n)>& refresh);
 
 /// Bytes as "15 03 00 21" (request logs).
 std::string hex(std::span<const uint8_t> bytes);

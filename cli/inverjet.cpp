@@ -174,8 +174,6 @@ std::string status_line(const ij::Status& s) {
       s.state_name(), s.speed, time_text(s), s.rpm, s.current_a, s.mosfet_c, s.motor_c, faults_text(s));
 }
 
-std::atomic<bool> g_stop{false};
-
 int run_status(const JetArgs& a) {
   Session s(a);
   Result<ij::Status> st = s.jet.status();
@@ -187,40 +185,24 @@ int run_status(const JetArgs& a) {
   return kOk;
 }
 
-int run_watch(const JetArgs& a, unsigned interval_ms, unsigned count) {
+int run_watch(const JetArgs& a, const WatchOptions& w) {
   Session s(a);
-  g_stop = false;
-  std::signal(SIGINT, [](int) { g_stop = true; });
-  std::signal(SIGTERM, [](int) { g_stop = true; });
   const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
-  for (unsigned n = 0; !g_stop && (count == 0 || n < count); ++n) {
-    if (n > 0) {
-      // Sleep in small steps so Ctrl-C ends the watch at once.
-      const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(interval_ms);
-      while (!g_stop && std::chrono::steady_clock::now() < until)
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (g_stop) break;
-    }
+  watch_loop(w, [&](unsigned n) {
     Result<ij::Status> st = s.jet.status();
     if (!st.ok()) {
       if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
       fmt::print("{}\n",
                  st.error().code() == Errc::timeout ? "(no response)" : std::string(st.error().name()));
-      std::fflush(stdout);
-      continue;
-    }
-    if (a.json) {
+    } else if (a.json) {
       fmt::print("{}\n", status_json(*st).dump());
     } else if (tty) {
-      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n{}", s.context, interval_ms,
+      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n{}", s.context, w.interval_ms,
                  status_panel(*st));
     } else {
       fmt::print("{}\n", status_line(*st));
     }
-    std::fflush(stdout);
-  }
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
+  });
   return kOk;
 }
 
@@ -421,16 +403,11 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
   }
   {
     auto args = std::make_shared<JetArgs>();
-    auto interval = std::make_shared<unsigned>(500);
-    auto count = std::make_shared<unsigned>(0);
+    auto w = std::make_shared<WatchOptions>(WatchOptions{500});
     CLI::App* cmd = jet->add_subcommand("watch", "live status, refreshed until Ctrl-C");
     add_link(*cmd, *args, true);
-    cmd->add_option("--interval", *interval, "ms between refreshes")
-        ->capture_default_str()
-        ->check(CLI::Range(50, 60000));
-    cmd->add_option("--count", *count, "stop after N refreshes (0 = until Ctrl-C)")->capture_default_str();
-    cmd->callback(
-        [&action, args, interval, count] { action = [=] { return run_watch(*args, *interval, *count); }; });
+    w->add_to(*cmd);
+    cmd->callback([&action, args, w] { action = [=] { return run_watch(*args, *w); }; });
   }
   {
     auto args = std::make_shared<JetArgs>();

@@ -133,8 +133,6 @@ int run_status(const ChairArgs& a) {
   return kOk;
 }
 
-std::atomic<bool> g_stop{false};
-
 // A running host controller for watch and hold; fails with 1010 when the
 // handshake does not succeed within `wait`.
 std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
@@ -155,25 +153,11 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
   return host;
 }
 
-void catch_signals() {
-  g_stop = false;
-  std::signal(SIGINT, [](int) { g_stop = true; });
-  std::signal(SIGTERM, [](int) { g_stop = true; });
-}
-
-int run_watch(const ChairArgs& a, unsigned interval_ms, unsigned count) {
+int run_watch(const ChairArgs& a, const WatchOptions& w) {
   std::string context;
   auto host = start_host(a, &context);
-  catch_signals();
-  host->on_event([](const rh::Event&) {});
   const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
-  for (unsigned n = 0; !g_stop && (count == 0 || n < count); ++n) {
-    if (n > 0) {
-      const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(interval_ms);
-      while (!g_stop && std::chrono::steady_clock::now() < until)
-        std::this_thread::sleep_for(std::chrono::milliseconds(20));
-      if (g_stop) break;
-    }
+  watch_loop(w, [&](unsigned) {
     const rh::Snapshot s = host->snapshot();
     const uint16_t err = host->active_error();
     if (a.json) {
@@ -181,7 +165,7 @@ int run_watch(const ChairArgs& a, unsigned interval_ms, unsigned count) {
       j["active_error"] = err ? rh::error_text(err) : "";
       fmt::print("{}\n", j.dump());
     } else if (tty) {
-      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n", context, interval_ms);
+      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n", context, w.interval_ms);
       if (err == rh::kMasterCommunicationError)
         fmt::print("!!! {}: {} !!!\n", rh::error_text(err), host->last_failure());
       fmt::print("{}", panel(s, a.mph));
@@ -189,11 +173,8 @@ int run_watch(const ChairArgs& a, unsigned interval_ms, unsigned count) {
       fmt::print("{}{}\n", err == rh::kMasterCommunicationError ? "[1010 Master Error] " : "",
                  line(s, a.mph));
     }
-    std::fflush(stdout);
-  }
+  });
   host->stop();
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
   return kOk;
 }
 
@@ -251,18 +232,18 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   const auto length = parse_duration(duration);
   std::string context;
   auto host = start_host(a, &context);
-  catch_signals();
+  const Interruptible interrupt;
   std::string why;
   const auto start = std::chrono::steady_clock::now();
   // Renew the lease well within its 300 ms, as a UI does while the button is held.
-  while (!g_stop && std::chrono::steady_clock::now() - start < length) {
+  while (!interrupt.interrupted() && std::chrono::steady_clock::now() - start < length) {
     if (Error e = host->hold(r.address, value, &why)) {
       host->stop();
       if (e.code() == Errc::invalid_argument)
         throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, why)};
       fail(e, context + ": hold " + std::string(key));
     }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    interrupt.sleep(std::chrono::milliseconds(100));
   }
   (void)host->release(r.address);
   (void)host->wait_poll(std::chrono::milliseconds(500));
@@ -347,16 +328,11 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
   }
   {
     auto a = std::make_shared<ChairArgs>();
-    auto interval = std::make_shared<unsigned>(250);
-    auto count = std::make_shared<unsigned>(0);
+    auto w = std::make_shared<WatchOptions>(WatchOptions{250});
     CLI::App* cmd = chair->add_subcommand("watch", "live panel from the host controller until Ctrl-C");
     add_link(*cmd, *a, true);
-    cmd->add_option("--interval", *interval, "ms between refreshes")
-        ->capture_default_str()
-        ->check(CLI::Range(50, 60000));
-    cmd->add_option("--count", *count, "stop after N refreshes (0 = until Ctrl-C)")->capture_default_str();
-    cmd->callback(
-        [&action, a, interval, count] { action = [=] { return run_watch(*a, *interval, *count); }; });
+    w->add_to(*cmd);
+    cmd->callback([&action, a, w] { action = [=] { return run_watch(*a, *w); }; });
   }
   {
     auto a = std::make_shared<ChairArgs>();

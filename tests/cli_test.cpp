@@ -91,18 +91,18 @@ TEST_F(Cli, ModbusException_Exit1_NamesTheException) {
 }
 
 TEST_F(Cli, UsageErrors_Exit2_OneLine) {
-  for (const auto& args :
-       std::vector<std::vector<std::string>>{{"read", "--port", port_, "--unit", "5", "0", "126"},
-                                             {"read", "--port", port_, "--unit", "5", "0x1G"},
-                                             {"read", "--port", port_, "--unit", "300", "0"},
+  for (const auto& args : std::vector<std::vector<std::string>>{
+           {"read", "--port", port_, "--unit", "5", "0", "126"},
+           {"read", "--port", port_, "--unit", "5", "0x1G"},
+           {"read", "--port", port_, "--unit", "300", "0"},
            {"read", "--port", port_, "--unit", "248", "0"},  // RTU unicast is 1..247
            {"slave", "--listen", "pty", "--unit", "0"},
-                                             {"read", "--port", port_, "0", "--type", "u64"},
-                                             {"write", "--port", port_, "0", "70000"},
-                                             {"read", "--port", "udp://x:1", "0"},
-                                             {"read", "--port", port_, "--baud", "5", "0"},
-                                             {"frobnicate"},
-                                             {}}) {
+           {"read", "--port", port_, "0", "--type", "u64"},
+           {"write", "--port", port_, "0", "70000"},
+           {"read", "--port", "udp://x:1", "0"},
+           {"read", "--port", port_, "--baud", "5", "0"},
+           {"frobnicate"},
+           {}}) {
     const RunResult r = rtukit(args);
     EXPECT_EQ(r.code, 2) << r.output;
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;

@@ -39,12 +39,7 @@ class InverjetSim : public ::testing::Test {
     ASSERT_TRUE(sim_->wait_for_output("listening on")) << sim_->output();
   }
   RunResult cli(std::vector<std::string> args, bool with_port = true) {
-    args.insert(args.begin(), kRtukit);
-    if (with_port) {
-      args.push_back("--port");
-      args.push_back(tty_);
-    }
-    return run(args);
+    return run_cli(kRtukit, std::move(args), with_port ? tty_ : std::string());
   }
   json status(const std::string& unit = "21") {
     const RunResult r = cli({"inverjet", "status", "--json", "--unit", unit});

@@ -176,6 +176,17 @@ inline RunResult run(const std::vector<std::string>& argv, std::chrono::millisec
   return r;
 }
 
+/// Runs `program args...`, with `--port port` appended when `port` is given.
+inline RunResult run_cli(const std::string& program, std::vector<std::string> args,
+                         const std::string& port = {}) {
+  args.insert(args.begin(), program);
+  if (!port.empty()) {
+    args.push_back("--port");
+    args.push_back(port);
+  }
+  return run(args);
+}
+
 /// A socat pty pair: two linked pseudo-terminals at dir/a and dir/b.
 class PtyPair {
  public:

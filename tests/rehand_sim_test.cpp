@@ -76,12 +76,7 @@ class RehandSim : public ::testing::Test {
     ASSERT_TRUE(eventually([&] { return sim_->output().size() > before; })) << line;
   }
   RunResult cli(std::vector<std::string> args, bool with_port = true) {
-    args.insert(args.begin(), kRtukit);
-    if (with_port) {
-      args.push_back("--port");
-      args.push_back(tty_);
-    }
-    return run(args);
+    return run_cli(kRtukit, std::move(args), with_port ? tty_ : std::string());
   }
 
   TempDir dir_;

@@ -9,14 +9,8 @@
 #include <cstdlib>
 #include <string>
 
-#define CHECK(cond, ...)                                       \
-  do {                                                         \
-    if (!(cond)) {                                             \
-      std::fprintf(stderr, "libmodbus_client: " __VA_ARGS__);  \
-      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno)); \
-      return 1;                                                \
-    }                                                          \
-  } while (0)
+static const char* const kPeer = "libmodbus_client";
+#include "check.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 3) return 2;

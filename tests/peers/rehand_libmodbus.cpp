@@ -8,14 +8,8 @@
 #include <chrono>
 #include <cstdio>
 
-#define CHECK(cond, ...)                                       \
-  do {                                                         \
-    if (!(cond)) {                                             \
-      std::fprintf(stderr, "rehand_libmodbus: " __VA_ARGS__);  \
-      std::fprintf(stderr, " (%s)\n", modbus_strerror(errno)); \
-      return 1;                                                \
-    }                                                          \
-  } while (0)
+static const char* const kPeer = "rehand_libmodbus";
+#include "check.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 2) return 2;

@@ -14,19 +14,7 @@
 
 namespace rtukit::inverjet {
 
-// Advances the model regularly, so a timer ends (and a fault shows) even when
-// no master is polling.
-struct Simulator::Ticker {
-  explicit Ticker(asio::io_context& ctx) : timer(ctx) {}
-  asio::steady_timer timer;
-};
-
-Simulator::Simulator(asio::io_context& ctx, SimulatorOptions options)
-    : ctx_(ctx), options_(std::move(options)), t0_(std::chrono::steady_clock::now()) {}
-
-Simulator::~Simulator() {
-  if (ticker_) ticker_->timer.cancel();
-}
+Simulator::Simulator(SimulatorOptions options) : options_(std::move(options)), clock_(options_.time_scale) {}
 
 Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, SimulatorOptions options,
                                                     std::string* why) {
@@ -34,14 +22,14 @@ Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, Simul
     if (why) *why = reason;
     return Result<std::unique_ptr<Simulator>>(Errc::invalid_argument);
   };
-  if (!(options.time_scale > 0) || options.time_scale > 100000)
+  if (!DeviceClock::valid_scale(options.time_scale))
     return bad("--time-scale must be > 0 (and at most 100000)");
   if (options.unit && (*options.unit < 1 || *options.unit > 254))
     return bad("the Inverjet's address is 1..254");
   if (options.baud && code_of_baud(*options.baud) < 0)
     return bad("the Inverjet runs at 1200, 2400, 4800, 9600 or 19200 baud");
 
-  std::unique_ptr<Simulator> sim(new Simulator(ctx, std::move(options)));
+  std::unique_ptr<Simulator> sim(new Simulator(std::move(options)));
   SimulatorOptions& o = sim->options_;
   Settings settings;
   bool loaded_from_file = false;
@@ -68,8 +56,10 @@ Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, Simul
   auto listener = SlaveListener::start(ctx, sim->engine_, o.listen, why, o.log);
   if (!listener.ok()) return listener.error();
   sim->listener_ = std::move(*listener);
-  sim->ticker_ = std::make_unique<Ticker>(ctx);
-  sim->tick();
+  // Advance the model regularly, so a timer ends (and a fault shows) even
+  // when no master is polling.
+  sim->ticker_ = std::make_unique<PeriodicTimer>(ctx, std::chrono::milliseconds(20),
+                                                 [self] { self->machine_.advance_to(self->device_ms()); });
   return sim;
 }
 
@@ -77,22 +67,9 @@ std::string Simulator::where() const {
   return listener_->where();
 }
 
-uint64_t Simulator::device_ms() const {
-  const auto real = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_).count();
-  return static_cast<uint64_t>(real * options_.time_scale);
-}
-
 Machine& Simulator::machine() {
   machine_.advance_to(device_ms());
   return machine_;
-}
-
-void Simulator::tick() {
-  machine_.advance_to(device_ms());
-  ticker_->timer.expires_after(std::chrono::milliseconds(20));
-  ticker_->timer.async_wait([this](const std::error_code& ec) {
-    if (!ec) tick();
-  });
 }
 
 // The response to the write went out with the old address and rate; now
@@ -144,43 +121,19 @@ std::string Simulator::status_text() {
 }
 
 namespace {
-std::vector<std::string> split(std::string_view line) {
-  std::vector<std::string> words;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    size_t j = i;
-    while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-    if (j > i) words.emplace_back(line.substr(i, j - i));
-    i = j;
-  }
-  return words;
-}
-
 std::string slug(std::string_view name) {
   std::string s;
   for (char c : name) s += c == ' ' ? '-' : static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
 }
 
-bool to_double(const std::string& text, double* out) {
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), *out);
-  return ec == std::errc{} && end == text.data() + text.size();
-}
-
 // "3", "0x0082" or a fault name as in the table ("mosfet-over-temperature").
 std::optional<uint16_t> fault_mask(const std::string& word) {
-  if (word.rfind("0x", 0) == 0 || word.rfind("0X", 0) == 0) {
-    unsigned v = 0;
-    const auto [end, ec] = std::from_chars(word.data() + 2, word.data() + word.size(), v, 16);
-    if (ec == std::errc{} && end == word.data() + word.size() && v <= 0xFFFF) return static_cast<uint16_t>(v);
-    return std::nullopt;
-  }
-  unsigned bit = 0;
-  const auto [end, ec] = std::from_chars(word.data(), word.data() + word.size(), bit);
-  if (ec == std::errc{} && end == word.data() + word.size()) {
-    if (bit > 8) return std::nullopt;
-    return static_cast<uint16_t>(1U << bit);
+  if (const std::optional<long> v = parse_long(word)) {
+    const bool mask = word.starts_with("0x") || word.starts_with("0X");
+    if (mask)
+      return *v >= 0 && *v <= 0xFFFF ? std::optional<uint16_t>(static_cast<uint16_t>(*v)) : std::nullopt;
+    return *v >= 0 && *v <= 8 ? std::optional<uint16_t>(static_cast<uint16_t>(1U << *v)) : std::nullopt;
   }
   for (const Choice& c : fault_names()) {
     if (slug(c.name) == slug(word)) return static_cast<uint16_t>(1U << c.value);
@@ -190,7 +143,7 @@ std::optional<uint16_t> fault_mask(const std::string& word) {
 }  // namespace
 
 std::string Simulator::command(std::string_view line) {
-  const std::vector<std::string> w = split(line);
+  const std::vector<std::string> w = split_words(line);
   if (w.empty()) return {};
   Machine& m = machine();
   const std::string& verb = w[0];
@@ -228,9 +181,10 @@ std::string Simulator::command(std::string_view line) {
                        format_value(*find_register(Table::holding, reg::kState), m.state()));
   }
   if (verb == "temp") {
-    double c = 0;
-    if (w.size() != 3 || (w[1] != "mosfet" && w[1] != "motor") || !to_double(w[2], &c) || c < -40 || c > 200)
+    const std::optional<double> t = w.size() == 3 ? parse_double(w[2]) : std::nullopt;
+    if (!t || (w[1] != "mosfet" && w[1] != "motor") || *t < -40 || *t > 200)
       return "usage: temp mosfet|motor DEGC (-40..200)";
+    const double c = *t;
     if (w[1] == "mosfet")
       m.set_mosfet_temperature(c);
     else
@@ -238,8 +192,9 @@ std::string Simulator::command(std::string_view line) {
     return fmt::format("{} temperature {:.1f} degC; faults 0x{:04X}", w[1], c, m.faults());
   }
   if (verb == "mains") {
-    double v = 0;
-    if (w.size() != 2 || !to_double(w[1], &v) || v < 0 || v > 600) return "usage: mains VOLTS (0..600)";
+    const std::optional<double> volts = w.size() == 2 ? parse_double(w[1]) : std::nullopt;
+    if (!volts || *volts < 0 || *volts > 600) return "usage: mains VOLTS (0..600)";
+    const double v = *volts;
     m.set_mains_voltage(v);
     return fmt::format("mains {:.1f} V, bus {:.1f} V; faults 0x{:04X}", v, m.bus_voltage(), m.faults());
   }

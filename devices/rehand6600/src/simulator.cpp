@@ -12,21 +12,12 @@
 
 namespace rtukit::rehand6600 {
 
-struct Simulator::Ticker {
-  explicit Ticker(asio::io_context& ctx) : timer(ctx) {}
-  asio::steady_timer timer;
-};
-
 Simulator::Simulator(SimulatorOptions options)
-    : options_(std::move(options)), t0_(std::chrono::steady_clock::now()), chair_(0, options_.watchdog_ms) {}
-
-Simulator::~Simulator() {
-  if (ticker_) ticker_->timer.cancel();
-}
+    : options_(std::move(options)), clock_(options_.time_scale), chair_(0, options_.watchdog_ms) {}
 
 Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, SimulatorOptions options,
                                                     std::string* why) {
-  if (!(options.time_scale > 0) || options.time_scale > 100000) {
+  if (!DeviceClock::valid_scale(options.time_scale)) {
     if (why) *why = "--time-scale must be > 0 (and at most 100000)";
     return Errc::invalid_argument;
   }
@@ -41,8 +32,9 @@ Result<std::unique_ptr<Simulator>> Simulator::start(asio::io_context& ctx, Simul
   auto listener = SlaveListener::start(ctx, sim->engine_, sim->options_.listen, why, sim->options_.log);
   if (!listener.ok()) return listener.error();
   sim->listener_ = std::move(*listener);
-  sim->ticker_ = std::make_unique<Ticker>(ctx);
-  sim->tick();
+  // The model (and its watchdog) runs even when nobody polls.
+  sim->ticker_ = std::make_unique<PeriodicTimer>(ctx, std::chrono::milliseconds(10),
+                                                 [self] { self->chair_.advance_to(self->device_ms()); });
   return sim;
 }
 
@@ -50,22 +42,9 @@ std::string Simulator::where() const {
   return listener_->where();
 }
 
-uint64_t Simulator::device_ms() const {
-  const auto real = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_).count();
-  return static_cast<uint64_t>(real * options_.time_scale);
-}
-
 Chair& Simulator::chair() {
   chair_.advance_to(device_ms());
   return chair_;
-}
-
-void Simulator::tick() {
-  chair_.advance_to(device_ms());
-  ticker_->timer.expires_after(std::chrono::milliseconds(10));
-  ticker_->timer.async_wait([this](const std::error_code& ec) {
-    if (!ec) tick();
-  });
 }
 
 std::string Simulator::status_text() {
@@ -90,31 +69,6 @@ std::string Simulator::status_text() {
 }
 
 namespace {
-std::vector<std::string> split(std::string_view line) {
-  std::vector<std::string> words;
-  size_t i = 0;
-  while (i < line.size()) {
-    while (i < line.size() && std::isspace(static_cast<unsigned char>(line[i]))) ++i;
-    size_t j = i;
-    while (j < line.size() && !std::isspace(static_cast<unsigned char>(line[j]))) ++j;
-    if (j > i) words.emplace_back(line.substr(i, j - i));
-    i = j;
-  }
-  return words;
-}
-
-std::optional<long> number(const std::string& w, int base = 10) {
-  std::string_view t = w;
-  if (t.starts_with("0x") || t.starts_with("0X")) {
-    t.remove_prefix(2);
-    base = 16;
-  }
-  long v = 0;
-  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
-  if (t.empty() || ec != std::errc{} || end != t.data() + t.size()) return std::nullopt;
-  return v;
-}
-
 std::optional<bool> on_off(const std::string& w, const char* on, const char* off) {
   if (w == on) return true;
   if (w == off) return false;
@@ -123,7 +77,7 @@ std::optional<bool> on_off(const std::string& w, const char* on, const char* off
 }  // namespace
 
 std::string Simulator::command(std::string_view line) {
-  const std::vector<std::string> w = split(line);
+  const std::vector<std::string> w = split_words(line);
   if (w.empty()) return {};
   Chair& c = chair();
   const std::string& verb = w[0];
@@ -151,7 +105,7 @@ std::string Simulator::command(std::string_view line) {
     return "bye";
   }
   if (verb == "joystick") {
-    const auto x = number(arg(1)), y = number(arg(2));
+    const auto x = parse_long(arg(1)), y = parse_long(arg(2));
     if (!x || !y || *x < -100 || *x > 100 || *y < -100 || *y > 100) return "usage: joystick X Y (-100..100)";
     c.set_joystick(static_cast<int>(*x), static_cast<int>(*y));
     return fmt::format("joystick {} {}", *x, *y);
@@ -181,7 +135,7 @@ std::string Simulator::command(std::string_view line) {
   }
   if (verb == "distance") {
     const std::string sides[] = {"front", "rear", "left", "right"};
-    const auto mm = number(arg(2));
+    const auto mm = parse_long(arg(2));
     for (unsigned i = 0; i < 4; ++i) {
       if (arg(1) == sides[i] && mm && *mm >= 0 && *mm <= 65535) {
         c.set_distance(i, static_cast<uint16_t>(*mm));
@@ -191,7 +145,7 @@ std::string Simulator::command(std::string_view line) {
     return "usage: distance front|rear|left|right MM";
   }
   if (verb == "battery") {
-    const auto v = number(arg(1));
+    const auto v = parse_long(arg(1));
     if (!v || *v < 0 || *v > 100) return "usage: battery PCT (0..100)";
     c.set_battery(static_cast<double>(*v));
     return fmt::format("battery {} %", *v);
@@ -201,20 +155,20 @@ std::string Simulator::command(std::string_view line) {
       c.set_error(0);
       return "error cleared";
     }
-    const auto code = number(arg(1), 16);
+    const auto code = parse_long(arg(1), 16);
     if (!code || *code <= 0 || *code > 0xFFFF) return "usage: error CODE (hex, e.g. 10C3) | error clear";
     c.set_error(static_cast<uint16_t>(*code));
     return fmt::format("error {}", error_text(static_cast<uint16_t>(*code)));
   }
   if (verb == "overcurrent") {
-    const auto n = number(arg(1));
+    const auto n = parse_long(arg(1));
     const auto v = on_off(arg(2).empty() ? "on" : arg(2), "on", "off");
     if (!n || *n < 1 || *n > 6 || !v) return "usage: overcurrent N (1..6) on|off";
     c.set_actuator_overcurrent(static_cast<unsigned>(*n), *v);
     return fmt::format("actuator {} over-current {}", *n, *v ? "on" : "off");
   }
   if (verb == "id") {
-    const auto v = number(arg(1));
+    const auto v = parse_long(arg(1));
     if (!v || *v < 0 || *v > 0xFFFF) return "usage: id 0xNN";
     c.set_device_id(static_cast<uint16_t>(*v));
     return fmt::format("device ID 0x{:02X}", *v);

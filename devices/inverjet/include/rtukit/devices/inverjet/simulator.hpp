@@ -18,6 +18,7 @@
 
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/driver/simulation.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/port.hpp"
 
@@ -73,14 +74,13 @@ class Simulator {
   /// invalid_argument (bad option) or io_error, with the reason in `why`.
   static Result<std::unique_ptr<Simulator>> start(asio::io_context& ctx, SimulatorOptions options,
                                                   std::string* why);
-  ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
 
   std::string where() const;
   uint8_t unit() const noexcept { return unit_; }
   /// Device time now (ms).
-  uint64_t device_ms() const;
+  uint64_t device_ms() const { return clock_.now_ms(); }
   /// The model, advanced to now. Only on the io_context's thread.
   Machine& machine();
 
@@ -93,20 +93,17 @@ class Simulator {
   std::string status_text();
 
  private:
-  Simulator(asio::io_context& ctx, SimulatorOptions options);
+  explicit Simulator(SimulatorOptions options);
   void after_response();
   void save();
-  void tick();
 
-  asio::io_context& ctx_;
   SimulatorOptions options_;
-  std::chrono::steady_clock::time_point t0_;
+  DeviceClock clock_;
   Machine machine_;
   std::unique_ptr<MachineBank> bank_;
   SlaveEngine engine_;
   std::unique_ptr<SlaveListener> listener_;
-  struct Ticker;
-  std::unique_ptr<Ticker> ticker_;
+  std::unique_ptr<PeriodicTimer> ticker_;
   uint8_t unit_ = kDefaultAddress;
   bool quit_ = false;
 };

@@ -14,6 +14,7 @@
 
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/rehand6600/chair.hpp"
+#include "rtukit/driver/simulation.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/port.hpp"
 
@@ -58,12 +59,11 @@ class Simulator {
   /// Errors: invalid_argument or io_error, with the reason in `why`.
   static Result<std::unique_ptr<Simulator>> start(asio::io_context& ctx, SimulatorOptions options,
                                                   std::string* why);
-  ~Simulator();
   Simulator(const Simulator&) = delete;
   Simulator& operator=(const Simulator&) = delete;
 
   std::string where() const;
-  uint64_t device_ms() const;
+  uint64_t device_ms() const { return clock_.now_ms(); }
   Chair& chair();  ///< advanced to now
 
   /// One console line -> its reply. Commands: help, status, joystick X Y,
@@ -76,16 +76,14 @@ class Simulator {
 
  private:
   explicit Simulator(SimulatorOptions options);
-  void tick();
 
   SimulatorOptions options_;
-  std::chrono::steady_clock::time_point t0_;
+  DeviceClock clock_;
   Chair chair_;
   std::unique_ptr<ChairBank> bank_;
   SlaveEngine engine_;
   std::unique_ptr<SlaveListener> listener_;
-  struct Ticker;
-  std::unique_ptr<Ticker> ticker_;
+  std::unique_ptr<PeriodicTimer> ticker_;
   bool quit_ = false;
 };
 
