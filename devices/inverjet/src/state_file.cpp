@@ -2,18 +2,13 @@
 // canonical dump of the settings so a damaged file is noticed, not half-used.
 #include "rtukit/devices/inverjet/state_file.hpp"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
-#include <cerrno>
 #include <cstdlib>
-#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
 #include "rtukit/core/crc.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::inverjet {
 namespace {
@@ -39,17 +34,6 @@ json settings_json(const Settings& s) {
 uint16_t checksum(const json& settings) {
   const std::string text = settings.dump();
   return crc16({reinterpret_cast<const uint8_t*>(text.data()), text.size()});
-}
-
-// mkdir -p for the directory part of `path`.
-void make_parents(const std::string& path) {
-  for (size_t at = path.find('/', 1); at != std::string::npos; at = path.find('/', at + 1))
-    ::mkdir(path.substr(0, at).c_str(), 0755);
-}
-
-Error fail(std::string* why, const std::string& what, int err) {
-  if (why) *why = what + ": " + std::strerror(err);
-  return Error(Errc::io_error, err);
 }
 
 }  // namespace
@@ -130,44 +114,7 @@ LoadedSettings load_settings(const std::string& path) {
 }
 
 Error save_settings(const std::string& path, const Settings& settings, std::string* why) {
-  make_parents(path);
-  const std::string text = settings_to_text(settings);
-  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(why, "cannot create " + tmp, errno);
-  size_t done = 0;
-  while (done < text.size()) {
-    const ssize_t n = ::write(fd, text.data() + done, text.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) {
-      const int err = errno;
-      ::close(fd);
-      ::unlink(tmp.c_str());
-      return fail(why, "cannot write " + tmp, err);
-    }
-    done += static_cast<size_t>(n);
-  }
-  // The data must be on disk before the rename makes it the file.
-  if (::fsync(fd) != 0) {
-    const int err = errno;
-    ::close(fd);
-    ::unlink(tmp.c_str());
-    return fail(why, "cannot flush " + tmp, err);
-  }
-  ::close(fd);
-  if (::rename(tmp.c_str(), path.c_str()) != 0) {
-    const int err = errno;
-    ::unlink(tmp.c_str());
-    return fail(why, "cannot replace " + path, err);
-  }
-  // And the rename itself must survive a power cut.
-  const size_t slash = path.rfind('/');
-  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
-  if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
-    ::fsync(dfd);
-    ::close(dfd);
-  }
-  return {};
+  return io::write_file_atomically(path, settings_to_text(settings), why);
 }
 
 }  // namespace rtukit::inverjet

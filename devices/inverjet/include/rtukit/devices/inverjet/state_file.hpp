@@ -2,10 +2,11 @@
 // (address, baud, control mask, free/timer memory, the four plans) as a JSON
 // file with a checksum.
 //
-// Saving is crash-safe: the new content goes to a temporary file in the same
-// directory, is flushed (fsync), then renamed over the old file (atomic on
-// POSIX file systems) and the directory is flushed. A power cut or a kill at
-// any moment leaves either the old or the new file, never a mix.
+// Saving is crash-safe (io::write_file_atomically): the new content goes to
+// a temporary file in the same directory, is flushed (fsync), then renamed
+// over the old file (atomic on POSIX file systems) and the directory is
+// flushed. A power cut or a kill at any moment leaves either the old or the
+// new file, never a mix.
 #pragma once
 
 #include <string>

@@ -1,0 +1,19 @@
+// rtukit io: replacing a small file so that a crash or power cut at any
+// moment leaves either the old content or the new one, never a mix. For
+// simulated flash (a device's persisted settings).
+#pragma once
+
+#include <string>
+#include <string_view>
+
+#include "rtukit/core/error.hpp"
+
+namespace rtukit::io {
+
+/// Writes `content` to a temporary file next to `path` (its directories are
+/// created), flushes it (fsync), renames it over `path` (atomic on POSIX file
+/// systems) and flushes the directory. Errors: io_error with the OS error;
+/// `why` gets a one-line reason. A failed write leaves `path` untouched.
+Error write_file_atomically(const std::string& path, std::string_view content, std::string* why = nullptr);
+
+}  // namespace rtukit::io

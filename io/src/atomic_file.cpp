@@ -1,0 +1,63 @@
+#include "rtukit/io/atomic_file.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+
+namespace rtukit::io {
+namespace {
+
+// mkdir -p for the directory part of `path`.
+void make_parents(const std::string& path) {
+  for (size_t at = path.find('/', 1); at != std::string::npos; at = path.find('/', at + 1))
+    ::mkdir(path.substr(0, at).c_str(), 0755);
+}
+
+Error fail(std::string* why, const std::string& what, int err) {
+  if (why) *why = what + ": " + std::strerror(err);
+  return Error(Errc::io_error, err);
+}
+
+}  // namespace
+
+Error write_file_atomically(const std::string& path, std::string_view content, std::string* why) {
+  make_parents(path);
+  // Per process, so two writers never share a temporary file.
+  const std::string tmp = path + ".tmp." + std::to_string(::getpid());
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0) return fail(why, "cannot create " + tmp, errno);
+  const auto abandon = [&](const std::string& what) {
+    const int err = errno;
+    ::close(fd);
+    ::unlink(tmp.c_str());
+    return fail(why, what, err);
+  };
+  size_t done = 0;
+  while (done < content.size()) {
+    const ssize_t n = ::write(fd, content.data() + done, content.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return abandon("cannot write " + tmp);
+    done += static_cast<size_t>(n);
+  }
+  // The data must be on disk before the rename makes it the file.
+  if (::fsync(fd) != 0) return abandon("cannot flush " + tmp);
+  ::close(fd);
+  if (::rename(tmp.c_str(), path.c_str()) != 0) {
+    const int err = errno;
+    ::unlink(tmp.c_str());
+    return fail(why, "cannot replace " + path, err);
+  }
+  // And the rename itself must survive a power cut.
+  const size_t slash = path.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
+    ::fsync(dfd);
+    ::close(dfd);
+  }
+  return {};
+}
+
+}  // namespace rtukit::io
