@@ -40,6 +40,8 @@ std::string_view errc_name(Errc code) noexcept {
       return "I/O error";
     case Errc::not_connected:
       return "not connected";
+    case Errc::refused:
+      return "refused";
   }
   // A code received from the wire that the standard does not name.
   return static_cast<uint16_t>(code) <= 0xFF ? "unknown exception" : "unknown error";

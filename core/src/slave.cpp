@@ -132,6 +132,7 @@ size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::
     std::array<uint8_t, kMaxPduSize> scratch{};
     size_t len = 0;
     for (size_t i = 0; i < count_; ++i) {
+      if (!(units_[i].bank->functions() & function_bit(request->function))) continue;
       (void)execute(*units_[i].bank, *request, scratch, &len);
       units_[i].bank->after_response();
     }
@@ -139,6 +140,12 @@ size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::
   }
 
   if (handled) *handled = bank;
+  // The function first: a function the bank does not implement is 01 even
+  // when its quantity or value is also wrong.
+  if (!(bank->functions() & function_bit(pdu[0]))) {
+    ++counters_.exceptions;
+    return encode_exception_response(pdu[0], Errc::illegal_function, out);
+  }
   if (!request.ok()) {
     if (!request.error().is_exception()) {
       ++counters_.malformed;

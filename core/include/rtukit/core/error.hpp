@@ -10,6 +10,7 @@
 
 #include <cstdint>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 
 namespace rtukit {
@@ -35,17 +36,28 @@ enum class Errc : uint16_t {
   buffer_too_small,     ///< an output span cannot hold the result
   io_error,             ///< the transport failed; `Error::os_error` says why
   not_connected,        ///< the transport is closed (and could not be reopened)
+  refused,              ///< a local rule or precondition refused the request (nothing was sent)
 };
 
 /// Name of a code, e.g. "illegal data address" or "timeout". Never empty.
 std::string_view errc_name(Errc code) noexcept;
 
-/// A failure (or success) as a value. Trivially copyable, 8 bytes.
-class Error {
+/// A failure (or success) as a value. Trivially copyable, 16 bytes.
+///
+/// A failure may carry a reason: a static text that says why in the terms of
+/// the rule that refused ("not while charging"). Reasons must have static
+/// storage duration (string literals); text built at run time travels in a
+/// `Status` (rtukit/io/status.hpp) on the host side.
+class [[nodiscard]] Error {
  public:
   constexpr Error() noexcept = default;
   constexpr Error(Errc code, int32_t os_error = 0) noexcept  // NOLINT: implicit on purpose
       : code_(code), os_error_(os_error) {}
+  /// `reason`: a string literal (or other static text), or nullptr.
+  constexpr Error(Errc code, const char* reason) noexcept : code_(code), reason_(reason) {}
+
+  /// A local rule refused the request (Errc::refused) for `reason` (static text).
+  static constexpr Error refused(const char* reason) noexcept { return Error(Errc::refused, reason); }
 
   /// A Modbus exception received from (or to be sent by) a slave.
   static constexpr Error exception(uint8_t exception_code) noexcept {
@@ -64,6 +76,12 @@ class Error {
   /// For io_error: the operating system's error number (errno value); else 0.
   constexpr int32_t os_error() const noexcept { return os_error_; }
   std::string_view name() const noexcept { return errc_name(code_); }
+  /// The reason given when the error was made, or empty.
+  constexpr std::string_view reason() const noexcept {
+    return reason_ ? std::string_view(reason_) : std::string_view();
+  }
+  /// The reason if there is one, else the code's name.
+  constexpr std::string_view text() const noexcept { return reason_ ? std::string_view(reason_) : name(); }
 
   friend constexpr bool operator==(Error a, Error b) noexcept { return a.code_ == b.code_; }
   friend constexpr bool operator==(Error a, Errc b) noexcept { return a.code_ == b; }
@@ -71,21 +89,29 @@ class Error {
  private:
   Errc code_ = Errc::ok;
   int32_t os_error_ = 0;
+  const char* reason_ = nullptr;
 };
 
-/// Either a value or an Error. `T` must be default-constructible (it is for
-/// every type the stack returns); that keeps this free of unions and placement new.
-template <class T>
+/// Either a value or an error (`Error`, or `Status` on the host side, which
+/// adds a reason built at run time). `T` must be default-constructible (it is
+/// for every type the stack returns); that keeps this free of unions and
+/// placement new.
+template <class T, class E = Error>
 class [[nodiscard]] Result {
  public:
   constexpr Result(T value) noexcept(noexcept(T(std::move(value))))  // NOLINT: implicit
       : value_(std::move(value)) {}
-  constexpr Result(Error error) noexcept : error_(error) {}  // NOLINT: implicit
-  constexpr Result(Errc code) noexcept : error_(code) {}     // NOLINT: implicit
+  constexpr Result(E error) noexcept : error_(std::move(error)) {}  // NOLINT: implicit
+  constexpr Result(Errc code) noexcept : error_(code) {}           // NOLINT: implicit
+  /// A Result with another error type whose error converts (Error -> Status).
+  template <class E2>
+    requires(!std::is_same_v<E, E2> && std::is_convertible_v<E2, E>)
+  constexpr Result(Result<T, E2> other) noexcept  // NOLINT: implicit
+      : value_(std::move(other.value())), error_(other.error()) {}
 
   constexpr bool ok() const noexcept { return error_.ok(); }
   constexpr explicit operator bool() const noexcept { return ok(); }  // true = has value
-  constexpr Error error() const noexcept { return error_; }
+  constexpr const E& error() const noexcept { return error_; }
   /// Precondition: ok().
   constexpr const T& value() const& noexcept { return value_; }
   constexpr T& value() & noexcept { return value_; }
@@ -96,7 +122,7 @@ class [[nodiscard]] Result {
 
  private:
   T value_{};
-  Error error_{};
+  E error_{};
 };
 
 }  // namespace rtukit

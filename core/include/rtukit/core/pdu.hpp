@@ -52,6 +52,29 @@ enum class Function : uint8_t {
 constexpr uint8_t fc(Function f) noexcept {
   return static_cast<uint8_t>(f);
 }
+
+/// Documented deviations from the standard frames (spec modbus-rtu.md) that
+/// a device is known to use. Off unless a profile or an option turns them on;
+/// they only ever apply on RTU links (Modbus TCP frames carry a length).
+struct FrameQuirks {
+  bool fc10_without_byte_count = false;  ///< the Inverjet's short FC10 request
+  bool fc03_two_byte_count = false;      ///< the Rehand 6600's FC03 response with a 2-byte count
+};
+
+/// A set of function codes: bit n stands for function code n (0..63).
+using FunctionSet = uint64_t;
+constexpr FunctionSet function_bit(uint8_t function) noexcept {
+  return function < 64 ? FunctionSet{1} << function : 0;
+}
+constexpr FunctionSet function_bit(Function f) noexcept {
+  return function_bit(fc(f));
+}
+/// The eight classic data functions (01..06, 0F, 10).
+inline constexpr FunctionSet kDataFunctions =
+    function_bit(Function::read_coils) | function_bit(Function::read_discrete_inputs) |
+    function_bit(Function::read_holding_registers) | function_bit(Function::read_input_registers) |
+    function_bit(Function::write_single_coil) | function_bit(Function::write_single_register) |
+    function_bit(Function::write_multiple_coils) | function_bit(Function::write_multiple_registers);
 /// True for the eight function codes above.
 bool is_supported_function(uint8_t function) noexcept;
 /// True for 01..04.

@@ -61,6 +61,10 @@ class RegisterBank {
   virtual Errc write_holding_registers(uint16_t /*address*/, std::span<const uint16_t> /*values*/) {
     return Errc::illegal_function;
   }
+  /// The function codes this bank implements. A request for any other gets
+  /// exception 01 before its quantity or values are looked at (Modbus checks
+  /// the function first). Default: the eight data functions.
+  virtual FunctionSet functions() const noexcept { return kDataFunctions; }
   /// Called by the driver once the response to the last request of this unit
   /// has been sent (or would have been: broadcast). A device applies changes
   /// that must not affect that response here, such as a new address or baud rate.

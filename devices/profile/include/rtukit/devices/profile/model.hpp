@@ -1,0 +1,117 @@
+// rtukit device profiles: a device model over its register map.
+//
+// `Model` is the RegisterBank every simulated device is: the map does what is
+// the same for every device (which addresses exist, which may be read or
+// written, which values a row accepts: exceptions 02 and 03, a write
+// validated whole), the stored registers live in an `Image`, and a device
+// keeps only its behaviour in the hooks:
+//  - `refresh()` puts live values (state, speed, temperatures) into the image
+//    before a read;
+//  - `apply_write()` runs a validated write: store it, start a motor, refuse
+//    it with 04 for a device rule (and then change nothing);
+//  - `advance_to()` moves the model's time (the simulator host passes device
+//    time in; tests pass a virtual clock).
+// A register-only device (a map file) is a Model with no hooks overridden.
+//
+// Pure: core and profile only, no heap, no OS. The simulator host
+// (sim_host.hpp) serves a Model on a real link and keeps its persisted rows
+// in a state file.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <utility>
+
+#include "rtukit/core/slave.hpp"
+#include "rtukit/devices/profile/register_map.hpp"
+
+namespace rtukit::profile {
+
+/// The functions a register table needs: reads of every space it has, and
+/// FC06/FC10 (FC05/FC0F) where it has writable holding registers (coils).
+FunctionSet functions_for(std::span<const Row> rows) noexcept;
+
+/// A new unit address or baud rate a write asked for; the simulator host
+/// applies it after the response to that write has gone out.
+struct LinkChange {
+  std::optional<uint8_t> address;
+  std::optional<uint32_t> baud;
+  explicit operator bool() const noexcept { return address || baud; }
+};
+
+class Model : public RegisterBank {
+ public:
+  const Profile& profile() const noexcept { return *profile_; }
+  const RegisterMap& map() const noexcept { return map_; }
+  /// The stored registers. The host loads persisted rows into it before
+  /// serving (then calls `restored()`) and saves them when they change.
+  Image& image() noexcept { return image_; }
+  const Image& image() const noexcept { return image_; }
+
+  /// Runs the model up to device time `now_ms`. Earlier times are ignored.
+  virtual void advance_to(uint64_t /*now_ms*/) noexcept {}
+  /// The image's persisted rows were replaced from a state file.
+  virtual void restored() noexcept {}
+  /// A link change waiting since the last call (see LinkChange).
+  virtual LinkChange take_link_change() noexcept { return {}; }
+  /// The unit address and baud rate the device keeps in its own registers
+  /// (the Inverjet's 0x0000/0x0001), or nullopt for a device that has none
+  /// (the host then uses the profile's LinkDefaults).
+  virtual std::optional<LinkDefaults> stored_link() const noexcept { return std::nullopt; }
+  /// The simulator's --unit / --baud override what is stored. Errors:
+  /// invalid_argument with a static reason ("no baud code for that rate").
+  virtual Error override_link(std::optional<uint8_t> /*unit*/, std::optional<uint32_t> /*baud*/) noexcept {
+    return Errc::ok;
+  }
+
+  // ---- RegisterBank, generic over the map ----
+  FunctionSet functions() const noexcept override { return functions_; }
+  Errc read_holding_registers(uint16_t address, std::span<uint16_t> out) override {
+    return read(Space::holding, address, out);
+  }
+  Errc read_input_registers(uint16_t address, std::span<uint16_t> out) override {
+    return read(Space::input, address, out);
+  }
+  Errc write_holding_registers(uint16_t address, std::span<const uint16_t> values) override {
+    return write(Space::holding, address, values);
+  }
+  Errc read_coils(uint16_t address, uint16_t count, std::span<uint8_t> packed_out) override {
+    return read_bits(Space::coil, address, count, packed_out);
+  }
+  Errc read_discrete_inputs(uint16_t address, uint16_t count, std::span<uint8_t> packed_out) override {
+    return read_bits(Space::discrete, address, count, packed_out);
+  }
+  Errc write_coils(uint16_t address, uint16_t count, std::span<const uint8_t> packed) override;
+
+  /// A read as the bus sees it: check, refresh, copy. Errors: 02.
+  Errc read(Space space, uint16_t address, std::span<uint16_t> out);
+  /// A write as the bus sees it: check the whole request, then apply_write.
+  /// Errors: 02, 03, or what apply_write refuses with.
+  Errc write(Space space, uint16_t address, std::span<const uint16_t> values);
+
+ protected:
+  /// `storage` holds map.image_size() words and outlives the model; it is
+  /// reset to the rows' defaults.
+  Model(const Profile& profile, std::span<uint16_t> storage) noexcept;
+
+  /// Puts live values into the image before a read of `space`.
+  virtual void refresh(Space /*space*/) noexcept {}
+  /// Runs a write the map has validated. Default: store it. An override that
+  /// refuses must change nothing and return the exception (04 for a device
+  /// rule, 03 for a value that breaks a rule across registers).
+  virtual Error apply_write(Space space, uint16_t address, std::span<const uint16_t> values) noexcept {
+    image_.write(space, address, values);
+    return Errc::ok;
+  }
+
+ private:
+  Errc read_bits(Space space, uint16_t address, uint16_t count, std::span<uint8_t> packed_out);
+
+  const Profile* profile_;
+  RegisterMap map_;
+  Image image_;
+  FunctionSet functions_;
+};
+
+}  // namespace rtukit::profile

@@ -1,0 +1,182 @@
+// rtukit device profiles: the register schema every device is written in.
+//
+// A device is a table of `Row`s (data) plus a pure model (behaviour). One
+// row describes one register, one 32-bit value or one repeated block (the
+// Inverjet's 4 x 50 plan segments), with everything a program needs to
+// validate, decode, store, print and document it. Rows are constexpr data
+// with named fields, written like the device's manual:
+//
+//   {.space = Space::holding, .address = 0x0023, .key = "speed", .title = "current motor speed",
+//    .role = Role::control, .unit = "%", .range = {0, 100}, .flags = kMasked},
+//
+// This header is part of the pure profile layer: no heap, no OS, no
+// exceptions; it builds wherever the core builds.
+#pragma once
+
+#include <cstdint>
+#include <span>
+#include <string_view>
+
+#include "rtukit/core/pdu.hpp"
+
+namespace rtukit::profile {
+
+/// The four Modbus data spaces.
+enum class Space : uint8_t {
+  holding,   ///< FC03 read, FC06/FC10 write
+  input,     ///< FC04, read only
+  coil,      ///< FC01 read, FC05/FC0F write
+  discrete,  ///< FC02, read only
+};
+
+/// What a register is for. Drives defaults (access) and how programs treat it.
+enum class Role : uint8_t {
+  status,    ///< the device reports it; read only
+  setting,   ///< configuration, kept until written again (often persisted)
+  control,   ///< commands the device's state machine (start, stop, speed)
+  hold,      ///< active while non-zero; a host writes 0 to release (motion)
+  pulse,     ///< acts on the rising edge 0 -> non-zero; a host writes 1 then 0
+  reserved,  ///< documented, stored, no effect
+};
+
+/// Which way a request may touch a row.
+enum class Access : uint8_t {
+  by_role,     ///< input, discrete and Role::status: read only; otherwise read-write
+  read_only,   ///< writes get exception 02
+  write_only,  ///< reads get exception 02 (the Rehand 6600's table 2, D-3)
+  read_write,
+};
+
+/// How the raw words read as a value.
+enum class Encoding : uint8_t {
+  u16,       ///< unsigned, 1 word (divided by `scale` when scale > 1: fixed point)
+  i16,       ///< two's complement, 1 word (scaled likewise)
+  u32,       ///< unsigned, 2 words in `order` (scaled likewise)
+  i32,       ///< two's complement, 2 words in `order` (scaled likewise)
+  choice,    ///< one of `names` (value -> name); values not listed are refused on write
+  bits,      ///< bit set; `names` names the bits (value = bit number)
+  duration,  ///< seconds, shown and typed as mm:ss
+  version,   ///< 2 words: major, minor ("V1.2")
+  boolean,   ///< a coil or discrete input: 0 or 1
+};
+
+enum class WordOrder : uint8_t {
+  high_first,  ///< the Modbus convention (and D-9 of the Inverjet)
+  low_first,
+};
+
+/// An inclusive range of raw values (before scaling). Empty when min > max.
+struct Range {
+  int64_t min = 0;
+  int64_t max = -1;
+  constexpr bool empty() const noexcept { return min > max; }
+  constexpr bool contains(int64_t v) const noexcept { return v >= min && v <= max; }
+  friend constexpr bool operator==(const Range&, const Range&) = default;
+};
+
+/// One named value (Encoding::choice) or bit (Encoding::bits, value = bit number).
+struct Named {
+  uint16_t value = 0;
+  std::string_view name;
+};
+
+/// Device flags are a bitmask; bit 0 is the kit's own, the others are named
+/// by each device (`Profile::flag_names`).
+using Flags = uint32_t;
+inline constexpr Flags kPersisted = 1U << 0;  ///< kept across power cycles (the state file)
+
+struct FlagName {
+  Flags flag = 0;
+  std::string_view name;  ///< "persisted", "masked-by-control", "motion"
+};
+
+/// One row of a register table.
+struct Row {
+  Space space = Space::holding;
+  uint16_t address = 0;  ///< first (lowest) address
+  std::string_view key;  ///< stable identifier: JSON keys, CLI names, state files (snake_case)
+  std::string_view title;
+  Role role = Role::setting;
+  Encoding encoding = Encoding::u16;
+  std::string_view unit;  ///< "%", "s", "degC", "km/h" or empty
+  uint16_t scale = 1;     ///< fixed point: value = raw / scale (10, 100, 1000)
+  WordOrder order = WordOrder::high_first;
+  Access access = Access::by_role;
+  Range range;     ///< documented raw range; empty: the encoding's full range
+  Range writable_range;  ///< what a write may carry; empty: `range`
+  int64_t default_value = 0;
+  int64_t default_first = -1;  ///< default of a repeated block's first entry; -1: `default_value`
+  Flags flags = 0;
+  std::span<const Named> names;  ///< choice values or bit names
+  std::string_view notes;
+  uint16_t repeat = 1;  ///< entries in a repeated block
+  uint16_t stride = 1;  ///< registers from one entry to the next (>= words)
+
+  /// 2 for u32, i32 and version; else 1.
+  constexpr uint16_t words() const noexcept {
+    return encoding == Encoding::u32 || encoding == Encoding::i32 || encoding == Encoding::version ? 2 : 1;
+  }
+  constexpr bool is_signed() const noexcept { return encoding == Encoding::i16 || encoding == Encoding::i32; }
+  constexpr bool readable() const noexcept { return access != Access::write_only; }
+  constexpr bool writable() const noexcept {
+    if (space == Space::input || space == Space::discrete) return false;
+    if (access == Access::by_role) return role != Role::status;
+    return access != Access::read_only;
+  }
+  constexpr bool has(Flags f) const noexcept { return (flags & f) == f; }
+  /// The last address any entry of this row covers.
+  constexpr uint16_t last_address() const noexcept {
+    return static_cast<uint16_t>(address + (repeat - 1) * stride + words() - 1);
+  }
+  /// Address of entry `index` (0-based).
+  constexpr uint16_t entry_address(unsigned index) const noexcept {
+    return static_cast<uint16_t>(address + index * stride);
+  }
+  /// The full raw range of the encoding.
+  constexpr Range natural_range() const noexcept {
+    switch (encoding) {
+      case Encoding::i16:
+        return {-32768, 32767};
+      case Encoding::u32:
+      case Encoding::version:
+        return {0, 0xFFFFFFFFLL};
+      case Encoding::i32:
+        return {-2147483648LL, 2147483647LL};
+      case Encoding::boolean:
+        return {0, 1};
+      default:
+        return {0, 0xFFFF};
+    }
+  }
+  /// `range`, or the encoding's full range when none is given.
+  constexpr Range valid_range() const noexcept { return range.empty() ? natural_range() : range; }
+  /// What a write may carry: `writable_range`, else `valid_range()`.
+  constexpr Range write_range() const noexcept { return writable_range.empty() ? valid_range() : writable_range; }
+  /// Default of entry `index`.
+  constexpr int64_t default_of(unsigned index) const noexcept {
+    return index == 0 && default_first >= 0 ? default_first : default_value;
+  }
+};
+
+/// Link defaults of a device.
+struct LinkDefaults {
+  uint8_t unit = 1;
+  uint8_t unit_max = 247;  ///< highest address the device accepts (the Inverjet: 254)
+  uint32_t baud = 9600;
+  char parity = 'N';  ///< 'N', 'E', 'O'
+  uint8_t stop_bits = 1;
+};
+
+/// A device profile: the table and everything a generic program needs to
+/// talk to, serve, print and document the device.
+struct Profile {
+  std::string_view name;    ///< CLI name: "inverjet", "rehand6600"
+  std::string_view title;   ///< "Inverjet counter-current swimming machine"
+  std::string_view vendor;  ///< for device identification
+  std::span<const Row> rows;
+  std::span<const FlagName> flag_names;  ///< names of the device's own flags (bit 0 is "persisted")
+  LinkDefaults link;
+  FrameQuirks quirks;  ///< opt-in frame quirks (RTU links only)
+};
+
+}  // namespace rtukit::profile

@@ -1,0 +1,63 @@
+// rtukit device profiles, host side: register values as people read and
+// type them, and as JSON. Built on the map's decode/encode and scale, so a
+// unit or a scale is written once, in the row.
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <string_view>
+
+#include "rtukit/devices/profile/register_map.hpp"
+#include "rtukit/io/status.hpp"
+
+namespace rtukit::profile {
+
+/// A value as a person reads it: "80 %", "30:00", "timer running (8)",
+/// "voltage, motor drive" (bits; "none" for 0), "V1.2", "31.5 degC", "-5",
+/// "on"/"off" (boolean). A choice value not listed: "unknown (9)".
+std::string format_value(const Row& row, int64_t raw);
+
+/// Text a person typed -> raw value, checked against the row's write range:
+///  - a number in the row's unit ("31.5" for a 0.1-degC row), optionally
+///    followed by the unit ("80%", "80 %"), or hex ("0x1F");
+///  - a choice by name, case-insensitive, with '-', '_' and ' ' alike
+///    ("outdoor", "timer-running"), or by number;
+///  - bits as names joined by ',' or '|' ("bluetooth,wi-fi"), or a number;
+///  - a duration as mm:ss or seconds ("30:00", "1800");
+///  - a boolean as on/off, true/false, 1/0.
+/// Errors: invalid_argument when the text is not a value of the row (the
+/// reason lists the choices: "'fast' is not a drive_mode (normal, indoor,
+/// outdoor)"); illegal_data_value when outside the write range ("speed: 120
+/// is outside 0..100 %").
+Outcome<int64_t> parse_value(const Row& row, std::string_view text);
+
+/// The value for JSON: a number in the row's unit (scaled), a choice's name,
+/// an array of bit names, "mm:ss" stays a number of seconds, a version "1.2".
+nlohmann::json value_json(const Row& row, int64_t raw);
+
+/// mm:ss for a number of seconds ("30:00", "99:59").
+std::string format_mm_ss(unsigned seconds);
+/// "mm:ss", "m:ss" or plain seconds. Errors: invalid_argument.
+Result<uint32_t> parse_mm_ss(std::string_view text) noexcept;
+
+/// The canonical key for what a user typed: "drive-mode" -> "drive_mode".
+std::string canonical_key(std::string_view typed);
+/// The row a user named (either case style), or nullptr.
+const Row* find_row(const RegisterMap& map, std::string_view typed);
+
+/// Lowercase word with '-' and ' ' as '_' (for comparing names a user typed).
+std::string fold_name(std::string_view name);
+
+/// The generic register reference of a profile as Markdown (one table per
+/// space: address, key, title, access, unit, range, default, flags, values).
+std::string registers_markdown(const Profile& profile);
+
+/// The name of a space ("holding"), role ("setting"), encoding ("u16"),
+/// access ("read_only") as written in map files.
+std::string_view space_name(Space s) noexcept;
+std::string_view role_name(Role r) noexcept;
+std::string_view encoding_name(Encoding e) noexcept;
+std::string_view access_name(Access a) noexcept;
+
+}  // namespace rtukit::profile

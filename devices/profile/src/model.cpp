@@ -1,0 +1,73 @@
+// The generic half of every device model: the map decides what exists and
+// what a value may be; the device's hooks decide what happens.
+#include "rtukit/devices/profile/model.hpp"
+
+#include <array>
+
+namespace rtukit::profile {
+
+void unknown_register_key() noexcept {}
+
+FunctionSet functions_for(std::span<const Row> rows) noexcept {
+  FunctionSet set = 0;
+  for (const Row& r : rows) {
+    switch (r.space) {
+      case Space::holding:
+        // A write-only table still answers reads with 02, not 01: FC03 exists.
+        set |= function_bit(Function::read_holding_registers);
+        if (r.writable())
+          set |= function_bit(Function::write_single_register) | function_bit(Function::write_multiple_registers);
+        break;
+      case Space::input:
+        set |= function_bit(Function::read_input_registers);
+        break;
+      case Space::coil:
+        set |= function_bit(Function::read_coils);
+        if (r.writable())
+          set |= function_bit(Function::write_single_coil) | function_bit(Function::write_multiple_coils);
+        break;
+      case Space::discrete:
+        set |= function_bit(Function::read_discrete_inputs);
+        break;
+    }
+  }
+  return set;
+}
+
+Model::Model(const Profile& profile, std::span<uint16_t> storage) noexcept
+    : profile_(&profile), map_(profile.rows), image_(map_, storage), functions_(functions_for(profile.rows)) {
+  image_.reset();
+}
+
+Errc Model::read(Space space, uint16_t address, std::span<uint16_t> out) {
+  if (const Error e = map_.check_read(space, address, out.size())) return e.code();
+  refresh(space);
+  image_.read(space, address, out);
+  return Errc::ok;
+}
+
+Errc Model::write(Space space, uint16_t address, std::span<const uint16_t> values) {
+  if (const Error e = map_.check_write(space, address, values)) return e.code();
+  return apply_write(space, address, values).code();
+}
+
+Errc Model::read_bits(Space space, uint16_t address, uint16_t count, std::span<uint8_t> packed_out) {
+  if (const Error e = map_.check_read(space, address, count)) return e.code();
+  refresh(space);
+  std::array<uint16_t, 1> one{};
+  for (uint16_t i = 0; i < count; ++i) {
+    image_.read(space, static_cast<uint16_t>(address + i), one);
+    set_bit(packed_out, i, one[0] != 0);
+  }
+  return Errc::ok;
+}
+
+Errc Model::write_coils(uint16_t address, uint16_t count, std::span<const uint8_t> packed) {
+  // Coils travel as bits; the map and the image see them as 0/1 words. The
+  // engine bounds count by 1968, so this stack buffer always holds them.
+  std::array<uint16_t, kMaxWriteBits> values{};
+  for (uint16_t i = 0; i < count; ++i) values[i] = get_bit(packed, i) ? 1 : 0;
+  return write(Space::coil, address, std::span<const uint16_t>(values.data(), count));
+}
+
+}  // namespace rtukit::profile
