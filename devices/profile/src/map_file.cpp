@@ -1,1 +1,476 @@
-// placeholder
+// Register-map files. One document shape for YAML and JSON; every field of a
+// Row has a name here, and a field left out takes the Row's default, so a
+// small device is a small file.
+#include "rtukit/devices/profile/map_file.hpp"
+
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <bitset>
+#include <charconv>
+#include <cstring>
+#include <nlohmann/json.hpp>
+
+#include "rtukit/devices/profile/text.hpp"
+
+namespace rtukit::profile {
+namespace {
+
+constexpr size_t kMaxMapFile = 4 << 20;
+
+constexpr Space kSpaces[] = {Space::holding, Space::input, Space::coil, Space::discrete};
+constexpr Role kRoles[] = {Role::status, Role::setting, Role::control, Role::hold, Role::pulse, Role::reserved};
+constexpr Encoding kEncodings[] = {Encoding::u16,    Encoding::i16,      Encoding::u32,
+                                   Encoding::i32,    Encoding::choice,   Encoding::bits,
+                                   Encoding::duration, Encoding::version, Encoding::boolean};
+constexpr Access kAccesses[] = {Access::by_role, Access::read_only, Access::write_only, Access::read_write};
+
+std::string_view order_name(WordOrder o) {
+  return o == WordOrder::high_first ? "high_first" : "low_first";
+}
+
+template <class E, size_t N, class NameOf>
+std::string choices_of(const E (&all)[N], NameOf name_of) {
+  std::string out;
+  for (E e : all) out += (out.empty() ? "" : ", ") + std::string(name_of(e));
+  return out;
+}
+
+// A parse failure at a node: "SOURCE:LINE: message".
+struct Bad {
+  std::string message;
+};
+
+class Reader {
+ public:
+  explicit Reader(std::string_view source) : source_(source) {}
+
+  [[noreturn]] void fail(const YAML::Node& at, const std::string& what) const {
+    const int line = at.IsDefined() ? at.Mark().line + 1 : 0;
+    throw Bad{line > 0 ? fmt::format("{}:{}: {}", source_, line, what) : fmt::format("{}: {}", source_, what)};
+  }
+
+  int64_t integer(const YAML::Node& n, std::string_view field) const {
+    if (!n.IsScalar()) fail(n, fmt::format("{} must be a whole number", field));
+    const std::string s = n.Scalar();
+    int64_t v = 0;
+    std::string_view t = s;
+    bool negative = false;
+    if (!t.empty() && t[0] == '-') {
+      negative = true;
+      t.remove_prefix(1);
+    }
+    int base = 10;
+    if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
+      base = 16;
+      t.remove_prefix(2);
+    }
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
+    if (t.empty() || ec != std::errc{} || end != t.data() + t.size())
+      fail(n, fmt::format("{}: '{}' is not a whole number", field, s));
+    return negative ? -v : v;
+  }
+
+  std::string text(const YAML::Node& n, std::string_view field) const {
+    if (!n.IsScalar()) fail(n, fmt::format("{} must be text", field));
+    return n.Scalar();
+  }
+
+  template <class E, size_t N, class NameOf>
+  E choice(const YAML::Node& n, std::string_view field, const E (&all)[N], NameOf name_of) const {
+    const std::string s = fold_name(text(n, field));
+    for (E e : all) {
+      if (name_of(e) == s) return e;
+    }
+    fail(n, fmt::format("unknown {} '{}' ({})", field, n.Scalar(), choices_of(all, name_of)));
+  }
+
+  Range range(const YAML::Node& n, std::string_view field) const {
+    if (!n.IsSequence() || n.size() != 2) fail(n, fmt::format("{} must be [min, max]", field));
+    return Range{integer(n[0], field), integer(n[1], field)};
+  }
+
+ private:
+  std::string source_;
+};
+
+void check_fields(const Reader& reader, const YAML::Node& node, std::initializer_list<std::string_view> known,
+                  std::string_view what) {
+  for (const auto& kv : node) {
+    const std::string key = kv.first.Scalar();
+    if (std::find(known.begin(), known.end(), key) == known.end()) {
+      std::string list;
+      for (std::string_view k : known) list += (list.empty() ? "" : ", ") + std::string(k);
+      reader.fail(kv.first, fmt::format("unknown field '{}' in {} (fields: {})", key, what, list));
+    }
+  }
+}
+
+Outcome<std::string> read_small_file(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return Status(Error(Errc::io_error, errno), fmt::format("{}: {}", path, std::strerror(errno)));
+  struct stat st {};
+  std::string text;
+  Status status;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    status = Status(Errc::invalid_argument, fmt::format("{}: not a regular file", path));
+  } else if (static_cast<size_t>(st.st_size) > kMaxMapFile) {
+    status = Status(Errc::invalid_argument, fmt::format("{}: larger than 4 MiB, not a register map", path));
+  } else {
+    text.resize(static_cast<size_t>(st.st_size));
+    size_t got = 0;
+    while (got < text.size()) {
+      const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+      if (n <= 0) break;
+      got += static_cast<size_t>(n);
+    }
+    text.resize(got);
+  }
+  ::close(fd);
+  if (!status.ok()) return status;
+  return text;
+}
+
+}  // namespace
+
+std::string_view MapProfile::keep(std::string s) {
+  strings_.push_back(std::move(s));
+  return strings_.back();
+}
+
+Status check_profile(const Profile& profile) {
+  const auto bad = [&](const Row& r, const std::string& what) {
+    return Status(Errc::invalid_argument, fmt::format("register '{}' (0x{:04X}): {}", r.key, r.address, what));
+  };
+  std::array<std::bitset<65536>, 4> used;
+  for (const Row& r : profile.rows) {
+    if (r.key.empty()) return bad(r, "no key");
+    for (char c : r.key) {
+      if (!(std::islower(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_'))
+        return bad(r, "keys are snake_case: a-z, 0-9 and _");
+    }
+    for (const Row& other : profile.rows) {
+      if (&other != &r && other.key == r.key) return bad(r, "the key is used twice");
+    }
+    const bool bit_space = r.space == Space::coil || r.space == Space::discrete;
+    if (bit_space != (r.encoding == Encoding::boolean))
+      return bad(r, "coils and discrete inputs are boolean, registers are not");
+    if (r.repeat < 1) return bad(r, "repeat must be at least 1");
+    if (r.stride < r.words()) return bad(r, fmt::format("stride {} is less than the {} words of a value", r.stride, r.words()));
+    if (uint32_t{r.address} + uint32_t{r.repeat - 1U} * r.stride + r.words() - 1 > 0xFFFF)
+      return bad(r, "runs past address 0xFFFF");
+    if (r.scale == 0) return bad(r, "scale must be at least 1");
+    const Range natural = r.natural_range();
+    for (const Range* range : {&r.range, &r.writable_range}) {
+      if (range->empty()) continue;
+      if (range->min < natural.min || range->max > natural.max)
+        return bad(r, fmt::format("range {}..{} is outside what {} can hold ({}..{})", range->min, range->max,
+                                  encoding_name(r.encoding), natural.min, natural.max));
+    }
+    if ((r.encoding == Encoding::choice || r.encoding == Encoding::bits) && r.names.empty())
+      return bad(r, fmt::format("a {} needs values", encoding_name(r.encoding)));
+    if (r.writable()) {
+      for (unsigned i = 0; i < std::min<unsigned>(r.repeat, 2); ++i) {
+        if (!r.valid_range().contains(r.default_of(i)))
+          return bad(r, fmt::format("default {} is outside its range", r.default_of(i)));
+      }
+    }
+    auto& space = used[static_cast<size_t>(r.space)];
+    for (unsigned i = 0; i < r.repeat; ++i) {
+      for (unsigned w = 0; w < r.words(); ++w) {
+        const size_t a = size_t{r.address} + size_t{i} * r.stride + w;
+        if (space.test(a)) return bad(r, fmt::format("address 0x{:04X} is covered by another register", a));
+        space.set(a);
+      }
+    }
+  }
+  return {};
+}
+
+Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::string_view source) {
+  Reader reader(source);
+  auto map = std::make_unique<MapProfile>();
+  try {
+    YAML::Node doc;
+    try {
+      doc = YAML::Load(std::string(text));
+    } catch (const YAML::ParserException& e) {
+      return Status(Errc::invalid_argument,
+                    fmt::format("{}:{}: not valid YAML or JSON: {}", source, e.mark.line + 1, e.msg));
+    }
+    if (!doc.IsMap()) reader.fail(doc, "a register map is a mapping with 'device' and 'registers'");
+    check_fields(reader, doc, {"format", "device", "flags", "registers"}, "the map");
+    if (doc["format"] && reader.text(doc["format"], "format") != "rtukit-map")
+      reader.fail(doc["format"], "format must be 'rtukit-map'");
+    const YAML::Node device = doc["device"];
+    if (!device || !device.IsMap()) reader.fail(doc, "'device' (name, title...) is missing");
+    check_fields(reader, device,
+                 {"name", "title", "vendor", "unit", "unit_max", "baud", "parity", "stop_bits", "quirks"}, "device");
+    Profile& p = map->profile_;
+    if (!device["name"]) reader.fail(device, "device.name is missing");
+    p.name = map->keep(reader.text(device["name"], "device.name"));
+    if (device["title"]) p.title = map->keep(reader.text(device["title"], "device.title"));
+    if (device["vendor"]) p.vendor = map->keep(reader.text(device["vendor"], "device.vendor"));
+    if (device["unit"]) {
+      const int64_t u = reader.integer(device["unit"], "device.unit");
+      if (u < 1 || u > 255) reader.fail(device["unit"], "device.unit must be 1..255");
+      p.link.unit = static_cast<uint8_t>(u);
+    }
+    if (device["unit_max"]) {
+      const int64_t u = reader.integer(device["unit_max"], "device.unit_max");
+      if (u < 1 || u > 255) reader.fail(device["unit_max"], "device.unit_max must be 1..255");
+      p.link.unit_max = static_cast<uint8_t>(u);
+    }
+    if (device["baud"]) {
+      const int64_t b = reader.integer(device["baud"], "device.baud");
+      if (b < 300 || b > 4000000) reader.fail(device["baud"], "device.baud must be 300..4000000");
+      p.link.baud = static_cast<uint32_t>(b);
+    }
+    if (device["parity"]) {
+      const std::string parity = fold_name(reader.text(device["parity"], "device.parity"));
+      if (parity == "n" || parity == "none") p.link.parity = 'N';
+      else if (parity == "e" || parity == "even") p.link.parity = 'E';
+      else if (parity == "o" || parity == "odd") p.link.parity = 'O';
+      else reader.fail(device["parity"], "device.parity is N, E or O (none, even, odd)");
+    }
+    if (device["stop_bits"]) {
+      const int64_t s = reader.integer(device["stop_bits"], "device.stop_bits");
+      if (s != 1 && s != 2) reader.fail(device["stop_bits"], "device.stop_bits is 1 or 2");
+      p.link.stop_bits = static_cast<uint8_t>(s);
+    }
+    if (const YAML::Node q = device["quirks"]) {
+      if (!q.IsSequence()) reader.fail(q, "device.quirks is a list");
+      for (const YAML::Node& item : q) {
+        const std::string name = fold_name(reader.text(item, "quirk"));
+        if (name == "fc10_without_byte_count") p.quirks.fc10_without_byte_count = true;
+        else if (name == "fc03_two_byte_count") p.quirks.fc03_two_byte_count = true;
+        else reader.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
+      }
+    }
+    // Device flags: bit 0 is "persisted", the file names the others in order.
+    map->flag_names_.push_back({kPersisted, "persisted"});
+    if (const YAML::Node flags = doc["flags"]) {
+      if (!flags.IsSequence()) reader.fail(flags, "flags is a list of names");
+      for (const YAML::Node& f : flags) {
+        if (map->flag_names_.size() >= 32) reader.fail(f, "at most 31 device flags");
+        const std::string name = reader.text(f, "flag");
+        if (name == "persisted") continue;
+        map->flag_names_.push_back({Flags{1} << map->flag_names_.size(), map->keep(name)});
+      }
+    }
+    const YAML::Node regs = doc["registers"];
+    if (!regs || !regs.IsSequence() || regs.size() == 0)
+      reader.fail(doc, "'registers' must be a list of at least one register");
+    for (const YAML::Node& n : regs) {
+      if (!n.IsMap()) reader.fail(n, "a register is a mapping (key, space, address...)");
+      check_fields(reader, n,
+                   {"key", "title", "space", "address", "role", "encoding", "unit", "scale", "order", "access",
+                    "range", "writable_range", "default", "default_first", "flags", "values", "notes", "repeat",
+                    "stride"},
+                   "a register");
+      Row r;
+      if (!n["key"]) reader.fail(n, "a register needs a key");
+      r.key = map->keep(reader.text(n["key"], "key"));
+      if (!n["address"]) reader.fail(n, fmt::format("register '{}' needs an address", r.key));
+      const int64_t address = reader.integer(n["address"], "address");
+      if (address < 0 || address > 0xFFFF) reader.fail(n["address"], "address must be 0..0xFFFF");
+      r.address = static_cast<uint16_t>(address);
+      r.title = n["title"] ? map->keep(reader.text(n["title"], "title")) : r.key;
+      if (n["space"]) r.space = reader.choice(n["space"], "space", kSpaces, space_name);
+      r.role = r.space == Space::input || r.space == Space::discrete ? Role::status : Role::setting;
+      if (n["role"]) r.role = reader.choice(n["role"], "role", kRoles, role_name);
+      r.encoding = r.space == Space::coil || r.space == Space::discrete ? Encoding::boolean : Encoding::u16;
+      if (n["encoding"]) r.encoding = reader.choice(n["encoding"], "encoding", kEncodings, encoding_name);
+      if (n["unit"]) r.unit = map->keep(reader.text(n["unit"], "unit"));
+      if (n["scale"]) {
+        const int64_t s = reader.integer(n["scale"], "scale");
+        if (s < 1 || s > 10000) reader.fail(n["scale"], "scale must be 1..10000");
+        r.scale = static_cast<uint16_t>(s);
+      }
+      if (n["order"]) {
+        const std::string o = fold_name(reader.text(n["order"], "order"));
+        if (o == "high_first") r.order = WordOrder::high_first;
+        else if (o == "low_first") r.order = WordOrder::low_first;
+        else reader.fail(n["order"], "order is high_first or low_first");
+      }
+      if (n["access"]) r.access = reader.choice(n["access"], "access", kAccesses, access_name);
+      if (n["range"]) r.range = reader.range(n["range"], "range");
+      if (n["writable_range"]) r.writable_range = reader.range(n["writable_range"], "writable_range");
+      if (n["default"]) r.default_value = reader.integer(n["default"], "default");
+      if (n["default_first"]) r.default_first = reader.integer(n["default_first"], "default_first");
+      if (n["repeat"]) {
+        const int64_t v = reader.integer(n["repeat"], "repeat");
+        if (v < 1 || v > 0xFFFF) reader.fail(n["repeat"], "repeat must be 1..65535");
+        r.repeat = static_cast<uint16_t>(v);
+      }
+      r.stride = r.words();
+      if (n["stride"]) {
+        const int64_t v = reader.integer(n["stride"], "stride");
+        if (v < 1 || v > 0xFFFF) reader.fail(n["stride"], "stride must be 1..65535");
+        r.stride = static_cast<uint16_t>(v);
+      }
+      if (n["notes"]) r.notes = map->keep(reader.text(n["notes"], "notes"));
+      if (const YAML::Node flags = n["flags"]) {
+        if (!flags.IsSequence()) reader.fail(flags, "flags is a list of names");
+        for (const YAML::Node& f : flags) {
+          const std::string name = reader.text(f, "flag");
+          const auto it = std::find_if(map->flag_names_.begin(), map->flag_names_.end(),
+                                       [&](const FlagName& fn) { return fn.name == name; });
+          if (it == map->flag_names_.end())
+            reader.fail(f, fmt::format("unknown flag '{}' (declare it under 'flags' at the top)", name));
+          r.flags |= it->flag;
+        }
+      }
+      if (const YAML::Node values = n["values"]) {
+        if (!values.IsMap()) reader.fail(values, "values is a mapping of number: name");
+        std::vector<Named> named;
+        for (const auto& kv : values) {
+          const int64_t v = reader.integer(kv.first, "value");
+          if (v < 0 || v > 0xFFFF) reader.fail(kv.first, "a value must be 0..65535");
+          named.push_back({static_cast<uint16_t>(v), map->keep(reader.text(kv.second, "value name"))});
+        }
+        map->names_.push_back(std::move(named));
+        r.names = map->names_.back();
+      }
+      map->rows_.push_back(r);
+      // The node of each row, for the line of a table-level error below.
+      if (const Status s = check_profile(Profile{.rows = std::span<const Row>(map->rows_)}); !s.ok())
+        reader.fail(n, std::string(s.reason()));
+    }
+  } catch (const Bad& bad) {
+    return Status(Errc::invalid_argument, bad.message);
+  } catch (const YAML::Exception& e) {
+    return Status(Errc::invalid_argument, fmt::format("{}:{}: {}", source, e.mark.line + 1, e.msg));
+  }
+  map->profile_.rows = map->rows_;
+  map->profile_.flag_names = map->flag_names_;
+  return map;
+}
+
+Outcome<std::unique_ptr<MapProfile>> load_map(const std::string& path) {
+  Outcome<std::string> text = read_small_file(path);
+  if (!text.ok()) return text.error();
+  return parse_map(*text, path);
+}
+
+namespace {
+
+// The document shape shared by YAML and JSON export: only what differs from
+// a Row's defaults, in the order a person reads a row.
+nlohmann::ordered_json row_document(const Profile& p, const Row& r) {
+  nlohmann::ordered_json j;
+  j["key"] = r.key;
+  j["title"] = r.title;
+  j["space"] = space_name(r.space);
+  j["address"] = fmt::format("0x{:04X}", r.address);
+  j["role"] = role_name(r.role);
+  j["encoding"] = encoding_name(r.encoding);
+  if (!r.unit.empty()) j["unit"] = r.unit;
+  if (r.scale != 1) j["scale"] = r.scale;
+  if (r.order != WordOrder::high_first) j["order"] = order_name(r.order);
+  if (r.access != Access::by_role) j["access"] = access_name(r.access);
+  if (!r.range.empty()) j["range"] = {r.range.min, r.range.max};
+  if (!r.writable_range.empty()) j["writable_range"] = {r.writable_range.min, r.writable_range.max};
+  if (r.default_value != 0) j["default"] = r.default_value;
+  if (r.default_first != -1) j["default_first"] = r.default_first;
+  if (r.repeat != 1) j["repeat"] = r.repeat;
+  if (r.stride != r.words()) j["stride"] = r.stride;
+  if (r.flags) {
+    nlohmann::ordered_json flags = nlohmann::ordered_json::array();
+    for (const FlagName& f : p.flag_names) {
+      if (r.has(f.flag)) flags.push_back(f.name);
+    }
+    if (r.has(kPersisted) && std::none_of(p.flag_names.begin(), p.flag_names.end(),
+                                          [](const FlagName& f) { return f.flag == kPersisted; }))
+      flags.insert(flags.begin(), "persisted");
+    j["flags"] = flags;
+  }
+  if (!r.names.empty()) {
+    nlohmann::ordered_json values = nlohmann::ordered_json::object();
+    for (const Named& n : r.names) values[std::to_string(n.value)] = n.name;
+    j["values"] = values;
+  }
+  if (!r.notes.empty()) j["notes"] = r.notes;
+  return j;
+}
+
+nlohmann::ordered_json map_document(const Profile& p) {
+  nlohmann::ordered_json doc;
+  doc["format"] = "rtukit-map";
+  nlohmann::ordered_json device;
+  device["name"] = p.name;
+  if (!p.title.empty()) device["title"] = p.title;
+  if (!p.vendor.empty()) device["vendor"] = p.vendor;
+  device["unit"] = p.link.unit;
+  if (p.link.unit_max != 247) device["unit_max"] = p.link.unit_max;
+  device["baud"] = p.link.baud;
+  device["parity"] = std::string(1, p.link.parity);
+  device["stop_bits"] = p.link.stop_bits;
+  nlohmann::ordered_json quirks = nlohmann::ordered_json::array();
+  if (p.quirks.fc10_without_byte_count) quirks.push_back("fc10_without_byte_count");
+  if (p.quirks.fc03_two_byte_count) quirks.push_back("fc03_two_byte_count");
+  if (!quirks.empty()) device["quirks"] = quirks;
+  doc["device"] = device;
+  // Device flags in bit order (bit 0, persisted, is implicit).
+  nlohmann::ordered_json flags = nlohmann::ordered_json::array();
+  for (unsigned bit = 1; bit < 32; ++bit) {
+    for (const FlagName& f : p.flag_names) {
+      if (f.flag == (Flags{1} << bit)) flags.push_back(f.name);
+    }
+  }
+  if (!flags.empty()) doc["flags"] = flags;
+  nlohmann::ordered_json regs = nlohmann::ordered_json::array();
+  for (const Row& r : p.rows) regs.push_back(row_document(p, r));
+  doc["registers"] = regs;
+  return doc;
+}
+
+void emit(YAML::Emitter& out, const nlohmann::ordered_json& j) {
+  if (j.is_object()) {
+    out << YAML::BeginMap;
+    for (const auto& [k, v] : j.items()) {
+      out << YAML::Key << k << YAML::Value;
+      emit(out, v);
+    }
+    out << YAML::EndMap;
+  } else if (j.is_array()) {
+    const bool flow = std::all_of(j.begin(), j.end(), [](const auto& e) { return e.is_primitive(); });
+    if (flow) out << YAML::Flow;
+    out << YAML::BeginSeq;
+    for (const auto& v : j) emit(out, v);
+    out << YAML::EndSeq;
+  } else if (j.is_string()) {
+    const std::string s = j.get<std::string>();
+    // Hex addresses stay unquoted (YAML reads them as numbers, we as hex text).
+    if (s.starts_with("0x")) out << s;
+    else out << YAML::DoubleQuoted << s;
+  } else if (j.is_number_integer()) {
+    out << j.get<int64_t>();
+  } else if (j.is_number_unsigned()) {
+    out << j.get<uint64_t>();
+  } else if (j.is_boolean()) {
+    out << j.get<bool>();
+  } else {
+    out << j.dump();
+  }
+}
+
+}  // namespace
+
+std::string map_to_yaml(const Profile& profile) {
+  YAML::Emitter out;
+  out << YAML::Comment(fmt::format("rtukit register map: {} (exported from the built-in profile)", profile.name));
+  out << YAML::Newline;
+  emit(out, map_document(profile));
+  return std::string(out.c_str()) + "\n";
+}
+
+std::string map_to_json(const Profile& profile) {
+  return map_document(profile).dump(2) + "\n";
+}
+
+}  // namespace rtukit::profile

@@ -1,1 +1,399 @@
-// placeholder
+// Values as people read and type them. Every unit, scale and name comes
+// from the row; nothing here knows a device.
+#include "rtukit/devices/profile/text.hpp"
+
+#include <fmt/core.h>
+
+#include <cctype>
+#include <charconv>
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+namespace rtukit::profile {
+namespace {
+
+unsigned decimals_of(uint16_t scale) {
+  unsigned d = 0;
+  for (unsigned s = scale; s >= 10; s /= 10) ++d;
+  return d;
+}
+
+std::string number_text(const Row& row, int64_t raw) {
+  if (row.scale > 1) return fmt::format("{:.{}f}", RegisterMap::to_number(row, raw), decimals_of(row.scale));
+  return fmt::format("{}", raw);
+}
+
+std::string with_unit(std::string text, std::string_view unit) {
+  if (unit.empty()) return text;
+  return text + " " + std::string(unit);
+}
+
+std::string_view name_of(const Row& row, int64_t value) {
+  for (const Named& n : row.names) {
+    if (n.value == value) return n.name;
+  }
+  return {};
+}
+
+std::string trim(std::string_view s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
+  return std::string(s);
+}
+
+// A whole number, decimal or 0x hex, possibly negative.
+std::optional<int64_t> parse_integer(std::string_view t) {
+  bool negative = false;
+  if (!t.empty() && (t[0] == '-' || t[0] == '+')) {
+    negative = t[0] == '-';
+    t.remove_prefix(1);
+  }
+  int base = 10;
+  if (t.size() > 2 && t[0] == '0' && (t[1] == 'x' || t[1] == 'X')) {
+    base = 16;
+    t.remove_prefix(2);
+  }
+  int64_t v = 0;
+  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v, base);
+  if (t.empty() || ec != std::errc{} || end != t.data() + t.size()) return std::nullopt;
+  return negative ? -v : v;
+}
+
+std::optional<double> parse_decimal(std::string_view t) {
+  double v = 0;
+  const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), v);
+  if (t.empty() || ec != std::errc{} || end != t.data() + t.size() || !std::isfinite(v)) return std::nullopt;
+  return v;
+}
+
+std::string range_text(const Row& row, Range r) {
+  if (row.encoding == Encoding::duration)
+    return fmt::format("{}..{}", format_mm_ss(static_cast<unsigned>(r.min)),
+                       format_mm_ss(static_cast<unsigned>(r.max)));
+  return with_unit(fmt::format("{}..{}", number_text(row, r.min), number_text(row, r.max)), row.unit);
+}
+
+std::string names_list(const Row& row) {
+  std::string out;
+  for (const Named& n : row.names) {
+    if (!out.empty()) out += ", ";
+    out += fold_name(n.name);
+  }
+  return out;
+}
+
+Outcome<int64_t> checked(const Row& row, int64_t raw, std::string_view typed) {
+  if (RegisterMap::check_value(row, raw)) {
+    if (row.encoding == Encoding::choice)
+      return Status(Errc::illegal_data_value,
+                    fmt::format("{}: {} is not one of {}", row.key, typed, names_list(row)));
+    return Status(Errc::illegal_data_value,
+                  fmt::format("{}: {} is outside {}", row.key, typed, range_text(row, row.write_range())));
+  }
+  return raw;
+}
+
+}  // namespace
+
+std::string fold_name(std::string_view name) {
+  std::string out;
+  for (char c : name) {
+    const auto u = static_cast<unsigned char>(c);
+    out += c == ' ' || c == '-' ? '_' : static_cast<char>(std::tolower(u));
+  }
+  return out;
+}
+
+std::string canonical_key(std::string_view typed) {
+  return fold_name(typed);
+}
+
+const Row* find_row(const RegisterMap& map, std::string_view typed) {
+  const std::string key = canonical_key(typed);
+  for (const Row& r : map.rows()) {
+    if (fold_name(r.key) == key) return &r;
+  }
+  return nullptr;
+}
+
+std::string format_mm_ss(unsigned seconds) {
+  return fmt::format("{:02}:{:02}", seconds / 60, seconds % 60);
+}
+
+Result<uint32_t> parse_mm_ss(std::string_view text) noexcept {
+  const auto number = [](std::string_view t, uint32_t* out) {
+    if (t.empty()) return false;
+    const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), *out);
+    return ec == std::errc{} && end == t.data() + t.size();
+  };
+  const size_t colon = text.find(':');
+  uint32_t a = 0, b = 0;
+  if (colon == std::string_view::npos) {
+    if (!number(text, &a)) return Error(Errc::invalid_argument, "not mm:ss or seconds");
+    return a;
+  }
+  const std::string_view sec = text.substr(colon + 1);
+  if (!number(text.substr(0, colon), &a) || sec.size() != 2 || !number(sec, &b) || b > 59)
+    return Error(Errc::invalid_argument, "not mm:ss or seconds");
+  return a * 60 + b;
+}
+
+std::string format_value(const Row& row, int64_t raw) {
+  switch (row.encoding) {
+    case Encoding::u16:
+    case Encoding::i16:
+    case Encoding::u32:
+    case Encoding::i32:
+      return with_unit(number_text(row, raw), row.unit);
+    case Encoding::duration:
+      return format_mm_ss(static_cast<unsigned>(raw < 0 ? 0 : raw));
+    case Encoding::choice: {
+      const std::string_view name = name_of(row, raw);
+      return name.empty() ? fmt::format("unknown ({})", raw) : fmt::format("{} ({})", name, raw);
+    }
+    case Encoding::bits: {
+      if (raw == 0) return "none";
+      std::string out;
+      for (unsigned bit = 0; bit < 32; ++bit) {
+        if (!(raw & (int64_t{1} << bit))) continue;
+        const std::string_view name = name_of(row, bit);
+        if (!out.empty()) out += ", ";
+        out += name.empty() ? fmt::format("bit {}", bit) : std::string(name);
+      }
+      return out;
+    }
+    case Encoding::version:
+      return fmt::format("V{}.{}", raw >> 16, raw & 0xFFFF);
+    case Encoding::boolean:
+      return raw ? "on" : "off";
+  }
+  return fmt::format("{}", raw);
+}
+
+Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
+  const std::string typed = trim(typed_view);
+  const auto not_a = [&](std::string_view what) {
+    return Status(Errc::invalid_argument, fmt::format("'{}' is not {} for {}", typed, what, row.key));
+  };
+  if (typed.empty()) return not_a("a value");
+  switch (row.encoding) {
+    case Encoding::choice: {
+      const std::string folded = fold_name(typed);
+      for (const Named& n : row.names) {
+        if (fold_name(n.name) == folded) return checked(row, n.value, typed);
+      }
+      if (const auto v = parse_integer(typed)) return checked(row, *v, typed);
+      return Status(Errc::invalid_argument,
+                    fmt::format("'{}' is not a {} ({})", typed, row.key, names_list(row)));
+    }
+    case Encoding::bits: {
+      if (const auto v = parse_integer(typed)) return checked(row, *v, typed);
+      int64_t bits = 0;
+      size_t start = 0;
+      while (start <= typed.size()) {
+        size_t end = typed.find_first_of(",|", start);
+        if (end == std::string::npos) end = typed.size();
+        const std::string word = fold_name(trim(std::string_view(typed).substr(start, end - start)));
+        bool found = false;
+        for (const Named& n : row.names) {
+          if (fold_name(n.name) == word) {
+            bits |= int64_t{1} << n.value;
+            found = true;
+          }
+        }
+        if (!found && word != "none")
+          return Status(Errc::invalid_argument,
+                        fmt::format("'{}' is not a bit of {} ({})", word, row.key, names_list(row)));
+        start = end + 1;
+      }
+      return checked(row, bits, typed);
+    }
+    case Encoding::duration: {
+      const Result<uint32_t> s = parse_mm_ss(typed);
+      if (!s.ok()) return not_a("mm:ss or seconds");
+      return checked(row, *s, typed);
+    }
+    case Encoding::boolean: {
+      const std::string f = fold_name(typed);
+      if (f == "on" || f == "true" || f == "1") return int64_t{1};
+      if (f == "off" || f == "false" || f == "0") return int64_t{0};
+      return not_a("on/off");
+    }
+    case Encoding::version: {
+      const size_t dot = typed.find('.');
+      const std::string_view t = typed;
+      const auto major = parse_integer(t.substr(t[0] == 'V' || t[0] == 'v' ? 1 : 0, dot));
+      const auto minor = dot == std::string::npos ? std::optional<int64_t>(0) : parse_integer(t.substr(dot + 1));
+      if (!major || !minor || *major < 0 || *major > 0xFFFF || *minor < 0 || *minor > 0xFFFF)
+        return not_a("a version (1.2)");
+      return checked(row, (*major << 16) | *minor, typed);
+    }
+    case Encoding::u16:
+    case Encoding::i16:
+    case Encoding::u32:
+    case Encoding::i32: {
+      std::string_view number = typed;
+      // An optional unit after the number: "80%", "80 %", "31.5 degC".
+      if (!row.unit.empty() && number.ends_with(row.unit)) {
+        number.remove_suffix(row.unit.size());
+        while (!number.empty() && number.back() == ' ') number.remove_suffix(1);
+      }
+      if (row.scale <= 1) {
+        const auto v = parse_integer(number);
+        if (!v) return not_a(row.unit.empty() ? "a whole number" : fmt::format("a whole number of {}", row.unit));
+        return checked(row, *v, typed);
+      }
+      const auto v = parse_decimal(number);
+      if (!v) return not_a("a number");
+      const Result<int64_t> raw = RegisterMap::from_number(row, *v);
+      if (!raw.ok())
+        return Status(Errc::illegal_data_value,
+                      fmt::format("{}: {} is outside {}", row.key, typed, range_text(row, row.write_range())));
+      return checked(row, *raw, typed);
+    }
+  }
+  return not_a("a value");
+}
+
+nlohmann::json value_json(const Row& row, int64_t raw) {
+  switch (row.encoding) {
+    case Encoding::choice: {
+      const std::string_view name = name_of(row, raw);
+      return name.empty() ? nlohmann::json(raw) : nlohmann::json(std::string(name));
+    }
+    case Encoding::bits: {
+      nlohmann::json names = nlohmann::json::array();
+      for (unsigned bit = 0; bit < 32; ++bit) {
+        if (!(raw & (int64_t{1} << bit))) continue;
+        const std::string_view name = name_of(row, bit);
+        names.push_back(name.empty() ? fmt::format("bit {}", bit) : std::string(name));
+      }
+      return names;
+    }
+    case Encoding::version:
+      return fmt::format("{}.{}", raw >> 16, raw & 0xFFFF);
+    case Encoding::boolean:
+      return raw != 0;
+    default:
+      if (row.scale > 1) return RegisterMap::to_number(row, raw);
+      return raw;
+  }
+}
+
+std::string_view space_name(Space s) noexcept {
+  switch (s) {
+    case Space::holding:
+      return "holding";
+    case Space::input:
+      return "input";
+    case Space::coil:
+      return "coil";
+    case Space::discrete:
+      return "discrete";
+  }
+  return "?";
+}
+
+std::string_view role_name(Role r) noexcept {
+  switch (r) {
+    case Role::status:
+      return "status";
+    case Role::setting:
+      return "setting";
+    case Role::control:
+      return "control";
+    case Role::hold:
+      return "hold";
+    case Role::pulse:
+      return "pulse";
+    case Role::reserved:
+      return "reserved";
+  }
+  return "?";
+}
+
+std::string_view encoding_name(Encoding e) noexcept {
+  switch (e) {
+    case Encoding::u16:
+      return "u16";
+    case Encoding::i16:
+      return "i16";
+    case Encoding::u32:
+      return "u32";
+    case Encoding::i32:
+      return "i32";
+    case Encoding::choice:
+      return "choice";
+    case Encoding::bits:
+      return "bits";
+    case Encoding::duration:
+      return "duration";
+    case Encoding::version:
+      return "version";
+    case Encoding::boolean:
+      return "boolean";
+  }
+  return "?";
+}
+
+std::string_view access_name(Access a) noexcept {
+  switch (a) {
+    case Access::by_role:
+      return "by_role";
+    case Access::read_only:
+      return "read_only";
+    case Access::write_only:
+      return "write_only";
+    case Access::read_write:
+      return "read_write";
+  }
+  return "?";
+}
+
+std::string registers_markdown(const Profile& profile) {
+  std::string out;
+  for (const Space space : {Space::holding, Space::input, Space::coil, Space::discrete}) {
+    bool any = false;
+    for (const Row& r : profile.rows) any = any || r.space == space;
+    if (!any) continue;
+    out += fmt::format("### {} ({})\n\n", space_name(space),
+                       space == Space::holding   ? "FC03 read, FC06/FC10 write"
+                       : space == Space::input   ? "FC04, read only"
+                       : space == Space::coil    ? "FC01 read, FC05/FC0F write"
+                                                 : "FC02, read only");
+    out += "| address | key | name | access | type | unit | range | default | values / notes |\n";
+    out += "|---|---|---|---|---|---|---|---|---|\n";
+    for (const Row& r : profile.rows) {
+      if (r.space != space) continue;
+      std::string address = fmt::format("0x{:04X}", r.address);
+      if (r.repeat > 1)
+        address = fmt::format("0x{:04X} + {}k (k = 0..{})", r.address, r.stride, r.repeat - 1);
+      else if (r.words() > 1)
+        address = fmt::format("0x{:04X}..0x{:04X}", r.address, r.last_address());
+      const char* access = r.writable() ? (r.readable() ? "RW" : "W") : "R";
+      std::string notes;
+      for (const Named& n : r.names) {
+        if (!notes.empty()) notes += ", ";
+        notes += r.encoding == Encoding::bits ? fmt::format("bit{} {}", n.value, n.name)
+                                              : fmt::format("{} {}", n.value, n.name);
+      }
+      for (const FlagName& f : profile.flag_names) {
+        if (r.has(f.flag) && f.flag != kPersisted) notes += (notes.empty() ? "" : "; ") + std::string(f.name);
+      }
+      if (r.has(kPersisted)) notes += notes.empty() ? "persisted" : "; persisted";
+      if (!r.notes.empty()) notes += (notes.empty() ? "" : "; ") + std::string(r.notes);
+      std::string type(encoding_name(r.encoding));
+      if (r.scale > 1) type += fmt::format(" /{}", r.scale);
+      out += fmt::format("| {} | `{}` | {} | {} | {} | {} | {} | {} | {} |\n", address, r.key, r.title, access,
+                         type, r.unit.empty() ? "-" : std::string(r.unit),
+                         r.range.empty() ? std::string("-") : range_text(r, r.range),
+                         r.writable() ? format_value(r, r.default_value) : std::string("-"),
+                         notes.empty() ? "-" : notes);
+    }
+    out += "\n";
+  }
+  out += "Every address not listed is reserved: a request touching it gets exception 02.\n";
+  return out;
+}
+
+}  // namespace rtukit::profile
