@@ -18,7 +18,8 @@ void add_inverjet_commands(CLI::App& app, Action& action);
 /// rehand6600 status|watch|hold|pulse|set|errors|registers.
 void add_rehand6600_commands(CLI::App& app, Action& action);
 
-/// sim inverjet, sim rehand6600 (device simulators).
+/// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
+void add_legacy_sim_commands(CLI::App& app, Action& action);
 
 }  // namespace rtukit::cli

@@ -151,6 +151,8 @@ int exit_code(Error e) {
       return kNoResponse;
     case Errc::invalid_argument:
       return kUsage;
+    case Errc::refused:
+      return kRefused;
     default:
       return kIoError;
   }

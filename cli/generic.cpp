@@ -10,6 +10,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "profiles.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
 
@@ -87,6 +88,9 @@ struct ReadArgs {
   LinkOptions link;
   std::string unit = "1";
   bool holding = false, input = false, coils = false, discrete = false;
+  std::vector<std::string> operands;  ///< ADDRESS [COUNT], or KEY... with --map
+  std::string map;
+  bool unit_given = false;
   std::string address;
   std::string count = "1";
   std::string type = "u16";
@@ -95,7 +99,12 @@ struct ReadArgs {
   bool json = false;
 };
 
-int run_read(const ReadArgs& a) {
+int run_read(ReadArgs a) {
+  if (!a.map.empty()) return run_map_read(a.link, a.unit_given ? a.unit : "", a.map, a.operands, a.json);
+  if (a.operands.empty() || a.operands.size() > 2)
+    throw Failure{kUsage, "read takes ADDRESS [COUNT] (or --map FILE [KEY...])"};
+  a.address = a.operands[0];
+  if (a.operands.size() == 2) a.count = a.operands[1];
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (a.holding + a.input + a.coils + a.discrete > 1)
     throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
@@ -343,14 +352,19 @@ void add_generic_commands(CLI::App& app, Action& action) {
     g->add_flag("--input", args->input, "input registers, FC04");
     g->add_flag("--coils", args->coils, "coils, FC01");
     g->add_flag("--discrete", args->discrete, "discrete inputs, FC02");
-    cmd->add_option("address", args->address, "first address, 0-based (33 or 0x21)")->required();
-    cmd->add_option("count", args->count, "how many values")->capture_default_str();
+    cmd->add_option("operands", args->operands,
+                    "ADDRESS [COUNT]: first address, 0-based (33 or 0x21), how many values (default 1); "
+                    "with --map: register keys (none: all)");
+    cmd->add_option("--map", args->map, "decode by name with a register-map file (docs/register-maps.md)");
     add_type_options(*cmd, args->type, args->order);
     cmd->add_option("--format", args->format, "dec | hex")
         ->check(CLI::IsMember({"dec", "hex"}))
         ->capture_default_str();
     cmd->add_flag("--json", args->json, "print JSON");
-    cmd->callback([&action, args] { action = [args] { return run_read(*args); }; });
+    cmd->callback([&action, args, cmd] {
+      args->unit_given = cmd->count("--unit") > 0;
+      action = [args] { return run_read(*args); };
+    });
   }
   {
     auto args = std::make_shared<WriteArgs>();

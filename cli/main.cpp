@@ -6,6 +6,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "registry.hpp"
 
 int main(int argc, char** argv) {
   using namespace rtukit::cli;
@@ -16,7 +17,9 @@ int main(int argc, char** argv) {
   add_generic_commands(app, action);
   add_inverjet_commands(app, action);
   add_rehand6600_commands(app, action);
+  add_profile_commands(app, action);
   add_sim_commands(app, action);
+  add_legacy_sim_commands(app, action);
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {

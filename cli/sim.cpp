@@ -1,62 +1,158 @@
-// `rtukit sim inverjet`: the simulated machine on a pty, serial port or TCP,
-// with a console on stdin. The simulator itself is a library class
-// (devices/inverjet/simulator.hpp); this file wires options, stdin and signals.
+// `rtukit sim <device>` and `rtukit sim map FILE`: any device profile served
+// by the one simulator host (devices/profile/sim_host.hpp). This file wires
+// options, the console (stdin and a Unix socket) and signals.
+//
+// The console never freezes the simulator: stdin is read when it is a pipe,
+// a FIFO or a file, and a terminal only while the simulator is in the
+// terminal's foreground process group. A simulator sent to the background
+// of an interactive shell (`rtukit sim inverjet ... &`) keeps serving, is
+// never stopped by the shell (SIGTTIN/SIGTTOU are ignored and the terminal
+// is not read), and ends on SIGTERM. `--console unix:PATH` drives it from
+// elsewhere (`socat - UNIX-CONNECT:PATH`).
 #include <fmt/core.h>
 #include <poll.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <asio.hpp>
+#include <atomic>
+#include <csignal>
 #include <cstdio>
 #include <thread>
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "rtukit/devices/inverjet/simulator.hpp"
-#include "rtukit/devices/inverjet/state_file.hpp"
-#include "rtukit/devices/rehand6600/simulator.hpp"
+#include "registry.hpp"
+#include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/profile/state_file.hpp"
 
 namespace rtukit::cli {
 namespace {
 
+using OnLine = std::function<void(const std::string& line, const std::function<void(std::string)>& reply)>;
+
 // Reads console lines from stdin on its own thread and hands each one to the
 // io_context (the simulator is only touched there). Stops through a pipe, so
 // it can be joined even while a read would block.
-class Console {
+class StdinConsole {
  public:
-  template <class OnLine>
-  Console(asio::io_context& ctx, OnLine on_line) {
+  StdinConsole(asio::io_context& ctx, OnLine on_line) {
     if (::pipe(stop_) != 0) return;
-    thread_ = std::thread([this, &ctx, on_line] {
+    struct stat st {};
+    const bool terminal = ::isatty(STDIN_FILENO) != 0;
+    if (!terminal && (::fstat(STDIN_FILENO, &st) != 0)) return;  // no stdin at all
+    thread_ = std::thread([this, &ctx, on_line, terminal] {
       std::string pending;
       char buf[512];
       for (;;) {
+        // A terminal is ours only while we are its foreground job; in the
+        // background we leave it alone and look again a little later.
+        if (terminal && ::tcgetpgrp(STDIN_FILENO) != ::getpgrp()) {
+          pollfd stop = {stop_[0], POLLIN, 0};
+          if (::poll(&stop, 1, 250) > 0) return;
+          continue;
+        }
         pollfd fds[2] = {{STDIN_FILENO, POLLIN, 0}, {stop_[0], POLLIN, 0}};
-        if (::poll(fds, 2, -1) < 0) continue;
+        if (::poll(fds, 2, terminal ? 250 : -1) < 0) continue;
         if (fds[1].revents) return;
+        if (!fds[0].revents) continue;
         const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
-        if (n <= 0) return;  // end of input: the simulator keeps running
+        if (n < 0 && terminal && errno == EIO) continue;  // lost the foreground between poll and read
+        if (n <= 0) return;                                // end of input: the simulator keeps running
         pending.append(buf, static_cast<size_t>(n));
         for (size_t nl; (nl = pending.find('\n')) != std::string::npos;) {
           std::string line = pending.substr(0, nl);
           pending.erase(0, nl + 1);
-          asio::post(ctx, [on_line, line] { on_line(line); });
+          asio::post(ctx, [on_line, line] {
+            on_line(line, [](const std::string& text) {
+              fmt::print("{}", text);
+              std::fflush(stdout);
+            });
+          });
         }
       }
     });
   }
-  ~Console() {
+  ~StdinConsole() {
     if (thread_.joinable()) {
       const char x = 'x';
       (void)!::write(stop_[1], &x, 1);
       thread_.join();
     }
-    ::close(stop_[0]);
-    ::close(stop_[1]);
+    if (stop_[0] >= 0) ::close(stop_[0]);
+    if (stop_[1] >= 0) ::close(stop_[1]);
   }
+  StdinConsole(const StdinConsole&) = delete;
+  StdinConsole& operator=(const StdinConsole&) = delete;
 
  private:
   int stop_[2] = {-1, -1};
   std::thread thread_;
+};
+
+// The console on a Unix socket: one line in, the reply out, any number of
+// clients, all on the io_context's thread.
+class SocketConsole {
+ public:
+  static Outcome<std::unique_ptr<SocketConsole>> open(asio::io_context& ctx, const std::string& path, OnLine on_line) {
+    struct stat st {};
+    if (::lstat(path.c_str(), &st) == 0) {
+      if (!S_ISSOCK(st.st_mode))
+        return Status(Errc::invalid_argument, fmt::format("{} exists and is not a socket; not replacing it", path));
+      ::unlink(path.c_str());  // a socket left by an earlier run
+    }
+    auto c = std::unique_ptr<SocketConsole>(new SocketConsole(ctx, path, std::move(on_line)));
+    std::error_code ec;
+    c->acceptor_.open(asio::local::stream_protocol(), ec);
+    if (!ec) (void)c->acceptor_.bind(asio::local::stream_protocol::endpoint(path), ec);
+    if (!ec) (void)c->acceptor_.listen(8, ec);
+    if (ec) return Status(Error(Errc::io_error, ec.value()), fmt::format("console {}: {}", path, ec.message()));
+    ::chmod(path.c_str(), 0600);  // the console can inject faults: owner only
+    c->accept();
+    return c;
+  }
+  ~SocketConsole() {
+    std::error_code ec;
+    acceptor_.close(ec);
+    ::unlink(path_.c_str());
+  }
+
+ private:
+  struct Session : std::enable_shared_from_this<Session> {
+    explicit Session(asio::local::stream_protocol::socket s, OnLine* l) : socket(std::move(s)), on_line(l) {}
+    void read() {
+      auto self = shared_from_this();
+      asio::async_read_until(socket, asio::dynamic_buffer(input, 4096), '\n',
+                             [self](const std::error_code& ec, size_t n) {
+                               if (ec) return;
+                               std::string line = self->input.substr(0, n - 1);
+                               self->input.erase(0, n);
+                               (*self->on_line)(line, [self](std::string text) {
+                                 auto out = std::make_shared<std::string>(std::move(text));
+                                 asio::async_write(self->socket, asio::buffer(*out),
+                                                   [self, out](const std::error_code&, size_t) {});
+                               });
+                               self->read();
+                             });
+    }
+    asio::local::stream_protocol::socket socket;
+    OnLine* on_line;
+    std::string input;
+  };
+
+  SocketConsole(asio::io_context& ctx, std::string path, OnLine on_line)
+      : acceptor_(ctx), path_(std::move(path)), on_line_(std::move(on_line)) {}
+  void accept() {
+    acceptor_.async_accept([this](const std::error_code& ec, asio::local::stream_protocol::socket s) {
+      if (ec) return;
+      std::make_shared<Session>(std::move(s), &on_line_)->read();
+      accept();
+    });
+  }
+
+  asio::local::stream_protocol::acceptor acceptor_;
+  std::string path_;
+  OnLine on_line_;
 };
 
 RequestLog request_logger() {
@@ -66,149 +162,122 @@ RequestLog request_logger() {
   };
 }
 
-// Runs a simulator until SIGINT/SIGTERM or `quit` on its console.
-template <class Sim>
-int serve(asio::io_context& ctx, Sim& s, bool with_console) {
-  if (with_console) fmt::print("console: type 'help' for commands\n");
-  std::fflush(stdout);
-  asio::signal_set signals(ctx, SIGINT, SIGTERM);
-  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
-  std::unique_ptr<Console> console;
-  if (with_console) {
-    console = std::make_unique<Console>(ctx, [&s, &ctx](const std::string& line) {
-      const std::string reply = s.command(line);
-      if (!reply.empty()) fmt::print("{}{}", reply, reply.back() == '\n' ? "" : "\n");
-      std::fflush(stdout);
-      if (s.quit_requested()) ctx.stop();
-    });
-  }
-  ctx.run();
-  console.reset();
-  return kOk;
-}
-
 struct SimArgs {
-  std::string listen;
+  LinkOptions link;
   std::string unit;
-  std::string baud;
-  std::string parity = "N";
-  unsigned stop_bits = 1;
-  bool rs485 = false;
+  bool baud_given = false;
   std::string state_file;
   bool no_state = false;
   double time_scale = 1.0;
   bool verbose = false;
   bool no_console = false;
+  std::string console;
+  std::string map_file;
 };
 
-int run_sim_inverjet(const SimArgs& a) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(a.listen, true, &why);
-  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad --listen '{}': {}", a.listen, why)};
-  spec->serial.parity = a.parity.size() == 1 ? static_cast<char>(std::toupper(a.parity[0])) : '?';
-  spec->serial.stop_bits = static_cast<uint8_t>(a.stop_bits);
-  spec->serial.rs485.enabled = a.rs485;
-  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
+void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile) {
+  a.link.add_to(cmd, /*listening=*/true, profile ? profile->link.baud : 9600);
+  cmd.add_option("--unit,-u", a.unit, "unit address (default: the device's own)");
+  cmd.add_option("--state-file", a.state_file, "where persisted registers live (default: ~/.local/state/rtukit/DEVICE.json)");
+  cmd.add_flag("--no-state", a.no_state, "keep persisted registers in memory only");
+  cmd.add_option("--time-scale", a.time_scale, "device seconds per real second (60: a minute per second)")
+      ->capture_default_str();
+  cmd.add_flag("-v,--verbose", a.verbose, "log each request and response in hex");
+  cmd.add_flag("--no-console", a.no_console, "do not read console commands from stdin");
+  cmd.add_option("--console", a.console, "also take console commands on unix:PATH");
+}
 
-  inverjet::SimulatorOptions o;
-  o.listen = *spec;
-  if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
-  if (!a.baud.empty()) o.baud = static_cast<uint32_t>(parse_number(a.baud, "baud", 1, 1000000));
-  o.state_file = a.no_state ? "" : a.state_file.empty() ? inverjet::default_state_path() : a.state_file;
+int run_sim(const SimArgs& a, profile::SimDevice device) {
+  const profile::Profile& profile = device.model->profile();
+  profile::SimOptions o;
+  o.listen = a.link.spec(/*listening=*/true);
+  if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, profile.link.unit_max));
+  if (a.baud_given) o.baud = a.link.baud;
+  bool persists = false;
+  for (const profile::Row& r : profile.rows) persists = persists || r.has(profile::kPersisted);
+  if (persists && !a.no_state)
+    o.state_file = a.state_file.empty() ? profile::default_state_path(profile.name) : a.state_file;
   o.time_scale = a.time_scale;
   o.notice = [](std::string_view line) {
     fmt::print("{}\n", line);
     std::fflush(stdout);
   };
   if (a.verbose) o.log = request_logger();
-  asio::io_context ctx;
-  auto sim = inverjet::Simulator::start(ctx, o, &why);
-  if (!sim.ok()) {
-    throw Failure{sim.error() == Errc::invalid_argument ? kUsage : kIoError,
-                  why.empty() ? std::string(sim.error().name()) : why};
+  std::string console_path;
+  if (!a.console.empty()) {
+    if (!a.console.starts_with("unix:") || a.console.size() <= 5)
+      throw Failure{kUsage, fmt::format("--console takes unix:PATH, not '{}'", a.console)};
+    console_path = a.console.substr(5);
   }
-  inverjet::Simulator& s = **sim;
-  fmt::print("Inverjet simulator: unit {}, {} baud, time x{:g}, state {}\nlistening on {}\n", s.unit(),
-             inverjet::baud_of_code(s.machine().settings().baud_code), a.time_scale,
-             o.state_file.empty() ? "not saved" : o.state_file, s.where());
-  return serve(ctx, s, !a.no_console);
-}
 
-struct ChairSimArgs {
-  std::string listen;
-  std::string unit = "1";
-  uint32_t baud = rehand6600::kDefaultBaud;
-  uint32_t watchdog_ms = 500;
-  double time_scale = 1.0;
-  bool verbose = false;
-  bool no_console = false;
-};
-
-int run_sim_rehand6600(const ChairSimArgs& a) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(a.listen, true, &why);
-  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad --listen '{}': {}", a.listen, why)};
-  spec->serial.baud = a.baud;
-  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
-  rehand6600::SimulatorOptions o;
-  o.listen = *spec;
-  o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247));
-  o.watchdog_ms = a.watchdog_ms;
-  o.time_scale = a.time_scale;
-  if (a.verbose) o.log = request_logger();
   asio::io_context ctx;
-  auto sim = rehand6600::Simulator::start(ctx, o, &why);
-  if (!sim.ok()) {
-    throw Failure{sim.error() == Errc::invalid_argument ? kUsage : kIoError,
-                  why.empty() ? std::string(sim.error().name()) : why};
+  Outcome<std::unique_ptr<profile::SimHost>> started = profile::SimHost::start(ctx, std::move(device), o);
+  if (!started.ok()) throw Failure{exit_code(started.error().error()), std::string(started.error().reason())};
+  profile::SimHost& host = **started;
+  fmt::print("{} simulator: unit {} on {}{}\n", profile.name, host.unit(), host.where(),
+             o.state_file.empty() ? "" : fmt::format(", state in {}", o.state_file));
+
+  const OnLine on_line = [&host, &ctx](const std::string& line, const std::function<void(std::string)>& reply) {
+    const std::string text = host.command(line);
+    if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
+    if (host.quit_requested()) ctx.stop();
+  };
+  std::unique_ptr<SocketConsole> socket_console;
+  if (!console_path.empty()) {
+    auto c = SocketConsole::open(ctx, console_path, on_line);
+    if (!c.ok()) throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
+                               std::string(c.error().reason())};
+    socket_console = std::move(*c);
+    fmt::print("console on unix:{}\n", console_path);
   }
-  rehand6600::Simulator& s = **sim;
-  fmt::print("Rehand 6600 simulator: unit {}, {} baud, watchdog {} ms, time x{:g}\nlistening on {}\n", o.unit,
-             a.baud, a.watchdog_ms, a.time_scale, s.where());
-  return serve(ctx, s, !a.no_console);
+  if (!a.no_console) fmt::print("console: type 'help' for commands\n");
+  std::fflush(stdout);
+
+  // A background job must never be stopped by the terminal.
+  std::signal(SIGTTIN, SIG_IGN);
+  std::signal(SIGTTOU, SIG_IGN);
+  asio::signal_set signals(ctx, SIGINT, SIGTERM, SIGHUP);
+  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  std::unique_ptr<StdinConsole> console;
+  if (!a.no_console) console = std::make_unique<StdinConsole>(ctx, on_line);
+  ctx.run();
+  console.reset();
+  return kOk;
 }
 
 }  // namespace
 
 void add_sim_commands(CLI::App& app, Action& action) {
-  CLI::App* sim =
-      app.add_subcommand("sim", "device simulators (a pty, serial port or TCP port you can talk to)");
+  auto* sim = app.add_subcommand("sim", "simulate a device on a pty, serial port or TCP");
   sim->require_subcommand(1);
-  auto a = std::make_shared<SimArgs>();
-  CLI::App* cmd = sim->add_subcommand("inverjet", "the Inverjet swimming machine, with a console on stdin");
-  cmd->add_option("--listen,-l", a->listen,
-                  "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
-      ->required();
-  cmd->add_option("--unit,-u", a->unit, "slave address 1..254 (default: the saved one, factory 21)");
-  cmd->add_option("--baud,-b", a->baud,
-                  "1200, 2400, 4800, 9600, 19200 (default: the saved one, factory 9600)");
-  cmd->add_option("--parity", a->parity, "N, E or O")->capture_default_str();
-  cmd->add_option("--stop-bits", a->stop_bits, "1 or 2")->capture_default_str();
-  cmd->add_flag("--rs485", a->rs485, "RS-485 direction control on a serial port");
-  cmd->add_option("--state-file", a->state_file,
-                  "where settings persist (default $XDG_STATE_HOME/rtukit/inverjet.json)");
-  cmd->add_flag("--no-state", a->no_state, "keep settings in memory only");
-  cmd->add_option("--time-scale", a->time_scale, "device seconds per real second (60: a minute per second)")
-      ->capture_default_str();
-  cmd->add_flag("--verbose,-v", a->verbose, "log every request and response in hex");
-  cmd->add_flag("--no-console", a->no_console, "do not read commands from stdin");
-  cmd->callback([&action, a] { action = [a] { return run_sim_inverjet(*a); }; });
-
-  auto c = std::make_shared<ChairSimArgs>();
-  CLI::App* chair =
-      sim->add_subcommand("rehand6600", "the Rehand 6600 wheelchair controller, with a console on stdin");
-  chair
-      ->add_option("--listen,-l", c->listen,
-                   "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
-      ->required();
-  chair->add_option("--unit,-u", c->unit, "slave address")->capture_default_str();
-  chair->add_option("--baud,-b", c->baud, "baud rate of a serial port (D-1: 115200)")->capture_default_str();
-  chair->add_option("--watchdog-ms", c->watchdog_ms, "communication watchdog (D-5); 0 disables")
-      ->capture_default_str();
-  chair->add_option("--time-scale", c->time_scale, "device seconds per real second")->capture_default_str();
-  chair->add_flag("--verbose,-v", c->verbose, "log every request and response in hex");
-  chair->add_flag("--no-console", c->no_console, "do not read commands from stdin");
-  chair->callback([&action, c] { action = [c] { return run_sim_rehand6600(*c); }; });
+  for (const DeviceEntry& entry : builtin_devices()) {
+    const profile::Profile* profile = entry.profile;
+    auto args = std::make_shared<SimArgs>();
+    auto* cmd = sim->add_subcommand(std::string(profile->name), std::string(profile->title));
+    add_sim_options(*cmd, *args, profile);
+    if (entry.add_sim_options) entry.add_sim_options(*cmd);
+    cmd->callback([&action, args, cmd, &entry] {
+      args->baud_given = cmd->count("--baud") > 0;
+      action = [args, &entry] { return run_sim(*args, entry.make_sim()); };
+    });
+  }
+  auto args = std::make_shared<SimArgs>();
+  auto* cmd = sim->add_subcommand("map", "serve a register-map file as a register-only device");
+  cmd->add_option("file", args->map_file, "the map (YAML or JSON; see docs/register-maps.md)")->required();
+  add_sim_options(*cmd, *args, nullptr);
+  cmd->callback([&action, args, cmd] {
+    args->baud_given = cmd->count("--baud") > 0;
+    action = [args] {
+      Outcome<std::unique_ptr<profile::MapProfile>> map = profile::load_map(args->map_file);
+      if (!map.ok()) throw Failure{exit_code(map.error().error()), std::string(map.error().reason())};
+      // The profile outlives the simulator: both live until the process ends.
+      static std::unique_ptr<profile::MapProfile> keep;
+      keep = std::move(*map);
+      if (!args->baud_given) args->link.baud = keep->profile().link.baud;
+      profile::SimDevice device{profile::make_register_device(keep->profile()), {}, {}};
+      return run_sim(*args, std::move(device));
+    };
+  });
 }
 
 }  // namespace rtukit::cli

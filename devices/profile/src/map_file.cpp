@@ -461,6 +461,23 @@ void emit(YAML::Emitter& out, const nlohmann::ordered_json& j) {
 
 }  // namespace
 
+namespace {
+// The storage comes first (a base constructed before Model), so the Model
+// can reset the image to its defaults in its constructor.
+struct Words {
+  std::vector<uint16_t> words;
+};
+class RegisterDevice final : private Words, public Model {
+ public:
+  explicit RegisterDevice(const Profile& p)
+      : Words{std::vector<uint16_t>(RegisterMap(p.rows).image_size())}, Model(p, Words::words) {}
+};
+}  // namespace
+
+std::unique_ptr<Model> make_register_device(const Profile& profile) {
+  return std::make_unique<RegisterDevice>(profile);
+}
+
 std::string map_to_yaml(const Profile& profile) {
   YAML::Emitter out;
   out << YAML::Comment(fmt::format("rtukit register map: {} (exported from the built-in profile)", profile.name));

@@ -12,6 +12,7 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/devices/profile/model.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -46,6 +47,11 @@ Outcome<std::unique_ptr<MapProfile>> load_map(const std::string& path);
 /// the range, stride >= words, names where an encoding needs them, no two
 /// rows covering one address. Errors: invalid_argument naming the row.
 Status check_profile(const Profile& profile);
+
+/// A register-only device for `profile` (which must outlive it): validates
+/// exactly as the map says (strict gaps, ranges, read-only, all or nothing)
+/// and stores what is written. Registers start at their defaults.
+std::unique_ptr<Model> make_register_device(const Profile& profile);
 
 /// The profile in the map-file format (YAML), loadable by parse_map.
 std::string map_to_yaml(const Profile& profile);

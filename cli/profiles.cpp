@@ -1,0 +1,345 @@
+// Commands built from device profiles: `rtukit devices`, `rtukit <device>
+// registers|get|set`, `rtukit map check`, and reading by name with a map
+// file (`rtukit read --map`, `rtukit watch --map`). Everything a device is
+// comes from its table; this file knows no device.
+#include <fmt/core.h>
+
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "profiles.hpp"
+#include "registry.hpp"
+#include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/profile/text.hpp"
+
+namespace rtukit::cli {
+
+using profile::Row;
+
+std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys, bool for_write) {
+  const profile::RegisterMap map(p.rows);
+  std::vector<Selected> out;
+  if (keys.empty()) {
+    for (const Row& r : p.rows) {
+      if (!r.readable()) continue;
+      for (unsigned i = 0; i < r.repeat; ++i) out.push_back({&r, i});
+    }
+    return out;
+  }
+  for (const std::string& typed : keys) {
+    // key, or key[i] for an entry of a repeated block (0-based).
+    std::string key = typed;
+    std::optional<unsigned> index;
+    if (const size_t open = typed.find('['); open != std::string::npos && typed.ends_with(']')) {
+      key = typed.substr(0, open);
+      index = static_cast<unsigned>(parse_number(typed.substr(open + 1, typed.size() - open - 2), "index", 0, 0xFFFF));
+    }
+    const Row* r = profile::find_row(map, key);
+    if (!r) {
+      std::string known;
+      for (const Row& row : p.rows) known += (known.empty() ? "" : ", ") + std::string(row.key);
+      throw Failure{kUsage, fmt::format("no register '{}' in {} (registers: {})", key, p.name, known)};
+    }
+    if (!for_write && !r->readable())
+      throw Failure{kUsage, fmt::format("{} is write-only", r->key)};
+    if (index && *index >= r->repeat)
+      throw Failure{kUsage, fmt::format("{} has entries 0..{}", r->key, r->repeat - 1)};
+    if (index || r->repeat == 1) {
+      out.push_back({r, index.value_or(0)});
+    } else {
+      for (unsigned i = 0; i < r->repeat; ++i) out.push_back({r, i});
+    }
+  }
+  return out;
+}
+
+namespace {
+
+// One bus read of `count` words (or bits) in `space`.
+Error read_words(Master& m, UnitId unit, profile::Space space, uint16_t address, std::span<uint16_t> out) {
+  switch (space) {
+    case profile::Space::holding:
+      return m.read_holding_registers(unit, address, out);
+    case profile::Space::input:
+      return m.read_input_registers(unit, address, out);
+    case profile::Space::coil:
+    case profile::Space::discrete: {
+      std::vector<uint8_t> bits(out.size());  // one element per bit: 0 or 1
+      const Error e = space == profile::Space::coil ? m.read_coils(unit, address, bits)
+                                                    : m.read_discrete_inputs(unit, address, bits);
+      for (size_t i = 0; i < out.size(); ++i) out[i] = bits[i];
+      return e;
+    }
+  }
+  return Errc::invalid_argument;
+}
+
+std::string entry_name(const Selected& s) {
+  return s.row->repeat > 1 ? fmt::format("{}[{}]", s.row->key, s.index) : std::string(s.row->key);
+}
+
+}  // namespace
+
+std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<const Selected> selected) {
+  std::vector<ReadValue> values;
+  values.reserve(selected.size());
+  // Adjacent entries of one space go in one request (up to 125 registers).
+  size_t i = 0;
+  while (i < selected.size()) {
+    const Row& first = *selected[i].row;
+    const uint16_t start = first.entry_address(selected[i].index);
+    size_t j = i + 1;
+    uint32_t end = uint32_t{start} + first.words();
+    while (j < selected.size() && selected[j].row->space == first.space &&
+           selected[j].row->entry_address(selected[j].index) == end && end - start + selected[j].row->words() <= 125) {
+      end += selected[j].row->words();
+      ++j;
+    }
+    std::vector<uint16_t> words(end - start);
+    const Error e = read_words(master, unit, first.space, start, words);
+    for (size_t k = i; k < j; ++k) {
+      const Row& r = *selected[k].row;
+      const size_t offset = r.entry_address(selected[k].index) - start;
+      values.push_back({selected[k], e ? 0 : profile::RegisterMap::decode(r, std::span(words).subspan(offset, r.words())), e});
+    }
+    i = j;
+  }
+  return values;
+}
+
+void print_values(std::span<const ReadValue> values, bool json) {
+  if (json) {
+    nlohmann::ordered_json out;
+    for (const ReadValue& v : values) {
+      if (v.error) {
+        out[entry_name(v.entry)] = {{"error", std::string(v.error.text())}};
+        continue;
+      }
+      out[entry_name(v.entry)] = profile::value_json(*v.entry.row, v.raw);
+    }
+    fmt::print("{}\n", out.dump());
+    return;
+  }
+  size_t width = 0;
+  for (const ReadValue& v : values) width = std::max(width, entry_name(v.entry).size());
+  for (const ReadValue& v : values) {
+    fmt::print("{:<{}} = {}\n", entry_name(v.entry), width,
+               v.error ? fmt::format("error: {}", v.error.text()) : profile::format_value(*v.entry.row, v.raw));
+  }
+}
+
+namespace {
+
+struct DeviceArgs {
+  LinkOptions link;
+  std::string unit;
+  std::vector<std::string> keys;
+  std::string value;
+  bool json = false;
+  bool yaml = false;
+  WatchOptions watch{1000};
+};
+
+UnitId device_unit(const DeviceArgs& a, const profile::Profile& p) {
+  return parse_unit(a.unit.empty() ? std::to_string(p.link.unit) : a.unit,
+                    a.link.spec(false).kind == io::PortSpec::Kind::tcp);
+}
+
+int run_get(const DeviceArgs& a, const profile::Profile& p) {
+  const std::vector<Selected> selected = select_rows(p, a.keys, false);
+  auto master = a.link.make_master();
+  const std::vector<ReadValue> values = read_selected(*master, device_unit(a, p), selected);
+  print_values(values, a.json);
+  for (const ReadValue& v : values) {
+    if (v.error) fail(v.error, fmt::format("read {}", entry_name(v.entry)));
+  }
+  return kOk;
+}
+
+int run_set(const DeviceArgs& a, const profile::Profile& p) {
+  const std::vector<Selected> selected = select_rows(p, std::span(a.keys.data(), 1), true);
+  if (selected.size() != 1) throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.keys[0], a.keys[0])};
+  const Row& r = *selected[0].row;
+  if (!r.writable()) throw Failure{kUsage, fmt::format("{} is read-only", r.key)};
+  // Motion and momentary commands need their device's own verbs (leases,
+  // releases, UI rules): a bare register write could leave a chair moving.
+  if (r.role == profile::Role::hold || r.role == profile::Role::pulse)
+    throw Failure{kRefused, fmt::format("{} is a {} command: use `rtukit {} {}`", r.key,
+                                        profile::role_name(r.role), p.name, r.role == profile::Role::hold ? "hold" : "pulse")};
+  Outcome<int64_t> raw = profile::parse_value(r, a.value);
+  if (!raw.ok()) throw Failure{kUsage, std::string(raw.error().reason())};
+  std::array<uint16_t, 2> words{};
+  profile::RegisterMap::encode(r, *raw, std::span(words.data(), r.words()));
+  auto master = a.link.make_master();
+  const UnitId unit = device_unit(a, p);
+  const uint16_t address = r.entry_address(selected[0].index);
+  Error e;
+  if (r.space == profile::Space::coil)
+    e = master->write_single_coil(unit, address, words[0] != 0);
+  else if (r.words() == 1)
+    e = master->write_single_register(unit, address, words[0]);
+  else
+    e = master->write_multiple_registers(unit, address, std::span<const uint16_t>(words.data(), 2));
+  if (e) fail(e, fmt::format("write {}", entry_name(selected[0])));
+  if (a.json)
+    fmt::print("{}\n", nlohmann::json{{entry_name(selected[0]), profile::value_json(r, *raw)}}.dump());
+  else
+    fmt::print("{} = {}\n", entry_name(selected[0]), profile::format_value(r, *raw));
+  return kOk;
+}
+
+int run_watch(const DeviceArgs& a, const profile::Profile& p) {
+  const std::vector<Selected> selected = select_rows(p, a.keys, false);
+  auto master = a.link.make_master();
+  const UnitId unit = device_unit(a, p);
+  watch_loop(a.watch, [&](unsigned) {
+    const std::vector<ReadValue> values = read_selected(*master, unit, selected);
+    print_values(values, a.json);
+    if (!a.json) fmt::print("\n");
+    std::fflush(stdout);
+  });
+  return kOk;
+}
+
+void print_registers(const DeviceArgs& a, const profile::Profile& p, const std::function<std::string()>& markdown) {
+  if (a.json && a.yaml) throw Failure{kUsage, "choose one of --json and --yaml"};
+  if (a.yaml) fmt::print("{}", profile::map_to_yaml(p));
+  else if (a.json) fmt::print("{}", profile::map_to_json(p));
+  else fmt::print("{}", markdown ? markdown() : profile::registers_markdown(p));
+}
+
+// The same verbs for every built-in device.
+void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
+  const profile::Profile& p = *entry.profile;
+  {
+    auto args = std::make_shared<DeviceArgs>();
+    auto* cmd = dev.add_subcommand("registers", "the register reference (Markdown; --json or --yaml: the map file)");
+    cmd->add_flag("--json", args->json, "the profile as a JSON map file");
+    cmd->add_flag("--yaml", args->yaml, "the profile as a YAML map file (rtukit sim map / read --map take it)");
+    cmd->callback([&action, args, &entry] {
+      action = [args, &entry] {
+        print_registers(*args, *entry.profile, entry.markdown);
+        return kOk;
+      };
+    });
+  }
+  {
+    auto args = std::make_shared<DeviceArgs>();
+    auto* cmd = dev.add_subcommand("get", "read registers by name, decoded with units");
+    cmd->add_option("keys", args->keys, "register keys (see `registers`); none: every readable register");
+    cmd->add_option("--unit,-u", args->unit, fmt::format("unit address (default {})", p.link.unit));
+    cmd->add_flag("--json", args->json, "print JSON");
+    args->link.add_to(*cmd, false, p.link.baud);
+    cmd->callback([&action, args, &p] { action = [args, &p] { return run_get(*args, p); }; });
+  }
+  {
+    auto args = std::make_shared<DeviceArgs>();
+    auto* cmd = dev.add_subcommand("set", "write one register by name (value with unit, name or mm:ss)");
+    cmd->add_option("key", args->keys, "register key")->required()->expected(1);
+    cmd->add_option("value", args->value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
+    cmd->add_option("--unit,-u", args->unit, fmt::format("unit address (default {})", p.link.unit));
+    cmd->add_flag("--json", args->json, "print JSON");
+    args->link.add_to(*cmd, false, p.link.baud);
+    cmd->callback([&action, args, &p] { action = [args, &p] { return run_set(*args, p); }; });
+  }
+}
+
+}  // namespace
+
+const profile::Profile& load_map_or_fail(const std::string& path) {
+  static std::vector<std::unique_ptr<profile::MapProfile>> loaded;  // live until exit
+  Outcome<std::unique_ptr<profile::MapProfile>> map = profile::load_map(path);
+  if (!map.ok()) throw Failure{map.error().code() == Errc::io_error ? kIoError : kUsage, std::string(map.error().reason())};
+  loaded.push_back(std::move(*map));
+  return loaded.back()->profile();
+}
+
+void add_profile_commands(CLI::App& app, Action& action) {
+  {
+    auto json = std::make_shared<bool>(false);
+    auto* cmd = app.add_subcommand("devices", "the device profiles this rtukit knows");
+    cmd->add_flag("--json", *json, "print JSON");
+    cmd->callback([&action, json] {
+      action = [json] {
+        nlohmann::ordered_json list = nlohmann::ordered_json::array();
+        for (const DeviceEntry& e : builtin_devices()) {
+          const profile::Profile& p = *e.profile;
+          if (*json) {
+            list.push_back({{"name", p.name}, {"title", p.title}, {"unit", p.link.unit}, {"baud", p.link.baud},
+                            {"parity", std::string(1, p.link.parity)}, {"registers", p.rows.size()}});
+          } else {
+            fmt::print("{:<12} {} (unit {}, {} {}{}{})\n", p.name, p.title, p.link.unit, p.link.baud, 8,
+                       p.link.parity, p.link.stop_bits);
+          }
+        }
+        if (*json) fmt::print("{}\n", list.dump());
+        else fmt::print("any other device: a register-map file (rtukit map check FILE; docs/register-maps.md)\n");
+        return kOk;
+      };
+    });
+  }
+  for (const DeviceEntry& entry : builtin_devices()) {
+    const std::string name(entry.profile->name);
+    CLI::App* dev = app.get_subcommands([&name](CLI::App* s) { return s->get_name() == name; }).empty()
+                        ? app.add_subcommand(name, std::string(entry.profile->title))
+                        : app.get_subcommand(name);
+    dev->require_subcommand(1);
+    add_device_verbs(*dev, action, entry);
+    if (entry.add_commands) entry.add_commands(*dev, action);
+  }
+  {
+    auto* map = app.add_subcommand("map", "register-map files: any Modbus device described in YAML or JSON");
+    map->require_subcommand(1);
+    auto file = std::make_shared<std::string>();
+    auto* check = map->add_subcommand("check", "validate a map file (errors name the line)");
+    check->add_option("file", *file, "the map file")->required();
+    check->callback([&action, file] {
+      action = [file] {
+        const profile::Profile& p = load_map_or_fail(*file);
+        size_t entries = 0;
+        for (const Row& r : p.rows) entries += r.repeat;
+        fmt::print("{}: ok: device '{}', {} registers in {} rows\n", *file, p.name, entries, p.rows.size());
+        return kOk;
+      };
+    });
+    auto args = std::make_shared<DeviceArgs>();
+    auto* md = map->add_subcommand("registers", "print a map file's register reference (Markdown, --json, --yaml)");
+    md->add_option("file", *file, "the map file")->required();
+    md->add_flag("--json", args->json, "as JSON");
+    md->add_flag("--yaml", args->yaml, "as YAML");
+    md->callback([&action, file, args] {
+      action = [file, args] {
+        print_registers(*args, load_map_or_fail(*file), {});
+        return kOk;
+      };
+    });
+  }
+  {
+    auto args = std::make_shared<DeviceArgs>();
+    auto map_file = std::make_shared<std::string>();
+    auto* cmd = app.add_subcommand("watch", "poll registers by name with a map file until Ctrl-C");
+    cmd->add_option("--map", *map_file, "the device's register-map file")->required();
+    cmd->add_option("keys", args->keys, "register keys; none: every readable register");
+    cmd->add_option("--unit,-u", args->unit, "unit address (default: the map's)");
+    cmd->add_flag("--json", args->json, "one JSON object per poll");
+    args->watch.add_to(*cmd);
+    args->link.add_to(*cmd, false);
+    cmd->callback([&action, args, map_file] {
+      action = [args, map_file] { return run_watch(*args, load_map_or_fail(*map_file)); };
+    });
+  }
+}
+
+int run_map_read(const LinkOptions& link, const std::string& unit, const std::string& map_file,
+                 std::span<const std::string> keys, bool json) {
+  const profile::Profile& p = load_map_or_fail(map_file);
+  DeviceArgs a;
+  a.link = link;
+  a.unit = unit;
+  a.keys.assign(keys.begin(), keys.end());
+  a.json = json;
+  return run_get(a, p);
+}
+
+}  // namespace rtukit::cli

@@ -1,0 +1,214 @@
+// `rtukit sim inverjet`: the simulated machine on a pty, serial port or TCP,
+// with a console on stdin. The simulator itself is a library class
+// (devices/inverjet/simulator.hpp); this file wires options, stdin and signals.
+#include <fmt/core.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <asio.hpp>
+#include <cstdio>
+#include <thread>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "rtukit/devices/inverjet/simulator.hpp"
+#include "rtukit/devices/inverjet/state_file.hpp"
+#include "rtukit/devices/rehand6600/simulator.hpp"
+
+namespace rtukit::cli {
+namespace {
+
+// Reads console lines from stdin on its own thread and hands each one to the
+// io_context (the simulator is only touched there). Stops through a pipe, so
+// it can be joined even while a read would block.
+class Console {
+ public:
+  template <class OnLine>
+  Console(asio::io_context& ctx, OnLine on_line) {
+    if (::pipe(stop_) != 0) return;
+    thread_ = std::thread([this, &ctx, on_line] {
+      std::string pending;
+      char buf[512];
+      for (;;) {
+        pollfd fds[2] = {{STDIN_FILENO, POLLIN, 0}, {stop_[0], POLLIN, 0}};
+        if (::poll(fds, 2, -1) < 0) continue;
+        if (fds[1].revents) return;
+        const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
+        if (n <= 0) return;  // end of input: the simulator keeps running
+        pending.append(buf, static_cast<size_t>(n));
+        for (size_t nl; (nl = pending.find('\n')) != std::string::npos;) {
+          std::string line = pending.substr(0, nl);
+          pending.erase(0, nl + 1);
+          asio::post(ctx, [on_line, line] { on_line(line); });
+        }
+      }
+    });
+  }
+  ~Console() {
+    if (thread_.joinable()) {
+      const char x = 'x';
+      (void)!::write(stop_[1], &x, 1);
+      thread_.join();
+    }
+    ::close(stop_[0]);
+    ::close(stop_[1]);
+  }
+
+ private:
+  int stop_[2] = {-1, -1};
+  std::thread thread_;
+};
+
+RequestLog request_logger() {
+  return [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
+    fmt::print("rx {} -> {}\n", hex(rx), tx.empty() ? std::string("(silence)") : "tx " + hex(tx));
+    std::fflush(stdout);
+  };
+}
+
+// Runs a simulator until SIGINT/SIGTERM or `quit` on its console.
+template <class Sim>
+int serve(asio::io_context& ctx, Sim& s, bool with_console) {
+  if (with_console) fmt::print("console: type 'help' for commands\n");
+  std::fflush(stdout);
+  asio::signal_set signals(ctx, SIGINT, SIGTERM);
+  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  std::unique_ptr<Console> console;
+  if (with_console) {
+    console = std::make_unique<Console>(ctx, [&s, &ctx](const std::string& line) {
+      const std::string reply = s.command(line);
+      if (!reply.empty()) fmt::print("{}{}", reply, reply.back() == '\n' ? "" : "\n");
+      std::fflush(stdout);
+      if (s.quit_requested()) ctx.stop();
+    });
+  }
+  ctx.run();
+  console.reset();
+  return kOk;
+}
+
+struct SimArgs {
+  std::string listen;
+  std::string unit;
+  std::string baud;
+  std::string parity = "N";
+  unsigned stop_bits = 1;
+  bool rs485 = false;
+  std::string state_file;
+  bool no_state = false;
+  double time_scale = 1.0;
+  bool verbose = false;
+  bool no_console = false;
+};
+
+int run_sim_inverjet(const SimArgs& a) {
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port(a.listen, true, &why);
+  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad --listen '{}': {}", a.listen, why)};
+  spec->serial.parity = a.parity.size() == 1 ? static_cast<char>(std::toupper(a.parity[0])) : '?';
+  spec->serial.stop_bits = static_cast<uint8_t>(a.stop_bits);
+  spec->serial.rs485.enabled = a.rs485;
+  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
+
+  inverjet::SimulatorOptions o;
+  o.listen = *spec;
+  if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
+  if (!a.baud.empty()) o.baud = static_cast<uint32_t>(parse_number(a.baud, "baud", 1, 1000000));
+  o.state_file = a.no_state ? "" : a.state_file.empty() ? inverjet::default_state_path() : a.state_file;
+  o.time_scale = a.time_scale;
+  o.notice = [](std::string_view line) {
+    fmt::print("{}\n", line);
+    std::fflush(stdout);
+  };
+  if (a.verbose) o.log = request_logger();
+  asio::io_context ctx;
+  auto sim = inverjet::Simulator::start(ctx, o, &why);
+  if (!sim.ok()) {
+    throw Failure{sim.error() == Errc::invalid_argument ? kUsage : kIoError,
+                  why.empty() ? std::string(sim.error().name()) : why};
+  }
+  inverjet::Simulator& s = **sim;
+  fmt::print("Inverjet simulator: unit {}, {} baud, time x{:g}, state {}\nlistening on {}\n", s.unit(),
+             inverjet::baud_of_code(s.machine().settings().baud_code), a.time_scale,
+             o.state_file.empty() ? "not saved" : o.state_file, s.where());
+  return serve(ctx, s, !a.no_console);
+}
+
+struct ChairSimArgs {
+  std::string listen;
+  std::string unit = "1";
+  uint32_t baud = rehand6600::kDefaultBaud;
+  uint32_t watchdog_ms = 500;
+  double time_scale = 1.0;
+  bool verbose = false;
+  bool no_console = false;
+};
+
+int run_sim_rehand6600(const ChairSimArgs& a) {
+  std::string why;
+  Result<io::PortSpec> spec = io::parse_port(a.listen, true, &why);
+  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad --listen '{}': {}", a.listen, why)};
+  spec->serial.baud = a.baud;
+  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
+  rehand6600::SimulatorOptions o;
+  o.listen = *spec;
+  o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247));
+  o.watchdog_ms = a.watchdog_ms;
+  o.time_scale = a.time_scale;
+  if (a.verbose) o.log = request_logger();
+  asio::io_context ctx;
+  auto sim = rehand6600::Simulator::start(ctx, o, &why);
+  if (!sim.ok()) {
+    throw Failure{sim.error() == Errc::invalid_argument ? kUsage : kIoError,
+                  why.empty() ? std::string(sim.error().name()) : why};
+  }
+  rehand6600::Simulator& s = **sim;
+  fmt::print("Rehand 6600 simulator: unit {}, {} baud, watchdog {} ms, time x{:g}\nlistening on {}\n", o.unit,
+             a.baud, a.watchdog_ms, a.time_scale, s.where());
+  return serve(ctx, s, !a.no_console);
+}
+
+}  // namespace
+
+// Until the devices move onto the simulator host (profile kit merge).
+void add_legacy_sim_commands(CLI::App& app, Action& action) {
+  CLI::App* sim =
+      app.get_subcommand("sim");
+  auto a = std::make_shared<SimArgs>();
+  CLI::App* cmd = sim->add_subcommand("inverjet", "the Inverjet swimming machine, with a console on stdin");
+  cmd->add_option("--listen,-l", a->listen,
+                  "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
+      ->required();
+  cmd->add_option("--unit,-u", a->unit, "slave address 1..254 (default: the saved one, factory 21)");
+  cmd->add_option("--baud,-b", a->baud,
+                  "1200, 2400, 4800, 9600, 19200 (default: the saved one, factory 9600)");
+  cmd->add_option("--parity", a->parity, "N, E or O")->capture_default_str();
+  cmd->add_option("--stop-bits", a->stop_bits, "1 or 2")->capture_default_str();
+  cmd->add_flag("--rs485", a->rs485, "RS-485 direction control on a serial port");
+  cmd->add_option("--state-file", a->state_file,
+                  "where settings persist (default $XDG_STATE_HOME/rtukit/inverjet.json)");
+  cmd->add_flag("--no-state", a->no_state, "keep settings in memory only");
+  cmd->add_option("--time-scale", a->time_scale, "device seconds per real second (60: a minute per second)")
+      ->capture_default_str();
+  cmd->add_flag("--verbose,-v", a->verbose, "log every request and response in hex");
+  cmd->add_flag("--no-console", a->no_console, "do not read commands from stdin");
+  cmd->callback([&action, a] { action = [a] { return run_sim_inverjet(*a); }; });
+
+  auto c = std::make_shared<ChairSimArgs>();
+  CLI::App* chair =
+      sim->add_subcommand("rehand6600", "the Rehand 6600 wheelchair controller, with a console on stdin");
+  chair
+      ->add_option("--listen,-l", c->listen,
+                   "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
+      ->required();
+  chair->add_option("--unit,-u", c->unit, "slave address")->capture_default_str();
+  chair->add_option("--baud,-b", c->baud, "baud rate of a serial port (D-1: 115200)")->capture_default_str();
+  chair->add_option("--watchdog-ms", c->watchdog_ms, "communication watchdog (D-5); 0 disables")
+      ->capture_default_str();
+  chair->add_option("--time-scale", c->time_scale, "device seconds per real second")->capture_default_str();
+  chair->add_flag("--verbose,-v", c->verbose, "log every request and response in hex");
+  chair->add_flag("--no-console", c->no_console, "do not read commands from stdin");
+  chair->callback([&action, c] { action = [c] { return run_sim_rehand6600(*c); }; });
+}
+
+}  // namespace rtukit::cli
