@@ -91,7 +91,9 @@ class Reader {
 
   Range range(const YAML::Node& n, std::string_view field) const {
     if (!n.IsSequence() || n.size() != 2) fail(n, fmt::format("{} must be [min, max]", field));
-    return Range{integer(n[0], field), integer(n[1], field)};
+    const Range r{integer(n[0], field), integer(n[1], field)};
+    if (r.empty()) fail(n, fmt::format("{} [{}, {}]: min is greater than max", field, r.min, r.max));
+    return r;
   }
 
  private:
@@ -160,8 +162,9 @@ Status check_profile(const Profile& profile) {
     if (bit_space != (r.encoding == Encoding::boolean))
       return bad(r, "coils and discrete inputs are boolean, registers are not");
     if (r.repeat < 1) return bad(r, "repeat must be at least 1");
-    if (r.stride < r.words()) return bad(r, fmt::format("stride {} is less than the {} words of a value", r.stride, r.words()));
-    if (uint32_t{r.address} + uint32_t{r.repeat - 1U} * r.stride + r.words() - 1 > 0xFFFF)
+    if (r.step() < r.words())
+      return bad(r, fmt::format("stride {} is less than the {} words of a value", r.step(), r.words()));
+    if (uint32_t{r.address} + uint32_t{r.repeat - 1U} * r.step() + r.words() - 1 > 0xFFFF)
       return bad(r, "runs past address 0xFFFF");
     if (r.scale == 0) return bad(r, "scale must be at least 1");
     const Range natural = r.natural_range();
@@ -182,7 +185,7 @@ Status check_profile(const Profile& profile) {
     auto& space = used[static_cast<size_t>(r.space)];
     for (unsigned i = 0; i < r.repeat; ++i) {
       for (unsigned w = 0; w < r.words(); ++w) {
-        const size_t a = size_t{r.address} + size_t{i} * r.stride + w;
+        const size_t a = size_t{r.address} + size_t{i} * r.step() + w;
         if (space.test(a)) return bad(r, fmt::format("address 0x{:04X} is covered by another register", a));
         space.set(a);
       }
@@ -307,7 +310,6 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
         if (v < 1 || v > 0xFFFF) reader.fail(n["repeat"], "repeat must be 1..65535");
         r.repeat = static_cast<uint16_t>(v);
       }
-      r.stride = r.words();
       if (n["stride"]) {
         const int64_t v = reader.integer(n["stride"], "stride");
         if (v < 1 || v > 0xFFFF) reader.fail(n["stride"], "stride must be 1..65535");
@@ -378,7 +380,7 @@ nlohmann::ordered_json row_document(const Profile& p, const Row& r) {
   if (r.default_value != 0) j["default"] = r.default_value;
   if (r.default_first != -1) j["default_first"] = r.default_first;
   if (r.repeat != 1) j["repeat"] = r.repeat;
-  if (r.stride != r.words()) j["stride"] = r.stride;
+  if (r.stride != 0) j["stride"] = r.stride;
   if (r.flags) {
     nlohmann::ordered_json flags = nlohmann::ordered_json::array();
     for (const FlagName& f : p.flag_names) {

@@ -367,7 +367,7 @@ std::string registers_markdown(const Profile& profile) {
       if (r.space != space) continue;
       std::string address = fmt::format("0x{:04X}", r.address);
       if (r.repeat > 1)
-        address = fmt::format("0x{:04X} + {}k (k = 0..{})", r.address, r.stride, r.repeat - 1);
+        address = fmt::format("0x{:04X} + {}k (k = 0..{})", r.address, r.step(), r.repeat - 1);
       else if (r.words() > 1)
         address = fmt::format("0x{:04X}..0x{:04X}", r.address, r.last_address());
       const char* access = r.writable() ? (r.readable() ? "RW" : "W") : "R";

@@ -18,6 +18,8 @@
 // in a state file.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <cstdint>
 #include <optional>
 #include <span>
@@ -38,6 +40,17 @@ struct LinkChange {
   std::optional<uint8_t> address;
   std::optional<uint32_t> baud;
   explicit operator bool() const noexcept { return address || baud; }
+};
+
+/// Storage for a model's image, as a base class listed BEFORE Model so it is
+/// constructed first (Model's constructor writes the defaults into it):
+///   class Machine : private profile::ImageStorage<kMap.image_size()>, public profile::Model {
+///     Machine() : Model(kProfile, words) {}
+/// (A std::array data member would be zeroed after Model's constructor ran;
+/// a model that keeps one must call image().reset() in its constructor body.)
+template <size_t N>
+struct ImageStorage {
+  std::array<uint16_t, N> words{};
 };
 
 class Model : public RegisterBank {

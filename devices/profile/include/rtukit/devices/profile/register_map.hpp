@@ -79,8 +79,8 @@ class RegisterMap {
     for (const Row& r : rows_) {
       if (r.space != space || address < r.address || address > r.last_address()) continue;
       const unsigned offset = address - r.address;
-      if (offset % r.stride >= r.words()) continue;  // between repeated entries: maybe another row
-      return Slot{&r, static_cast<uint16_t>(offset / r.stride), static_cast<uint8_t>(offset % r.stride)};
+      if (offset % r.step() >= r.words()) continue;  // between repeated entries: maybe another row
+      return Slot{&r, static_cast<uint16_t>(offset / r.step()), static_cast<uint8_t>(offset % r.step())};
     }
     return {};
   }

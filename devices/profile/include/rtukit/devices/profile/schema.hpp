@@ -110,12 +110,14 @@ struct Row {
   std::span<const Named> names;  ///< choice values or bit names
   std::string_view notes;
   uint16_t repeat = 1;  ///< entries in a repeated block
-  uint16_t stride = 1;  ///< registers from one entry to the next (>= words)
+  uint16_t stride = 0;  ///< registers from one entry to the next (>= words); 0: words()
 
   /// 2 for u32, i32 and version; else 1.
   constexpr uint16_t words() const noexcept {
     return encoding == Encoding::u32 || encoding == Encoding::i32 || encoding == Encoding::version ? 2 : 1;
   }
+  /// Registers from one entry of a repeated block to the next.
+  constexpr uint16_t step() const noexcept { return stride ? stride : words(); }
   constexpr bool is_signed() const noexcept { return encoding == Encoding::i16 || encoding == Encoding::i32; }
   constexpr bool readable() const noexcept { return access != Access::write_only; }
   constexpr bool writable() const noexcept {
@@ -126,11 +128,11 @@ struct Row {
   constexpr bool has(Flags f) const noexcept { return (flags & f) == f; }
   /// The last address any entry of this row covers.
   constexpr uint16_t last_address() const noexcept {
-    return static_cast<uint16_t>(address + (repeat - 1) * stride + words() - 1);
+    return static_cast<uint16_t>(address + (repeat - 1) * step() + words() - 1);
   }
   /// Address of entry `index` (0-based).
   constexpr uint16_t entry_address(unsigned index) const noexcept {
-    return static_cast<uint16_t>(address + index * stride);
+    return static_cast<uint16_t>(address + index * step());
   }
   /// The full raw range of the encoding.
   constexpr Range natural_range() const noexcept {
