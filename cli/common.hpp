@@ -11,6 +11,7 @@
 #include <string>
 #include <string_view>
 
+#include "commands.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/port.hpp"
 
@@ -95,6 +96,20 @@ struct WatchOptions {
 /// Calls refresh(n) for n = 0, 1, ... `interval_ms` apart, until Ctrl-C or
 /// `count` refreshes (0 = no limit).
 void watch_loop(const WatchOptions& options, const std::function<void(unsigned n)>& refresh);
+
+/// Registers the subcommand `name` of `parent`: `setup(cmd, args)` declares
+/// its options into a fresh `Args`; when the user picks it, `run(args)`
+/// becomes the action (returning the exit code). Every command is made this
+/// way, so options live in one struct per command and nothing else repeats.
+template <class Args, class Setup, class Run>
+CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name, const std::string& description,
+                      Setup setup, Run run) {
+  auto args = std::make_shared<Args>();
+  CLI::App* cmd = parent.add_subcommand(name, description);
+  setup(*cmd, *args);
+  cmd->callback([&action, args, run] { action = [args, run] { return run(*args); }; });
+  return cmd;
+}
 
 /// Bytes as "15 03 00 21" (request logs).
 std::string hex(std::span<const uint8_t> bytes);

@@ -2,13 +2,14 @@
 // registers|get|set`, `rtukit map check`, and reading by name with a map
 // file (`rtukit read --map`, `rtukit watch --map`). Everything a device is
 // comes from its table; this file knows no device.
+#include "profiles.hpp"
+
 #include <fmt/core.h>
 
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "profiles.hpp"
 #include "registry.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
@@ -17,7 +18,8 @@ namespace rtukit::cli {
 
 using profile::Row;
 
-std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys, bool for_write) {
+std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys,
+                                  bool for_write) {
   const profile::RegisterMap map(p.rows);
   std::vector<Selected> out;
   if (keys.empty()) {
@@ -33,7 +35,8 @@ std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std
     std::optional<unsigned> index;
     if (const size_t open = typed.find('['); open != std::string::npos && typed.ends_with(']')) {
       key = typed.substr(0, open);
-      index = static_cast<unsigned>(parse_number(typed.substr(open + 1, typed.size() - open - 2), "index", 0, 0xFFFF));
+      index = static_cast<unsigned>(
+          parse_number(typed.substr(open + 1, typed.size() - open - 2), "index", 0, 0xFFFF));
     }
     const Row* r = profile::find_row(map, key);
     if (!r) {
@@ -41,8 +44,7 @@ std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std
       for (const Row& row : p.rows) known += (known.empty() ? "" : ", ") + std::string(row.key);
       throw Failure{kUsage, fmt::format("no register '{}' in {} (registers: {})", key, p.name, known)};
     }
-    if (!for_write && !r->readable())
-      throw Failure{kUsage, fmt::format("{} is write-only", r->key)};
+    if (!for_write && !r->readable()) throw Failure{kUsage, fmt::format("{} is write-only", r->key)};
     if (index && *index >= r->repeat)
       throw Failure{kUsage, fmt::format("{} has entries 0..{}", r->key, r->repeat - 1)};
     if (index || r->repeat == 1) {
@@ -92,7 +94,8 @@ std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<cons
     size_t j = i + 1;
     uint32_t end = uint32_t{start} + first.words();
     while (j < selected.size() && selected[j].row->space == first.space &&
-           selected[j].row->entry_address(selected[j].index) == end && end - start + selected[j].row->words() <= 125) {
+           selected[j].row->entry_address(selected[j].index) == end &&
+           end - start + selected[j].row->words() <= 125) {
       end += selected[j].row->words();
       ++j;
     }
@@ -101,7 +104,9 @@ std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<cons
     for (size_t k = i; k < j; ++k) {
       const Row& r = *selected[k].row;
       const size_t offset = r.entry_address(selected[k].index) - start;
-      values.push_back({selected[k], e ? 0 : profile::RegisterMap::decode(r, std::span(words).subspan(offset, r.words())), e});
+      values.push_back({selected[k],
+                        e ? 0 : profile::RegisterMap::decode(r, std::span(words).subspan(offset, r.words())),
+                        e});
     }
     i = j;
   }
@@ -124,8 +129,9 @@ void print_values(std::span<const ReadValue> values, bool json) {
   size_t width = 0;
   for (const ReadValue& v : values) width = std::max(width, entry_name(v.entry).size());
   for (const ReadValue& v : values) {
-    fmt::print("{:<{}} = {}\n", entry_name(v.entry), width,
-               v.error ? fmt::format("error: {}", v.error.text()) : profile::format_value(*v.entry.row, v.raw));
+    fmt::print(
+        "{:<{}} = {}\n", entry_name(v.entry), width,
+        v.error ? fmt::format("error: {}", v.error.text()) : profile::format_value(*v.entry.row, v.raw));
   }
 }
 
@@ -138,6 +144,7 @@ struct DeviceArgs {
   std::string value;
   bool json = false;
   bool yaml = false;
+  std::string map_file;
   WatchOptions watch{1000};
 };
 
@@ -159,14 +166,16 @@ int run_get(const DeviceArgs& a, const profile::Profile& p) {
 
 int run_set(const DeviceArgs& a, const profile::Profile& p) {
   const std::vector<Selected> selected = select_rows(p, std::span(a.keys.data(), 1), true);
-  if (selected.size() != 1) throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.keys[0], a.keys[0])};
+  if (selected.size() != 1)
+    throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.keys[0], a.keys[0])};
   const Row& r = *selected[0].row;
   if (!r.writable()) throw Failure{kUsage, fmt::format("{} is read-only", r.key)};
   // Motion and momentary commands need their device's own verbs (leases,
   // releases, UI rules): a bare register write could leave a chair moving.
   if (r.role == profile::Role::hold || r.role == profile::Role::pulse)
-    throw Failure{kRefused, fmt::format("{} is a {} command: use `rtukit {} {}`", r.key,
-                                        profile::role_name(r.role), p.name, r.role == profile::Role::hold ? "hold" : "pulse")};
+    throw Failure{kRefused,
+                  fmt::format("{} is a {} command: use `rtukit {} {}`", r.key, profile::role_name(r.role),
+                              p.name, r.role == profile::Role::hold ? "hold" : "pulse")};
   Outcome<int64_t> raw = profile::parse_value(r, a.value);
   if (!raw.ok()) throw Failure{kUsage, std::string(raw.error().reason())};
   std::array<uint16_t, 2> words{};
@@ -202,47 +211,50 @@ int run_watch(const DeviceArgs& a, const profile::Profile& p) {
   return kOk;
 }
 
-void print_registers(const DeviceArgs& a, const profile::Profile& p, const std::function<std::string()>& markdown) {
+void print_registers(const DeviceArgs& a, const profile::Profile& p,
+                     const std::function<std::string()>& markdown) {
   if (a.json && a.yaml) throw Failure{kUsage, "choose one of --json and --yaml"};
-  if (a.yaml) fmt::print("{}", profile::map_to_yaml(p));
-  else if (a.json) fmt::print("{}", profile::map_to_json(p));
-  else fmt::print("{}", markdown ? markdown() : profile::registers_markdown(p));
+  if (a.yaml)
+    fmt::print("{}", profile::map_to_yaml(p));
+  else if (a.json)
+    fmt::print("{}", profile::map_to_json(p));
+  else
+    fmt::print("{}", markdown ? markdown() : profile::registers_markdown(p));
 }
 
 // The same verbs for every built-in device.
 void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
   const profile::Profile& p = *entry.profile;
-  {
-    auto args = std::make_shared<DeviceArgs>();
-    auto* cmd = dev.add_subcommand("registers", "the register reference (Markdown; --json or --yaml: the map file)");
-    cmd->add_flag("--json", args->json, "the profile as a JSON map file");
-    cmd->add_flag("--yaml", args->yaml, "the profile as a YAML map file (rtukit sim map / read --map take it)");
-    cmd->callback([&action, args, &entry] {
-      action = [args, &entry] {
-        print_registers(*args, *entry.profile, entry.markdown);
-        return kOk;
-      };
-    });
-  }
-  {
-    auto args = std::make_shared<DeviceArgs>();
-    auto* cmd = dev.add_subcommand("get", "read registers by name, decoded with units");
-    cmd->add_option("keys", args->keys, "register keys (see `registers`); none: every readable register");
-    cmd->add_option("--unit,-u", args->unit, fmt::format("unit address (default {})", p.link.unit));
-    cmd->add_flag("--json", args->json, "print JSON");
-    args->link.add_to(*cmd, false, p.link.baud);
-    cmd->callback([&action, args, &p] { action = [args, &p] { return run_get(*args, p); }; });
-  }
-  {
-    auto args = std::make_shared<DeviceArgs>();
-    auto* cmd = dev.add_subcommand("set", "write one register by name (value with unit, name or mm:ss)");
-    cmd->add_option("key", args->keys, "register key")->required()->expected(1);
-    cmd->add_option("value", args->value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
-    cmd->add_option("--unit,-u", args->unit, fmt::format("unit address (default {})", p.link.unit));
-    cmd->add_flag("--json", args->json, "print JSON");
-    args->link.add_to(*cmd, false, p.link.baud);
-    cmd->callback([&action, args, &p] { action = [args, &p] { return run_set(*args, p); }; });
-  }
+  add_command<DeviceArgs>(
+      dev, action, "registers", "the register reference (Markdown; --json or --yaml: the map file)",
+      [](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_flag("--json", a.json, "the profile as a JSON map file");
+        cmd.add_flag("--yaml", a.yaml,
+                     "the profile as a YAML map file (rtukit sim map / read --map take it)");
+      },
+      [&entry](const DeviceArgs& a) {
+        print_registers(a, *entry.profile, entry.markdown);
+        return int{kOk};
+      });
+  add_command<DeviceArgs>(
+      dev, action, "get", "read registers by name, decoded with units",
+      [&p](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
+        cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+        cmd.add_flag("--json", a.json, "print JSON");
+        a.link.add_to(cmd, false, p.link.baud);
+      },
+      [&p](const DeviceArgs& a) { return run_get(a, p); });
+  add_command<DeviceArgs>(
+      dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
+      [&p](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("key", a.keys, "register key")->required()->expected(1);
+        cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
+        cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+        cmd.add_flag("--json", a.json, "print JSON");
+        a.link.add_to(cmd, false, p.link.baud);
+      },
+      [&p](const DeviceArgs& a) { return run_set(a, p); });
 }
 
 }  // namespace
@@ -250,34 +262,42 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
 const profile::Profile& load_map_or_fail(const std::string& path) {
   static std::vector<std::unique_ptr<profile::MapProfile>> loaded;  // live until exit
   Outcome<std::unique_ptr<profile::MapProfile>> map = profile::load_map(path);
-  if (!map.ok()) throw Failure{map.error().code() == Errc::io_error ? kIoError : kUsage, std::string(map.error().reason())};
+  if (!map.ok())
+    throw Failure{map.error().code() == Errc::io_error ? kIoError : kUsage,
+                  std::string(map.error().reason())};
   loaded.push_back(std::move(*map));
   return loaded.back()->profile();
 }
 
 void add_profile_commands(CLI::App& app, Action& action) {
   {
-    auto json = std::make_shared<bool>(false);
-    auto* cmd = app.add_subcommand("devices", "the device profiles this rtukit knows");
-    cmd->add_flag("--json", *json, "print JSON");
-    cmd->callback([&action, json] {
-      action = [json] {
-        nlohmann::ordered_json list = nlohmann::ordered_json::array();
-        for (const DeviceEntry& e : builtin_devices()) {
-          const profile::Profile& p = *e.profile;
-          if (*json) {
-            list.push_back({{"name", p.name}, {"title", p.title}, {"unit", p.link.unit}, {"baud", p.link.baud},
-                            {"parity", std::string(1, p.link.parity)}, {"registers", p.rows.size()}});
-          } else {
-            fmt::print("{:<12} {} (unit {}, {} {}{}{})\n", p.name, p.title, p.link.unit, p.link.baud, 8,
-                       p.link.parity, p.link.stop_bits);
+    add_command<DeviceArgs>(
+        app, action, "devices", "the device profiles this rtukit knows",
+        [](CLI::App& cmd, DeviceArgs& a) { cmd.add_flag("--json", a.json, "print JSON"); },
+        [](const DeviceArgs& a) {
+          const bool* json = &a.json;
+          nlohmann::ordered_json list = nlohmann::ordered_json::array();
+          for (const DeviceEntry& e : builtin_devices()) {
+            const profile::Profile& p = *e.profile;
+            if (*json) {
+              list.push_back({{"name", p.name},
+                              {"title", p.title},
+                              {"unit", p.link.unit},
+                              {"baud", p.link.baud},
+                              {"parity", std::string(1, p.link.parity)},
+                              {"registers", p.rows.size()}});
+            } else {
+              fmt::print("{:<12} {} (unit {}, {} {}{}{})\n", p.name, p.title, p.link.unit, p.link.baud, 8,
+                         p.link.parity, p.link.stop_bits);
+            }
           }
-        }
-        if (*json) fmt::print("{}\n", list.dump());
-        else fmt::print("any other device: a register-map file (rtukit map check FILE; docs/register-maps.md)\n");
-        return kOk;
-      };
-    });
+          if (*json)
+            fmt::print("{}\n", list.dump());
+          else
+            fmt::print(
+                "any other device: a register-map file (rtukit map check FILE; docs/register-maps.md)\n");
+          return int{kOk};
+        });
   }
   for (const DeviceEntry& entry : builtin_devices()) {
     const std::string name(entry.profile->name);
@@ -288,47 +308,41 @@ void add_profile_commands(CLI::App& app, Action& action) {
     add_device_verbs(*dev, action, entry);
     if (entry.add_commands) entry.add_commands(*dev, action);
   }
-  {
-    auto* map = app.add_subcommand("map", "register-map files: any Modbus device described in YAML or JSON");
-    map->require_subcommand(1);
-    auto file = std::make_shared<std::string>();
-    auto* check = map->add_subcommand("check", "validate a map file (errors name the line)");
-    check->add_option("file", *file, "the map file")->required();
-    check->callback([&action, file] {
-      action = [file] {
-        const profile::Profile& p = load_map_or_fail(*file);
+  auto* map = app.add_subcommand("map", "register-map files: any Modbus device described in YAML or JSON");
+  map->require_subcommand(1);
+  add_command<DeviceArgs>(
+      *map, action, "check", "validate a map file (errors name the line)",
+      [](CLI::App& cmd, DeviceArgs& a) { cmd.add_option("file", a.map_file, "the map file")->required(); },
+      [](const DeviceArgs& a) {
+        const profile::Profile& p = load_map_or_fail(a.map_file);
         size_t entries = 0;
         for (const Row& r : p.rows) entries += r.repeat;
-        fmt::print("{}: ok: device '{}', {} registers in {} rows\n", *file, p.name, entries, p.rows.size());
-        return kOk;
-      };
-    });
-    auto args = std::make_shared<DeviceArgs>();
-    auto* md = map->add_subcommand("registers", "print a map file's register reference (Markdown, --json, --yaml)");
-    md->add_option("file", *file, "the map file")->required();
-    md->add_flag("--json", args->json, "as JSON");
-    md->add_flag("--yaml", args->yaml, "as YAML");
-    md->callback([&action, file, args] {
-      action = [file, args] {
-        print_registers(*args, load_map_or_fail(*file), {});
-        return kOk;
-      };
-    });
-  }
-  {
-    auto args = std::make_shared<DeviceArgs>();
-    auto map_file = std::make_shared<std::string>();
-    auto* cmd = app.add_subcommand("watch", "poll registers by name with a map file until Ctrl-C");
-    cmd->add_option("--map", *map_file, "the device's register-map file")->required();
-    cmd->add_option("keys", args->keys, "register keys; none: every readable register");
-    cmd->add_option("--unit,-u", args->unit, "unit address (default: the map's)");
-    cmd->add_flag("--json", args->json, "one JSON object per poll");
-    args->watch.add_to(*cmd);
-    args->link.add_to(*cmd, false);
-    cmd->callback([&action, args, map_file] {
-      action = [args, map_file] { return run_watch(*args, load_map_or_fail(*map_file)); };
-    });
-  }
+        fmt::print("{}: ok: device '{}', {} registers in {} rows\n", a.map_file, p.name, entries,
+                   p.rows.size());
+        return int{kOk};
+      });
+  add_command<DeviceArgs>(
+      *map, action, "registers", "print a map file's register reference (Markdown, --json, --yaml)",
+      [](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("file", a.map_file, "the map file")->required();
+        cmd.add_flag("--json", a.json, "as JSON");
+        cmd.add_flag("--yaml", a.yaml, "as YAML");
+      },
+      [](const DeviceArgs& a) {
+        print_registers(a, load_map_or_fail(a.map_file), {});
+        return int{kOk};
+      });
+  add_command<DeviceArgs>(
+      app, action, "watch", "poll registers by name with a map file until Ctrl-C",
+      [](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("--map", a.map_file, "the device's register-map file")->required();
+        cmd.add_option("keys", a.keys, "register keys; none: every readable register");
+        cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
+        cmd.add_flag("--json", a.json, "one JSON object per poll");
+        a.watch.add_to(cmd);
+        a.link.add_to(cmd, false);
+      },
+      [](const DeviceArgs& a) { return run_watch(a, load_map_or_fail(a.map_file)); });
 }
 
 int run_map_read(const LinkOptions& link, const std::string& unit, const std::string& map_file,

@@ -19,7 +19,8 @@ struct Selected {
 /// The entries named by `keys` ("speed", "p1_speed[3]", "p1_speed" = every
 /// entry); no keys: every readable entry. Throws Failure{kUsage} for an
 /// unknown key (listing the known ones) or a bad index.
-std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys, bool for_write);
+std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys,
+                                  bool for_write);
 
 struct ReadValue {
   Selected entry;

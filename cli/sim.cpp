@@ -58,7 +58,7 @@ class StdinConsole {
         if (!fds[0].revents) continue;
         const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
         if (n < 0 && terminal && errno == EIO) continue;  // lost the foreground between poll and read
-        if (n <= 0) return;                                // end of input: the simulator keeps running
+        if (n <= 0) return;                               // end of input: the simulator keeps running
         pending.append(buf, static_cast<size_t>(n));
         for (size_t nl; (nl = pending.find('\n')) != std::string::npos;) {
           std::string line = pending.substr(0, nl);
@@ -94,11 +94,13 @@ class StdinConsole {
 // clients, all on the io_context's thread.
 class SocketConsole {
  public:
-  static Outcome<std::unique_ptr<SocketConsole>> open(asio::io_context& ctx, const std::string& path, OnLine on_line) {
+  static Outcome<std::unique_ptr<SocketConsole>> open(asio::io_context& ctx, const std::string& path,
+                                                      OnLine on_line) {
     struct stat st {};
     if (::lstat(path.c_str(), &st) == 0) {
       if (!S_ISSOCK(st.st_mode))
-        return Status(Errc::invalid_argument, fmt::format("{} exists and is not a socket; not replacing it", path));
+        return Status(Errc::invalid_argument,
+                      fmt::format("{} exists and is not a socket; not replacing it", path));
       ::unlink(path.c_str());  // a socket left by an earlier run
     }
     auto c = std::unique_ptr<SocketConsole>(new SocketConsole(ctx, path, std::move(on_line)));
@@ -106,7 +108,8 @@ class SocketConsole {
     c->acceptor_.open(asio::local::stream_protocol(), ec);
     if (!ec) (void)c->acceptor_.bind(asio::local::stream_protocol::endpoint(path), ec);
     if (!ec) (void)c->acceptor_.listen(8, ec);
-    if (ec) return Status(Error(Errc::io_error, ec.value()), fmt::format("console {}: {}", path, ec.message()));
+    if (ec)
+      return Status(Error(Errc::io_error, ec.value()), fmt::format("console {}: {}", path, ec.message()));
     ::chmod(path.c_str(), 0600);  // the console can inject faults: owner only
     c->accept();
     return c;
@@ -178,7 +181,8 @@ struct SimArgs {
 void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile) {
   a.link.add_to(cmd, /*listening=*/true, profile ? profile->link.baud : 9600);
   cmd.add_option("--unit,-u", a.unit, "unit address (default: the device's own)");
-  cmd.add_option("--state-file", a.state_file, "where persisted registers live (default: ~/.local/state/rtukit/DEVICE.json)");
+  cmd.add_option("--state-file", a.state_file,
+                 "where persisted registers live (default: ~/.local/state/rtukit/DEVICE.json)");
   cmd.add_flag("--no-state", a.no_state, "keep persisted registers in memory only");
   cmd.add_option("--time-scale", a.time_scale, "device seconds per real second (60: a minute per second)")
       ->capture_default_str();
@@ -217,7 +221,8 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   fmt::print("{} simulator: unit {} on {}{}\n", profile.name, host.unit(), host.where(),
              o.state_file.empty() ? "" : fmt::format(", state in {}", o.state_file));
 
-  const OnLine on_line = [&host, &ctx](const std::string& line, const std::function<void(std::string)>& reply) {
+  const OnLine on_line = [&host, &ctx](const std::string& line,
+                                       const std::function<void(std::string)>& reply) {
     const std::string text = host.command(line);
     if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
     if (host.quit_requested()) ctx.stop();
@@ -225,8 +230,9 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   std::unique_ptr<SocketConsole> socket_console;
   if (!console_path.empty()) {
     auto c = SocketConsole::open(ctx, console_path, on_line);
-    if (!c.ok()) throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
-                               std::string(c.error().reason())};
+    if (!c.ok())
+      throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
+                    std::string(c.error().reason())};
     socket_console = std::move(*c);
     fmt::print("console on unix:{}\n", console_path);
   }

@@ -45,8 +45,9 @@ TEST(MapSim, CheckReportsTheMapAndItsErrors) {
                                      "  - key: b\n    address: 1\n";
   RunResult bad = run({kBin, "map", "check", dir / "bad.yaml"});
   EXPECT_EQ(bad.code, 2);
-  EXPECT_NE(bad.output.find("bad.yaml:6: register 'b' (0x0001): address 0x0001 is covered by another register"),
-            std::string::npos)
+  EXPECT_NE(
+      bad.output.find("bad.yaml:6: register 'b' (0x0001): address 0x0001 is covered by another register"),
+      std::string::npos)
       << bad.output;
   RunResult missing = run({kBin, "map", "check", dir / "none.yaml"});
   EXPECT_EQ(missing.code, 4) << missing.output;
@@ -72,7 +73,8 @@ TEST(MapSim, ReadAndWatchByName) {
             std::string::npos)
       << unknown.output;
 
-  RunResult w = run({kBin, "watch", "--port", sim.tty, "--map", kMap, "voltage", "--interval", "100", "--count", "2"});
+  RunResult w =
+      run({kBin, "watch", "--port", sim.tty, "--map", kMap, "voltage", "--interval", "100", "--count", "2"});
   ASSERT_EQ(w.code, 0) << w.output;
   const size_t first = w.output.find("voltage = 230.0 V");
   ASSERT_NE(first, std::string::npos) << w.output;
@@ -92,7 +94,8 @@ TEST(MapSim, MbpollMasterReadsAndWrites) {
   TempDir dir;
   MapSim sim(dir);
   ASSERT_TRUE(sim.started) << sim.process.output();
-  const std::vector<std::string> rtu = {"mbpoll", "-m", "rtu", "-a", "1", "-b", "9600", "-P", "none", "-0", "-1"};
+  const std::vector<std::string> rtu = {"mbpoll", "-m", "rtu",  "-a", "1", "-b",
+                                        "9600",   "-P", "none", "-0", "-1"};
   auto with = [&](std::vector<std::string> extra) {
     std::vector<std::string> v = rtu;
     v.insert(v.end(), extra.begin(), extra.end());
@@ -118,7 +121,8 @@ TEST(MapSim, ConsoleOnAUnixSocket) {
   MapSim sim(dir, {"--console", "unix:" + sock, "--no-console"});
   ASSERT_TRUE(sim.started) << sim.process.output();
   ASSERT_TRUE(eventually([&] { return path_exists(sock); }));
-  RunResult r = run({"sh", "-c", "printf 'get voltage ct_ratio\\nhelp\\n' | socat -t 1 - UNIX-CONNECT:" + sock});
+  RunResult r =
+      run({"sh", "-c", "printf 'get voltage ct_ratio\\nhelp\\n' | socat -t 1 - UNIX-CONNECT:" + sock});
   EXPECT_NE(r.output.find("voltage = 230.0 V"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("ct_ratio = 1"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("get KEY..."), std::string::npos) << r.output;
@@ -177,7 +181,8 @@ TEST(MapSim, BackgroundedInAnInteractiveShellKeepsServingAndEndsOnSigterm) {
   InteractiveShell sh;
   ASSERT_TRUE(sh.ok());
   ASSERT_NE(sh.wait_for("$ "), std::string::npos) << sh.screen();
-  sh.type(kBin + " sim map " + kMap + " --listen pty:" + tty + " --no-state > " + (dir / "sim.log") + " 2>&1 &");
+  sh.type(kBin + " sim map " + kMap + " --listen pty:" + tty + " --no-state > " + (dir / "sim.log") +
+          " 2>&1 &");
   sh.type("echo sim\"pid=\"$!");  // the typed line (echoed) does not contain the marker
   const size_t at = sh.wait_for("simpid=");
   ASSERT_NE(at, std::string::npos) << sh.screen();
@@ -188,7 +193,8 @@ TEST(MapSim, BackgroundedInAnInteractiveShellKeepsServingAndEndsOnSigterm) {
   // Typing in the shell while the job runs: the simulator must not read it,
   // must not be stopped, and must keep answering.
   for (int i = 0; i < 2; ++i) {
-    sh.type(kBin + " read --port " + tty + " --map " + kMap + " voltage; echo rc$((40+" + std::to_string(i) + "))=$?");
+    sh.type(kBin + " read --port " + tty + " --map " + kMap + " voltage; echo rc$((40+" + std::to_string(i) +
+            "))=$?");
     const size_t rc = sh.wait_for("rc" + std::to_string(40 + i) + "=0", 0, 15000ms);
     EXPECT_NE(rc, std::string::npos) << sh.screen() << read_file(dir / "sim.log");
   }

@@ -4,15 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "process.hpp"
+#include "rtukit/core/crc.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/model.hpp"
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
-#include "rtukit/core/crc.hpp"
-#include <nlohmann/json.hpp>
 
 namespace rtukit::profile {
 namespace {
@@ -23,29 +23,88 @@ constexpr Flags kMasked = 1U << 1;
 constexpr FlagName kFlagNames[] = {{kPersisted, "persisted"}, {kMasked, "masked"}};
 
 constexpr Row kRows[] = {
-    {.space = Space::holding, .address = 0x0010, .key = "speed", .title = "speed", .role = Role::control,
-     .unit = "%", .range = {0, 100}, .default_value = 50, .flags = kPersisted | kMasked},
-    {.space = Space::holding, .address = 0x0011, .key = "mode", .title = "mode", .encoding = Encoding::choice,
+    {.space = Space::holding,
+     .address = 0x0010,
+     .key = "speed",
+     .title = "speed",
+     .role = Role::control,
+     .unit = "%",
+     .range = {0, 100},
+     .default_value = 50,
+     .flags = kPersisted | kMasked},
+    {.space = Space::holding,
+     .address = 0x0011,
+     .key = "mode",
+     .title = "mode",
+     .encoding = Encoding::choice,
      .names = kModes},
-    {.space = Space::holding, .address = 0x0012, .key = "limit", .title = "limit", .encoding = Encoding::i16,
-     .unit = "degC", .scale = 10, .range = {-400, 1000}, .writable_range = {0, 800}, .default_value = 250},
-    {.space = Space::holding, .address = 0x0014, .key = "total", .title = "total", .encoding = Encoding::u32,
-     .unit = "kWh", .scale = 100, .order = WordOrder::low_first, .flags = kPersisted},
-    {.space = Space::holding, .address = 0x0100, .key = "seg_speed", .title = "segment speed",
-     .range = {0, 100}, .default_value = 0, .default_first = 20, .flags = kPersisted, .repeat = 4, .stride = 2},
-    {.space = Space::holding, .address = 0x0101, .key = "seg_end", .title = "segment end",
-     .encoding = Encoding::duration, .unit = "s", .range = {0, 5999}, .flags = kPersisted, .repeat = 4,
+    {.space = Space::holding,
+     .address = 0x0012,
+     .key = "limit",
+     .title = "limit",
+     .encoding = Encoding::i16,
+     .unit = "degC",
+     .scale = 10,
+     .range = {-400, 1000},
+     .writable_range = {0, 800},
+     .default_value = 250},
+    {.space = Space::holding,
+     .address = 0x0014,
+     .key = "total",
+     .title = "total",
+     .encoding = Encoding::u32,
+     .unit = "kWh",
+     .scale = 100,
+     .order = WordOrder::low_first,
+     .flags = kPersisted},
+    {.space = Space::holding,
+     .address = 0x0100,
+     .key = "seg_speed",
+     .title = "segment speed",
+     .range = {0, 100},
+     .default_value = 0,
+     .default_first = 20,
+     .flags = kPersisted,
+     .repeat = 4,
      .stride = 2},
-    {.space = Space::holding, .address = 0x0200, .key = "command", .title = "command", .role = Role::hold,
-     .access = Access::write_only, .range = {0, 1}},
-    {.space = Space::input, .address = 0x0000, .key = "version", .title = "version",
-     .encoding = Encoding::version, .default_value = 0x00010002},
-    {.space = Space::input, .address = 0x0002, .key = "alarms", .title = "alarms", .encoding = Encoding::bits,
+    {.space = Space::holding,
+     .address = 0x0101,
+     .key = "seg_end",
+     .title = "segment end",
+     .encoding = Encoding::duration,
+     .unit = "s",
+     .range = {0, 5999},
+     .flags = kPersisted,
+     .repeat = 4,
+     .stride = 2},
+    {.space = Space::holding,
+     .address = 0x0200,
+     .key = "command",
+     .title = "command",
+     .role = Role::hold,
+     .access = Access::write_only,
+     .range = {0, 1}},
+    {.space = Space::input,
+     .address = 0x0000,
+     .key = "version",
+     .title = "version",
+     .encoding = Encoding::version,
+     .default_value = 0x00010002},
+    {.space = Space::input,
+     .address = 0x0002,
+     .key = "alarms",
+     .title = "alarms",
+     .encoding = Encoding::bits,
      .names = kBits},
-    {.space = Space::coil, .address = 0x0000, .key = "relay", .title = "relay", .role = Role::control,
+    {.space = Space::coil,
+     .address = 0x0000,
+     .key = "relay",
+     .title = "relay",
+     .role = Role::control,
      .encoding = Encoding::boolean},
 };
-constexpr Profile kProfile{.name = "testdev", .title = "a test device", .rows = kRows, .flag_names = kFlagNames};
+constexpr Profile kProfile{
+    .name = "testdev", .title = "a test device", .rows = kRows, .flag_names = kFlagNames};
 constexpr RegisterMap kMap{kRows};
 
 // Compile-time handles: a typo here would not compile.
@@ -85,20 +144,27 @@ TEST(ProfileMap, Lookups) {
 
 TEST(ProfileMap, StrictReadsAndWrites) {
   EXPECT_TRUE(kMap.check_read(Space::holding, 0x0010, 3).ok());
-  EXPECT_EQ(kMap.check_read(Space::holding, 0x0010, 4).code(), Errc::illegal_data_address);  // 0x0013 is a gap
+  EXPECT_EQ(kMap.check_read(Space::holding, 0x0010, 4).code(),
+            Errc::illegal_data_address);  // 0x0013 is a gap
   EXPECT_EQ(kMap.check_read(Space::holding, 0x0200, 1).code(), Errc::illegal_data_address);  // write-only
   EXPECT_TRUE(kMap.check_write(Space::holding, 0x0200, std::array<uint16_t, 1>{1}).ok());
-  EXPECT_EQ(kMap.check_write(Space::input, 0x0000, std::array<uint16_t, 1>{1}).code(), Errc::illegal_data_address);
+  EXPECT_EQ(kMap.check_write(Space::input, 0x0000, std::array<uint16_t, 1>{1}).code(),
+            Errc::illegal_data_address);
   // The writable range is narrower than the documented one.
-  EXPECT_EQ(kMap.check_write(Space::holding, 0x0012, std::array<uint16_t, 1>{900}).code(), Errc::illegal_data_value);
-  EXPECT_EQ(kMap.check_write(Space::holding, 0x0012, std::array<uint16_t, 1>{static_cast<uint16_t>(-5)}).code(),
+  EXPECT_EQ(kMap.check_write(Space::holding, 0x0012, std::array<uint16_t, 1>{900}).code(),
             Errc::illegal_data_value);
+  EXPECT_EQ(
+      kMap.check_write(Space::holding, 0x0012, std::array<uint16_t, 1>{static_cast<uint16_t>(-5)}).code(),
+      Errc::illegal_data_value);
   // A choice takes only its named values.
   EXPECT_TRUE(kMap.check_write(Space::holding, 0x0011, std::array<uint16_t, 1>{3}).ok());
-  EXPECT_EQ(kMap.check_write(Space::holding, 0x0011, std::array<uint16_t, 1>{2}).code(), Errc::illegal_data_value);
+  EXPECT_EQ(kMap.check_write(Space::holding, 0x0011, std::array<uint16_t, 1>{2}).code(),
+            Errc::illegal_data_value);
   // A 32-bit value is written whole or not at all.
-  EXPECT_EQ(kMap.check_write(Space::holding, 0x0014, std::array<uint16_t, 1>{1}).code(), Errc::illegal_data_address);
-  EXPECT_EQ(kMap.check_write(Space::holding, 0x0015, std::array<uint16_t, 1>{1}).code(), Errc::illegal_data_address);
+  EXPECT_EQ(kMap.check_write(Space::holding, 0x0014, std::array<uint16_t, 1>{1}).code(),
+            Errc::illegal_data_address);
+  EXPECT_EQ(kMap.check_write(Space::holding, 0x0015, std::array<uint16_t, 1>{1}).code(),
+            Errc::illegal_data_address);
   EXPECT_TRUE(kMap.check_write(Space::holding, 0x0014, std::array<uint16_t, 2>{1, 2}).ok());
   // Validated whole: one bad value in the middle refuses the request.
   EXPECT_EQ(kMap.check_write(Space::holding, 0x0100, std::array<uint16_t, 4>{10, 60, 101, 120}).code(),
@@ -209,7 +275,8 @@ TEST(ProfileStateFile, RoundTripAndDamage) {
   // Every damaged form falls back to the defaults with one reason, changing nothing.
   std::string text = state_to_text(kProfile, a.image());
   const std::string changed = std::string(text).replace(text.find("77"), 2, "78");
-  const std::string out_of_range_body = R"({"format":"rtukit-state","version":1,"device":"testdev","registers":)";
+  const std::string out_of_range_body =
+      R"({"format":"rtukit-state","version":1,"device":"testdev","registers":)";
   for (const auto& [bad, expected] : std::vector<std::pair<std::string, Errc>>{
            {text.substr(0, text.size() / 2), Errc::malformed},
            {changed, Errc::bad_crc},
@@ -235,7 +302,8 @@ TEST(ProfileStateFile, ValueOutOfRangeRefusedWhole) {
   j["registers"]["speed"] = 150;
   const std::string body = j["registers"].dump();
   char crc[8];
-  std::snprintf(crc, sizeof crc, "0x%04X", crc16({reinterpret_cast<const uint8_t*>(body.data()), body.size()}));
+  std::snprintf(crc, sizeof crc, "0x%04X",
+                crc16({reinterpret_cast<const uint8_t*>(body.data()), body.size()}));
   j["checksum"] = crc;
   TestModel b;
   const Status s = state_from_text(kProfile, j.dump(), b.image());
@@ -289,8 +357,9 @@ TEST(ProfileMapFile, ErrorsNameTheLine) {
     return m.ok() ? std::string() : std::string(m.error().reason());
   };
   const std::string head = "device:\n  name: x\nregisters:\n";
-  EXPECT_EQ(error_of(head + "  - key: a\n    address: 1\n    encoding: u61\n"),
-            "m.yaml:6: unknown encoding 'u61' (u16, i16, u32, i32, choice, bits, duration, version, boolean)");
+  EXPECT_EQ(
+      error_of(head + "  - key: a\n    address: 1\n    encoding: u61\n"),
+      "m.yaml:6: unknown encoding 'u61' (u16, i16, u32, i32, choice, bits, duration, version, boolean)");
   EXPECT_EQ(error_of(head + "  - key: a\n    address: 1\n  - key: b\n    address: 1\n"),
             "m.yaml:6: register 'b' (0x0001): address 0x0001 is covered by another register");
   EXPECT_EQ(error_of(head + "  - key: a\n    address: 1\n    encoding: u32\n  - key: b\n    address: 2\n"),
@@ -301,10 +370,11 @@ TEST(ProfileMapFile, ErrorsNameTheLine) {
             "m.yaml:4: register 'a' (0x0001): default 0 is outside its range");
   EXPECT_EQ(error_of(head + "  - key: a\n    address: 1\n    range: [0, 70000]\n"),
             "m.yaml:4: register 'a' (0x0001): range 0..70000 is outside what u16 can hold (0..65535)");
-  EXPECT_EQ(error_of(head + "  - key: a\n    adress: 1\n"),
-            "m.yaml:5: unknown field 'adress' in a register (fields: key, title, space, address, role, encoding, "
-            "unit, scale, order, access, range, writable_range, default, default_first, flags, values, notes, "
-            "repeat, stride)");
+  EXPECT_EQ(
+      error_of(head + "  - key: a\n    adress: 1\n"),
+      "m.yaml:5: unknown field 'adress' in a register (fields: key, title, space, address, role, encoding, "
+      "unit, scale, order, access, range, writable_range, default, default_first, flags, values, notes, "
+      "repeat, stride)");
   EXPECT_EQ(error_of(head + "  - key: a\n    address: 1\n    encoding: choice\n"),
             "m.yaml:4: register 'a' (0x0001): a choice needs values");
   EXPECT_EQ(error_of("device: [1, 2\n").substr(0, 8), "m.yaml:2");

@@ -23,9 +23,10 @@ namespace {
 constexpr size_t kMaxMapFile = 4 << 20;
 
 constexpr Space kSpaces[] = {Space::holding, Space::input, Space::coil, Space::discrete};
-constexpr Role kRoles[] = {Role::status, Role::setting, Role::control, Role::hold, Role::pulse, Role::reserved};
-constexpr Encoding kEncodings[] = {Encoding::u16,    Encoding::i16,      Encoding::u32,
-                                   Encoding::i32,    Encoding::choice,   Encoding::bits,
+constexpr Role kRoles[] = {Role::status, Role::setting, Role::control,
+                           Role::hold,   Role::pulse,   Role::reserved};
+constexpr Encoding kEncodings[] = {Encoding::u16,      Encoding::i16,     Encoding::u32,
+                                   Encoding::i32,      Encoding::choice,  Encoding::bits,
                                    Encoding::duration, Encoding::version, Encoding::boolean};
 constexpr Access kAccesses[] = {Access::by_role, Access::read_only, Access::write_only, Access::read_write};
 
@@ -51,7 +52,8 @@ class Reader {
 
   [[noreturn]] void fail(const YAML::Node& at, const std::string& what) const {
     const int line = at.IsDefined() ? at.Mark().line + 1 : 0;
-    throw Bad{line > 0 ? fmt::format("{}:{}: {}", source_, line, what) : fmt::format("{}: {}", source_, what)};
+    throw Bad{line > 0 ? fmt::format("{}:{}: {}", source_, line, what)
+                       : fmt::format("{}: {}", source_, what)};
   }
 
   int64_t integer(const YAML::Node& n, std::string_view field) const {
@@ -146,13 +148,15 @@ std::string_view MapProfile::keep(std::string s) {
 
 Status check_profile(const Profile& profile) {
   const auto bad = [&](const Row& r, const std::string& what) {
-    return Status(Errc::invalid_argument, fmt::format("register '{}' (0x{:04X}): {}", r.key, r.address, what));
+    return Status(Errc::invalid_argument,
+                  fmt::format("register '{}' (0x{:04X}): {}", r.key, r.address, what));
   };
   std::array<std::bitset<65536>, 4> used;
   for (const Row& r : profile.rows) {
     if (r.key.empty()) return bad(r, "no key");
     for (char c : r.key) {
-      if (!(std::islower(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) || c == '_'))
+      if (!(std::islower(static_cast<unsigned char>(c)) || std::isdigit(static_cast<unsigned char>(c)) ||
+            c == '_'))
         return bad(r, "keys are snake_case: a-z, 0-9 and _");
     }
     for (const Row& other : profile.rows) {
@@ -212,7 +216,8 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
     const YAML::Node device = doc["device"];
     if (!device || !device.IsMap()) reader.fail(doc, "'device' (name, title...) is missing");
     check_fields(reader, device,
-                 {"name", "title", "vendor", "unit", "unit_max", "baud", "parity", "stop_bits", "quirks"}, "device");
+                 {"name", "title", "vendor", "unit", "unit_max", "baud", "parity", "stop_bits", "quirks"},
+                 "device");
     Profile& p = map->profile_;
     if (!device["name"]) reader.fail(device, "device.name is missing");
     p.name = map->keep(reader.text(device["name"], "device.name"));
@@ -235,10 +240,14 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
     }
     if (device["parity"]) {
       const std::string parity = fold_name(reader.text(device["parity"], "device.parity"));
-      if (parity == "n" || parity == "none") p.link.parity = 'N';
-      else if (parity == "e" || parity == "even") p.link.parity = 'E';
-      else if (parity == "o" || parity == "odd") p.link.parity = 'O';
-      else reader.fail(device["parity"], "device.parity is N, E or O (none, even, odd)");
+      if (parity == "n" || parity == "none")
+        p.link.parity = 'N';
+      else if (parity == "e" || parity == "even")
+        p.link.parity = 'E';
+      else if (parity == "o" || parity == "odd")
+        p.link.parity = 'O';
+      else
+        reader.fail(device["parity"], "device.parity is N, E or O (none, even, odd)");
     }
     if (device["stop_bits"]) {
       const int64_t s = reader.integer(device["stop_bits"], "device.stop_bits");
@@ -249,9 +258,12 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
       if (!q.IsSequence()) reader.fail(q, "device.quirks is a list");
       for (const YAML::Node& item : q) {
         const std::string name = fold_name(reader.text(item, "quirk"));
-        if (name == "fc10_without_byte_count") p.quirks.fc10_without_byte_count = true;
-        else if (name == "fc03_two_byte_count") p.quirks.fc03_two_byte_count = true;
-        else reader.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
+        if (name == "fc10_without_byte_count")
+          p.quirks.fc10_without_byte_count = true;
+        else if (name == "fc03_two_byte_count")
+          p.quirks.fc03_two_byte_count = true;
+        else
+          reader.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
       }
     }
     // Device flags: bit 0 is "persisted", the file names the others in order.
@@ -271,9 +283,9 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
     for (const YAML::Node& n : regs) {
       if (!n.IsMap()) reader.fail(n, "a register is a mapping (key, space, address...)");
       check_fields(reader, n,
-                   {"key", "title", "space", "address", "role", "encoding", "unit", "scale", "order", "access",
-                    "range", "writable_range", "default", "default_first", "flags", "values", "notes", "repeat",
-                    "stride"},
+                   {"key", "title", "space", "address", "role", "encoding", "unit", "scale", "order",
+                    "access", "range", "writable_range", "default", "default_first", "flags", "values",
+                    "notes", "repeat", "stride"},
                    "a register");
       Row r;
       if (!n["key"]) reader.fail(n, "a register needs a key");
@@ -296,9 +308,12 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
       }
       if (n["order"]) {
         const std::string o = fold_name(reader.text(n["order"], "order"));
-        if (o == "high_first") r.order = WordOrder::high_first;
-        else if (o == "low_first") r.order = WordOrder::low_first;
-        else reader.fail(n["order"], "order is high_first or low_first");
+        if (o == "high_first")
+          r.order = WordOrder::high_first;
+        else if (o == "low_first")
+          r.order = WordOrder::low_first;
+        else
+          reader.fail(n["order"], "order is high_first or low_first");
       }
       if (n["access"]) r.access = reader.choice(n["access"], "access", kAccesses, access_name);
       if (n["range"]) r.range = reader.range(n["range"], "range");
@@ -448,8 +463,10 @@ void emit(YAML::Emitter& out, const nlohmann::ordered_json& j) {
   } else if (j.is_string()) {
     const std::string s = j.get<std::string>();
     // Hex addresses stay unquoted (YAML reads them as numbers, we as hex text).
-    if (s.starts_with("0x")) out << s;
-    else out << YAML::DoubleQuoted << s;
+    if (s.starts_with("0x"))
+      out << s;
+    else
+      out << YAML::DoubleQuoted << s;
   } else if (j.is_number_integer()) {
     out << j.get<int64_t>();
   } else if (j.is_number_unsigned()) {
@@ -482,7 +499,8 @@ std::unique_ptr<Model> make_register_device(const Profile& profile) {
 
 std::string map_to_yaml(const Profile& profile) {
   YAML::Emitter out;
-  out << YAML::Comment(fmt::format("rtukit register map: {} (exported from the built-in profile)", profile.name));
+  out << YAML::Comment(
+      fmt::format("rtukit register map: {} (exported from the built-in profile)", profile.name));
   out << YAML::Newline;
   emit(out, map_document(profile));
   return std::string(out.c_str()) + "\n";

@@ -16,7 +16,8 @@ FunctionSet functions_for(std::span<const Row> rows) noexcept {
         // A write-only table still answers reads with 02, not 01: FC03 exists.
         set |= function_bit(Function::read_holding_registers);
         if (r.writable())
-          set |= function_bit(Function::write_single_register) | function_bit(Function::write_multiple_registers);
+          set |= function_bit(Function::write_single_register) |
+                 function_bit(Function::write_multiple_registers);
         break;
       case Space::input:
         set |= function_bit(Function::read_input_registers);

@@ -75,7 +75,8 @@ SimHost::SimHost(asio::io_context& ctx, SimDevice device, SimOptions options)
 
 SimHost::~SimHost() = default;
 
-Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevice device, SimOptions options) {
+Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevice device,
+                                                 SimOptions options) {
   if (!device.model) return Status(Errc::invalid_argument, "no device model");
   if (!DeviceClock::valid_scale(options.time_scale))
     return Status(Errc::invalid_argument, "--time-scale must be > 0 (and at most 100000)");

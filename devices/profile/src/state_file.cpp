@@ -41,7 +41,8 @@ json registers_json(const Profile& profile, const Image& image) {
 std::string checksum_text(const json& registers) {
   const std::string text = registers.dump();
   char crc[8];
-  std::snprintf(crc, sizeof crc, "0x%04X", crc16({reinterpret_cast<const uint8_t*>(text.data()), text.size()}));
+  std::snprintf(crc, sizeof crc, "0x%04X",
+                crc16({reinterpret_cast<const uint8_t*>(text.data()), text.size()}));
   return crc;
 }
 
@@ -98,7 +99,8 @@ Status state_from_text(const Profile& profile, std::string_view text, Image& ima
     return Status(Errc::malformed, "not an rtukit state file");
   if (!file.contains("device") || file["device"] != std::string(profile.name))
     return Status(Errc::malformed, "the state file of another device, not the " + std::string(profile.name));
-  if (!file.contains("version") || file["version"] != kVersion) return Status(Errc::malformed, "unknown version");
+  if (!file.contains("version") || file["version"] != kVersion)
+    return Status(Errc::malformed, "unknown version");
   if (!file.contains("registers") || !file["registers"].is_object() || !file.contains("checksum") ||
       !file["checksum"].is_string())
     return Status(Errc::malformed, "registers or checksum missing");
@@ -117,7 +119,8 @@ Status state_from_text(const Profile& profile, std::string_view text, Image& ima
     const auto take = [&](const json& item, unsigned index) -> Status {
       if (!item.is_number_integer()) return Status(Errc::malformed, key + " is not a whole number");
       const auto raw = item.get<int64_t>();
-      if (!r.valid_range().contains(raw)) return Status(Errc::illegal_data_value, key + " is out of its range");
+      if (!r.valid_range().contains(raw))
+        return Status(Errc::illegal_data_value, key + " is out of its range");
       staged.set(r, raw, index);
       return {};
     };
@@ -145,8 +148,8 @@ LoadedState load_state(const std::string& path, const Profile& profile, Image& i
   Outcome<std::string> text = read_small_file(path);
   Status s = text.ok() ? state_from_text(profile, *text, image) : text.error();
   if (!s.ok()) {
-    loaded.warning =
-        "state file " + path + " is damaged (" + std::string(s.reason()) + "); starting with factory settings";
+    loaded.warning = "state file " + path + " is damaged (" + std::string(s.reason()) +
+                     "); starting with factory settings";
     return loaded;
   }
   loaded.from_file = true;
@@ -155,7 +158,8 @@ LoadedState load_state(const std::string& path, const Profile& profile, Image& i
 
 Status save_state(const std::string& path, const Profile& profile, const Image& image) {
   std::string why;
-  if (const Error e = io::write_file_atomically(path, state_to_text(profile, image), &why)) return Status(e, why);
+  if (const Error e = io::write_file_atomically(path, state_to_text(profile, image), &why))
+    return Status(e, why);
   return {};
 }
 

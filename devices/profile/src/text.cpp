@@ -223,7 +223,8 @@ Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
       const size_t dot = typed.find('.');
       const std::string_view t = typed;
       const auto major = parse_integer(t.substr(t[0] == 'V' || t[0] == 'v' ? 1 : 0, dot));
-      const auto minor = dot == std::string::npos ? std::optional<int64_t>(0) : parse_integer(t.substr(dot + 1));
+      const auto minor =
+          dot == std::string::npos ? std::optional<int64_t>(0) : parse_integer(t.substr(dot + 1));
       if (!major || !minor || *major < 0 || *major > 0xFFFF || *minor < 0 || *minor > 0xFFFF)
         return not_a("a version (1.2)");
       return checked(row, (*major << 16) | *minor, typed);
@@ -240,15 +241,16 @@ Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
       }
       if (row.scale <= 1) {
         const auto v = parse_integer(number);
-        if (!v) return not_a(row.unit.empty() ? "a whole number" : fmt::format("a whole number of {}", row.unit));
+        if (!v)
+          return not_a(row.unit.empty() ? "a whole number" : fmt::format("a whole number of {}", row.unit));
         return checked(row, *v, typed);
       }
       const auto v = parse_decimal(number);
       if (!v) return not_a("a number");
       const Result<int64_t> raw = RegisterMap::from_number(row, *v);
       if (!raw.ok())
-        return Status(Errc::illegal_data_value,
-                      fmt::format("{}: {} is outside {}", row.key, typed, range_text(row, row.write_range())));
+        return Status(Errc::illegal_data_value, fmt::format("{}: {} is outside {}", row.key, typed,
+                                                            range_text(row, row.write_range())));
       return checked(row, *raw, typed);
     }
   }
@@ -357,10 +359,10 @@ std::string registers_markdown(const Profile& profile) {
     for (const Row& r : profile.rows) any = any || r.space == space;
     if (!any) continue;
     out += fmt::format("### {} ({})\n\n", space_name(space),
-                       space == Space::holding   ? "FC03 read, FC06/FC10 write"
-                       : space == Space::input   ? "FC04, read only"
-                       : space == Space::coil    ? "FC01 read, FC05/FC0F write"
-                                                 : "FC02, read only");
+                       space == Space::holding ? "FC03 read, FC06/FC10 write"
+                       : space == Space::input ? "FC04, read only"
+                       : space == Space::coil  ? "FC01 read, FC05/FC0F write"
+                                               : "FC02, read only");
     out += "| address | key | name | access | type | unit | range | default | values / notes |\n";
     out += "|---|---|---|---|---|---|---|---|---|\n";
     for (const Row& r : profile.rows) {
@@ -384,8 +386,8 @@ std::string registers_markdown(const Profile& profile) {
       if (!r.notes.empty()) notes += (notes.empty() ? "" : "; ") + std::string(r.notes);
       std::string type(encoding_name(r.encoding));
       if (r.scale > 1) type += fmt::format(" /{}", r.scale);
-      out += fmt::format("| {} | `{}` | {} | {} | {} | {} | {} | {} | {} |\n", address, r.key, r.title, access,
-                         type, r.unit.empty() ? "-" : std::string(r.unit),
+      out += fmt::format("| {} | `{}` | {} | {} | {} | {} | {} | {} | {} |\n", address, r.key, r.title,
+                         access, type, r.unit.empty() ? "-" : std::string(r.unit),
                          r.range.empty() ? std::string("-") : range_text(r, r.range),
                          r.writable() ? format_value(r, r.default_value) : std::string("-"),
                          notes.empty() ? "-" : notes);

@@ -33,7 +33,9 @@ class [[nodiscard]] Status {
   int32_t os_error() const noexcept { return error_.os_error(); }
   std::string_view name() const noexcept { return error_.name(); }
   /// The reason given here, else the Error's static reason, else the code's name.
-  std::string_view reason() const noexcept { return reason_.empty() ? error_.text() : std::string_view(reason_); }
+  std::string_view reason() const noexcept {
+    return reason_.empty() ? error_.text() : std::string_view(reason_);
+  }
 
   friend bool operator==(const Status& a, Errc b) noexcept { return a.code() == b; }
 

@@ -117,7 +117,8 @@ class RegisterMap {
   /// when an address has no writable row or a 32-bit value is written only in
   /// part; then illegal_data_value when a value is outside its row's
   /// writable range or not one of its named choices. Coil values are 0/1.
-  constexpr Error check_write(Space space, uint16_t address, std::span<const uint16_t> values) const noexcept {
+  constexpr Error check_write(Space space, uint16_t address,
+                              std::span<const uint16_t> values) const noexcept {
     for (size_t i = 0; i < values.size();) {
       const Slot s = at(space, static_cast<uint16_t>(address + i));
       if (!s || !s.row->writable()) return Error(Errc::illegal_data_address, "no writable register there");

@@ -102,7 +102,7 @@ struct Row {
   uint16_t scale = 1;     ///< fixed point: value = raw / scale (10, 100, 1000)
   WordOrder order = WordOrder::high_first;
   Access access = Access::by_role;
-  Range range;     ///< documented raw range; empty: the encoding's full range
+  Range range;           ///< documented raw range; empty: the encoding's full range
   Range writable_range;  ///< what a write may carry; empty: `range`
   int64_t default_value = 0;
   int64_t default_first = -1;  ///< default of a repeated block's first entry; -1: `default_value`
@@ -153,7 +153,9 @@ struct Row {
   /// `range`, or the encoding's full range when none is given.
   constexpr Range valid_range() const noexcept { return range.empty() ? natural_range() : range; }
   /// What a write may carry: `writable_range`, else `valid_range()`.
-  constexpr Range write_range() const noexcept { return writable_range.empty() ? valid_range() : writable_range; }
+  constexpr Range write_range() const noexcept {
+    return writable_range.empty() ? valid_range() : writable_range;
+  }
   /// Default of entry `index`.
   constexpr int64_t default_of(unsigned index) const noexcept {
     return index == 0 && default_first >= 0 ? default_first : default_value;

@@ -49,11 +49,11 @@ struct ConsoleVerb {
 };
 
 struct SimOptions {
-  io::PortSpec listen;             ///< listening form
-  std::optional<uint8_t> unit;     ///< overrides the stored / default address
-  std::optional<uint32_t> baud;    ///< overrides the stored / default baud rate
-  std::string state_file;          ///< empty: no state file (persisted rows live in memory)
-  double time_scale = 1.0;         ///< device seconds per real second, (0, 100000]
+  io::PortSpec listen;           ///< listening form
+  std::optional<uint8_t> unit;   ///< overrides the stored / default address
+  std::optional<uint32_t> baud;  ///< overrides the stored / default baud rate
+  std::string state_file;        ///< empty: no state file (persisted rows live in memory)
+  double time_scale = 1.0;       ///< device seconds per real second, (0, 100000]
   std::chrono::milliseconds tick{20};
   RequestLog log;                                ///< every request/response, for -v
   std::function<void(std::string_view)> notice;  ///< one-line notices (warnings, link changes)
