@@ -462,8 +462,14 @@ void emit(YAML::Emitter& out, const nlohmann::ordered_json& j) {
     out << YAML::EndSeq;
   } else if (j.is_string()) {
     const std::string s = j.get<std::string>();
-    // Hex addresses stay unquoted (YAML reads them as numbers, we as hex text).
-    if (s.starts_with("0x"))
+    // Hex addresses stay unquoted (we read them as hex text). Text another
+    // YAML reader would take for a number, a boolean or null is quoted.
+    static const char* const kTyped[] = {"y", "n", "yes", "no", "true", "false", "on", "off", "null", "~"};
+    const std::string folded = fold_name(s);
+    bool typed = s.empty() || std::isdigit(static_cast<unsigned char>(s[0])) || s[0] == '-' || s[0] == '+' ||
+                 s[0] == '.';
+    for (const char* t : kTyped) typed = typed || folded == t;
+    if (s.starts_with("0x") || !typed)
       out << s;
     else
       out << YAML::DoubleQuoted << s;
@@ -500,7 +506,7 @@ std::unique_ptr<Model> make_register_device(const Profile& profile) {
 std::string map_to_yaml(const Profile& profile) {
   YAML::Emitter out;
   out << YAML::Comment(
-      fmt::format("rtukit register map: {} (exported from the built-in profile)", profile.name));
+      fmt::format("rtukit register map: {} (exported by rtukit; see docs/register-maps.md)", profile.name));
   out << YAML::Newline;
   emit(out, map_document(profile));
   return std::string(out.c_str()) + "\n";
