@@ -12,7 +12,7 @@ int main(int argc, char** argv) {
   using namespace rtukit::cli;
   CLI::App app{"rtukit: talk Modbus-RTU / Modbus TCP to real or simulated devices", "rtukit"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "rtukit 0.1.0");
+  app.set_version_flag("--version", "rtukit " RTUKIT_VERSION " (" RTUKIT_GIT_REVISION ")");
   Action action;
   add_generic_commands(app, action);
   add_inverjet_commands(app, action);
