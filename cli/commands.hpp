@@ -22,4 +22,7 @@ void add_rehand6600_commands(CLI::App& app, Action& action);
 void add_sim_commands(CLI::App& app, Action& action);
 void add_legacy_sim_commands(CLI::App& app, Action& action);
 
+/// completion bash|zsh (generated from the command definitions).
+void add_completion_command(CLI::App& app, Action& action);
+
 }  // namespace rtukit::cli

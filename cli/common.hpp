@@ -102,8 +102,8 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
 /// becomes the action (returning the exit code). Every command is made this
 /// way, so options live in one struct per command and nothing else repeats.
 template <class Args, class Setup, class Run>
-CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name, const std::string& description,
-                      Setup setup, Run run) {
+CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name,
+                      const std::string& description, Setup setup, Run run) {
   auto args = std::make_shared<Args>();
   CLI::App* cmd = parent.add_subcommand(name, description);
   setup(*cmd, *args);

@@ -10,6 +10,8 @@ PACKAGES=(
   cmake ninja-build g++ clang clang-format libclang-rt-14-dev pkg-config
   # libraries we use instead of writing them
   libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev libspdlog-dev libyaml-cpp-dev
+  # packaging: man page, .deb contents check
+  help2man dpkg-dev file
   libgtest-dev libgmock-dev libbenchmark-dev
   # Cortex-M cross compile check of core
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
