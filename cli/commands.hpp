@@ -3,6 +3,9 @@
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <optional>
+#include <string>
+#include <vector>
 
 namespace rtukit::cli {
 
@@ -21,6 +24,14 @@ void add_rehand6600_commands(CLI::App& app, Action& action);
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
 void add_legacy_sim_commands(CLI::App& app, Action& action);
+
+struct Failure;
+/// A mistyped command or option in `args` (argv without the program name):
+/// "unknown command 'raed' (did you mean 'read'?) (commands: ...)", or nothing.
+std::optional<Failure> check_words(const CLI::App& app, const std::vector<std::string>& args);
+
+/// Every option of a command, those in its option groups included.
+std::vector<const CLI::Option*> all_options(const CLI::App& app);
 
 /// completion bash|zsh (generated from the command definitions).
 void add_completion_command(CLI::App& app, Action& action);

@@ -11,8 +11,10 @@
 
 namespace rtukit::cli {
 
-void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
+void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_baud) {
   baud = default_baud;
+  // Shown after the command's own options in --help.
+  CLI::Option_group& cmd = *cmd_app.add_option_group("Link options");
   if (listening) {
     cmd.add_option("--listen,-l", port,
                    "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
@@ -26,7 +28,7 @@ void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
     cmd.add_flag("--stats", stats, "print the master's counters to stderr at the end");
   }
   cmd.add_option("--baud,-b", baud, "serial baud rate (1200..921600)")->capture_default_str();
-  cmd.add_option("--parity", parity, "N, E or O")->capture_default_str();
+  cmd.add_option("--parity", parity, "none, even or odd (N, E, O)")->capture_default_str();
   cmd.add_option("--data-bits", data_bits, "7 or 8")->capture_default_str();
   cmd.add_option("--stop-bits", stop_bits, "1 or 2")->capture_default_str();
   cmd.add_flag("--rs485", rs485, "RS-485 direction control (TIOCSRS485, else RTS toggling)");
@@ -34,13 +36,28 @@ void LinkOptions::add_to(CLI::App& cmd, bool listening, uint32_t default_baud) {
   cmd.add_option("--rs485-delay-after", rs485_after_us, "RS-485: us between the last bit and RTS release");
 }
 
+char parity_letter(std::string_view text) {
+  std::string t;
+  for (char c : text) t += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (t == "n" || t == "none") return 'N';
+  if (t == "e" || t == "even") return 'E';
+  if (t == "o" || t == "odd") return 'O';
+  throw Failure{kUsage, fmt::format("--parity '{}' is not one of none, even, odd (or N, E, O)", text)};
+}
+
 io::PortSpec LinkOptions::spec(bool listening) const {
+  // "127.0.0.1:1502" is a TCP address without its scheme, not a file name.
+  const size_t colon = port.rfind(':');
+  if (colon != std::string::npos && colon > 0 && !port.starts_with("/") && !port.starts_with("pty") &&
+      port.find("://") == std::string::npos && colon + 1 < port.size() &&
+      port.find_first_not_of("0123456789", colon + 1) == std::string::npos)
+    throw Failure{kUsage, fmt::format("bad port '{}': did you mean tcp://{} (Modbus TCP) or rtu+tcp://{}?",
+                                      port, port, port)};
   std::string why;
   Result<io::PortSpec> spec = io::parse_port(port, listening, &why);
   if (!spec.ok()) throw Failure{kUsage, fmt::format("bad port '{}': {}", port, why)};
   spec->serial.baud = baud;
-  spec->serial.parity = parity.empty() ? '?' : static_cast<char>(std::toupper(parity[0]));
-  if (parity.size() != 1) spec->serial.parity = '?';
+  spec->serial.parity = parity_letter(parity);
   spec->serial.data_bits = static_cast<uint8_t>(data_bits);
   spec->serial.stop_bits = static_cast<uint8_t>(stop_bits);
   spec->serial.rs485.enabled = rs485;
@@ -163,11 +180,22 @@ void fail(Error e, std::string_view context) {
   if (e.is_exception()) {
     line = fmt::format("{}: Modbus exception {:02X} ({})", context, e.exception_code(), e.name());
   } else if (e.code() == Errc::timeout) {
-    line = fmt::format("{}: no response (timeout)", context);
+    line = fmt::format(
+        "{}: no response (timeout). Check the unit address, the baud rate and parity, and the A/B wiring; "
+        "`rtukit scan` lists the units that answer",
+        context);
+  } else if (e.code() == Errc::io_error && !e.reason().empty()) {
+    line = fmt::format("{}: {}", context, e.reason());
   } else if (e.code() == Errc::io_error && e.os_error() != 0) {
     line = fmt::format("{}: I/O error: {}", context, std::strerror(e.os_error()));
+    if (e.os_error() == EBUSY)
+      line += " (another program holds the port: close it, or let one process own the bus)";
+    else if (e.os_error() == EACCES)
+      line += " (join the dialout group: sudo usermod -aG dialout $USER, then log in again)";
+    else if (e.os_error() == ECONNREFUSED)
+      line += " (nothing listens there: is the server or simulator running?)";
   } else {
-    line = fmt::format("{}: {}", context, e.name());
+    line = fmt::format("{}: {}", context, e.text());
   }
   throw Failure{exit_code(e), line};
 }

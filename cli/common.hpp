@@ -59,6 +59,9 @@ struct LinkOptions {
   std::unique_ptr<Master> make_master() const;
 };
 
+/// "none", "even", "odd" or N/E/O in any case -> 'N', 'E', 'O'. Throws Failure{kUsage}.
+char parity_letter(std::string_view text);
+
 /// Parses "33" or "0x21" (also negative decimals when `allow_negative`).
 /// Throws Failure{kUsage} naming `what` when it is not a number in range.
 int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max);

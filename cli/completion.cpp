@@ -25,7 +25,7 @@ void collect(const CLI::App& app, const std::string& path, std::vector<Node>& ou
     subs.push_back(sub);
     words += sub->get_name() + " ";
   }
-  for (const CLI::Option* opt : app.get_options()) {
+  for (const CLI::Option* opt : all_options(app)) {
     for (const std::string& name : opt->get_lnames()) words += "--" + name + " ";
   }
   out.push_back({path, words});

@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -30,6 +31,39 @@ const char* table_name(Table t) {
       return "discrete";
   }
   return "?";
+}
+
+// An address as people coming from other tools type it: 0-based ("33",
+// "0x21"), 1-based with --one-based, or in the reference notation
+// (40001 = holding register 0, 30001 = input register 0, 10001 = discrete
+// input 0, 00001 = coil 0; six digits likewise: 400001).
+struct Address {
+  uint16_t address = 0;
+  std::optional<Table> table;
+};
+
+Address parse_address(const std::string& text, bool one_based) {
+  const bool reference = (text.size() == 5 || text.size() == 6) &&
+                         text.find_first_not_of("0123456789") == std::string::npos &&
+                         (text[0] == '0' || text[0] == '1' || text[0] == '3' || text[0] == '4');
+  if (reference) {
+    const long n = std::stol(text.substr(1));
+    if (n < 1 || n > 65536)
+      throw Failure{kUsage, fmt::format("reference {} is outside {}0001..{}65536", text, text[0], text[0])};
+    const Table t = text[0] == '4'   ? Table::holding
+                    : text[0] == '3' ? Table::input
+                    : text[0] == '1' ? Table::discrete
+                                     : Table::coils;
+    // Never silent: the same digits are also a plain 0-based address.
+    fmt::print(
+        stderr,
+        "note: {} is taken as a reference: {} register {} (0-based {}; for address {} write 0x{:04X})\n",
+        text, table_name(t), n, n - 1, std::stol(text), std::stol(text) <= 0xFFFF ? std::stol(text) : 0);
+    return Address{static_cast<uint16_t>(n - 1), t};
+  }
+  if (one_based)
+    return Address{static_cast<uint16_t>(parse_number(text, "address (1-based)", 1, 0x10000) - 1), {}};
+  return Address{static_cast<uint16_t>(parse_number(text, "address", 0, 0xFFFF)), {}};
 }
 
 struct ValueType {
@@ -97,6 +131,7 @@ struct ReadArgs {
   std::string order = "high-first";
   std::string format = "dec";
   bool json = false;
+  bool one_based = false;
 };
 
 int run_read(ReadArgs a) {
@@ -108,11 +143,23 @@ int run_read(ReadArgs a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (a.holding + a.input + a.coils + a.discrete > 1)
     throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
-  const Table table = a.input      ? Table::input
-                      : a.coils    ? Table::coils
-                      : a.discrete ? Table::discrete
-                                   : Table::holding;
-  const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
+  Table table = a.input      ? Table::input
+                : a.coils    ? Table::coils
+                : a.discrete ? Table::discrete
+                             : Table::holding;
+  if (unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
+    throw Failure{kUsage,
+                  "unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read "
+                  "(name a unit 1..247)"};
+  const Address where = parse_address(a.address, a.one_based);
+  if (where.table && *where.table != table) {
+    if (a.holding + a.input + a.coils + a.discrete > 0)
+      throw Failure{kUsage,
+                    fmt::format("address {} names the {} registers; drop the table option or the prefix",
+                                a.address, table_name(*where.table))};
+    table = *where.table;
+  }
+  const uint16_t address = where.address;
   const bool bits = table == Table::coils || table == Table::discrete;
   const unsigned per_value = bits ? 1 : ValueType{a.type}.registers();
   const auto max_count = bits ? kMaxReadBits : kMaxReadRegisters / per_value;
@@ -120,7 +167,13 @@ int run_read(ReadArgs a) {
   if (size_t{address} + size_t{count} * per_value > 0x10000)
     throw Failure{kUsage, "address + count passes 0xFFFF"};
   auto master = a.link.make_master();
-  const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
+  const uint8_t function = table == Table::holding ? 0x03
+                           : table == Table::input ? 0x04
+                           : table == Table::coils ? 0x01
+                                                   : 0x02;
+  const std::string context =
+      fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} from unit {} on {}", function, function_name(function),
+                  address, address, bits ? count : count * per_value, unit.value, master->describe());
 
   std::vector<uint16_t> regs(bits ? 0 : size_t{count} * per_value);
   std::vector<uint8_t> flags(bits ? count : 0);
@@ -182,13 +235,21 @@ struct WriteArgs {
   bool coils = false;
   std::string type = "u16";
   std::string order = "high-first";
+  bool one_based = false;
 };
 
 int run_write(const WriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
-  const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
+  const Address where = parse_address(a.address, a.one_based);
+  if (where.table && *where.table != (a.coils ? Table::coils : Table::holding))
+    throw Failure{kUsage,
+                  fmt::format("address {} names the {} registers, which cannot be written{}", a.address,
+                              table_name(*where.table), a.coils ? "" : " (holding registers are 4xxxx)")};
+  const uint16_t address = where.address;
   auto master = a.link.make_master();
-  const std::string context = fmt::format("unit {} on {}", unit.value, master->describe());
+  const std::string context =
+      fmt::format("write {} {} at {} (0x{:04X}) to unit {} on {}", a.values.size(),
+                  a.coils ? "coil(s)" : "value(s)", address, address, unit.value, master->describe());
   Error e;
   if (a.coils) {
     std::vector<uint8_t> bits;
@@ -215,20 +276,40 @@ struct ScanArgs {
   LinkOptions link;
   std::string units = "1-247";
   bool json = false;
+  bool timeout_given = false;
 };
 
+// "1-247", "21", "1,5,21-30" -> the units in order, each once.
+std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
+  std::vector<unsigned> units;
+  std::vector<bool> seen(max + 1);
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string item = text.substr(start, end - start);
+    const size_t dash = item.find('-');
+    const auto lo = parse_number(item.substr(0, dash), "unit", 1, max);
+    const auto hi = dash == std::string::npos ? lo : parse_number(item.substr(dash + 1), "unit", lo, max);
+    for (auto u = lo; u <= hi; ++u) {
+      if (!seen[u]) units.push_back(static_cast<unsigned>(u));
+      seen[u] = true;
+    }
+    start = end + 1;
+  }
+  return units;
+}
+
 int run_scan(ScanArgs a) {
-  const auto dash = a.units.find('-');
-  const std::string first = a.units.substr(0, dash);
-  const std::string last = dash == std::string::npos ? first : a.units.substr(dash + 1);
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
-  const auto lo = parse_number(first, "unit", 1, tcp ? 255 : 247);
-  const auto hi = parse_number(last, "unit", lo, tcp ? 255 : 247);
-  if (a.link.timeout_ms == 1000) a.link.timeout_ms = 100;  // scanning: a short default
+  const std::vector<unsigned> units = parse_units(a.units, tcp ? 255 : 247);
+  // Scanning: a short default timeout, but never in place of one the user chose
+  // (at 1200 baud a unit needs more than 100 ms to answer).
+  if (!a.timeout_given) a.link.timeout_ms = 100;
   auto master = a.link.make_master();
   if (Error e = master->open()) fail(e, fmt::format("scan on {}", master->describe()));
   nlohmann::json found = nlohmann::json::array();
-  for (auto u = lo; u <= hi; ++u) {
+  for (const unsigned u : units) {
     uint16_t reg = 0;
     const Error e = master->read_holding_registers(UnitId{static_cast<uint8_t>(u)}, 0, {&reg, 1});
     // An exception is an answer too: the unit is there.
@@ -244,8 +325,10 @@ int run_scan(ScanArgs a) {
   if (a.link.stats) print_stats(*master);
   if (a.json) fmt::print("{}\n", nlohmann::json{{"units", found}}.dump());
   if (found.empty()) {
-    throw Failure{kNoResponse,
-                  fmt::format("scan on {}: no unit in {}..{} answered", master->describe(), lo, hi)};
+    throw Failure{
+        kNoResponse,
+        fmt::format("scan on {}: no unit of {} answered (timeout {} ms; a slow line may need --timeout)",
+                    master->describe(), a.units, a.link.timeout_ms)};
   }
   return kOk;
 }
@@ -361,6 +444,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
         ->check(CLI::IsMember({"dec", "hex"}))
         ->capture_default_str();
     cmd->add_flag("--json", args->json, "print JSON");
+    cmd->add_flag("--one-based", args->one_based,
+                  "addresses count from 1, as mbpoll and Modbus Poll show them");
     cmd->callback([&action, args, cmd] {
       args->unit_given = cmd->count("--unit") > 0;
       action = [args] { return run_read(*args); };
@@ -375,6 +460,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
     cmd->add_option("values", args->values, "values to write")->required();
     cmd->add_flag("--multiple", args->multiple, "use FC10 / FC0F even for one value");
     cmd->add_flag("--coils", args->coils, "write coils (values 0 or 1)");
+    cmd->add_flag("--one-based", args->one_based,
+                  "addresses count from 1, as mbpoll and Modbus Poll show them");
     add_type_options(*cmd, args->type, args->order);
     cmd->callback([&action, args] { action = [args] { return run_write(*args); }; });
   }
@@ -382,9 +469,12 @@ void add_generic_commands(CLI::App& app, Action& action) {
     auto args = std::make_shared<ScanArgs>();
     auto* cmd = app.add_subcommand("scan", "find which unit addresses answer");
     args->link.add_to(*cmd, false);
-    cmd->add_option("--units", args->units, "range to try, e.g. 1-247 or 21")->capture_default_str();
+    cmd->add_option("--units", args->units, "units to try: 1-247, 21, 1,5,21-30")->capture_default_str();
     cmd->add_flag("--json", args->json, "print JSON");
-    cmd->callback([&action, args] { action = [args] { return run_scan(*args); }; });
+    cmd->callback([&action, args, cmd] {
+      args->timeout_given = cmd->count("--timeout") > 0;
+      action = [args] { return run_scan(*args); };
+    });
   }
   {
     auto args = std::make_shared<SlaveArgs>();

@@ -21,6 +21,27 @@ int main(int argc, char** argv) {
   add_sim_commands(app, action);
   add_completion_command(app, action);
   add_legacy_sim_commands(app, action);
+  // `rtukit help [COMMAND...]`: the help of that command.
+  std::vector<std::string> args(argv + 1, argv + argc);
+  if (!args.empty() && args[0] == "help") {
+    args.erase(args.begin());
+    if (const std::optional<Failure> f = check_words(app, args)) {
+      fmt::print(stderr, "rtukit: {}\n", f->message);
+      return f->code;
+    }
+    const CLI::App* node = &app;
+    std::string prefix;  // the command path before the last word, as --help shows it
+    for (const std::string& word : args) {
+      prefix += (prefix.empty() ? "" : " ") + node->get_name();
+      node = node->get_subcommand(word);
+    }
+    fmt::print("{}", node->help(prefix));
+    return kOk;
+  }
+  if (const std::optional<Failure> f = check_words(app, args)) {
+    fmt::print(stderr, "rtukit: {}\n", f->message);
+    return f->code;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -30,7 +51,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    fmt::print(stderr, "rtukit: {} (see --help)\n", e.what());
+    // Name the command the error belongs to, so its --help is one copy away.
+    std::string where = "rtukit";
+    for (const CLI::App* sub = &app; !sub->get_subcommands().empty();) {
+      sub = sub->get_subcommands().front();
+      where += " " + sub->get_name();
+    }
+    fmt::print(stderr, "rtukit: {} (see {} --help)\n", e.what(), where);
     return kUsage;
   }
   try {

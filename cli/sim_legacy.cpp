@@ -172,8 +172,7 @@ int run_sim_rehand6600(const ChairSimArgs& a) {
 
 // Until the devices move onto the simulator host (profile kit merge).
 void add_legacy_sim_commands(CLI::App& app, Action& action) {
-  CLI::App* sim =
-      app.get_subcommand("sim");
+  CLI::App* sim = app.get_subcommand("sim");
   auto a = std::make_shared<SimArgs>();
   CLI::App* cmd = sim->add_subcommand("inverjet", "the Inverjet swimming machine, with a console on stdin");
   cmd->add_option("--listen,-l", a->listen,

@@ -179,7 +179,7 @@ class TcpLink final : public Link {
     std::error_code ec;
     asio::ip::tcp::resolver resolver(ctx_);
     const auto endpoints = resolver.resolve(spec_.host, std::to_string(spec_.port), ec);
-    if (ec) return Error(Errc::io_error, EHOSTUNREACH);
+    if (ec) return Error(Errc::io_error, "cannot resolve the host name");
     bool done = false;
     asio::async_connect(socket_, endpoints, [&](const std::error_code& e, const asio::ip::tcp::endpoint&) {
       ec = e;

@@ -1,0 +1,145 @@
+// The CLI as a new user meets it: mistyped commands and options get the
+// closest match, failures say what to check, addresses can be typed as other
+// tools show them, and help, version and completion come from the binary.
+// Exact messages and exit codes, as users (and their scripts) see them.
+#include <gtest/gtest.h>
+
+#include "process.hpp"
+
+using namespace rtukit::test;
+
+namespace {
+
+const std::string kBin = RTUKIT_BIN;
+
+RunResult rtukit(std::vector<std::string> args) {
+  args.insert(args.begin(), kBin);
+  return run(args);
+}
+
+// A generic slave on a pty for the tests that need an answer.
+struct Slave {
+  explicit Slave(const TempDir& dir)
+      : tty(dir / "tty"),
+        process({kBin, "slave", "--listen", "pty:" + tty, "--unit", "1", "--registers", "100"}) {}
+  std::string tty;
+  Process process;
+  bool ready() { return eventually([&] { return path_exists(tty); }); }
+};
+
+TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
+  RunResult r = rtukit({"raed"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output,
+            "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, write, scan, slave, inverjet, "
+            "rehand6600, devices, map, watch, sim, completion)\n");
+  r = rtukit({"inverjet", "stat"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
+            std::string::npos)
+      << r.output;
+  r = rtukit({"sim", "invrejet"});
+  EXPECT_NE(r.output.find("(did you mean 'inverjet'?)"), std::string::npos) << r.output;
+}
+
+TEST(CliUsability, UnknownOptionsSuggestTheClosest) {
+  RunResult r = rtukit({"read", "--prot", "/dev/ttyUSB0", "1"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output,
+            "rtukit: unknown option '--prot' for 'rtukit read' (did you mean '--port'?) (see rtukit read --help)\n");
+}
+
+TEST(CliUsability, HelpForACommand) {
+  RunResult r = rtukit({"help", "read"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.output.find("Usage: rtukit read"), std::string::npos) << r.output;
+  // The command's own options come before the link options.
+  EXPECT_LT(r.output.find("--one-based"), r.output.find("Link options")) << r.output;
+  EXPECT_NE(r.output.find("--parity TEXT=N             none, even or odd (N, E, O)"), std::string::npos);
+  r = rtukit({"help", "raed"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("did you mean 'read'?"), std::string::npos);
+}
+
+TEST(CliUsability, PortsWithoutSchemeAndBroadcastReads) {
+  RunResult r = rtukit({"read", "--port", "127.0.0.1:1502", "1"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output,
+            "rtukit: bad port '127.0.0.1:1502': did you mean tcp://127.0.0.1:1502 (Modbus TCP) or "
+            "rtu+tcp://127.0.0.1:1502?\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "--unit", "0", "1"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output,
+            "rtukit: unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read (name a unit "
+            "1..247)\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "--parity", "evn", "1"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output, "rtukit: --parity 'evn' is not one of none, even, odd (or N, E, O)\n");
+  r = rtukit({"read", "--port", "tcp://no-such-host.invalid:1502", "1"});
+  EXPECT_EQ(r.code, 4);
+  EXPECT_NE(r.output.find("cannot resolve the host name"), std::string::npos) << r.output;
+}
+
+TEST(CliUsability, FailuresNameTheRequestAndWhatToCheck) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  RunResult r = rtukit({"read", "--port", slave.tty, "200", "2"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.output,
+            "rtukit: FC03 read holding registers at 200 (0x00C8) x2 from unit 1 on " + slave.tty +
+                " 9600 8N1: Modbus exception 02 (illegal data address)\n");
+  r = rtukit({"read", "--port", slave.tty, "--unit", "9", "--timeout", "100", "--parity", "even", "1"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_EQ(r.output,
+            "rtukit: FC03 read holding registers at 1 (0x0001) x1 from unit 9 on " + slave.tty +
+                " 9600 8E1: no response (timeout). Check the unit address, the baud rate and parity, and the A/B "
+                "wiring; `rtukit scan` lists the units that answer\n");
+}
+
+TEST(CliUsability, ScanTakesListsAndHonoursTimeout) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  RunResult r = rtukit({"scan", "--port", slave.tty, "--units", "3,1,5-6", "--timeout", "150", "--json"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "{\"units\":[1]}\n");
+  r = rtukit({"scan", "--port", slave.tty, "--units", "7", "--timeout", "250"});
+  EXPECT_EQ(r.code, 3);
+  EXPECT_NE(r.output.find("no unit of 7 answered (timeout 250 ms"), std::string::npos) << r.output;
+}
+
+TEST(CliUsability, OneBasedAndReferenceAddresses) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  RunResult w = rtukit({"write", "--port", slave.tty, "40003", "77"});  // holding register 3 = address 2
+  ASSERT_EQ(w.code, 0) << w.output;
+  EXPECT_NE(w.output.find("note: 40003 is taken as a reference: holding register 3 (0-based 2"), std::string::npos)
+      << w.output;
+  RunResult r = rtukit({"read", "--port", slave.tty, "--one-based", "3"});
+  EXPECT_EQ(r.code, 0);
+  EXPECT_EQ(r.output, "2 (0x0002): 77\n");
+  r = rtukit({"read", "--port", slave.tty, "2"});
+  EXPECT_EQ(r.output, "2 (0x0002): 77\n");
+  r = rtukit({"write", "--port", slave.tty, "30001", "5"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("names the input registers, which cannot be written"), std::string::npos) << r.output;
+}
+
+TEST(CliUsability, VersionAndCompletion) {
+  RunResult v = rtukit({"--version"});
+  EXPECT_EQ(v.code, 0);
+  EXPECT_TRUE(v.output.starts_with("rtukit 0.1.0 (")) << v.output;
+  RunResult c = rtukit({"completion", "bash"});
+  EXPECT_EQ(c.code, 0);
+  EXPECT_NE(c.output.find("\"rtukit sim map\")"), std::string::npos);
+  EXPECT_NE(c.output.find("complete -F _rtukit rtukit"), std::string::npos);
+  // The script completes what the binary has.
+  RunResult b = run({"bash", "-c",
+                     "eval \"$(" + kBin + " completion bash)\"; COMP_WORDS=(rtukit sim ma); COMP_CWORD=2; "
+                                          "_rtukit; echo \"${COMPREPLY[@]}\""});
+  EXPECT_NE(b.output.find("map"), std::string::npos) << b.output;
+}
+
+}  // namespace
