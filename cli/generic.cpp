@@ -4,7 +4,9 @@
 
 #include <asio.hpp>
 #include <bit>
+#include <chrono>
 #include <cstring>
+#include <ctime>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -134,95 +136,178 @@ struct ReadArgs {
   bool one_based = false;
 };
 
-int run_read(ReadArgs a) {
-  if (!a.map.empty()) return run_map_read(a.link, a.unit_given ? a.unit : "", a.map, a.operands, a.json);
+// What one read asks for, from the read/poll arguments.
+struct ReadPlan {
+  UnitId unit{1};
+  Table table = Table::holding;
+  uint16_t address = 0;
+  uint16_t count = 1;
+  unsigned per_value = 1;
+  bool bits = false;
+};
+
+ReadPlan plan_read(ReadArgs& a) {
   if (a.operands.empty() || a.operands.size() > 2)
     throw Failure{kUsage, "read takes ADDRESS [COUNT] (or --map FILE [KEY...])"};
   a.address = a.operands[0];
   if (a.operands.size() == 2) a.count = a.operands[1];
-  const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
+  ReadPlan p;
+  p.unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (a.holding + a.input + a.coils + a.discrete > 1)
     throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
-  Table table = a.input      ? Table::input
-                : a.coils    ? Table::coils
-                : a.discrete ? Table::discrete
-                             : Table::holding;
-  if (unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
+  p.table = a.input ? Table::input : a.coils ? Table::coils : a.discrete ? Table::discrete : Table::holding;
+  if (p.unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
     throw Failure{kUsage,
                   "unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read "
                   "(name a unit 1..247)"};
   const Address where = parse_address(a.address, a.one_based);
-  if (where.table && *where.table != table) {
+  if (where.table && *where.table != p.table) {
     if (a.holding + a.input + a.coils + a.discrete > 0)
       throw Failure{kUsage,
                     fmt::format("address {} names the {} registers; drop the table option or the prefix",
                                 a.address, table_name(*where.table))};
-    table = *where.table;
+    p.table = *where.table;
   }
-  const uint16_t address = where.address;
-  const bool bits = table == Table::coils || table == Table::discrete;
-  const unsigned per_value = bits ? 1 : ValueType{a.type}.registers();
-  const auto max_count = bits ? kMaxReadBits : kMaxReadRegisters / per_value;
-  const auto count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
-  if (size_t{address} + size_t{count} * per_value > 0x10000)
+  p.address = where.address;
+  p.bits = p.table == Table::coils || p.table == Table::discrete;
+  p.per_value = p.bits ? 1 : ValueType{a.type}.registers();
+  const auto max_count = p.bits ? kMaxReadBits : kMaxReadRegisters / p.per_value;
+  p.count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
+  if (size_t{p.address} + size_t{p.count} * p.per_value > 0x10000)
     throw Failure{kUsage, "address + count passes 0xFFFF"};
-  auto master = a.link.make_master();
-  const uint8_t function = table == Table::holding ? 0x03
-                           : table == Table::input ? 0x04
-                           : table == Table::coils ? 0x01
-                                                   : 0x02;
-  const std::string context =
-      fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} from unit {} on {}", function, function_name(function),
-                  address, address, bits ? count : count * per_value, unit.value, master->describe());
+  return p;
+}
 
-  std::vector<uint16_t> regs(bits ? 0 : size_t{count} * per_value);
-  std::vector<uint8_t> flags(bits ? count : 0);
+std::string read_context(const ReadPlan& p, const Master& master) {
+  const uint8_t function = p.table == Table::holding ? 0x03
+                           : p.table == Table::input ? 0x04
+                           : p.table == Table::coils ? 0x01
+                                                     : 0x02;
+  return fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} from unit {} on {}", function, function_name(function),
+                     p.address, p.address, p.bits ? p.count : p.count * p.per_value, p.unit.value,
+                     master.describe());
+}
+
+// One read; the values decoded as the arguments ask (JSON numbers).
+Error read_values(Master& master, const ReadPlan& p, const ReadArgs& a, nlohmann::json& values) {
+  std::vector<uint16_t> regs(p.bits ? 0 : size_t{p.count} * p.per_value);
+  std::vector<uint8_t> flags(p.bits ? p.count : 0);
   Error e;
-  switch (table) {
+  switch (p.table) {
     case Table::holding:
-      e = master->read_holding_registers(unit, address, regs);
+      e = master.read_holding_registers(p.unit, p.address, regs);
       break;
     case Table::input:
-      e = master->read_input_registers(unit, address, regs);
+      e = master.read_input_registers(p.unit, p.address, regs);
       break;
     case Table::coils:
-      e = master->read_coils(unit, address, flags);
+      e = master.read_coils(p.unit, p.address, flags);
       break;
     case Table::discrete:
-      e = master->read_discrete_inputs(unit, address, flags);
+      e = master.read_discrete_inputs(p.unit, p.address, flags);
       break;
   }
-  if (a.link.stats) print_stats(*master);
-  if (e) fail(e, context);
-
-  nlohmann::json values = nlohmann::json::array();
-  for (size_t i = 0; i < count; ++i) {
-    values.push_back(bits ? nlohmann::json(flags[i])
-                          : decode_value(a.type, &regs[i * per_value], a.order == "low-first"));
+  values = nlohmann::json::array();
+  if (e) return e;
+  for (size_t i = 0; i < p.count; ++i) {
+    values.push_back(p.bits ? nlohmann::json(flags[i])
+                            : decode_value(a.type, &regs[i * p.per_value], a.order == "low-first"));
   }
+  return e;
+}
+
+std::string value_text(const nlohmann::json& v, const ReadArgs& a, const ReadPlan& p) {
+  if (a.format == "hex" && !p.bits && a.type != "f32") {
+    const uint64_t raw = v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
+    const uint64_t mask = p.per_value == 1 ? 0xFFFF : 0xFFFFFFFF;
+    return fmt::format("0x{:0{}X}", raw & mask, p.per_value == 1 ? 4 : 8);
+  }
+  return v.dump();
+}
+
+int run_read(ReadArgs a) {
+  if (!a.map.empty()) return run_map_read(a.link, a.unit_given ? a.unit : "", a.map, a.operands, a.json);
+  const ReadPlan p = plan_read(a);
+  auto master = a.link.make_master();
+  nlohmann::json values;
+  const Error e = read_values(*master, p, a, values);
+  if (a.link.stats) print_stats(*master);
+  if (e) fail(e, read_context(p, *master));
   if (a.json) {
-    nlohmann::json out{{"unit", unit.value},
-                       {"table", table_name(table)},
-                       {"address", address},
-                       {"type", bits ? "bit" : a.type},
+    nlohmann::json out{{"unit", p.unit.value},
+                       {"table", table_name(p.table)},
+                       {"address", p.address},
+                       {"type", p.bits ? "bit" : a.type},
                        {"values", values}};
     fmt::print("{}\n", out.dump());
     return kOk;
   }
-  for (size_t i = 0; i < count; ++i) {
-    const size_t at = address + i * per_value;
-    std::string text;
-    if (a.format == "hex" && !bits && a.type != "f32") {
-      const auto& v = values[i];
-      const uint64_t raw =
-          v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
-      const uint64_t mask = per_value == 1 ? 0xFFFF : 0xFFFFFFFF;
-      text = fmt::format("0x{:0{}X}", raw & mask, per_value == 1 ? 4 : 8);
-    } else {
-      text = values[i].dump();
-    }
-    fmt::print("{} (0x{:04X}): {}\n", at, at, text);
+  for (size_t i = 0; i < p.count; ++i) {
+    const size_t at = p.address + i * p.per_value;
+    fmt::print("{} (0x{:04X}): {}\n", at, at, value_text(values[i], a, p));
   }
+  return kOk;
+}
+
+// `rtukit poll`: mbpoll's -l, with a timestamp on every line. A failed poll
+// is a line too (the bus glitched), and polling goes on.
+struct PollArgs {
+  ReadArgs read;
+  WatchOptions watch{1000};
+  std::string output = "table";
+};
+
+std::string timestamp() {
+  const auto now = std::chrono::system_clock::now();
+  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", tm.tm_year + 1900, tm.tm_mon + 1,
+                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ms % 1000);
+}
+
+int run_poll(PollArgs args) {
+  ReadArgs& a = args.read;
+  const ReadPlan p = plan_read(a);
+  auto master = a.link.make_master();
+  const std::string context = read_context(p, *master);
+  if (args.output == "csv") {
+    std::string header = "time";
+    for (size_t i = 0; i < p.count; ++i) header += fmt::format(",{}", p.address + i * p.per_value);
+    fmt::print("{},error\n", header);
+  }
+  Error last;
+  unsigned failures = 0, polls = 0;
+  watch_loop(args.watch, [&](unsigned) {
+    nlohmann::json values;
+    last = read_values(*master, p, a, values);
+    ++polls;
+    if (last) ++failures;
+    const std::string time = timestamp();
+    if (args.output == "jsonl") {
+      nlohmann::json line{
+          {"time", time}, {"unit", p.unit.value}, {"table", table_name(p.table)}, {"address", p.address}};
+      if (last)
+        line["error"] = std::string(last.text());
+      else
+        line["values"] = values;
+      fmt::print("{}\n", line.dump());
+    } else if (args.output == "csv") {
+      std::string row = time;
+      for (size_t i = 0; i < p.count; ++i) row += "," + (last ? std::string() : value_text(values[i], a, p));
+      fmt::print("{},{}\n", row, last ? std::string(last.text()) : "");
+    } else {
+      std::string row = time;
+      if (last) row += fmt::format("  error: {}", last.text());
+      for (size_t i = 0; !last && i < p.count; ++i)
+        row += fmt::format("  [{}]={}", p.address + i * p.per_value, value_text(values[i], a, p));
+      fmt::print("{}\n", row);
+    }
+  });
+  if (a.link.stats) print_stats(*master);
+  fmt::print(stderr, "poll: {} polls, {} failed\n", polls, failures);
+  if (polls > 0 && failures == polls) fail(last, context);
   return kOk;
 }
 
@@ -451,6 +536,33 @@ void add_generic_commands(CLI::App& app, Action& action) {
       action = [args] { return run_read(*args); };
     });
   }
+  add_command<PollArgs>(
+      app, action, "poll", "poll registers again and again, one timestamped line each (like mbpoll -l)",
+      [](CLI::App& cmd, PollArgs& a) {
+        cmd.add_option("--unit,-u", a.read.unit, "slave unit address")->capture_default_str();
+        auto* g = cmd.add_option_group("table");
+        g->add_flag("--holding", a.read.holding, "holding registers, FC03 (default)");
+        g->add_flag("--input", a.read.input, "input registers, FC04");
+        g->add_flag("--coils", a.read.coils, "coils, FC01");
+        g->add_flag("--discrete", a.read.discrete, "discrete inputs, FC02");
+        cmd.add_option("operands", a.read.operands, "ADDRESS [COUNT]")->required();
+        add_type_options(cmd, a.read.type, a.read.order);
+        cmd.add_option("--format", a.read.format, "dec | hex")
+            ->check(CLI::IsMember({"dec", "hex"}))
+            ->capture_default_str();
+        cmd.add_option("--output,-o", a.output, "table | csv | jsonl (one JSON object per line)")
+            ->check(CLI::IsMember({"table", "csv", "jsonl"}))
+            ->capture_default_str();
+        cmd.add_flag("--one-based", a.read.one_based,
+                     "addresses count from 1, as mbpoll and Modbus Poll show them");
+        a.watch.add_to(cmd);
+        a.read.link.add_to(cmd, false);
+        cmd.footer(
+            "Examples:\n"
+            "  rtukit poll --port /dev/ttyUSB0 --unit 21 0x21 4 --interval 500\n"
+            "  rtukit poll --port tcp://127.0.0.1:1502 --input 0 2 --output csv --count 60 > log.csv");
+      },
+      [](const PollArgs& a) { return run_poll(a); });
   {
     auto args = std::make_shared<WriteArgs>();
     auto* cmd = app.add_subcommand("write", "write registers (FC06 / FC10) or coils (FC05 / FC0F)");

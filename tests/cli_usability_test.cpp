@@ -4,6 +4,8 @@
 // Exact messages and exit codes, as users (and their scripts) see them.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "process.hpp"
 
 using namespace rtukit::test;
@@ -24,15 +26,18 @@ struct Slave {
         process({kBin, "slave", "--listen", "pty:" + tty, "--unit", "1", "--registers", "100"}) {}
   std::string tty;
   Process process;
-  bool ready() { return eventually([&] { return path_exists(tty); }); }
+  bool ready() {
+    return eventually([&] { return path_exists(tty); });
+  }
 };
 
 TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
   RunResult r = rtukit({"raed"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.output,
-            "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, write, scan, slave, inverjet, "
-            "rehand6600, devices, map, watch, sim, completion)\n");
+  EXPECT_EQ(
+      r.output,
+      "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, scan, slave, "
+      "inverjet, rehand6600, devices, map, watch, sim, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
@@ -46,7 +51,8 @@ TEST(CliUsability, UnknownOptionsSuggestTheClosest) {
   RunResult r = rtukit({"read", "--prot", "/dev/ttyUSB0", "1"});
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.output,
-            "rtukit: unknown option '--prot' for 'rtukit read' (did you mean '--port'?) (see rtukit read --help)\n");
+            "rtukit: unknown option '--prot' for 'rtukit read' (did you mean '--port'?) (see rtukit read "
+            "--help)\n");
 }
 
 TEST(CliUsability, HelpForACommand) {
@@ -70,7 +76,8 @@ TEST(CliUsability, PortsWithoutSchemeAndBroadcastReads) {
   r = rtukit({"read", "--port", "/dev/ttyUSB0", "--unit", "0", "1"});
   EXPECT_EQ(r.code, 2);
   EXPECT_EQ(r.output,
-            "rtukit: unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read (name a unit "
+            "rtukit: unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read (name "
+            "a unit "
             "1..247)\n");
   r = rtukit({"read", "--port", "/dev/ttyUSB0", "--parity", "evn", "1"});
   EXPECT_EQ(r.code, 2);
@@ -86,15 +93,15 @@ TEST(CliUsability, FailuresNameTheRequestAndWhatToCheck) {
   ASSERT_TRUE(slave.ready());
   RunResult r = rtukit({"read", "--port", slave.tty, "200", "2"});
   EXPECT_EQ(r.code, 1);
-  EXPECT_EQ(r.output,
-            "rtukit: FC03 read holding registers at 200 (0x00C8) x2 from unit 1 on " + slave.tty +
-                " 9600 8N1: Modbus exception 02 (illegal data address)\n");
+  EXPECT_EQ(r.output, "rtukit: FC03 read holding registers at 200 (0x00C8) x2 from unit 1 on " + slave.tty +
+                          " 9600 8N1: Modbus exception 02 (illegal data address)\n");
   r = rtukit({"read", "--port", slave.tty, "--unit", "9", "--timeout", "100", "--parity", "even", "1"});
   EXPECT_EQ(r.code, 3);
-  EXPECT_EQ(r.output,
-            "rtukit: FC03 read holding registers at 1 (0x0001) x1 from unit 9 on " + slave.tty +
-                " 9600 8E1: no response (timeout). Check the unit address, the baud rate and parity, and the A/B "
-                "wiring; `rtukit scan` lists the units that answer\n");
+  EXPECT_EQ(
+      r.output,
+      "rtukit: FC03 read holding registers at 1 (0x0001) x1 from unit 9 on " + slave.tty +
+          " 9600 8E1: no response (timeout). Check the unit address, the baud rate and parity, and the A/B "
+          "wiring; `rtukit scan` lists the units that answer\n");
 }
 
 TEST(CliUsability, ScanTakesListsAndHonoursTimeout) {
@@ -115,7 +122,8 @@ TEST(CliUsability, OneBasedAndReferenceAddresses) {
   ASSERT_TRUE(slave.ready());
   RunResult w = rtukit({"write", "--port", slave.tty, "40003", "77"});  // holding register 3 = address 2
   ASSERT_EQ(w.code, 0) << w.output;
-  EXPECT_NE(w.output.find("note: 40003 is taken as a reference: holding register 3 (0-based 2"), std::string::npos)
+  EXPECT_NE(w.output.find("note: 40003 is taken as a reference: holding register 3 (0-based 2"),
+            std::string::npos)
       << w.output;
   RunResult r = rtukit({"read", "--port", slave.tty, "--one-based", "3"});
   EXPECT_EQ(r.code, 0);
@@ -124,7 +132,31 @@ TEST(CliUsability, OneBasedAndReferenceAddresses) {
   EXPECT_EQ(r.output, "2 (0x0002): 77\n");
   r = rtukit({"write", "--port", slave.tty, "30001", "5"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_NE(r.output.find("names the input registers, which cannot be written"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("names the input registers, which cannot be written"), std::string::npos)
+      << r.output;
+}
+
+TEST(CliUsability, PollPrintsTimestampedLinesInEachFormat) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  ASSERT_EQ(rtukit({"write", "--port", slave.tty, "5", "11", "22"}).code, 0);
+  RunResult t = rtukit({"poll", "--port", slave.tty, "5", "2", "--interval", "50", "--count", "2"});
+  EXPECT_EQ(t.code, 0) << t.output;
+  EXPECT_EQ(std::count(t.output.begin(), t.output.end(), '\n'), 3) << t.output;  // 2 lines + the summary
+  EXPECT_NE(t.output.find("Z  [5]=11  [6]=22\n"), std::string::npos) << t.output;
+  EXPECT_NE(t.output.find("poll: 2 polls, 0 failed"), std::string::npos);
+  RunResult c =
+      rtukit({"poll", "--port", slave.tty, "5", "2", "--interval", "50", "--count", "1", "-o", "csv"});
+  EXPECT_TRUE(c.output.starts_with("time,5,6,error\n20")) << c.output;
+  EXPECT_NE(c.output.find("Z,11,22,\n"), std::string::npos) << c.output;
+  RunResult j =
+      rtukit({"poll", "--port", slave.tty, "5", "2", "--interval", "50", "--count", "1", "-o", "jsonl"});
+  EXPECT_NE(j.output.find(R"("unit":1,"values":[11,22]})"), std::string::npos) << j.output;
+  // Every poll failed: the error, as for read, and its exit code.
+  RunResult f = rtukit({"poll", "--port", slave.tty, "500", "--interval", "50", "--count", "2"});
+  EXPECT_EQ(f.code, 1) << f.output;
+  EXPECT_NE(f.output.find("Z  error: illegal data address"), std::string::npos) << f.output;
 }
 
 TEST(CliUsability, VersionAndCompletion) {
@@ -137,8 +169,9 @@ TEST(CliUsability, VersionAndCompletion) {
   EXPECT_NE(c.output.find("complete -F _rtukit rtukit"), std::string::npos);
   // The script completes what the binary has.
   RunResult b = run({"bash", "-c",
-                     "eval \"$(" + kBin + " completion bash)\"; COMP_WORDS=(rtukit sim ma); COMP_CWORD=2; "
-                                          "_rtukit; echo \"${COMPREPLY[@]}\""});
+                     "eval \"$(" + kBin +
+                         " completion bash)\"; COMP_WORDS=(rtukit sim ma); COMP_CWORD=2; "
+                         "_rtukit; echo \"${COMPREPLY[@]}\""});
   EXPECT_NE(b.output.find("map"), std::string::npos) << b.output;
 }
 
