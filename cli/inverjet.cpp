@@ -17,6 +17,7 @@
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
+#include "rtukit/devices/profile/text.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -46,45 +47,23 @@ struct Session {
   ~Session() {
     if (stats) print_stats(*master);
   }
-  // One line naming the failure; exceptions get the Inverjet's reason for them.
-  [[noreturn]] void fail(Error e, std::string_view what) {
+  // One line naming the failure. The client gives the Inverjet's reason for
+  // an exception (04 has three causes); a refused argument is a usage error.
+  [[noreturn]] void fail(const rtukit::Status& e, std::string_view what) {
     if (e.is_exception()) {
-      std::string hint;
-      switch (e.exception_code()) {
-        case 0x02:
-          hint = "a reserved register";
-          break;
-        case 0x03:
-          hint = "a value out of range";
-          break;
-        case 0x04:
-          hint = reason_for_04();
-          break;
-        default:
-          break;
-      }
+      std::string hint(e.reason() == e.name() ? std::string_view() : e.reason());
+      if (hint.empty() && e.error().exception_code() == 0x02) hint = "a reserved register";
+      if (hint.empty() && e.error().exception_code() == 0x03) hint = "a value out of range";
       throw Failure{kModbusException,
                     fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
-                                e.exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
+                                e.error().exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
     }
-    cli::fail(e, fmt::format("{}: {}", context, what));
+    if (e.code() == Errc::invalid_argument)
+      throw Failure{kUsage, fmt::format("{}: {}: {}", context, what, e.reason())};
+    cli::fail(e.error(), fmt::format("{}: {}", context, what));
   }
-  void check(Error e, std::string_view what) {
+  void check(const rtukit::Status& e, std::string_view what) {
     if (e) fail(e, what);
-  }
-  // Exception 04 has three causes on the Inverjet; one more look says which.
-  std::string reason_for_04() {
-    Result<ij::Status> st = jet.status();
-    Result<ij::Config> cfg = jet.config();
-    if (st.ok() && st->state == 17) {
-      std::string names;
-      for (auto n : st->fault_names()) names += (names.empty() ? "" : ", ") + std::string(n);
-      return "the machine shows a fault (" + names + ")";
-    }
-    if (cfg.ok() && (cfg->control_mask & 0x2))
-      return "Modbus control is masked (control mask bit 1; `config mask 0` clears it)";
-    if (st.ok()) return fmt::format("not possible while {}", st->state_name());
-    return "control masked, fault screen, or nothing to pause";
   }
 
   std::unique_ptr<Master> master;
@@ -99,7 +78,7 @@ uint16_t parse_speed(const std::string& text) {
 
 // "30:00", "1800": 0/1..5999 s.
 uint16_t parse_duration(const std::string& text, std::string_view what, uint32_t min) {
-  const Result<uint32_t> t = ij::parse_time(text);
+  const Result<uint32_t> t = profile::parse_mm_ss(text);
   if (!t.ok()) throw Failure{kUsage, fmt::format("{} '{}' is not mm:ss or a number of seconds", what, text)};
   if (*t < min || *t > ij::kMaxTime)
     throw Failure{kUsage,
@@ -115,18 +94,18 @@ std::string version_text(uint32_t v) {
   return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
 }
 
-json status_json(const ij::Status& s) {
+json status_json(const ij::MachineStatus& s) {
   json faults = json::array();
   for (auto n : s.fault_names()) faults.push_back(n);
   return json{{"mode", s.mode},
-              {"mode_name", ij::choice_name(*ij::find_register("work_mode"), s.mode)},
+              {"mode_name", profile::name_of(ij::kMap.row(ij::reg::work_mode), s.mode)},
               {"state", s.state},
               {"state_name", s.state_name()},
               {"phase", ij::phase_name(s.phase())},
               {"family", ij::family_name(s.family())},
               {"speed", s.speed},
               {"run_time", s.run_time},
-              {"run_time_text", ij::format_mm_ss(s.run_time)},
+              {"run_time_text", profile::format_mm_ss(s.run_time)},
               {"faults", s.faults},
               {"fault_names", faults},
               {"mosfet_temperature_c", s.mosfet_c},
@@ -141,18 +120,18 @@ json status_json(const ij::Status& s) {
                 {"driver_hardware", version_text(s.driver_hardware)}}}};
 }
 
-std::string faults_text(const ij::Status& s) {
+std::string faults_text(const ij::MachineStatus& s) {
   std::string out;
   for (auto n : s.fault_names()) out += (out.empty() ? "" : ", ") + std::string(n);
   return out.empty() ? "none" : fmt::format("{} (0x{:04X})", out, s.faults);
 }
 
-std::string time_text(const ij::Status& s) {
-  return fmt::format("{} {}", ij::format_mm_ss(s.run_time),
+std::string time_text(const ij::MachineStatus& s) {
+  return fmt::format("{} {}", profile::format_mm_ss(s.run_time),
                      s.family() == ij::Family::timer ? "remaining" : "elapsed");
 }
 
-std::string status_panel(const ij::Status& s) {
+std::string status_panel(const ij::MachineStatus& s) {
   return fmt::format(
       "state     {} ({})   mode {}\n"
       "speed     {} %   motor {} rpm, {:.2f} A\n"
@@ -161,13 +140,13 @@ std::string status_panel(const ij::Status& s) {
       "temps     MOSFET {:.1f} degC, motor {:.1f} degC\n"
       "bus       {:.1f} V\n"
       "versions  display {} (hw {}), driver {} (hw {})\n",
-      s.state_name(), s.state, ij::format_value(*ij::find_register("work_mode"), s.mode), s.speed, s.rpm,
-      s.current_a, time_text(s), faults_text(s), s.mosfet_c, s.motor_c, s.bus_v,
+      s.state_name(), s.state, profile::format_value(ij::kMap.row(ij::reg::work_mode), s.mode), s.speed,
+      s.rpm, s.current_a, time_text(s), faults_text(s), s.mosfet_c, s.motor_c, s.bus_v,
       version_text(s.display_software), version_text(s.display_hardware), version_text(s.driver_software),
       version_text(s.driver_hardware));
 }
 
-std::string status_line(const ij::Status& s) {
+std::string status_line(const ij::MachineStatus& s) {
   return fmt::format(
       "{:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults "
       "{}",
@@ -176,7 +155,7 @@ std::string status_line(const ij::Status& s) {
 
 int run_status(const JetArgs& a) {
   Session s(a);
-  Result<ij::Status> st = s.jet.status();
+  Result<ij::MachineStatus> st = s.jet.status();
   if (!st.ok()) s.fail(st.error(), "status");
   if (a.json)
     fmt::print("{}\n", status_json(*st).dump());
@@ -189,7 +168,7 @@ int run_watch(const JetArgs& a, const WatchOptions& w) {
   Session s(a);
   const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
   watch_loop(w, [&](unsigned n) {
-    Result<ij::Status> st = s.jet.status();
+    Result<ij::MachineStatus> st = s.jet.status();
     if (!st.ok()) {
       if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
       fmt::print("{}\n",
@@ -224,7 +203,7 @@ int run_start(const JetArgs& a, const StartArgs& s) {
   const unsigned plan = s.plan.empty() ? 0 : parse_plan_number(s.plan);
   const uint16_t from = s.from.empty() ? 0 : parse_duration(s.from, "--from", 0);
   Session session(a);
-  Error e;
+  rtukit::Status e;
   std::string what;
   if (s.free) {
     e = s.speed.empty() ? session.jet.start_free_from_memory() : session.jet.start_free(speed, s.remember);
@@ -232,13 +211,13 @@ int run_start(const JetArgs& a, const StartArgs& s) {
         s.speed.empty() ? "free mode (speed and time from memory)" : fmt::format("free mode at {} %", speed);
   } else if (!s.timer.empty()) {
     e = session.jet.start_timer(speed, duration, s.remember);
-    what = fmt::format("timer mode, {} at {} %", ij::format_mm_ss(duration), speed);
+    what = fmt::format("timer mode, {} at {} %", profile::format_mm_ss(duration), speed);
   } else {
     e = session.jet.start_plan(plan, from);
-    what = fmt::format("plan P{} from {}", plan, ij::format_mm_ss(from));
+    what = fmt::format("plan P{} from {}", plan, profile::format_mm_ss(from));
     if (e == Errc::invalid_argument)
       throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)",
-                                        session.context, plan, ij::format_mm_ss(from), plan)};
+                                        session.context, plan, profile::format_mm_ss(from), plan)};
   }
   session.check(e, "start " + what);
   fmt::print("started {}{}\n", what, s.remember ? " (after 3 s; saved as memory)" : "");
@@ -247,7 +226,7 @@ int run_start(const JetArgs& a, const StartArgs& s) {
 
 int run_simple(const JetArgs& a, const std::string& verb) {
   Session s(a);
-  Error e;
+  rtukit::Status e;
   if (verb == "pause") e = s.jet.pause();
   if (verb == "stop") e = s.jet.stop();
   if (verb == "resume") {
@@ -270,12 +249,12 @@ int run_speed(const JetArgs& a, const std::string& value) {
 int run_plan_show(const JetArgs& a, const std::string& n) {
   const unsigned plan = parse_plan_number(n);
   Session s(a);
-  Result<std::vector<ij::Segment>> segments = s.jet.read_plan(plan);
+  Outcome<std::vector<ij::Segment>> segments = s.jet.read_plan(plan);
   if (!segments.ok()) s.fail(segments.error(), fmt::format("read plan P{}", plan));
   if (a.json) {
     json out = json::array();
     for (const auto& seg : *segments)
-      out.push_back({{"speed", seg.speed}, {"end", ij::format_mm_ss(seg.end)}});
+      out.push_back({{"speed", seg.speed}, {"end", profile::format_mm_ss(seg.end)}});
     fmt::print("{}\n", out.dump());
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
@@ -289,13 +268,12 @@ int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file
   if (!in) throw Failure{kUsage, fmt::format("cannot read plan file '{}'", file)};
   std::stringstream text;
   text << in.rdbuf();
-  std::string why;
-  Result<std::vector<ij::Segment>> segments = ij::parse_plan(text.str(), &why);
-  if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, why)};
+  Outcome<std::vector<ij::Segment>> segments = ij::parse_plan(text.str());
+  if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, segments.error().reason())};
   Session s(a);
   s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));
   fmt::print("plan P{}: {} segment(s) written, ends at {}\n", plan, segments->size(),
-             ij::format_mm_ss(segments->back().end));
+             profile::format_mm_ss(segments->back().end));
   return kOk;
 }
 
@@ -312,16 +290,12 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     Session s(a);
     Result<ij::Config> c = s.jet.config();
     if (!c.ok()) s.fail(c.error(), "config");
-    const std::pair<const char*, uint16_t> rows[] = {
-        {"address", c->address},     {"baud", c->baud_code},          {"control_mask", c->control_mask},
-        {"pairing", c->pairing},     {"pole_count", c->pole_count},   {"free_speed", c->free_speed},
-        {"free_time", c->free_time}, {"timer_speed", c->timer_speed}, {"timer_time", c->timer_time}};
     json out;
-    for (const auto& [key, v] : rows) {
+    for (const ij::ConfigValue& v : *c) {
       if (a.json)
-        out[key] = v;
+        out[std::string(v.row->key)] = v.raw;
       else
-        fmt::print("{:<14} {}\n", key, ij::format_value(*ij::find_register(key), v));
+        fmt::print("{:<14} {}\n", v.row->key, profile::format_value(*v.row, v.raw));
     }
     if (a.json) fmt::print("{}\n", out.dump());
     return kOk;
@@ -344,47 +318,16 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     const auto mask = static_cast<uint16_t>(parse_number(value, "control mask", 0, 7));
     Session s(a);
     s.check(s.jet.set_control_mask(mask), fmt::format("set control mask {}", mask));
-    fmt::print("control mask {}\n", ij::format_value(*ij::find_register("control_mask"), mask));
+    fmt::print("control mask {}\n", profile::format_value(ij::kMap.row(ij::reg::control_mask), mask));
   } else if (what == "pairing") {
     const uint16_t mode = value == "off" ? 0 : value == "wifi" ? 1 : value == "remote" ? 2 : 0xFFFF;
     if (mode == 0xFFFF) throw Failure{kUsage, "pairing: off, wifi or remote"};
     Session s(a);
     s.check(s.jet.set_pairing(mode), "set pairing");
-    fmt::print("pairing {}\n", ij::format_value(*ij::find_register("pairing"), mode));
+    fmt::print("pairing {}\n", profile::format_value(ij::kMap.row(ij::reg::pairing), mode));
   } else {
     throw Failure{kUsage, fmt::format("config {}: expected show, address, baud, mask or pairing", what)};
   }
-  return kOk;
-}
-
-int run_registers(bool as_json) {
-  if (!as_json) {
-    fmt::print("{}", ij::registers_markdown());
-    return kOk;
-  }
-  json out = json::array();
-  for (const ij::Register& r : ij::registers()) {
-    json choices = json::object();
-    for (const ij::Choice& c : r.choices) choices[std::to_string(c.value)] = c.name;
-    out.push_back({{"table", r.table == ij::Table::holding ? "holding" : "input"},
-                   {"address", r.address},
-                   {"words", r.words},
-                   {"repeat", r.repeat},
-                   {"stride", r.stride},
-                   {"key", r.key},
-                   {"title", r.title},
-                   {"writable", r.writable},
-                   {"unit", r.unit},
-                   {"scale", r.scale},
-                   {"range", {r.range.min, r.range.max}},
-                   {"writable_range", {r.writable_range.min, r.writable_range.max}},
-                   {"default", r.default_value},
-                   {"persisted", r.persisted},
-                   {"masked_by_control_mask", r.control},
-                   {"choices", choices},
-                   {"notes", r.notes}});
-  }
-  fmt::print("{}\n", out.dump(1));
   return kOk;
 }
 
@@ -481,13 +424,6 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
     cmd->add_option("VALUE", *value, "the new value");
     cmd->callback(
         [&action, args, what, value] { action = [=] { return run_config(*args, *what, *value); }; });
-  }
-  {
-    auto as_json = std::make_shared<bool>(false);
-    CLI::App* cmd = jet->add_subcommand(
-        "registers", "the register reference (Markdown, or --json), from the device table");
-    cmd->add_flag("--json", *as_json, "print JSON");
-    cmd->callback([&action, as_json] { action = [=] { return run_registers(*as_json); }; });
   }
 }
 

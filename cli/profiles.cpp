@@ -141,6 +141,7 @@ struct DeviceArgs {
   LinkOptions link;
   std::string unit;
   std::vector<std::string> keys;
+  std::string key;
   std::string value;
   bool json = false;
   bool yaml = false;
@@ -165,9 +166,9 @@ int run_get(const DeviceArgs& a, const profile::Profile& p) {
 }
 
 int run_set(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_rows(p, std::span(a.keys.data(), 1), true);
+  const std::vector<Selected> selected = select_rows(p, std::span(&a.key, 1), true);
   if (selected.size() != 1)
-    throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.keys[0], a.keys[0])};
+    throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.key, a.key)};
   const Row& r = *selected[0].row;
   if (!r.writable()) throw Failure{kUsage, fmt::format("{} is read-only", r.key)};
   // Motion and momentary commands need their device's own verbs (leases,
@@ -248,7 +249,7 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
   add_command<DeviceArgs>(
       dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
       [&p](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_option("key", a.keys, "register key")->required()->expected(1);
+        cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
         cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
         cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
         cmd.add_flag("--json", a.json, "print JSON");

@@ -218,8 +218,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   Outcome<std::unique_ptr<profile::SimHost>> started = profile::SimHost::start(ctx, std::move(device), o);
   if (!started.ok()) throw Failure{exit_code(started.error().error()), std::string(started.error().reason())};
   profile::SimHost& host = **started;
-  fmt::print("{} simulator: unit {} on {}{}\n", profile.name, host.unit(), host.where(),
-             o.state_file.empty() ? "" : fmt::format(", state in {}", o.state_file));
+  fmt::print("{}\n", host.banner());
 
   const OnLine on_line = [&host, &ctx](const std::string& line,
                                        const std::function<void(std::string)>& reply) {

@@ -11,8 +11,6 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "rtukit/devices/inverjet/simulator.hpp"
-#include "rtukit/devices/inverjet/state_file.hpp"
 #include "rtukit/devices/rehand6600/simulator.hpp"
 
 namespace rtukit::cli {
@@ -101,39 +99,6 @@ struct SimArgs {
   bool no_console = false;
 };
 
-int run_sim_inverjet(const SimArgs& a) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(a.listen, true, &why);
-  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad --listen '{}': {}", a.listen, why)};
-  spec->serial.parity = a.parity.size() == 1 ? static_cast<char>(std::toupper(a.parity[0])) : '?';
-  spec->serial.stop_bits = static_cast<uint8_t>(a.stop_bits);
-  spec->serial.rs485.enabled = a.rs485;
-  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
-
-  inverjet::SimulatorOptions o;
-  o.listen = *spec;
-  if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
-  if (!a.baud.empty()) o.baud = static_cast<uint32_t>(parse_number(a.baud, "baud", 1, 1000000));
-  o.state_file = a.no_state ? "" : a.state_file.empty() ? inverjet::default_state_path() : a.state_file;
-  o.time_scale = a.time_scale;
-  o.notice = [](std::string_view line) {
-    fmt::print("{}\n", line);
-    std::fflush(stdout);
-  };
-  if (a.verbose) o.log = request_logger();
-  asio::io_context ctx;
-  auto sim = inverjet::Simulator::start(ctx, o, &why);
-  if (!sim.ok()) {
-    throw Failure{sim.error() == Errc::invalid_argument ? kUsage : kIoError,
-                  why.empty() ? std::string(sim.error().name()) : why};
-  }
-  inverjet::Simulator& s = **sim;
-  fmt::print("Inverjet simulator: unit {}, {} baud, time x{:g}, state {}\nlistening on {}\n", s.unit(),
-             inverjet::baud_of_code(s.machine().settings().baud_code), a.time_scale,
-             o.state_file.empty() ? "not saved" : o.state_file, s.where());
-  return serve(ctx, s, !a.no_console);
-}
-
 struct ChairSimArgs {
   std::string listen;
   std::string unit = "1";
@@ -173,26 +138,6 @@ int run_sim_rehand6600(const ChairSimArgs& a) {
 // Until the devices move onto the simulator host (profile kit merge).
 void add_legacy_sim_commands(CLI::App& app, Action& action) {
   CLI::App* sim = app.get_subcommand("sim");
-  auto a = std::make_shared<SimArgs>();
-  CLI::App* cmd = sim->add_subcommand("inverjet", "the Inverjet swimming machine, with a console on stdin");
-  cmd->add_option("--listen,-l", a->listen,
-                  "pty | pty:/path/link | /dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")
-      ->required();
-  cmd->add_option("--unit,-u", a->unit, "slave address 1..254 (default: the saved one, factory 21)");
-  cmd->add_option("--baud,-b", a->baud,
-                  "1200, 2400, 4800, 9600, 19200 (default: the saved one, factory 9600)");
-  cmd->add_option("--parity", a->parity, "N, E or O")->capture_default_str();
-  cmd->add_option("--stop-bits", a->stop_bits, "1 or 2")->capture_default_str();
-  cmd->add_flag("--rs485", a->rs485, "RS-485 direction control on a serial port");
-  cmd->add_option("--state-file", a->state_file,
-                  "where settings persist (default $XDG_STATE_HOME/rtukit/inverjet.json)");
-  cmd->add_flag("--no-state", a->no_state, "keep settings in memory only");
-  cmd->add_option("--time-scale", a->time_scale, "device seconds per real second (60: a minute per second)")
-      ->capture_default_str();
-  cmd->add_flag("--verbose,-v", a->verbose, "log every request and response in hex");
-  cmd->add_flag("--no-console", a->no_console, "do not read commands from stdin");
-  cmd->callback([&action, a] { action = [a] { return run_sim_inverjet(*a); }; });
-
   auto c = std::make_shared<ChairSimArgs>();
   CLI::App* chair =
       sim->add_subcommand("rehand6600", "the Rehand 6600 wheelchair controller, with a console on stdin");

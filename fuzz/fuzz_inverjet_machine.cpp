@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
+#include <vector>
 
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
@@ -20,23 +21,28 @@ using namespace rtukit::inverjet;
 constexpr uint16_t kWatched[] = {0x0000, 0x0001, 0x0002, 0x0004, 0x0021, 0x0022, 0x0023, 0x0024,
                                  0x0080, 0x0081, 0x0082, 0x0083, 0x0100, 0x0101, 0x0102, 0x0103};
 
-std::array<uint16_t, std::size(kWatched)> snapshot(const Machine& m) {
-  std::array<uint16_t, std::size(kWatched)> out{};
-  for (size_t i = 0; i < out.size(); ++i) {
+// The watched registers as a master reads them, plus every stored word.
+std::vector<uint16_t> snapshot(Machine& m) {
+  std::vector<uint16_t> out(m.image().words().begin(), m.image().words().end());
+  for (const uint16_t address : kWatched) {
     std::array<uint16_t, 1> v{};
-    if (m.read_holding(kWatched[i], v) != rtukit::Errc::ok) std::abort();
-    out[i] = v[0];
+    if (m.read_holding(address, v) != rtukit::Errc::ok) std::abort();
+    out.push_back(v[0]);
   }
   return out;
 }
 
-void check_ranges(const Machine& m) {
-  if (!m.settings().valid()) std::abort();
-  for (const Register& r : registers()) {
-    if (r.table != Table::holding || r.repeat > 1) continue;
+void check_ranges(Machine& m) {
+  // Every stored register (the state file saves them as they are) and every
+  // holding register a master reads stays within its row's range.
+  for (const Row& r : kRows) {
+    for (unsigned i = 0; i < r.repeat; ++i) {
+      if (r.space == Space::holding && !r.valid_range().contains(m.image().get(r, i))) std::abort();
+    }
+    if (r.space != Space::holding || r.repeat > 1) continue;
     std::array<uint16_t, 1> v{};
     if (m.read_holding(r.address, v) != rtukit::Errc::ok) std::abort();
-    if (v[0] < r.range.min || v[0] > r.range.max) std::abort();
+    if (!r.valid_range().contains(v[0])) std::abort();
   }
   std::array<uint16_t, 17> in{};
   if (m.read_input(0, in) != rtukit::Errc::ok) std::abort();

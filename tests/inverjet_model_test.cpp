@@ -9,7 +9,7 @@
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
-#include "rtukit/devices/inverjet/simulator.hpp"
+#include "rtukit/devices/profile/text.hpp"
 #include "wire.hpp"
 
 namespace rtukit::inverjet {
@@ -34,10 +34,28 @@ std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
 // The machine behind the slave engine, wired like the simulator: the
 // address moves after the response. Time is `now`, moved by hand.
 struct Rig {
-  explicit Rig(const Settings& s = {}) : machine(s, 0) {
-    (void)engine.add_unit(static_cast<uint8_t>(s.address), bank);
+  // `plans`: training plans stored before power-on (plan number, segments).
+  explicit Rig(const std::vector<std::pair<unsigned, std::vector<Segment>>>& plans = {}) : machine(0) {
+    for (const auto& [n, segs] : plans) {
+      for (unsigned k = 0; k < kSegmentsPerPlan; ++k) {
+        const Segment seg = k < segs.size() ? segs[k] : Segment{};
+        machine.image().set(reg::plan_speed(n), seg.speed, k);
+        machine.image().set(reg::plan_end(n), seg.end, k);
+      }
+    }
+    (void)engine.add_unit(static_cast<uint8_t>(machine.stored(reg::address)), machine);
+  }
+  // The persisted words: what a state file would hold.
+  std::vector<uint16_t> persisted() const {
+    std::vector<uint16_t> out;
+    for (const Row& r : kRows) {
+      if (!r.has(profile::kPersisted)) continue;
+      for (unsigned i = 0; i < r.repeat; ++i) out.push_back(static_cast<uint16_t>(machine.image().get(r, i)));
+    }
+    return out;
   }
   std::string send(const std::string& frame) {
+    machine.advance_to(now);  // as the simulator host does before every request
     const auto adu = bytes(frame);
     std::array<uint8_t, 256> out{};
     RegisterBank* handled = nullptr;
@@ -72,7 +90,6 @@ struct Rig {
 
   uint64_t now = 0;
   Machine machine;
-  MachineBank bank{machine, [this] { return now; }};
   SlaveEngine engine;
   uint8_t unit = kDefaultAddress;
   uint32_t baud = 9600;
@@ -89,9 +106,10 @@ TEST(InverjetSeed, WriteAddress12_EchoFromOldAddressThenOnlyNewAnswers) {
   Rig rig;
   EXPECT_EQ(rig.send("15 06 00 00 00 0C 8A DB"), "15 06 00 00 00 0C 8A DB");
   EXPECT_EQ(rig.send("15 03 00 00 00 01 87 1E"), "");  // 0x15 is gone
+  const std::vector<uint16_t> factory = Rig().persisted();
   EXPECT_EQ(rig.send("0C 03 00 00 00 01 85 17"), "0C 03 02 00 0C 95 80");
-  EXPECT_EQ(rig.machine.settings().address, 12);
-  EXPECT_TRUE(rig.machine.take_settings_changed());
+  EXPECT_EQ(rig.machine.stored(reg::address), 12);
+  EXPECT_NE(rig.persisted(), factory);  // the simulator host saves it
 }
 
 TEST(InverjetSeed, ReadAndWriteBaud_9600IsCode3) {
@@ -178,22 +196,21 @@ INSTANTIATE_TEST_SUITE_P(
 TEST(InverjetSeed, FlashRule_InitialWithSpeedAndTimeSavesMemory) {
   Rig rig;
   rig.send("15 10 00 21 00 04 00 00 00 06 00 50 07 08 97 5F");
-  EXPECT_EQ(rig.machine.settings().timer_speed, 80);
-  EXPECT_EQ(rig.machine.settings().timer_time, 1800);
+  EXPECT_EQ(rig.machine.stored(reg::timer_speed), 80);
+  EXPECT_EQ(rig.machine.stored(reg::timer_time), 1800);
   rig.send("15 10 00 21 00 04 00 00 00 01 00 64 00 00 60 A7");
-  EXPECT_EQ(rig.machine.settings().free_speed, 100);
-  EXPECT_EQ(rig.machine.settings().free_time, 0);
+  EXPECT_EQ(rig.machine.stored(reg::free_speed), 100);
+  EXPECT_EQ(rig.machine.stored(reg::free_time), 0);
   EXPECT_EQ(rig.holding(reg::kFreeSpeed), 100);
 }
 
 TEST(InverjetSeed, FlashRule_RunningAndTrainingWritesSaveNothing) {
   Rig rig;
-  const Settings before = rig.machine.settings();
+  const std::vector<uint16_t> before = rig.persisted();
   rig.send("15 10 00 21 00 04 00 00 00 08 00 50 02 D0 FD 94");  // timer running 80 % 12:00
   rig.send("15 10 00 21 00 04 00 01 00 08 00 32 00 00 4C 76");  // P1 50 %
   rig.send("15 10 00 21 00 04 00 01 00 08 00 32 02 D0 4C 8A");  // P1 from 12:00
-  EXPECT_EQ(rig.machine.settings(), before);
-  EXPECT_FALSE(rig.machine.take_settings_changed());
+  EXPECT_EQ(rig.persisted(), before);
 }
 
 TEST(InverjetSeed, TimerExample_RunsAfter3sAndCountsDownFrom1800) {
@@ -225,16 +242,6 @@ struct Scenario {
   std::vector<Step> steps;
 };
 
-Settings with_plans(const Scenario& s) {
-  Settings settings;
-  for (const auto& [n, segs] : s.plans) {
-    Plan p{};
-    for (size_t k = 0; k < segs.size(); ++k) p[k] = segs[k];
-    settings.plans[n - 1] = p;
-  }
-  return settings;
-}
-
 std::vector<Segment> fifty_segments() {
   std::vector<Segment> s;
   for (uint16_t k = 0; k < 50; ++k)
@@ -246,7 +253,7 @@ class InverjetStateMachine : public ::testing::TestWithParam<Scenario> {};
 
 TEST_P(InverjetStateMachine, FollowsTheSchedule) {
   const Scenario& sc = GetParam();
-  Rig rig(with_plans(sc));
+  Rig rig(sc.plans);
   for (size_t i = 0; i < sc.steps.size(); ++i) {
     const Step& st = sc.steps[i];
     rig.at(st.at_ms);
@@ -363,7 +370,7 @@ TEST(InverjetFault, InjectedWhileRunning_StopsMotorRefusesStartThenOff) {
 }
 
 TEST(InverjetFault, EveryFaultBitShowsAndDrivesState17) {
-  for (const Choice& c : fault_names()) {
+  for (const Named& c : fault_names()) {
     Rig rig;
     rig.machine.set_injected_faults(static_cast<uint16_t>(1U << c.value));
     EXPECT_EQ(rig.input(reg::kFaults), 1U << c.value) << c.name;
@@ -438,8 +445,9 @@ TEST(InverjetRegisters, PlanWriteIsAllOrNothing) {
   std::vector<uint16_t> values(100, 10);
   values[99] = 6000;  // the last end time is out of range
   EXPECT_EQ(rig.write(reg::plan_base(2), values), Errc::illegal_data_value);
-  EXPECT_EQ(rig.machine.settings().plans[1], Settings::default_plans()[1]);
-  EXPECT_FALSE(rig.machine.take_settings_changed());
+  const std::vector<uint16_t> factory = Rig().persisted();
+  EXPECT_EQ(rig.machine.plan(2), default_plan());
+  EXPECT_EQ(rig.persisted(), factory);
 }
 
 TEST(InverjetRegisters, ControlMaskBit1_BlocksControlButNotConfigOrReads) {
@@ -495,10 +503,10 @@ TEST(InverjetRegisters, FormatsValuesFromTheTable) {
   EXPECT_EQ(format_value(*find_register("display_software"), 0x00010002), "V1.2");
   EXPECT_EQ(format_value(*find_register("mosfet_temperature"), 315), "31.5 degC");
   EXPECT_EQ(format_value(*find_register("motor_current"), 782), "7.82 A");
-  EXPECT_EQ(*parse_time("30:00"), 1800u);
-  EXPECT_EQ(*parse_time("90"), 90u);
-  EXPECT_FALSE(parse_time("1:5").ok());
-  EXPECT_FALSE(parse_time("abc").ok());
+  EXPECT_EQ(*profile::parse_mm_ss("30:00"), 1800u);
+  EXPECT_EQ(*profile::parse_mm_ss("90"), 90u);
+  EXPECT_FALSE(profile::parse_mm_ss("1:5").ok());
+  EXPECT_FALSE(profile::parse_mm_ss("abc").ok());
 }
 
 // ------------------------------------------------------------ motor model

@@ -10,28 +10,64 @@
 #include <random>
 
 #include "process.hpp"
-#include "rtukit/devices/inverjet/state_file.hpp"
+#include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/devices/profile/state_file.hpp"
 
 namespace rtukit::inverjet {
 namespace {
 
 using test::TempDir;
 
-Settings changed_settings(uint16_t seed) {
-  Settings s;
-  s.address = static_cast<uint16_t>(1 + seed % 200);
-  s.baud_code = seed % 5;
-  s.control_mask = seed % 8;
-  s.free_speed = seed % 101;
-  s.free_time = static_cast<uint16_t>(seed * 7 % 6000);
-  s.timer_speed = (seed + 3) % 101;
-  s.timer_time = static_cast<uint16_t>(seed * 11 % 6000);
-  for (unsigned p = 0; p < kPlanCount; ++p)
-    for (unsigned k = 0; k < kSegmentsPerPlan; ++k)
-      s.plans[p][k] = Segment{static_cast<uint16_t>((seed + k + p) % 101),
-                              static_cast<uint16_t>((seed + 60 * (k + 1)) % 6000)};
-  return s;
+// The settings a state file holds are the machine's persisted registers.
+using Words = std::vector<uint16_t>;
+
+Words persisted(const Machine& m) {
+  Words out;
+  for (const Row& r : kRows) {
+    if (!r.has(profile::kPersisted)) continue;
+    for (unsigned i = 0; i < r.repeat; ++i) out.push_back(static_cast<uint16_t>(m.image().get(r, i)));
+  }
+  return out;
 }
+
+// A machine whose stored registers all differ from the factory's (`seed` varies them).
+std::unique_ptr<Machine> changed_settings(uint16_t seed) {
+  auto m = std::make_unique<Machine>();
+  profile::Image& im = m->image();
+  im.set(reg::address, 1 + seed % 200);
+  im.set(reg::baud, seed % 5);
+  im.set(reg::control_mask, seed % 8);
+  im.set(reg::free_speed, seed % 101);
+  im.set(reg::free_time, seed * 7 % 6000);
+  im.set(reg::timer_speed, (seed + 3) % 101);
+  im.set(reg::timer_time, seed * 11 % 6000);
+  for (unsigned p = 1; p <= kPlanCount; ++p)
+    for (unsigned k = 0; k < kSegmentsPerPlan; ++k) {
+      im.set(reg::plan_speed(p), (seed + k + p) % 101, k);
+      im.set(reg::plan_end(p), (seed + 60 * (k + 1)) % 6000, k);
+    }
+  return m;
+}
+
+std::string settings_to_text(const std::unique_ptr<Machine>& m) {
+  return profile::state_to_text(kProfile, m->image());
+}
+Status save_settings(const std::string& path, const std::unique_ptr<Machine>& m) {
+  return profile::save_state(path, kProfile, m->image());
+}
+
+// What a simulator starting on `path` would have.
+struct LoadedSettings {
+  bool from_file;
+  std::string warning;
+  Words settings;
+};
+LoadedSettings load_settings(const std::string& path) {
+  Machine m;
+  const profile::LoadedState l = profile::load_state(path, kProfile, m.image());
+  return {l.from_file, l.warning, persisted(m)};
+}
+const Words kFactory = persisted(Machine{});
 
 void write_text(const std::string& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
@@ -39,12 +75,13 @@ void write_text(const std::string& path, const std::string& text) {
 
 TEST(InverjetStateFile, SaveThenLoad_SameSettings) {
   TempDir dir;
-  const Settings s = changed_settings(42);
+  const auto s = changed_settings(42);
   ASSERT_FALSE(save_settings(dir / "sub/dir/state.json", s));  // creates the directories
   const LoadedSettings loaded = load_settings(dir / "sub/dir/state.json");
   EXPECT_TRUE(loaded.from_file);
   EXPECT_TRUE(loaded.warning.empty());
-  EXPECT_EQ(loaded.settings, s);
+  EXPECT_EQ(loaded.settings, persisted(*s));
+  EXPECT_NE(loaded.settings, kFactory);
 }
 
 TEST(InverjetStateFile, Missing_DefaultsWithWarning) {
@@ -52,7 +89,7 @@ TEST(InverjetStateFile, Missing_DefaultsWithWarning) {
   const LoadedSettings loaded = load_settings(dir / "none.json");
   EXPECT_FALSE(loaded.from_file);
   EXPECT_NE(loaded.warning.find("no state file"), std::string::npos);
-  EXPECT_EQ(loaded.settings, Settings{});
+  EXPECT_EQ(loaded.settings, kFactory);
 }
 
 TEST(InverjetStateFile, Truncated_DefaultsWithWarning) {
@@ -63,14 +100,14 @@ TEST(InverjetStateFile, Truncated_DefaultsWithWarning) {
     const LoadedSettings loaded = load_settings(dir / "state.json");
     EXPECT_FALSE(loaded.from_file) << cut;
     EXPECT_NE(loaded.warning.find("damaged"), std::string::npos) << cut;
-    EXPECT_EQ(loaded.settings, Settings{}) << cut;
+    EXPECT_EQ(loaded.settings, kFactory) << cut;
   }
 }
 
 TEST(InverjetStateFile, ChangedValue_ChecksumCatchesIt) {
   TempDir dir;
-  Settings s = changed_settings(9);
-  s.timer_speed = 77;
+  const auto s = changed_settings(9);
+  s->image().set(reg::timer_speed, 77);
   std::string text = settings_to_text(s);
   const size_t at = text.find("\"timer_speed\": 77");
   ASSERT_NE(at, std::string::npos);
@@ -83,8 +120,8 @@ TEST(InverjetStateFile, ChangedValue_ChecksumCatchesIt) {
 
 TEST(InverjetStateFile, OutOfRangeValue_Rejected) {
   TempDir dir;
-  Settings s;
-  s.address = 0;  // not a valid address, even with a correct checksum
+  const auto s = std::make_unique<Machine>();
+  s->image().set(reg::address, 0);  // not a valid address, even with a correct checksum
   write_text(dir / "state.json", settings_to_text(s));
   const LoadedSettings loaded = load_settings(dir / "state.json");
   EXPECT_FALSE(loaded.from_file);
@@ -104,8 +141,8 @@ TEST(InverjetStateFile, NotOurs_Rejected) {
 TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
   TempDir dir;
   const std::string path = dir / "state.json";
-  const Settings a = changed_settings(1);
-  const Settings b = changed_settings(2);
+  const auto a = changed_settings(1);
+  const auto b = changed_settings(2);
   ASSERT_FALSE(save_settings(path, a));
   std::mt19937 rng(12345);
   for (int round = 0; round < 40; ++round) {
@@ -120,7 +157,7 @@ TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
     ::waitpid(child, &status, 0);
     const LoadedSettings loaded = load_settings(path);
     ASSERT_TRUE(loaded.from_file) << "round " << round << ": " << loaded.warning;
-    ASSERT_TRUE(loaded.settings == a || loaded.settings == b) << "round " << round;
+    ASSERT_TRUE(loaded.settings == persisted(*a) || loaded.settings == persisted(*b)) << "round " << round;
   }
   // Proof that kills landed mid-save: temporary files left behind by them.
   const test::RunResult ls = test::run({"sh", "-c", "ls '" + dir.path() + "' | grep -c tmp"});

@@ -1,107 +1,156 @@
+// The Inverjet's typed client. Every value goes through the register table:
+// ranges are checked with its rows, readings are decoded with its scales.
 #include "rtukit/devices/inverjet/client.hpp"
 
 #include <fmt/core.h>
 
 #include <array>
 
-namespace rtukit::inverjet {
+#include "rtukit/devices/profile/text.hpp"
 
-std::string_view Status::state_name() const noexcept {
-  const std::string_view name = choice_name(*find_register(Table::holding, reg::kState), state);
-  return name.empty() ? std::string_view("unknown") : name;
+namespace rtukit::inverjet {
+namespace {
+
+// A caller's argument against the row it will be written to.
+rtukit::Status argument(profile::Handle h, int64_t raw) {
+  return profile::check_argument(kMap.row(h), raw);
 }
 
-std::vector<std::string_view> Status::fault_names() const {
+// Decodes entry `h` from a block of words read from `first` on.
+int64_t decode(profile::Handle h, std::span<const uint16_t> block, uint16_t first) {
+  const Row& r = kMap.row(h);
+  return profile::RegisterMap::decode(r, block.subspan(r.address - first, r.words()));
+}
+double number(profile::Handle h, std::span<const uint16_t> block, uint16_t first) {
+  return profile::RegisterMap::to_number(kMap.row(h), decode(h, block, first));
+}
+
+}  // namespace
+
+std::string_view MachineStatus::state_name() const noexcept {
+  for (const Named& n : kMap.row(reg::state).names) {
+    if (n.value == state) return n.name;
+  }
+  return "unknown";
+}
+
+std::vector<std::string_view> MachineStatus::fault_names() const {
   std::vector<std::string_view> out;
-  for (const Choice& c : inverjet::fault_names()) {
+  for (const Named& c : inverjet::fault_names()) {
     if (faults & (1U << c.value)) out.push_back(c.name);
   }
   return out;
 }
 
-Error validate_plan(std::span<const Segment> segments, std::string* why) {
-  const auto bad = [why](std::string reason) {
-    if (why) *why = std::move(reason);
-    return Error(Errc::invalid_argument);
+rtukit::Status validate_plan(std::span<const Segment> segments) {
+  const auto bad = [](std::string reason) {
+    return rtukit::Status(Errc::invalid_argument, std::move(reason));
   };
   if (segments.empty()) return bad("a plan needs at least one segment");
   if (segments.size() > kSegmentsPerPlan)
-    return bad(fmt::format("{} segments; a plan holds at most 50", segments.size()));
+    return bad(fmt::format("{} segments; a plan holds at most {}", segments.size(), kSegmentsPerPlan));
   uint16_t previous = 0;
   for (size_t i = 0; i < segments.size(); ++i) {
     const Segment& s = segments[i];
-    if (s.speed > kMaxSpeed)
-      return bad(fmt::format("segment {}: speed {} % is out of range 0..100", i + 1, s.speed));
-    if (s.end > kMaxTime)
-      return bad(
-          fmt::format("segment {}: end time {} s is out of range (at most 5999 s = 99:59)", i + 1, s.end));
+    if (rtukit::Status e = argument(reg::plan_speed(1), s.speed))
+      return bad(fmt::format("segment {}: {}", i + 1, e.reason()));
+    if (rtukit::Status e = argument(reg::plan_end(1), s.end))
+      return bad(fmt::format("segment {}: {}", i + 1, e.reason()));
     if (s.end <= previous)
-      return bad(fmt::format("segment {}: end {} is not after {}", i + 1, format_mm_ss(s.end),
-                             format_mm_ss(previous)));
+      return bad(fmt::format("segment {}: end {} is not after {}", i + 1, profile::format_mm_ss(s.end),
+                             profile::format_mm_ss(previous)));
     previous = s.end;
   }
   return {};
 }
 
-Error Client::write(uint16_t address, std::span<const uint16_t> values) {
-  if (values.size() == 1) return master_.write_single_register(unit_, address, values[0]);
-  return master_.write_multiple_registers(unit_, address, values);
+// Exception 04 has three causes on the Inverjet; one more look says which.
+rtukit::Status Client::explain(Error e) {
+  if (!e.is_exception() || e.exception_code() != 0x04) return e;
+  Result<MachineStatus> st = status();
+  std::array<uint16_t, 1> mask{};
+  const Error mask_read = master_.read_holding_registers(unit_, reg::kControlMask, mask);
+  if (st.ok() && st->phase() == Phase::fault) {
+    std::string names;
+    for (auto n : st->fault_names()) names += (names.empty() ? "" : ", ") + std::string(n);
+    return rtukit::Status(e, "the machine shows a fault (" + names + ")");
+  }
+  if (!mask_read && (mask[0] & 0x2))
+    return rtukit::Status(e, "Modbus control is masked (control mask bit 1; `config mask 0` clears it)");
+  if (st.ok()) return rtukit::Status(e, fmt::format("not possible while {}", st->state_name()));
+  return rtukit::Status(e, "control masked, fault screen, or nothing to pause");
 }
 
-Result<Status> Client::status() {
+rtukit::Status Client::write(uint16_t address, std::span<const uint16_t> values) {
+  const Error e = values.size() == 1 ? master_.write_single_register(unit_, address, values[0])
+                                     : master_.write_multiple_registers(unit_, address, values);
+  return e ? explain(e) : rtukit::Status();
+}
+
+Result<MachineStatus> Client::status() {
   std::array<uint16_t, 4> control{};
   if (Error e = master_.read_holding_registers(unit_, reg::kWorkMode, control)) return e;
   std::array<uint16_t, reg::kInputCount> in{};
   if (Error e = master_.read_input_registers(unit_, 0, in)) return e;
-  const auto u32 = [&](size_t i) { return (uint32_t{in[i]} << 16) | in[i + 1]; };
-  Status s;
-  s.mode = control[0];
-  s.state = control[1];
-  s.speed = control[2];
-  s.run_time = control[3];
-  s.display_software = u32(0);
-  s.display_hardware = u32(2);
-  s.driver_software = u32(4);
-  s.driver_hardware = u32(6);
-  s.faults = in[reg::kFaults];
-  s.mosfet_c = in[reg::kMosfetTemperature] / 10.0;
-  s.motor_c = in[reg::kMotorTemperature] / 10.0;
-  s.current_a = u32(reg::kMotorCurrent) / 100.0;
-  s.rpm_x_poles = u32(reg::kMotorSpeed);
-  s.rpm = s.rpm_x_poles / 5;  // D-7: the pole count is fixed at 5
-  s.bus_v = in[reg::kBusVoltage] / 10.0;
+  const auto held = [&](profile::Handle h) {
+    return static_cast<uint16_t>(decode(h, control, reg::kWorkMode));
+  };
+  const auto word32 = [&](profile::Handle h) { return static_cast<uint32_t>(decode(h, in, 0)); };
+  MachineStatus s;
+  s.mode = held(reg::work_mode);
+  s.state = held(reg::state);
+  s.speed = held(reg::speed);
+  s.run_time = held(reg::run_time);
+  s.display_software = word32(reg::display_software);
+  s.display_hardware = word32(reg::display_hardware);
+  s.driver_software = word32(reg::driver_software);
+  s.driver_hardware = word32(reg::driver_hardware);
+  s.faults = static_cast<uint16_t>(decode(reg::faults, in, 0));
+  s.mosfet_c = number(reg::mosfet_temperature, in, 0);
+  s.motor_c = number(reg::motor_temperature, in, 0);
+  s.current_a = number(reg::motor_current, in, 0);
+  s.rpm_x_poles = word32(reg::motor_speed);
+  s.rpm = s.rpm_x_poles / static_cast<uint32_t>(kMap.row(reg::pole_count).default_value);  // D-7: fixed
+  s.bus_v = number(reg::bus_voltage, in, 0);
   return s;
 }
 
 Result<Config> Client::config() {
-  std::array<uint16_t, 5> head{};
-  if (Error e = master_.read_holding_registers(unit_, reg::kAddress, head)) return e;
-  std::array<uint16_t, 4> memory{};
-  if (Error e = master_.read_holding_registers(unit_, reg::kFreeSpeed, memory)) return e;
-  return Config{head[0], head[1], head[2], head[3], head[4], memory[0], memory[1], memory[2], memory[3]};
+  Config out;
+  for (const Row& r : kRows) {
+    if (r.space != Space::holding || r.role != Role::setting || r.repeat > 1) continue;
+    std::array<uint16_t, 2> w{};
+    if (Error e = master_.read_holding_registers(unit_, r.address, std::span(w.data(), r.words()))) return e;
+    out.push_back({&r, profile::RegisterMap::decode(r, w)});
+  }
+  return out;
 }
 
-Error Client::start_free(uint16_t speed, bool remember) {
-  if (speed > kMaxSpeed) return Errc::invalid_argument;
+rtukit::Status Client::start_free(uint16_t speed, bool remember) {
+  if (rtukit::Status e = argument(reg::speed, speed)) return e;
   const std::array<uint16_t, 3> v{0, state_value(Family::free, remember ? Phase::initial : Phase::running),
                                   speed};
   return write(reg::kWorkMode, v);
 }
 
-Error Client::start_free_from_memory() {
+rtukit::Status Client::start_free_from_memory() {
   const std::array<uint16_t, 2> v{0, state_value(Family::free, Phase::running)};
   return write(reg::kWorkMode, v);
 }
 
-Error Client::start_timer(uint16_t speed, uint16_t duration_s, bool remember) {
-  if (speed > kMaxSpeed || duration_s == 0 || duration_s > kMaxTime) return Errc::invalid_argument;
+rtukit::Status Client::start_timer(uint16_t speed, uint16_t duration_s, bool remember) {
+  if (rtukit::Status e = argument(reg::speed, speed)) return e;
+  if (rtukit::Status e = argument(reg::run_time, duration_s)) return e;
+  if (duration_s == 0)
+    return rtukit::Status(Errc::invalid_argument, "a timer run needs a duration of at least 1 s");
   const std::array<uint16_t, 4> v{0, state_value(Family::timer, remember ? Phase::initial : Phase::running),
                                   speed, duration_s};
   return write(reg::kWorkMode, v);
 }
 
-Error Client::start_plan(unsigned plan, uint16_t from_s) {
-  if (plan < 1 || plan > kPlanCount || from_s > kMaxTime) return Errc::invalid_argument;
+rtukit::Status Client::start_plan(unsigned plan, uint16_t from_s) {
+  if (plan < 1 || plan > kPlanCount) return rtukit::Status(Errc::invalid_argument, "plans are numbered 1..4");
+  if (rtukit::Status e = argument(reg::run_time, from_s)) return e;
   const uint16_t running = state_value(Family::training, Phase::running);
   if (from_s == 0) {
     const std::array<uint16_t, 2> v{static_cast<uint16_t>(plan), running};
@@ -109,7 +158,7 @@ Error Client::start_plan(unsigned plan, uint16_t from_s) {
   }
   // Mode, state, speed, time are consecutive: to start part-way in, send the
   // speed of the segment we land in (the plan's own speed, so no override).
-  Result<std::vector<Segment>> segments = read_plan(plan);
+  Outcome<std::vector<Segment>> segments = read_plan(plan);
   if (!segments.ok()) return segments.error();
   for (const Segment& s : *segments) {
     if (s.end > from_s) {
@@ -117,46 +166,50 @@ Error Client::start_plan(unsigned plan, uint16_t from_s) {
       return write(reg::kWorkMode, v);
     }
   }
-  return Errc::invalid_argument;  // at or after the plan's end
+  return rtukit::Status(Errc::invalid_argument, fmt::format("plan P{} ends before {}: nothing would run",
+                                                            plan, profile::format_mm_ss(from_s)));
 }
 
-Error Client::pause() {
+rtukit::Status Client::pause() {
   std::array<uint16_t, 1> state{};
   if (Error e = master_.read_holding_registers(unit_, reg::kState, state)) return e;
   if (phase_of(state[0]) == Phase::paused) return {};
   const Family f = family_of(state[0]);
-  return master_.write_single_register(unit_, reg::kState,
-                                       state_value(f == Family::none ? Family::free : f, Phase::paused));
+  const std::array<uint16_t, 1> v{state_value(f == Family::none ? Family::free : f, Phase::paused)};
+  return write(reg::kState, v);
 }
 
-Error Client::resume() {
+rtukit::Status Client::resume() {
   std::array<uint16_t, 1> state{};
   if (Error e = master_.read_holding_registers(unit_, reg::kState, state)) return e;
-  if (phase_of(state[0]) != Phase::paused) return Errc::invalid_argument;
-  return master_.write_single_register(unit_, reg::kState, state_value(family_of(state[0]), Phase::running));
+  if (phase_of(state[0]) != Phase::paused) return rtukit::Status(Errc::invalid_argument, "nothing is paused");
+  const std::array<uint16_t, 1> v{state_value(family_of(state[0]), Phase::running)};
+  return write(reg::kState, v);
 }
 
-Error Client::stop() {
-  return master_.write_single_register(unit_, reg::kState, 0);
+rtukit::Status Client::stop() {
+  const std::array<uint16_t, 1> v{state_value(Family::none, Phase::off)};
+  return write(reg::kState, v);
 }
 
-Error Client::set_speed(uint16_t speed) {
-  if (speed > kMaxSpeed) return Errc::invalid_argument;
-  return master_.write_single_register(unit_, reg::kSpeed, speed);
+rtukit::Status Client::set_speed(uint16_t speed) {
+  if (rtukit::Status e = argument(reg::speed, speed)) return e;
+  const std::array<uint16_t, 1> v{speed};
+  return write(reg::kSpeed, v);
 }
 
-Result<std::vector<Segment>> Client::read_plan(unsigned plan) {
-  if (plan < 1 || plan > kPlanCount) return Errc::invalid_argument;
+Outcome<std::vector<Segment>> Client::read_plan(unsigned plan) {
+  if (plan < 1 || plan > kPlanCount) return rtukit::Status(Errc::invalid_argument, "plans are numbered 1..4");
   std::array<uint16_t, 2 * kSegmentsPerPlan> regs{};
-  if (Error e = master_.read_holding_registers(unit_, reg::plan_base(plan), regs)) return e;
+  if (Error e = master_.read_holding_registers(unit_, reg::plan_base(plan), regs)) return rtukit::Status(e);
   Plan p{};
   for (unsigned k = 0; k < kSegmentsPerPlan; ++k) p[k] = Segment{regs[2 * k], regs[2 * k + 1]};
   return std::vector<Segment>(p.begin(), p.begin() + plan_length(p));
 }
 
-Error Client::write_plan(unsigned plan, std::span<const Segment> segments) {
-  if (plan < 1 || plan > kPlanCount) return Errc::invalid_argument;
-  if (Error e = validate_plan(segments)) return e;
+rtukit::Status Client::write_plan(unsigned plan, std::span<const Segment> segments) {
+  if (plan < 1 || plan > kPlanCount) return rtukit::Status(Errc::invalid_argument, "plans are numbered 1..4");
+  if (rtukit::Status e = validate_plan(segments)) return e;
   std::vector<uint16_t> regs;
   for (const Segment& s : segments) {
     regs.push_back(s.speed);
@@ -166,41 +219,47 @@ Error Client::write_plan(unsigned plan, std::span<const Segment> segments) {
     regs.push_back(0);
     regs.push_back(0);
   }
-  return master_.write_multiple_registers(unit_, reg::plan_base(plan), regs);
+  return write(reg::plan_base(plan), regs);
 }
 
-Error Client::clear_plan(unsigned plan) {
-  if (plan < 1 || plan > kPlanCount) return Errc::invalid_argument;
-  const Plan factory = Settings::default_plans()[0];
+rtukit::Status Client::clear_plan(unsigned plan) {
+  if (plan < 1 || plan > kPlanCount) return rtukit::Status(Errc::invalid_argument, "plans are numbered 1..4");
+  const Plan factory = default_plan();
   std::array<uint16_t, 2 * kSegmentsPerPlan> regs{};
   for (unsigned k = 0; k < kSegmentsPerPlan; ++k) {
     regs[2 * k] = factory[k].speed;
     regs[2 * k + 1] = factory[k].end;
   }
-  return master_.write_multiple_registers(unit_, reg::plan_base(plan), regs);
+  return write(reg::plan_base(plan), regs);
 }
 
-Error Client::set_address(uint8_t address) {
-  if (address < 1 || address > 254) return Errc::invalid_argument;
-  if (Error e = master_.write_single_register(unit_, reg::kAddress, address)) return e;
+rtukit::Status Client::set_address(uint8_t address) {
+  if (rtukit::Status e = argument(reg::address, address)) return e;
+  const std::array<uint16_t, 1> v{address};
+  if (rtukit::Status e = write(reg::kAddress, v)) return e;
   unit_ = UnitId{address};
   return {};
 }
 
-Error Client::set_baud(uint32_t baud) {
+rtukit::Status Client::set_baud(uint32_t baud) {
   const int code = code_of_baud(baud);
-  if (code < 0) return Errc::invalid_argument;
-  return master_.write_single_register(unit_, reg::kBaud, static_cast<uint16_t>(code));
+  if (code < 0)
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("baud {}: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200", baud));
+  const std::array<uint16_t, 1> v{static_cast<uint16_t>(code)};
+  return write(reg::kBaud, v);
 }
 
-Error Client::set_control_mask(uint16_t mask) {
-  if (mask > 7) return Errc::invalid_argument;
-  return master_.write_single_register(unit_, reg::kControlMask, mask);
+rtukit::Status Client::set_control_mask(uint16_t mask) {
+  if (rtukit::Status e = argument(reg::control_mask, mask)) return e;
+  const std::array<uint16_t, 1> v{mask};
+  return write(reg::kControlMask, v);
 }
 
-Error Client::set_pairing(uint16_t mode) {
-  if (mode > 2) return Errc::invalid_argument;
-  return master_.write_single_register(unit_, reg::kPairing, mode);
+rtukit::Status Client::set_pairing(uint16_t mode) {
+  if (rtukit::Status e = argument(reg::pairing, mode)) return e;
+  const std::array<uint16_t, 1> v{mode};
+  return write(reg::kPairing, v);
 }
 
 }  // namespace rtukit::inverjet

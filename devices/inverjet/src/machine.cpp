@@ -18,22 +18,13 @@ unsigned plan_length(const Plan& plan) noexcept {
   return n;
 }
 
-std::array<Plan, kPlanCount> Settings::default_plans() noexcept {
-  std::array<Plan, kPlanCount> plans{};
-  for (Plan& p : plans) p[0] = Segment{20, 60};  // D-11: one minute at 20 %
-  return plans;
-}
-
-bool Settings::valid() const noexcept {
-  if (address < 1 || address > 254 || baud_code > 4 || control_mask > 7) return false;
-  if (free_speed > kMaxSpeed || timer_speed > kMaxSpeed || free_time > kMaxTime || timer_time > kMaxTime)
-    return false;
-  for (const Plan& p : plans) {
-    for (const Segment& s : p) {
-      if (s.speed > kMaxSpeed || s.end > kMaxTime) return false;
-    }
-  }
-  return true;
+Plan default_plan() noexcept {
+  Plan p{};
+  const Row& speed = kMap.row(reg::plan_speed(1));
+  const Row& end = kMap.row(reg::plan_end(1));
+  for (unsigned k = 0; k < kSegmentsPerPlan; ++k)
+    p[k] = Segment{static_cast<uint16_t>(speed.default_of(k)), static_cast<uint16_t>(end.default_of(k))};
+  return p;
 }
 
 // A write to the control registers 0x0021..0x0024, then what it means.
@@ -46,9 +37,8 @@ struct Machine::Control {
   uint16_t new_mode = 0;
 };
 
-Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& motor,
-                 const Versions& versions) noexcept
-    : settings_(settings),
+Machine::Machine(uint64_t now_ms, const MotorModel& motor, const Versions& versions) noexcept
+    : Model(kProfile, words),
       motor_(motor),
       versions_(versions),
       now_(now_ms),
@@ -56,83 +46,55 @@ Machine::Machine(const Settings& settings, uint64_t now_ms, const MotorModel& mo
       motor_c_(motor.ambient_c),
       mains_v_(motor.mains_bus_v) {}
 
+Plan Machine::plan(unsigned n) const noexcept {
+  Plan p{};
+  for (unsigned k = 0; k < kSegmentsPerPlan; ++k)
+    p[k] = Segment{stored(reg::plan_speed(n), k), stored(reg::plan_end(n), k)};
+  return p;
+}
+
+std::optional<profile::LinkDefaults> Machine::stored_link() const noexcept {
+  profile::LinkDefaults link = kProfile.link;
+  link.unit = static_cast<uint8_t>(stored(reg::address));
+  link.baud = baud_of_code(stored(reg::baud));
+  return link;
+}
+
+Error Machine::override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept {
+  if (unit && (*unit < 1 || *unit > 254))
+    return Error(Errc::invalid_argument, "the Inverjet's address is 1..254");
+  if (baud && code_of_baud(*baud) < 0)
+    return Error(Errc::invalid_argument, "the Inverjet runs at 1200, 2400, 4800, 9600 or 19200 baud");
+  if (unit) image().set(reg::address, *unit);
+  if (baud) image().set(reg::baud, code_of_baud(*baud));
+  return Errc::ok;
+}
+
 // ---------------------------------------------------------------- reads
 
-uint16_t Machine::holding_value(uint16_t address) const noexcept {
-  switch (address) {
-    case reg::kAddress:
-      return settings_.address;
-    case reg::kBaud:
-      return settings_.baud_code;
-    case reg::kControlMask:
-      return settings_.control_mask;
-    case reg::kPairing:
-      return pairing_;
-    case reg::kPoleCount:
-      return 5;
-    case reg::kWorkMode:
-      return mode_;
-    case reg::kState:
-      return state();
-    case reg::kSpeed:
-      return speed_;
-    case reg::kRunTime:
-      return time_s_;
-    case reg::kFreeSpeed:
-      return settings_.free_speed;
-    case reg::kFreeTime:
-      return settings_.free_time;
-    case reg::kTimerSpeed:
-      return settings_.timer_speed;
-    case reg::kTimerTime:
-      return settings_.timer_time;
-    default:
-      break;
+// The live values the image shows: the state machine's registers and the
+// input registers (versions, faults, the motor and thermal model).
+void Machine::refresh(Space space) noexcept {
+  profile::Image& im = image();
+  if (space == Space::holding) {
+    im.set(reg::pairing, pairing_);
+    im.set(reg::work_mode, mode_);
+    im.set(reg::state, state());
+    im.set(reg::speed, speed_);
+    im.set(reg::run_time, time_s_);
+    return;
   }
-  // Plan registers: 0x0100 + 0x80 * (plan - 1) + 2k (+1 for the end time).
-  const unsigned plan = (address - 0x0100U) / 0x80U;
-  const unsigned offset = (address - 0x0100U) % 0x80U;
-  const Segment& s = settings_.plans[plan][offset / 2];
-  return offset % 2 ? s.end : s.speed;
-}
-
-Errc Machine::read_holding(uint16_t address, std::span<uint16_t> out) const noexcept {
-  for (size_t i = 0; i < out.size(); ++i) {
-    if (!find_register(Table::holding, static_cast<uint16_t>(address + i))) return Errc::illegal_data_address;
-  }
-  for (size_t i = 0; i < out.size(); ++i) out[i] = holding_value(static_cast<uint16_t>(address + i));
-  return Errc::ok;
-}
-
-Errc Machine::read_input(uint16_t address, std::span<uint16_t> out) const noexcept {
-  if (size_t{address} + out.size() > reg::kInputCount) return Errc::illegal_data_address;
-  const auto clamp16 = [](double v) {
-    return static_cast<uint32_t>(std::clamp(std::lround(v), 0L, 0xFFFFL));
-  };
-  const uint32_t rpm_x_poles =
-      static_cast<uint32_t>(std::lround(motor_pct_ / 100.0 * motor_.full_speed_rpm * 5));
-  const uint32_t current = static_cast<uint32_t>(std::lround(motor_current() * 100));
-  const std::array<uint32_t, 17> words = {
-      versions_.display_software >> 16,
-      versions_.display_software & 0xFFFF,
-      versions_.display_hardware >> 16,
-      versions_.display_hardware & 0xFFFF,
-      versions_.driver_software >> 16,
-      versions_.driver_software & 0xFFFF,
-      versions_.driver_hardware >> 16,
-      versions_.driver_hardware & 0xFFFF,
-      faults(),
-      0,
-      clamp16(mosfet_c_ * 10),
-      clamp16(motor_c_ * 10),
-      current >> 16,
-      current & 0xFFFF,
-      rpm_x_poles >> 16,
-      rpm_x_poles & 0xFFFF,
-      clamp16(bus_voltage() * 10),
-  };
-  for (size_t i = 0; i < out.size(); ++i) out[i] = static_cast<uint16_t>(words[address + i]);
-  return Errc::ok;
+  const auto clamp16 = [](double v) { return std::clamp(std::lround(v), 0L, 0xFFFFL); };
+  im.set(reg::display_software, versions_.display_software);
+  im.set(reg::display_hardware, versions_.display_hardware);
+  im.set(reg::driver_software, versions_.driver_software);
+  im.set(reg::driver_hardware, versions_.driver_hardware);
+  im.set(reg::faults, faults());
+  im.set(reg::mosfet_temperature, clamp16(mosfet_c_ * 10));
+  im.set(reg::motor_temperature, clamp16(motor_c_ * 10));
+  im.set(reg::motor_current, std::lround(motor_current() * 100));
+  im.set(reg::motor_speed, std::lround(motor_pct_ / 100.0 * motor_.full_speed_rpm * stored(reg::pole_count)));
+  im.set(reg::bus_voltage, clamp16(bus_voltage() * 10));
 }
 
 double Machine::motor_current() const noexcept {
@@ -147,95 +109,39 @@ double Machine::bus_voltage() const noexcept {
 
 // ---------------------------------------------------------------- writes
 
-Errc Machine::write_holding(uint16_t address, std::span<const uint16_t> values) noexcept {
-  // Validate the whole request before touching anything (all or nothing).
-  bool control = false;
-  for (size_t i = 0; i < values.size(); ++i) {
-    const Register* r = find_register(Table::holding, static_cast<uint16_t>(address + i));
-    if (!r) return Errc::illegal_data_address;  // D-8
-    control = control || r->control;
-  }
-  for (size_t i = 0; i < values.size(); ++i) {
-    const Register* r = find_register(Table::holding, static_cast<uint16_t>(address + i));
-    if (Errc e = check_write(*r, values[i]); e != Errc::ok) return e;
-  }
-  if (control && (settings_.control_mask & 0x2)) return Errc::server_device_failure;  // D-5
-
+// The map has checked every address and value (02, 03); what is left is
+// behaviour, decided in full before anything changes (all or nothing).
+Error Machine::apply_write(Space space, uint16_t address, std::span<const uint16_t> values) noexcept {
   Control c;
-  for (size_t i = 0; i < values.size(); ++i) {
-    switch (address + i) {
-      case reg::kWorkMode:
-        c.mode = values[i];
-        break;
-      case reg::kState:
-        c.state = values[i];
-        break;
-      case reg::kSpeed:
-        c.speed = values[i];
-        break;
-      case reg::kRunTime:
-        c.time = values[i];
-        break;
-      default:
-        break;
-    }
-  }
+  bool masked = false;
+  const auto written = [&](profile::Handle h) -> std::optional<uint16_t> {
+    const uint16_t a = reg::at(h);
+    if (a < address || a >= address + values.size()) return std::nullopt;
+    return values[a - address];
+  };
+  for (size_t i = 0; i < values.size(); ++i)
+    masked = masked || kMap.at(space, static_cast<uint16_t>(address + i)).row->has(kMasked);
+  if (masked && (stored(reg::control_mask) & 0x2))
+    return Error(Errc::server_device_failure, "control is masked (control mask bit 1, D-5)");
+  c.mode = written(reg::work_mode);
+  c.state = written(reg::state);
+  c.speed = written(reg::speed);
+  c.time = written(reg::run_time);
   const bool has_control = c.mode || c.state || c.speed || c.time;
   if (has_control) {
     if (Errc e = plan_control(c, &c); e != Errc::ok) return e;
   }
 
-  // Apply.
-  const Settings before = settings_;
-  for (size_t i = 0; i < values.size(); ++i) {
-    const auto a = static_cast<uint16_t>(address + i);
-    const uint16_t v = values[i];
-    switch (a) {
-      case reg::kAddress:
-        if (v != settings_.address) link_change_.address = static_cast<uint8_t>(v);
-        settings_.address = v;
-        break;
-      case reg::kBaud:
-        if (v != settings_.baud_code) link_change_.baud = baud_of_code(v);
-        settings_.baud_code = v;
-        break;
-      case reg::kControlMask:
-        settings_.control_mask = v;
-        break;
-      case reg::kPairing:  // D-6
-        pairing_ = v;
-        pairing_until_ = v ? now_ + kPairingWindowMs : 0;
-        break;
-      case reg::kPoleCount:
-        break;  // D-7: only 5 gets here
-      case reg::kWorkMode:
-      case reg::kState:
-      case reg::kSpeed:
-      case reg::kRunTime:
-        break;  // below, as one control write
-      case reg::kFreeSpeed:
-        settings_.free_speed = v;
-        break;
-      case reg::kFreeTime:
-        settings_.free_time = v;
-        break;
-      case reg::kTimerSpeed:
-        settings_.timer_speed = v;
-        break;
-      case reg::kTimerTime:
-        settings_.timer_time = v;
-        break;
-      default: {
-        const unsigned plan = (a - 0x0100U) / 0x80U;
-        const unsigned offset = (a - 0x0100U) % 0x80U;
-        Segment& s = settings_.plans[plan][offset / 2];
-        (offset % 2 ? s.end : s.speed) = v;
-        break;
-      }
-    }
+  // Apply: stored registers take the values; the rest is behaviour.
+  if (const auto a = written(reg::address); a && *a != stored(reg::address))
+    link_change_.address = static_cast<uint8_t>(*a);
+  if (const auto b = written(reg::baud); b && *b != stored(reg::baud)) link_change_.baud = baud_of_code(*b);
+  if (const auto p = written(reg::pairing)) {  // D-6
+    pairing_ = *p;
+    pairing_until_ = *p ? now_ + kPairingWindowMs : 0;
   }
+  image().write(space, address, values);
   if (has_control) apply_control(c);
-  if (!(settings_ == before)) settings_changed_ = true;
   return Errc::ok;
 }
 
@@ -365,12 +271,10 @@ void Machine::apply_control(const Control& c) noexcept {
   // Flash memory rule (seed 3.2.3.4): mode 0, state initial after the write,
   // and the write carried speed/time -> they become that mode's memory.
   if (mode_ == 0 && phase_ == Phase::initial && (c.speed || c.time)) {
-    if (family_ == Family::free) {
-      if (c.speed) settings_.free_speed = *c.speed;
-      if (c.time) settings_.free_time = *c.time;
-    } else if (family_ == Family::timer) {
-      if (c.speed) settings_.timer_speed = *c.speed;
-      if (c.time) settings_.timer_time = *c.time;
+    const bool timer = family_ == Family::timer;
+    if (family_ == Family::free || timer) {
+      if (c.speed) image().set(timer ? reg::timer_speed : reg::free_speed, *c.speed);
+      if (c.time) image().set(timer ? reg::timer_time : reg::free_time, *c.time);
     }
   }
 }
@@ -382,8 +286,8 @@ void Machine::start(Family family, Phase phase, const Control& c) noexcept {
   override_segment_ = -1;
   switch (family) {
     case Family::timer:
-      time_s_ = c.time.value_or(settings_.timer_time);
-      speed_ = c.speed.value_or(settings_.timer_speed);
+      time_s_ = c.time.value_or(stored(reg::timer_time));
+      speed_ = c.speed.value_or(stored(reg::timer_speed));
       break;
     case Family::training:
       time_s_ = c.time.value_or(0);  // "start P1 at 12:00"
@@ -396,8 +300,8 @@ void Machine::start(Family family, Phase phase, const Control& c) noexcept {
       }
       break;
     default:
-      time_s_ = c.time.value_or(settings_.free_time);
-      speed_ = c.speed.value_or(settings_.free_speed);
+      time_s_ = c.time.value_or(stored(reg::free_time));
+      speed_ = c.speed.value_or(stored(reg::free_speed));
       break;
   }
   enter(phase);
@@ -430,10 +334,10 @@ void Machine::enter(Phase phase) noexcept {
 // Training: the segment whose end time has not passed decides the speed.
 void Machine::update_plan_speed() noexcept {
   if (mode_ < 1 || mode_ > kPlanCount) return;
-  const Plan& plan = settings_.plans[mode_ - 1];
-  const unsigned length = plan_length(plan);
+  const Plan current = plan(mode_);
+  const unsigned length = plan_length(current);
   unsigned seg = 0;
-  while (seg < length && plan[seg].end <= time_s_) ++seg;
+  while (seg < length && current[seg].end <= time_s_) ++seg;
   if (seg != segment_) {
     segment_ = seg;
     override_segment_ = -1;
@@ -442,7 +346,7 @@ void Machine::update_plan_speed() noexcept {
     if (phase_ == Phase::starting || phase_ == Phase::running) phase_ = Phase::ended;
     return;
   }
-  if (override_segment_ != static_cast<int>(seg)) speed_ = plan[seg].speed;
+  if (override_segment_ != static_cast<int>(seg)) speed_ = current[seg].speed;
 }
 
 // ---------------------------------------------------------------- time

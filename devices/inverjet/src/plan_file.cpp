@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/profile/text.hpp"
 
 namespace rtukit::inverjet {
 namespace {
@@ -29,7 +30,7 @@ bool make_segment(std::string_view speed_text, std::string_view end_text, const 
     *why = fmt::format("{}: speed {} % is out of range 0..100", where, speed);
     return false;
   }
-  const Result<uint32_t> end = parse_time(end_text);
+  const Result<uint32_t> end = profile::parse_mm_ss(end_text);
   if (!end.ok()) {
     *why = fmt::format("{}: end time '{}' is not mm:ss or seconds", where, end_text);
     return false;
@@ -58,7 +59,7 @@ bool check_order(const std::vector<Segment>& segments, const std::vector<std::st
   for (size_t i = 0; i < segments.size(); ++i) {
     if (segments[i].end <= previous) {
       *why = fmt::format("{}: end {} is not after {} (end times must increase)", where[i],
-                         format_mm_ss(segments[i].end), format_mm_ss(previous));
+                         profile::format_mm_ss(segments[i].end), profile::format_mm_ss(previous));
       return false;
     }
     previous = segments[i].end;
@@ -68,7 +69,7 @@ bool check_order(const std::vector<Segment>& segments, const std::vector<std::st
 
 }  // namespace
 
-Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why) {
+Outcome<std::vector<Segment>> parse_plan(std::string_view text) {
   std::string reason;
   std::vector<Segment> segments;
   std::vector<std::string> where;
@@ -123,16 +124,13 @@ Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why)
     }
   }
   if (reason.empty()) check_order(segments, where, &reason);
-  if (!reason.empty()) {
-    if (why) *why = reason;
-    return Errc::invalid_argument;
-  }
+  if (!reason.empty()) return rtukit::Status(Errc::invalid_argument, reason);
   return segments;
 }
 
 std::string plan_to_csv(const std::vector<Segment>& segments) {
   std::string out = "speed,end\n";
-  for (const Segment& s : segments) out += fmt::format("{},{}\n", s.speed, format_mm_ss(s.end));
+  for (const Segment& s : segments) out += fmt::format("{},{}\n", s.speed, profile::format_mm_ss(s.end));
   return out;
 }
 

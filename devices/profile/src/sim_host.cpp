@@ -130,6 +130,14 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   return host;
 }
 
+std::string SimHost::banner() const {
+  const Profile& p = device_.model->profile();
+  return fmt::format("{} simulator: unit {}, {} baud, time x{:g}, state {}{}\nlistening on {}", p.title,
+                     unit_, baud(), options_.time_scale,
+                     options_.state_file.empty() ? "not saved" : options_.state_file, device_.banner,
+                     where());
+}
+
 std::string SimHost::where() const {
   return listener_->where();
 }
@@ -154,6 +162,7 @@ void SimHost::after_response() {
   }
   if (change.baud) {
     const Error e = listener_->set_baud(*change.baud);
+    if (!e) options_.listen.serial.baud = *change.baud;
     notice(e ? fmt::format("cannot switch to {} baud: {}", *change.baud, e.name())
              : fmt::format("baud rate changed to {}", *change.baud));
   }
@@ -201,7 +210,6 @@ std::string SimHost::command(std::string_view line) {
     return "bye";
   }
   if (verb == "status") {
-    if (device_.status) return device_.status();
     std::string out =
         fmt::format("device time {} (x{:g})\n", format_mm_ss(static_cast<unsigned>(device_ms() / 1000)),
                     options_.time_scale);
@@ -211,6 +219,7 @@ std::string SimHost::command(std::string_view line) {
       if (m.read(r.space, r.address, std::span<uint16_t>(w.data(), r.words())) != Errc::ok) continue;
       out += fmt::format("  {:<32} {}\n", r.title, format_value(r, RegisterMap::decode(r, w)));
     }
+    if (device_.status_extra) out += device_.status_extra();
     return out;
   }
   if (verb == "registers") {

@@ -28,13 +28,6 @@ std::string with_unit(std::string text, std::string_view unit) {
   return text + " " + std::string(unit);
 }
 
-std::string_view name_of(const Row& row, int64_t value) {
-  for (const Named& n : row.names) {
-    if (n.value == value) return n.name;
-  }
-  return {};
-}
-
 std::string trim(std::string_view s) {
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.remove_prefix(1);
   while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.remove_suffix(1);
@@ -94,6 +87,13 @@ Outcome<int64_t> checked(const Row& row, int64_t raw, std::string_view typed) {
 }
 
 }  // namespace
+
+std::string_view name_of(const Row& row, int64_t value) noexcept {
+  for (const Named& n : row.names) {
+    if (n.value == value) return n.name;
+  }
+  return {};
+}
 
 std::string fold_name(std::string_view name) {
   std::string out;
@@ -255,6 +255,16 @@ Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
     }
   }
   return not_a("a value");
+}
+
+Status check_argument(const Row& row, int64_t raw) {
+  const std::string typed = row.encoding == Encoding::duration
+                                ? format_mm_ss(static_cast<unsigned>(raw < 0 ? 0 : raw))
+                            : row.scale > 1 ? number_text(row, raw)
+                                            : std::to_string(raw);
+  Outcome<int64_t> r = checked(row, raw, typed);
+  if (r.ok()) return {};
+  return Status(Errc::invalid_argument, std::string(r.error().reason()));
 }
 
 nlohmann::json value_json(const Row& row, int64_t raw) {

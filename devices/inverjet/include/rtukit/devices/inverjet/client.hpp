@@ -1,15 +1,19 @@
 // The typed master API for the Inverjet (host side). Wraps an rtukit::Master:
 // each call is one or two Modbus transactions, and every failure comes back
-// as an rtukit::Error value:
+// as a Status value (the error and its reason):
 //  - a Modbus exception the machine answered (is_exception(): 02 reserved
-//    address, 03 value out of range, 04 control masked or start while faulted),
+//    address, 03 value out of range, 04 with the Inverjet's reason for it:
+//    control masked, the fault screen, or nothing to pause),
 //  - timeout / io_error / not_connected from the link,
-//  - invalid_argument when the call's own arguments are wrong (checked before
-//    anything is sent, so nothing is half-applied).
+//  - invalid_argument when the call's own arguments are wrong, checked
+//    against the register table before anything is sent, so nothing is
+//    half-applied ("speed: 120 is outside 0..100 %").
+// Values are decoded through the register table (scales, word order): the
+// client restates none of them.
 //
 //   rtukit::Master master(rtukit::io::make_link(spec));
 //   rtukit::inverjet::Client jet(master);            // unit 21
-//   if (rtukit::Error e = jet.start_timer(80, 30 * 60)) { ... }
+//   if (rtukit::Status s = jet.start_timer(80, 30 * 60)) { ... s.reason() ... }
 //   auto s = jet.status();  // s->state_name(), s->run_time, s->fault_names()
 #pragma once
 
@@ -23,10 +27,11 @@
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
 
-struct Status {
+struct MachineStatus {
   uint16_t mode = 0;      ///< 0 free & timer, 1..4 plan P1..P4
   uint16_t state = 0;     ///< 0..17
   uint16_t speed = 0;     ///< set speed, %
@@ -48,16 +53,19 @@ struct Status {
   std::vector<std::string_view> fault_names() const;
 };
 
-/// Configuration registers 0x0000..0x0004 and the free/timer memory.
-struct Config {
-  uint16_t address = 0, baud_code = 0, control_mask = 0, pairing = 0, pole_count = 0;
-  uint16_t free_speed = 0, free_time = 0, timer_speed = 0, timer_time = 0;
+/// The configuration: every holding register whose role is `setting`
+/// (address, baud, control mask, pairing, pole count, free/timer memory), in
+/// table order, with its raw value.
+struct ConfigValue {
+  const Row* row;
+  int64_t raw;
 };
+using Config = std::vector<ConfigValue>;
 
-/// Checks a plan for write_plan: 1..50 segments, speeds 0..100, end times
-/// 1..5999 s and strictly increasing. Errors: invalid_argument, `why` names
-/// the segment ("segment 3: end 00:50 is not after 01:00").
-Error validate_plan(std::span<const Segment> segments, std::string* why = nullptr);
+/// Checks a plan for write_plan: 1..50 segments, speeds and end times within
+/// the plan rows' ranges, end times strictly increasing. Errors:
+/// invalid_argument naming the segment ("segment 3: end 00:50 is not after 01:00").
+rtukit::Status validate_plan(std::span<const Segment> segments);
 
 class Client {
  public:
@@ -68,51 +76,53 @@ class Client {
   UnitId unit() const noexcept { return unit_; }
 
   /// Mode, state, speed, time (FC03 0x0021 x4) and the input registers (FC04 0x0000 x17).
-  Result<Status> status();
+  Result<MachineStatus> status();
   Result<Config> config();
 
   /// Free mode at `speed` % (0..100), counting up from the free-mode memory
   /// time. `remember`: start through "initial" (3 s delay) so the machine
   /// saves the speed as free-mode memory (seed 3.2.3.4); else start now.
-  Error start_free(uint16_t speed, bool remember = false);
+  rtukit::Status start_free(uint16_t speed, bool remember = false);
   /// Free mode with the speed and time in the machine's memory.
-  Error start_free_from_memory();
+  rtukit::Status start_free_from_memory();
   /// Timer mode: `duration_s` (1..5999) counting down at `speed` %.
-  Error start_timer(uint16_t speed, uint16_t duration_s, bool remember = false);
+  rtukit::Status start_timer(uint16_t speed, uint16_t duration_s, bool remember = false);
   /// Training plan `plan` (1..4) from `from_s` into the plan (0..5999); the
   /// plan decides the speed. Errors: invalid_argument when the plan is empty
   /// or `from_s` is at or after its end (nothing would run).
-  Error start_plan(unsigned plan, uint16_t from_s = 0);
+  rtukit::Status start_plan(unsigned plan, uint16_t from_s = 0);
   /// Pauses the run (any family). The machine answers 04 when nothing runs.
-  Error pause();
+  rtukit::Status pause();
   /// Resumes a paused run. invalid_argument when nothing is paused.
-  Error resume();
+  rtukit::Status resume();
   /// Stops the motor and turns the machine off (state 0).
-  Error stop();
+  rtukit::Status stop();
   /// The running speed, 0..100 %.
-  Error set_speed(uint16_t speed);
+  rtukit::Status set_speed(uint16_t speed);
 
   /// The plan's valid segments (up to the first non-increasing end time).
-  Result<std::vector<Segment>> read_plan(unsigned plan);
+  Outcome<std::vector<Segment>> read_plan(unsigned plan);
   /// Writes `segments` (validate_plan) plus a terminating 0/0 segment when
   /// fewer than 50, in one FC10 (at most 100 registers: within the 123 limit).
-  Error write_plan(unsigned plan, std::span<const Segment> segments);
+  rtukit::Status write_plan(unsigned plan, std::span<const Segment> segments);
   /// Back to the factory plan (one minute at 20 %, D-11), all 50 segments.
-  Error clear_plan(unsigned plan);
+  rtukit::Status clear_plan(unsigned plan);
 
   /// New slave address 1..254. The machine answers from the old address,
   /// then moves; on success this client follows it.
-  Error set_address(uint8_t address);
+  rtukit::Status set_address(uint8_t address);
   /// New baud rate (1200, 2400, 4800, 9600, 19200). The machine switches after
   /// answering; the caller must reopen its link at the new rate.
-  Error set_baud(uint32_t baud);
+  rtukit::Status set_baud(uint32_t baud);
   /// Control mask 0..7 (bit0 Bluetooth, bit1 Modbus-RS485, bit2 Wi-Fi).
-  Error set_control_mask(uint16_t mask);
+  rtukit::Status set_control_mask(uint16_t mask);
   /// Pairing window: 0 none, 1 Wi-Fi, 2 remote control (closes after 60 s).
-  Error set_pairing(uint16_t mode);
+  rtukit::Status set_pairing(uint16_t mode);
 
  private:
-  Error write(uint16_t address, std::span<const uint16_t> values);
+  rtukit::Status write(uint16_t address, std::span<const uint16_t> values);
+  /// A failed request, with the Inverjet's reason for an exception 04 (one more look says which).
+  rtukit::Status explain(Error e);
   Master& master_;
   UnitId unit_;
 };

@@ -3,10 +3,13 @@
 // simulator (or a test) passes device time in milliseconds, so a 30-minute
 // timer run is tested in microseconds of real time.
 //
-// Modbus side: read_holding / read_input / write_holding follow the register
-// table (registers.hpp) and answer with the exception the spec asks for.
-// Physical side: faults, temperatures and mains voltage are injected by the
-// simulator's console.
+// Modbus side: a profile::Model. The register map (registers.hpp) decides
+// which addresses exist and which values a row accepts (02, 03, all or
+// nothing); the stored registers (settings, memories, plans) live in the
+// model's Image; this class adds only behaviour: the state machine, the
+// control mask (04), the flash rule, the pairing window, link changes, the
+// motor and thermal model. Physical side: faults, temperatures and mains
+// voltage are injected by the simulator's console.
 //
 // Decisions the spec left open are listed in docs/inverjet.md ("Behaviour
 // decisions"); the code below cites them as B-n.
@@ -20,6 +23,7 @@
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
+#include "rtukit/devices/profile/model.hpp"
 
 namespace rtukit::inverjet {
 
@@ -33,23 +37,8 @@ using Plan = std::array<Segment, kSegmentsPerPlan>;
 /// Number of segments that run: the list ends at the first end time that is
 /// not greater than the previous one (the first must be > 0), or after 50.
 unsigned plan_length(const Plan& plan) noexcept;
-
-/// What the machine keeps in flash.
-struct Settings {
-  uint16_t address = kDefaultAddress;
-  uint16_t baud_code = 3;
-  uint16_t control_mask = 0;
-  uint16_t free_speed = 50;
-  uint16_t free_time = 0;
-  uint16_t timer_speed = 50;
-  uint16_t timer_time = 1800;
-  std::array<Plan, kPlanCount> plans = default_plans();
-
-  static std::array<Plan, kPlanCount> default_plans() noexcept;
-  /// Every field within its register's range (a loaded file is checked with this).
-  bool valid() const noexcept;
-  friend bool operator==(const Settings&, const Settings&) = default;
-};
+/// A plan as the table's defaults make it (D-11: one minute at 20 %).
+Plan default_plan() noexcept;
 
 /// Motor and thermal constants. Defaults make a plausible 3 kW pump.
 struct MotorModel {
@@ -79,30 +68,32 @@ struct Versions {
   uint32_t driver_hardware = 0x00010000;
 };
 
-class Machine {
+class Machine final : private profile::ImageStorage<kMap.image_size()>, public profile::Model {
  public:
   static constexpr uint32_t kInitialDelayMs = 3000;
   static constexpr uint32_t kPairingWindowMs = 60000;
 
-  /// Power-on (D-12): off, mode 0, speed 0, time 0, at device time `now_ms`.
-  explicit Machine(const Settings& settings = {}, uint64_t now_ms = 0, const MotorModel& motor = {},
-                   const Versions& versions = {}) noexcept;
+  /// Power-on (D-12): off, mode 0, speed 0, time 0, at device time `now_ms`,
+  /// every stored register at its default (load a state file into image()).
+  explicit Machine(uint64_t now_ms = 0, const MotorModel& motor = {}, const Versions& versions = {}) noexcept;
 
   // ---- clock ----
   /// Runs the model up to `now_ms` (device time). Earlier times are ignored.
-  void advance_to(uint64_t now_ms) noexcept;
+  void advance_to(uint64_t now_ms) noexcept override;
   uint64_t now_ms() const noexcept { return now_; }
 
   // ---- Modbus side (RegisterBank semantics: all or nothing) ----
   /// FC03. Errors: illegal_data_address for any reserved address in the range.
-  Errc read_holding(uint16_t address, std::span<uint16_t> out) const noexcept;
+  Errc read_holding(uint16_t address, std::span<uint16_t> out) { return read(Space::holding, address, out); }
   /// FC04. Errors: illegal_data_address past 0x0010.
-  Errc read_input(uint16_t address, std::span<uint16_t> out) const noexcept;
+  Errc read_input(uint16_t address, std::span<uint16_t> out) { return read(Space::input, address, out); }
   /// FC06/FC10 at the current device time. Errors: 02 reserved address,
   /// 03 value out of range (or state 17, pole count other than 5, a training
   /// state with no plan selected), 04 control masked (D-5), start while
   /// faulted, pause when nothing runs. Nothing changes unless it returns ok.
-  Errc write_holding(uint16_t address, std::span<const uint16_t> values) noexcept;
+  Errc write_holding(uint16_t address, std::span<const uint16_t> values) {
+    return write(Space::holding, address, values);
+  }
 
   // ---- physical side (console) ----
   /// Fault bits injected from outside (0 clears them). Bits 9..15 are ignored.
@@ -131,17 +122,21 @@ class Machine {
   double bus_voltage() const noexcept;
   /// Segment (0-based) the training run is in; meaningful in the training family.
   unsigned segment() const noexcept { return segment_; }
-  const Settings& settings() const noexcept { return settings_; }
+  /// A stored register (setting, memory, plan entry), as the image holds it.
+  uint16_t stored(profile::Handle h, unsigned index = 0) const noexcept { return image().u16(h, index); }
+  /// Training plan `n` (1..4) as the image holds it.
+  Plan plan(unsigned n) const noexcept;
 
-  // ---- for the simulator's driver ----
-  /// Persisted settings changed since the last call (save them).
-  bool take_settings_changed() noexcept { return std::exchange(settings_changed_, false); }
+  // ---- for the simulator host ----
   /// A written address or baud code waiting to take effect after the response.
-  struct LinkChange {
-    std::optional<uint8_t> address;
-    std::optional<uint32_t> baud;
-  };
-  LinkChange take_link_change() noexcept { return std::exchange(link_change_, {}); }
+  profile::LinkChange take_link_change() noexcept override { return std::exchange(link_change_, {}); }
+  std::optional<profile::LinkDefaults> stored_link() const noexcept override;
+  /// Errors: invalid_argument for an address outside 1..254 or a baud rate with no code.
+  Error override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept override;
+
+ protected:
+  void refresh(Space space) noexcept override;
+  Error apply_write(Space space, uint16_t address, std::span<const uint16_t> values) noexcept override;
 
  private:
   struct Control;  // a decoded write to 0x0021..0x0024
@@ -158,9 +153,7 @@ class Machine {
     return phase_ == Phase::initial || phase_ == Phase::starting || phase_ == Phase::running ||
            phase_ == Phase::paused;
   }
-  uint16_t holding_value(uint16_t address) const noexcept;
 
-  Settings settings_;
   MotorModel motor_;
   Versions versions_;
   uint64_t now_ = 0;
@@ -185,8 +178,7 @@ class Machine {
   double motor_c_;
   double mains_v_;
 
-  bool settings_changed_ = false;
-  LinkChange link_change_{};
+  profile::LinkChange link_change_{};
 };
 
 }  // namespace rtukit::inverjet

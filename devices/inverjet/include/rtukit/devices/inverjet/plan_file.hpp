@@ -11,12 +11,13 @@
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
 
 /// Parses and validates (validate_plan) a plan. Errors: invalid_argument,
-/// with `why` naming the line (CSV) or entry (JSON): "line 3: end 00:50 is not after 01:00".
-Result<std::vector<Segment>> parse_plan(std::string_view text, std::string* why = nullptr);
+/// the reason naming the line (CSV) or entry (JSON): "line 3: end 00:50 is not after 01:00".
+Outcome<std::vector<Segment>> parse_plan(std::string_view text);
 
 /// The plan as CSV with a header (what `plan show` prints; parse_plan reads it back).
 std::string plan_to_csv(const std::vector<Segment>& segments);

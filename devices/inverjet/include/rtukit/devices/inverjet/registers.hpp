@@ -1,8 +1,12 @@
-// Inverjet register map, as data. This table is the single source of truth:
-// the simulator validates writes with it, the CLI and the typed client decode
-// values with it, and `rtukit inverjet registers` prints the reference in
+// Inverjet register map, as data: the single source of truth. The model
+// validates and stores with it, the typed client, the CLI and the
+// simulator's console decode with it, the state file keeps its persisted
+// rows, and `rtukit inverjet registers` prints the reference in
 // docs/inverjet.md from it. Read it like the device manual
 // (../shared/spec/inverjet.md, seed 002 section 3).
+//
+// Adding a register is one row here (plus the model line that uses it, if
+// it has behaviour); a persisted setting is one row with `kPersisted`.
 #pragma once
 
 #include <cstdint>
@@ -11,8 +15,15 @@
 #include <string_view>
 
 #include "rtukit/core/error.hpp"
+#include "rtukit/devices/profile/register_map.hpp"
 
 namespace rtukit::inverjet {
+
+using profile::Encoding;
+using profile::Named;
+using profile::Role;
+using profile::Row;
+using profile::Space;
 
 /// Default link settings (spec D-1, D-2).
 inline constexpr uint8_t kDefaultAddress = 21;
@@ -22,89 +33,326 @@ inline constexpr unsigned kSegmentsPerPlan = 50;
 inline constexpr uint16_t kMaxTime = 5999;  ///< seconds (99:59), every time register
 inline constexpr uint16_t kMaxSpeed = 100;  ///< percent
 
-enum class Table : uint8_t { holding, input };
+/// The Inverjet's own row flag: masked by control-mask bit 1 (D-5).
+inline constexpr profile::Flags kMasked = 1U << 1;
 
-/// How a raw value reads to a person.
-enum class Format : uint8_t {
-  number,   ///< plain unsigned, with the unit
-  seconds,  ///< shown as mm:ss
-  choice,   ///< one of `choices`
-  bits,     ///< bit set; `choices` names the bits (value = bit number)
-  version,  ///< u32: high word major, low word minor ("V1.2")
-  scaled,   ///< value / `scale` in `unit`
+namespace detail {
+inline constexpr Named kBaudCodes[] = {{0, "1200"}, {1, "2400"}, {2, "4800"}, {3, "9600"}, {4, "19200"}};
+inline constexpr Named kMaskBits[] = {{0, "Bluetooth"}, {1, "Modbus-RS485"}, {2, "Wi-Fi"}};
+inline constexpr Named kPairing[] = {{0, "none"}, {1, "Wi-Fi pairing"}, {2, "remote-control pairing"}};
+inline constexpr Named kModes[] = {
+    {0, "free & timer"}, {1, "plan P1"}, {2, "plan P2"}, {3, "plan P3"}, {4, "plan P4"}};
+inline constexpr Named kStates[] = {
+    {0, "off"},
+    {1, "free initial"},
+    {2, "free starting"},
+    {3, "free running"},
+    {4, "free paused"},
+    {5, "free ended"},
+    {6, "timer initial"},
+    {7, "timer starting"},
+    {8, "timer running"},
+    {9, "timer paused"},
+    {10, "timer ended"},
+    {11, "training initial"},
+    {12, "training starting"},
+    {13, "training running"},
+    {14, "training paused"},
+    {15, "training ended"},
+    {16, "operation menu"},
+    {17, "fault screen"},
 };
-
-struct Range {
-  uint16_t min = 0;
-  uint16_t max = 0xFFFF;
+inline constexpr Named kFaultBits[] = {
+    {0, "voltage"},
+    {1, "output over-current"},
+    {2, "current-sensor bias"},
+    {3, "MOSFET over-temperature"},
+    {4, "enclosure over-temperature"},
+    {5, "temperature sensor 1"},
+    {6, "temperature sensor 2"},
+    {7, "motor drive"},
+    {8, "driver-board communication"},
 };
+inline constexpr profile::Range kPercent{0, kMaxSpeed};
+inline constexpr profile::Range kTime{0, kMaxTime};
+inline constexpr profile::Flags kSaved = profile::kPersisted;
+inline constexpr std::string_view kSpeedNotes = "segment k+1 at +2k, k = 0..49";
+inline constexpr std::string_view kEndNotes =
+    "segment k+1 at +2k; the plan ends at the first end time not greater than the previous one (D-11: a "
+    "fresh "
+    "plan is 60 s at 20 %)";
 
-/// One named value (Format::choice) or bit (Format::bits, value = bit number).
-struct Choice {
-  uint16_t value;
-  std::string_view name;
-};
-
-/// One row of the map. A row may describe a repeated block: `repeat` entries
-/// `stride` registers apart (the 50 segments of a training plan).
-struct Register {
-  Table table;
-  uint16_t address;      ///< first (lowest) address
-  uint16_t words;        ///< 1, or 2 for 32-bit values (high word first, D-9)
-  std::string_view key;  ///< stable identifier: JSON keys, CLI names
-  std::string_view title;
-  bool writable;
-  Format format;
-  std::string_view unit;  ///< "%", "s", "degC", ... or empty
-  uint16_t scale;         ///< Format::scaled divisor (10 = 0.1 units), else 1
-  Range range;            ///< documented range
-  Range writable_range;   ///< what a write may carry (narrower for 0x0004 and 0x0022)
-  uint16_t default_value;
-  uint16_t default_first;  ///< default of the first entry of a repeated block
-  bool persisted;          ///< kept in flash (the simulator's state file)
-  bool control;            ///< masked by control-mask bit 1 (D-5)
-  std::span<const Choice> choices;
-  std::string_view notes;
-  uint16_t repeat = 1;
-  uint16_t stride = 1;
-
-  uint16_t last_address() const noexcept {
-    return static_cast<uint16_t>(address + (repeat - 1) * stride + words - 1);
-  }
-};
+// The two rows of training plan `plan` (1..4): 50 segments of speed, end time.
+constexpr Row plan_speed(unsigned plan, std::string_view key, std::string_view title) {
+  return {.space = Space::holding,
+          .address = static_cast<uint16_t>(0x0100 + 0x80 * (plan - 1)),
+          .key = key,
+          .title = title,
+          .unit = "%",
+          .range = kPercent,
+          .default_value = 0,
+          .default_first = 20,
+          .flags = kSaved | kMasked,
+          .notes = kSpeedNotes,
+          .repeat = kSegmentsPerPlan,
+          .stride = 2};
+}
+constexpr Row plan_end(unsigned plan, std::string_view key, std::string_view title) {
+  return {.space = Space::holding,
+          .address = static_cast<uint16_t>(0x0101 + 0x80 * (plan - 1)),
+          .key = key,
+          .title = title,
+          .encoding = Encoding::duration,
+          .unit = "s",
+          .range = kTime,
+          .default_value = 0,
+          .default_first = 60,
+          .flags = kSaved | kMasked,
+          .notes = kEndNotes,
+          .repeat = kSegmentsPerPlan,
+          .stride = 2};
+}
+constexpr Row input(uint16_t address, std::string_view key, std::string_view title, Encoding encoding,
+                    std::string_view unit = {}, uint16_t scale = 1, std::span<const Named> names = {},
+                    std::string_view notes = {}) {
+  return {.space = Space::input,
+          .address = address,
+          .key = key,
+          .title = title,
+          .role = Role::status,
+          .encoding = encoding,
+          .unit = unit,
+          .scale = scale,
+          .names = names,
+          .notes = notes};
+}
+}  // namespace detail
 
 /// Every row, holding registers first, in address order.
-std::span<const Register> registers() noexcept;
+inline constexpr Row kRows[] = {
+    // ---- holding registers: configuration (never masked, D-5) ----
+    {.space = Space::holding,
+     .address = 0x0000,
+     .key = "address",
+     .title = "slave address",
+     .range = {1, 254},
+     .default_value = kDefaultAddress,
+     .flags = detail::kSaved,
+     .notes = "takes effect after the response to the write"},
+    {.space = Space::holding,
+     .address = 0x0001,
+     .key = "baud",
+     .title = "baud rate code",
+     .encoding = Encoding::choice,
+     .range = {0, 4},
+     .default_value = 3,
+     .flags = detail::kSaved,
+     .names = detail::kBaudCodes,
+     .notes = "takes effect after the response to the write (D-4: 4 = 19200)"},
+    {.space = Space::holding,
+     .address = 0x0002,
+     .key = "control_mask",
+     .title = "control mask",
+     .encoding = Encoding::bits,
+     .range = {0, 7},
+     .default_value = 0,
+     .flags = detail::kSaved,
+     .names = detail::kMaskBits,
+     .notes = "1 = that channel may not control; bit 1 set: control writes get exception 04 (D-5)"},
+    {.space = Space::holding,
+     .address = 0x0003,
+     .key = "pairing",
+     .title = "pairing mode",
+     .encoding = Encoding::choice,
+     .range = {0, 2},
+     .names = detail::kPairing,
+     .notes = "reads the active pairing window, 0 when none; a window closes after 60 s (D-6)"},
+    {.space = Space::holding,
+     .address = 0x0004,
+     .key = "pole_count",
+     .title = "motor pole count",
+     .range = {0, 10},
+     .writable_range = {5, 5},
+     .default_value = 5,
+     .notes = "fixed: writing anything but 5 gets exception 03 (D-7)"},
+    // ---- holding registers: control ----
+    {.space = Space::holding,
+     .address = 0x0021,
+     .key = "work_mode",
+     .title = "work mode",
+     .role = Role::control,
+     .encoding = Encoding::choice,
+     .range = {0, 4},
+     .flags = kMasked,
+     .names = detail::kModes},
+    {.space = Space::holding,
+     .address = 0x0022,
+     .key = "state",
+     .title = "state machine",
+     .role = Role::control,
+     .encoding = Encoding::choice,
+     .range = {0, 17},
+     .writable_range = {0, 16},
+     .flags = kMasked,
+     .names = detail::kStates,
+     .notes = "written phase applies to the mode's family (D-10); 17 is not writable (exception 03)"},
+    {.space = Space::holding,
+     .address = 0x0023,
+     .key = "speed",
+     .title = "current motor speed",
+     .role = Role::control,
+     .unit = "%",
+     .range = detail::kPercent,
+     .flags = kMasked},
+    {.space = Space::holding,
+     .address = 0x0024,
+     .key = "run_time",
+     .title = "current run time",
+     .role = Role::control,
+     .encoding = Encoding::duration,
+     .unit = "s",
+     .range = detail::kTime,
+     .flags = kMasked,
+     .notes = "free and training modes count up, timer mode counts down"},
+    // ---- holding registers: free/timer memory (flash) ----
+    {.space = Space::holding,
+     .address = 0x0080,
+     .key = "free_speed",
+     .title = "free-mode speed",
+     .unit = "%",
+     .range = detail::kPercent,
+     .default_value = 50,
+     .flags = detail::kSaved | kMasked},
+    {.space = Space::holding,
+     .address = 0x0081,
+     .key = "free_time",
+     .title = "free-mode time",
+     .encoding = Encoding::duration,
+     .unit = "s",
+     .range = detail::kTime,
+     .default_value = 0,
+     .flags = detail::kSaved | kMasked},
+    {.space = Space::holding,
+     .address = 0x0082,
+     .key = "timer_speed",
+     .title = "timer-mode speed",
+     .unit = "%",
+     .range = detail::kPercent,
+     .default_value = 50,
+     .flags = detail::kSaved | kMasked},
+    {.space = Space::holding,
+     .address = 0x0083,
+     .key = "timer_time",
+     .title = "timer-mode time",
+     .encoding = Encoding::duration,
+     .unit = "s",
+     .range = detail::kTime,
+     .default_value = 1800,
+     .flags = detail::kSaved | kMasked},
+    // ---- holding registers: training plans ----
+    detail::plan_speed(1, "p1_speed", "P1 segment speed"),
+    detail::plan_end(1, "p1_end", "P1 segment end time"),
+    detail::plan_speed(2, "p2_speed", "P2 segment speed"),
+    detail::plan_end(2, "p2_end", "P2 segment end time"),
+    detail::plan_speed(3, "p3_speed", "P3 segment speed"),
+    detail::plan_end(3, "p3_end", "P3 segment end time"),
+    detail::plan_speed(4, "p4_speed", "P4 segment speed"),
+    detail::plan_end(4, "p4_end", "P4 segment end time"),
+    // ---- input registers (read only) ----
+    detail::input(0x0000, "display_software", "display board software version", Encoding::version),
+    detail::input(0x0002, "display_hardware", "display board hardware version", Encoding::version),
+    detail::input(0x0004, "driver_software", "driver board software version", Encoding::version),
+    detail::input(0x0006, "driver_hardware", "driver board hardware version", Encoding::version),
+    detail::input(0x0008, "faults", "machine fault bits", Encoding::bits, {}, 1, detail::kFaultBits,
+                  "any bit set: fault screen (state 17), motor stops"),
+    detail::input(0x0009, "driver_faults", "driver board fault", Encoding::u16, {}, 1, {}, "unused, reads 0"),
+    detail::input(0x000A, "mosfet_temperature", "MOSFET temperature", Encoding::u16, "degC", 10),
+    detail::input(0x000B, "motor_temperature", "motor temperature", Encoding::u16, "degC", 10),
+    detail::input(0x000C, "motor_current", "motor current", Encoding::u32, "A", 100),
+    detail::input(0x000E, "motor_speed", "motor speed x pole count", Encoding::u32, "rpm", 1, {},
+                  "rpm multiplied by the pole count"),
+    detail::input(0x0010, "bus_voltage", "DC bus voltage", Encoding::u16, "V", 10),
+};
 
-/// The row holding `address` in `table`, or nullptr (a reserved address).
-/// `index` receives the entry within a repeated block (segment number - 1);
-/// `word` which word of a 32-bit value (0 = high).
-const Register* find_register(Table table, uint16_t address, unsigned* index = nullptr,
-                              unsigned* word = nullptr) noexcept;
+inline constexpr profile::FlagName kFlagNames[] = {{profile::kPersisted, "persisted"},
+                                                   {kMasked, "masked-by-control-mask"}};
 
-/// The row named `key` (e.g. "work_mode"), or nullptr.
-const Register* find_register(std::string_view key) noexcept;
+inline constexpr profile::Profile kProfile{
+    .name = "inverjet",
+    .title = "Inverjet counter-current swimming machine",
+    .vendor = "Inverjet",
+    .rows = kRows,
+    .flag_names = kFlagNames,
+    .link = {.unit = kDefaultAddress, .unit_max = 254, .baud = kDefaultBaud, .parity = 'N', .stop_bits = 1},
+    .quirks = {.fc10_without_byte_count = true},
+};
 
-/// Checks one value for a write: ok, or illegal_data_value (03) when outside
-/// the row's writable range.
-Errc check_write(const Register& reg, uint16_t value) noexcept;
+inline constexpr profile::RegisterMap kMap{kRows};
 
-/// Name of a choice value ("timer running") or empty when not listed.
-std::string_view choice_name(const Register& reg, uint16_t value) noexcept;
+/// Registers used by name in code: compile-time handles (a typo does not compile).
+namespace reg {
+using profile::Handle;
+inline constexpr Handle address = kMap.handle("address");
+inline constexpr Handle baud = kMap.handle("baud");
+inline constexpr Handle control_mask = kMap.handle("control_mask");
+inline constexpr Handle pairing = kMap.handle("pairing");
+inline constexpr Handle pole_count = kMap.handle("pole_count");
+inline constexpr Handle work_mode = kMap.handle("work_mode");
+inline constexpr Handle state = kMap.handle("state");
+inline constexpr Handle speed = kMap.handle("speed");
+inline constexpr Handle run_time = kMap.handle("run_time");
+inline constexpr Handle free_speed = kMap.handle("free_speed");
+inline constexpr Handle free_time = kMap.handle("free_time");
+inline constexpr Handle timer_speed = kMap.handle("timer_speed");
+inline constexpr Handle timer_time = kMap.handle("timer_time");
+inline constexpr Handle display_software = kMap.handle("display_software");
+inline constexpr Handle display_hardware = kMap.handle("display_hardware");
+inline constexpr Handle driver_software = kMap.handle("driver_software");
+inline constexpr Handle driver_hardware = kMap.handle("driver_hardware");
+inline constexpr Handle faults = kMap.handle("faults");
+inline constexpr Handle mosfet_temperature = kMap.handle("mosfet_temperature");
+inline constexpr Handle motor_temperature = kMap.handle("motor_temperature");
+inline constexpr Handle motor_current = kMap.handle("motor_current");
+inline constexpr Handle motor_speed = kMap.handle("motor_speed");
+inline constexpr Handle bus_voltage = kMap.handle("bus_voltage");
+/// Speed and end-time rows of plan `plan` (1..4).
+constexpr Handle plan_speed(unsigned plan) noexcept {
+  return Handle{static_cast<uint16_t>(kMap.handle_of(*kMap.find("p1_speed")).row + 2 * (plan - 1))};
+}
+constexpr Handle plan_end(unsigned plan) noexcept {
+  return Handle{static_cast<uint16_t>(plan_speed(plan).row + 1)};
+}
 
-/// A value as a person reads it: "80 %", "30:00", "timer running (8)",
-/// "voltage, motor drive", "V1.2", "31.5 degC".
-std::string format_value(const Register& reg, uint32_t raw);
-
-/// mm:ss for a number of seconds ("30:00", "99:59").
-std::string format_mm_ss(unsigned seconds);
-
-/// Parses "mm:ss", "m:ss" or plain seconds ("1800"). Errors: invalid_argument
-/// for text that is neither; the range (0..5999) is the caller's to check.
-Result<uint32_t> parse_time(std::string_view text) noexcept;
-
-/// The register reference as a Markdown table (docs/inverjet.md).
-std::string registers_markdown();
+/// Raw addresses, for code that speaks Modbus directly (the client's requests).
+constexpr uint16_t at(Handle h) noexcept {
+  return kMap.row(h).address;
+}
+inline constexpr uint16_t kAddress = at(address);
+inline constexpr uint16_t kBaud = at(baud);
+inline constexpr uint16_t kControlMask = at(control_mask);
+inline constexpr uint16_t kPairing = at(pairing);
+inline constexpr uint16_t kPoleCount = at(pole_count);
+inline constexpr uint16_t kWorkMode = at(work_mode);
+inline constexpr uint16_t kState = at(state);
+inline constexpr uint16_t kSpeed = at(speed);
+inline constexpr uint16_t kRunTime = at(run_time);
+inline constexpr uint16_t kFreeSpeed = at(free_speed);
+inline constexpr uint16_t kFreeTime = at(free_time);
+inline constexpr uint16_t kTimerSpeed = at(timer_speed);
+inline constexpr uint16_t kTimerTime = at(timer_time);
+inline constexpr uint16_t kFaults = at(faults);
+inline constexpr uint16_t kMosfetTemperature = at(mosfet_temperature);
+inline constexpr uint16_t kMotorTemperature = at(motor_temperature);
+inline constexpr uint16_t kMotorCurrent = at(motor_current);
+inline constexpr uint16_t kMotorSpeed = at(motor_speed);
+inline constexpr uint16_t kBusVoltage = at(bus_voltage);
+inline constexpr uint16_t kInputCount = kMap.row(bus_voltage).last_address() + 1;  ///< 0x0000..0x0010
+/// First register of plan `plan` (1..4): 0x0100, 0x0180, 0x0200, 0x0280.
+constexpr uint16_t plan_base(unsigned plan) noexcept {
+  return at(plan_speed(plan));
+}
+static_assert(kWorkMode == 0x0021 && kRunTime == 0x0024 && kInputCount == 0x0011 && plan_base(4) == 0x0280);
+}  // namespace reg
 
 // ---- names used by the state machine and the fault register ----
 
@@ -133,43 +381,29 @@ inline constexpr uint16_t kFaultMotorDrive = 1U << 7;
 inline constexpr uint16_t kFaultDriverCommunication = 1U << 8;
 inline constexpr uint16_t kFaultDefinedBits = 0x01FF;
 
-/// The fault bits' names (from the table's row for 0x0008).
-std::span<const Choice> fault_names() noexcept;
-
-// Addresses used by name in code (all described in the table).
-namespace reg {
-inline constexpr uint16_t kAddress = 0x0000;
-inline constexpr uint16_t kBaud = 0x0001;
-inline constexpr uint16_t kControlMask = 0x0002;
-inline constexpr uint16_t kPairing = 0x0003;
-inline constexpr uint16_t kPoleCount = 0x0004;
-inline constexpr uint16_t kWorkMode = 0x0021;
-inline constexpr uint16_t kState = 0x0022;
-inline constexpr uint16_t kSpeed = 0x0023;
-inline constexpr uint16_t kRunTime = 0x0024;
-inline constexpr uint16_t kFreeSpeed = 0x0080;
-inline constexpr uint16_t kFreeTime = 0x0081;
-inline constexpr uint16_t kTimerSpeed = 0x0082;
-inline constexpr uint16_t kTimerTime = 0x0083;
-/// First register of plan `plan` (1..4): 0x0100, 0x0180, 0x0200, 0x0280.
-constexpr uint16_t plan_base(unsigned plan) noexcept {
-  return static_cast<uint16_t>(0x0100 + 0x80 * (plan - 1));
+/// The fault bits' names (the row of 0x0008).
+constexpr std::span<const Named> fault_names() noexcept {
+  return kMap.row(reg::faults).names;
 }
-
-// Input registers.
-inline constexpr uint16_t kDisplaySoftware = 0x0000;
-inline constexpr uint16_t kFaults = 0x0008;
-inline constexpr uint16_t kMosfetTemperature = 0x000A;
-inline constexpr uint16_t kMotorTemperature = 0x000B;
-inline constexpr uint16_t kMotorCurrent = 0x000C;
-inline constexpr uint16_t kMotorSpeed = 0x000E;
-inline constexpr uint16_t kBusVoltage = 0x0010;
-inline constexpr uint16_t kInputCount = 0x0011;  ///< 0x0000..0x0010
-}  // namespace reg
 
 /// Baud code (0x0001) <-> baud rate (D-4: 4 = 19200). 0 for an unknown code.
 uint32_t baud_of_code(uint16_t code) noexcept;
 /// -1 when `baud` has no code.
 int code_of_baud(uint32_t baud) noexcept;
+
+// ---- lookups by the names the rest of the code grew up with ----
+
+/// The row holding `address` in `space`, or nullptr (a reserved address).
+/// `index` receives the entry within a repeated block (segment number - 1).
+inline const Row* find_register(Space space, uint16_t address, unsigned* index = nullptr) noexcept {
+  const profile::Slot s = kMap.at(space, address);
+  if (s && index) *index = s.index;
+  return s.row;
+}
+/// The row named `key` (e.g. "work_mode"), or nullptr.
+inline const Row* find_register(std::string_view key) noexcept {
+  return kMap.find(key);
+}
+using Table = Space;  ///< holding or input
 
 }  // namespace rtukit::inverjet

@@ -119,12 +119,16 @@ class RegisterMap {
   /// writable range or not one of its named choices. Coil values are 0/1.
   constexpr Error check_write(Space space, uint16_t address,
                               std::span<const uint16_t> values) const noexcept {
+    // Every address first (02), then every value (03), as Modbus orders them.
     for (size_t i = 0; i < values.size();) {
       const Slot s = at(space, static_cast<uint16_t>(address + i));
       if (!s || !s.row->writable()) return Error(Errc::illegal_data_address, "no writable register there");
-      const Row& r = *s.row;
-      if (r.words() == 2 && (s.word != 0 || i + 1 >= values.size()))
+      if (s.row->words() == 2 && (s.word != 0 || i + 1 >= values.size()))
         return Error(Errc::illegal_data_address, "a 32-bit value must be written whole");
+      i += s.row->words();
+    }
+    for (size_t i = 0; i < values.size();) {
+      const Row& r = *at(space, static_cast<uint16_t>(address + i)).row;
       if (Error e = check_value(r, decode(r, values.subspan(i, r.words())))) return e;
       i += r.words();
     }

@@ -63,8 +63,11 @@ struct SimOptions {
 struct SimDevice {
   std::unique_ptr<Model> model;
   std::vector<ConsoleVerb> verbs;
-  /// Lines of the console's `status` (default: every status and control row, decoded).
-  std::function<std::string()> status;
+  /// Lines appended to the console's `status` (which prints the device time
+  /// and every readable single row, decoded), e.g. "plan segment 3 of 5".
+  std::function<std::string()> status_extra = {};
+  /// Appended to the start-up line, e.g. ", watchdog 500 ms".
+  std::string banner = {};
 };
 
 class SimHost {
@@ -81,6 +84,10 @@ class SimHost {
   /// Where masters connect (pty path, device, HOST:PORT).
   std::string where() const;
   uint8_t unit() const noexcept { return unit_; }
+  /// The baud rate the link runs at now.
+  uint32_t baud() const noexcept { return options_.listen.serial.baud; }
+  /// The start-up line: "<title> simulator: unit 21, 9600 baud, time x1, state <file>\nlistening on <where>".
+  std::string banner() const;
   uint64_t device_ms() const noexcept { return clock_.now_ms(); }
   /// The model, advanced to now. Only on the io_context's thread.
   Model& model();

@@ -32,6 +32,14 @@ std::string format_value(const Row& row, int64_t raw);
 /// is outside 0..100 %").
 Outcome<int64_t> parse_value(const Row& row, std::string_view text);
 
+/// A caller's argument checked before anything is sent: ok, or
+/// invalid_argument with the row's terms ("speed: 120 is outside 0..100 %",
+/// "baud: 7 is not one of 1200, 2400, ...").
+Status check_argument(const Row& row, int64_t raw);
+
+/// The name of a choice value or bit ("timer running"), or empty when not listed.
+std::string_view name_of(const Row& row, int64_t value) noexcept;
+
 /// The value for JSON: a number in the row's unit (scaled), a choice's name,
 /// an array of bit names, "mm:ss" stays a number of seconds, a version "1.2".
 nlohmann::json value_json(const Row& row, int64_t raw);
