@@ -11,51 +11,11 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "console.hpp"
 #include "rtukit/devices/rehand6600/simulator.hpp"
 
 namespace rtukit::cli {
 namespace {
-
-// Reads console lines from stdin on its own thread and hands each one to the
-// io_context (the simulator is only touched there). Stops through a pipe, so
-// it can be joined even while a read would block.
-class Console {
- public:
-  template <class OnLine>
-  Console(asio::io_context& ctx, OnLine on_line) {
-    if (::pipe(stop_) != 0) return;
-    thread_ = std::thread([this, &ctx, on_line] {
-      std::string pending;
-      char buf[512];
-      for (;;) {
-        pollfd fds[2] = {{STDIN_FILENO, POLLIN, 0}, {stop_[0], POLLIN, 0}};
-        if (::poll(fds, 2, -1) < 0) continue;
-        if (fds[1].revents) return;
-        const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
-        if (n <= 0) return;  // end of input: the simulator keeps running
-        pending.append(buf, static_cast<size_t>(n));
-        for (size_t nl; (nl = pending.find('\n')) != std::string::npos;) {
-          std::string line = pending.substr(0, nl);
-          pending.erase(0, nl + 1);
-          asio::post(ctx, [on_line, line] { on_line(line); });
-        }
-      }
-    });
-  }
-  ~Console() {
-    if (thread_.joinable()) {
-      const char x = 'x';
-      (void)!::write(stop_[1], &x, 1);
-      thread_.join();
-    }
-    ::close(stop_[0]);
-    ::close(stop_[1]);
-  }
-
- private:
-  int stop_[2] = {-1, -1};
-  std::thread thread_;
-};
 
 RequestLog request_logger() {
   return [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
@@ -69,16 +29,17 @@ template <class Sim>
 int serve(asio::io_context& ctx, Sim& s, bool with_console) {
   if (with_console) fmt::print("console: type 'help' for commands\n");
   std::fflush(stdout);
-  asio::signal_set signals(ctx, SIGINT, SIGTERM);
+  ignore_tty_stops();
+  asio::signal_set signals(ctx, SIGINT, SIGTERM, SIGHUP);
   signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
-  std::unique_ptr<Console> console;
+  std::unique_ptr<StdinConsole> console;
   if (with_console) {
-    console = std::make_unique<Console>(ctx, [&s, &ctx](const std::string& line) {
-      const std::string reply = s.command(line);
-      if (!reply.empty()) fmt::print("{}{}", reply, reply.back() == '\n' ? "" : "\n");
-      std::fflush(stdout);
-      if (s.quit_requested()) ctx.stop();
-    });
+    console = std::make_unique<StdinConsole>(
+        ctx, [&s, &ctx](const std::string& line, const std::function<void(std::string)>& reply) {
+          const std::string text = s.command(line);
+          if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
+          if (s.quit_requested()) ctx.stop();
+        });
   }
   ctx.run();
   console.reset();

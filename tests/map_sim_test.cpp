@@ -175,43 +175,60 @@ class InteractiveShell {
   std::string screen_;
 };
 
-TEST(MapSim, BackgroundedInAnInteractiveShellKeepsServingAndEndsOnSigterm) {
+// `sim` is the simulator command without --listen; `read` a command line
+// that reads from it with `TTY` for the port; `expect` what it prints.
+void backgrounded_sim_keeps_serving(const std::string& sim, const std::string& read,
+                                    const std::string& expect) {
   TempDir dir;
   const std::string tty = dir / "tty";
+  const auto with_tty = [&](std::string line) {
+    for (size_t at; (at = line.find("TTY")) != std::string::npos;) line.replace(at, 3, tty);
+    return line;
+  };
   InteractiveShell sh;
   ASSERT_TRUE(sh.ok());
   ASSERT_NE(sh.wait_for("$ "), std::string::npos) << sh.screen();
-  sh.type(kBin + " sim map " + kMap + " --listen pty:" + tty + " --no-state > " + (dir / "sim.log") +
-          " 2>&1 &");
+  sh.type(kBin + " " + sim + " --listen pty:" + tty + " > " + (dir / "sim.log") + " 2>&1 &");
   sh.type("echo sim\"pid=\"$!");  // the typed line (echoed) does not contain the marker
   const size_t at = sh.wait_for("simpid=");
   ASSERT_NE(at, std::string::npos) << sh.screen();
-  const pid_t sim = static_cast<pid_t>(std::stol(sh.screen().substr(at + 7)));
+  const pid_t pid = static_cast<pid_t>(std::stol(sh.screen().substr(at + 7)));
   ASSERT_TRUE(eventually([&] { return read_file(dir / "sim.log").find("console") != std::string::npos; }))
       << read_file(dir / "sim.log");
 
   // Typing in the shell while the job runs: the simulator must not read it,
   // must not be stopped, and must keep answering.
   for (int i = 0; i < 2; ++i) {
-    sh.type(kBin + " read --port " + tty + " --map " + kMap + " voltage; echo rc$((40+" + std::to_string(i) +
-            "))=$?");
+    sh.type(kBin + " " + with_tty(read) + "; echo rc$((40+" + std::to_string(i) + "))=$?");
     const size_t rc = sh.wait_for("rc" + std::to_string(40 + i) + "=0", 0, 15000ms);
     EXPECT_NE(rc, std::string::npos) << sh.screen() << read_file(dir / "sim.log");
   }
   sh.type("jobs -l; echo jobs-done");
   ASSERT_NE(sh.wait_for("jobs-done\r\n"), std::string::npos);
   EXPECT_EQ(sh.screen().find("Stopped"), std::string::npos) << sh.screen();
-  EXPECT_NE(sh.screen().find("voltage = 230.0 V"), std::string::npos) << sh.screen();
+  EXPECT_NE(sh.screen().find(expect), std::string::npos) << sh.screen();
 
-  ASSERT_EQ(::kill(sim, SIGTERM), 0);
+  ASSERT_EQ(::kill(pid, SIGTERM), 0);
   // Gone, or a zombie the shell has not reaped yet: either way it has ended.
   const auto ended = [&] {
-    const std::string stat = read_file("/proc/" + std::to_string(sim) + "/stat");
+    const std::string stat = read_file("/proc/" + std::to_string(pid) + "/stat");
     const size_t paren = stat.rfind(')');
     return stat.empty() || (paren != std::string::npos && stat.size() > paren + 2 && stat[paren + 2] == 'Z');
   };
   EXPECT_TRUE(eventually(ended, 5000ms)) << "SIGTERM must end the simulator";
   EXPECT_TRUE(eventually([&] { return !path_exists(tty); }, 2000ms)) << "the pty link is removed at exit";
+}
+
+TEST(MapSim, BackgroundedInAnInteractiveShellKeepsServingAndEndsOnSigterm) {
+  backgrounded_sim_keeps_serving("sim map " + kMap + " --no-state",
+                                 "read --port TTY --map " + kMap + " voltage", "voltage = 230.0 V");
+}
+
+TEST(MapSim, EveryBuiltInSimulatorToo) {
+  backgrounded_sim_keeps_serving("sim inverjet --no-state", "inverjet get state --port TTY",
+                                 "state = off (0)");
+  backgrounded_sim_keeps_serving("sim rehand6600", "read --port TTY --baud 115200 --unit 1 0 1",
+                                 "0 (0x0000): 104");
 }
 
 }  // namespace
