@@ -23,7 +23,6 @@ void add_rehand6600_commands(CLI::App& app, Action& action);
 
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
-void add_legacy_sim_commands(CLI::App& app, Action& action);
 
 struct Failure;
 /// A mistyped command or option in `args` (argv without the program name):

@@ -20,7 +20,6 @@ int main(int argc, char** argv) {
   add_profile_commands(app, action);
   add_sim_commands(app, action);
   add_completion_command(app, action);
-  add_legacy_sim_commands(app, action);
   // `rtukit help [COMMAND...]`: the help of that command.
   std::vector<std::string> args(argv + 1, argv + argc);
   if (!args.empty() && args[0] == "help") {

@@ -224,38 +224,46 @@ void print_registers(const DeviceArgs& a, const profile::Profile& p,
 }
 
 // The same verbs for every built-in device.
+// A device's own verb of the same name wins (the Rehand 6600's `set` goes
+// through its host controller's rules; a bare register write must not).
 void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
   const profile::Profile& p = *entry.profile;
-  add_command<DeviceArgs>(
-      dev, action, "registers", "the register reference (Markdown; --json or --yaml: the map file)",
-      [](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_flag("--json", a.json, "the profile as a JSON map file");
-        cmd.add_flag("--yaml", a.yaml,
-                     "the profile as a YAML map file (rtukit sim map / read --map take it)");
-      },
-      [&entry](const DeviceArgs& a) {
-        print_registers(a, *entry.profile, entry.markdown);
-        return int{kOk};
-      });
-  add_command<DeviceArgs>(
-      dev, action, "get", "read registers by name, decoded with units",
-      [&p](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
-        cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
-        cmd.add_flag("--json", a.json, "print JSON");
-        a.link.add_to(cmd, false, p.link.baud);
-      },
-      [&p](const DeviceArgs& a) { return run_get(a, p); });
-  add_command<DeviceArgs>(
-      dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
-      [&p](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
-        cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
-        cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
-        cmd.add_flag("--json", a.json, "print JSON");
-        a.link.add_to(cmd, false, p.link.baud);
-      },
-      [&p](const DeviceArgs& a) { return run_set(a, p); });
+  const auto has = [&dev](const char* name) {
+    return !dev.get_subcommands([name](CLI::App* s) { return s->get_name() == name; }).empty();
+  };
+  if (!has("registers"))
+    add_command<DeviceArgs>(
+        dev, action, "registers", "the register reference (Markdown; --json or --yaml: the map file)",
+        [](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_flag("--json", a.json, "the profile as a JSON map file");
+          cmd.add_flag("--yaml", a.yaml,
+                       "the profile as a YAML map file (rtukit sim map / read --map take it)");
+        },
+        [&entry](const DeviceArgs& a) {
+          print_registers(a, *entry.profile, entry.markdown);
+          return int{kOk};
+        });
+  if (!has("get"))
+    add_command<DeviceArgs>(
+        dev, action, "get", "read registers by name, decoded with units",
+        [&p](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
+          cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+          cmd.add_flag("--json", a.json, "print JSON");
+          a.link.add_to(cmd, false, p.link.baud);
+        },
+        [&p](const DeviceArgs& a) { return run_get(a, p); });
+  if (!has("set"))
+    add_command<DeviceArgs>(
+        dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
+        [&p](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
+          cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
+          cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+          cmd.add_flag("--json", a.json, "print JSON");
+          a.link.add_to(cmd, false, p.link.baud);
+        },
+        [&p](const DeviceArgs& a) { return run_set(a, p); });
 }
 
 }  // namespace

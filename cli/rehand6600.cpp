@@ -13,7 +13,9 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/host.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 
 namespace rtukit::cli {
@@ -43,9 +45,9 @@ UnitId unit_of(const ChairArgs& a) {
   return UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247))};
 }
 
-[[noreturn]] void master_error(const std::string& context, const std::string& reason) {
-  const bool silent = reason.find("timeout") != std::string::npos;
-  throw Failure{silent ? kNoResponse : kRefused,
+// 1010 with its reason; `code` the exit code (3 no answer, 5 another device).
+[[noreturn]] void master_error(const std::string& context, const std::string& reason, int code) {
+  throw Failure{code,
                 fmt::format("{}: {}: {}", context, rh::error_text(rh::kMasterCommunicationError), reason)};
 }
 
@@ -54,19 +56,22 @@ void handshake(Master& m, UnitId unit, const std::string& context) {
   std::array<uint16_t, 1> id{};
   if (Error e = m.read_holding_registers(unit, rh::reg::kDeviceId, id)) {
     if (e.code() == Errc::io_error || e.code() == Errc::not_connected) fail(e, context);
-    master_error(context, e.is_exception()
-                              ? fmt::format("handshake: Modbus exception {:02X}", e.exception_code())
-                              : "handshake: no answer (" + std::string(e.name()) + ")");
+    // An exception is an answer from something that is not the controller.
+    master_error(context,
+                 e.is_exception() ? fmt::format("handshake: Modbus exception {:02X}", e.exception_code())
+                                  : "handshake: no answer (" + std::string(e.name()) + ")",
+                 e.is_exception() ? kRefused : kNoResponse);
   }
   if (id[0] != rh::kDeviceId)
     master_error(
         context,
-        fmt::format("handshake: device ID 0x{:02X}, expected 0x68 (not a Rehand 6600 controller?)", id[0]));
+        fmt::format("handshake: device ID 0x{:02X}, expected 0x68 (not a Rehand 6600 controller?)", id[0]),
+        kRefused);
 }
 
 std::string v(const rh::Snapshot& s, std::string_view key) {
   const rh::Register& r = *rh::find_register(key);
-  const std::string_view name = rh::choice_name(r, s[r.address]);
+  const std::string_view name = profile::name_of(r, s[r.address]);
   return name.empty() ? rh::format_value(r, s[r.address]) : std::string(name);
 }
 
@@ -109,8 +114,8 @@ std::string line(const rh::Snapshot& s, bool mph) {
 json snapshot_json(const rh::Snapshot& s, bool mph) {
   json out;
   for (const rh::Register& r : rh::registers()) {
-    if (r.table != rh::Table::status || r.key.starts_with("reserved")) continue;
-    out[std::string(r.key)] = r.is_signed ? json(static_cast<int16_t>(s[r.address])) : json(s[r.address]);
+    if (rh::table_of(r) != rh::Table::status || r.key.starts_with("reserved")) continue;
+    out[std::string(r.key)] = r.is_signed() ? json(static_cast<int16_t>(s[r.address])) : json(s[r.address]);
   }
   if (mph) out["speed_mph"] = s.speed_mph();
   out["motion_name"] = v(s, "motion");
@@ -143,12 +148,12 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
   *context = fmt::format("Rehand 6600 unit {} on {}", o.unit.value, host->describe());
   host->start();
   if (!host->wait_connected(std::chrono::milliseconds(2000 + 4 * a.link.timeout_ms))) {
-    const std::string why = host->last_failure();
+    const rtukit::Status why = host->last_failure();
     host->stop();
-    if (why.find("I/O error") != std::string::npos || why.find("not connected") != std::string::npos)
-      throw Failure{kIoError,
-                    fmt::format("{}: {}: {}", *context, rh::error_text(rh::kMasterCommunicationError), why)};
-    master_error(*context, why.empty() ? "no handshake" : why);
+    // The exit code from the error's code: 4 the port, 3 no answer, 5 another device.
+    const int code = why.ok() ? kNoResponse : why.code() == Errc::refused ? kRefused : exit_code(why.error());
+    throw Failure{code, fmt::format("{}: {}: {}", *context, rh::error_text(rh::kMasterCommunicationError),
+                                    why.ok() ? std::string("no handshake") : std::string(why.reason()))};
   }
   return host;
 }
@@ -167,7 +172,7 @@ int run_watch(const ChairArgs& a, const WatchOptions& w) {
     } else if (tty) {
       fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n", context, w.interval_ms);
       if (err == rh::kMasterCommunicationError)
-        fmt::print("!!! {}: {} !!!\n", rh::error_text(err), host->last_failure());
+        fmt::print("!!! {}: {} !!!\n", rh::error_text(err), host->last_failure().reason());
       fmt::print("{}", panel(s, a.mph));
     } else {
       fmt::print("{}{}\n", err == rh::kMasterCommunicationError ? "[1010 Master Error] " : "",
@@ -181,13 +186,13 @@ int run_watch(const ChairArgs& a, const WatchOptions& w) {
 // "up", "down", "stand", "sit", "forward", "back", "extend", "retract", "on" or a number.
 uint16_t command_value(const rh::Register& r, const std::string& text) {
   if (text.empty()) return 1;
-  for (const rh::Choice& c : r.choices) {
+  for (const profile::Named& c : r.names) {
     if (c.name == text && c.value != 0) return c.value;
   }
   const auto value = static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF));
   if (rh::check_value(r, value) != Errc::ok) {
     std::string names;
-    for (const rh::Choice& c : r.choices)
+    for (const profile::Named& c : r.names)
       names += fmt::format("{}{} {}", names.empty() ? "" : ", ", c.value, c.name);
     throw Failure{kUsage, fmt::format("{}: value {} is not one of: {}", r.key, text, names)};
   }
@@ -196,10 +201,10 @@ uint16_t command_value(const rh::Register& r, const std::string& text) {
 
 const rh::Register& command_register(const std::string& key, rh::Kind kind) {
   const rh::Register* r = rh::find_register(key);
-  if (!r || r->kind != kind || r->address == rh::reg::kHostReady) {
+  if (!r || r->role != kind || r->address == rh::reg::kHostReady) {
     std::string names;
     for (const rh::Register& x : rh::registers()) {
-      if (x.kind == kind && x.address != rh::reg::kHostReady)
+      if (x.role == kind && x.address != rh::reg::kHostReady)
         names += (names.empty() ? "" : ", ") + std::string(x.key);
     }
     throw Failure{kUsage, fmt::format("'{}' is not a {} command ({})", key,
@@ -225,6 +230,16 @@ std::chrono::milliseconds parse_duration(const std::string& text) {
   return std::chrono::milliseconds(static_cast<long>(v * scale));
 }
 
+// A device rule refused (exit 5, with its reason), or the request failed.
+[[noreturn]] void refused_or_fail(const rtukit::Status& e, const std::string& context, std::string_view key,
+                                  std::string_view verb) {
+  if (e.code() == Errc::refused)
+    throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, e.reason())};
+  if (e.code() == Errc::invalid_argument)
+    throw Failure{kUsage, fmt::format("{}: {}: {}", context, key, e.reason())};
+  fail(e.error(), fmt::format("{}: {} {}", context, verb, key));
+}
+
 int run_hold(const ChairArgs& a, const std::string& key, const std::string& value_text,
              const std::string& duration) {
   const rh::Register& r = command_register(key, rh::Kind::hold);
@@ -233,15 +248,12 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   std::string context;
   auto host = start_host(a, &context);
   const Interruptible interrupt;
-  std::string why;
   const auto start = std::chrono::steady_clock::now();
   // Renew the lease well within its 300 ms, as a UI does while the button is held.
   while (!interrupt.interrupted() && std::chrono::steady_clock::now() - start < length) {
-    if (Error e = host->hold(r.address, value, &why)) {
+    if (const rtukit::Status e = host->hold(r.address, value)) {
       host->stop();
-      if (e.code() == Errc::invalid_argument)
-        throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, why)};
-      fail(e, context + ": hold " + std::string(key));
+      refused_or_fail(e, context, key, "hold");
     }
     interrupt.sleep(std::chrono::milliseconds(100));
   }
@@ -259,42 +271,33 @@ int run_pulse(const ChairArgs& a, const std::string& key) {
   const rh::Register& r = command_register(key, rh::Kind::pulse);
   std::string context;
   auto host = start_host(a, &context);
-  std::string why;
-  Error e = host->pulse(r.address, &why);
+  const rtukit::Status e = host->pulse(r.address);
   (void)host->wait_poll(std::chrono::milliseconds(500));
   const rh::Snapshot s = host->snapshot();
   host->stop();
-  if (e.code() == Errc::invalid_argument)
-    throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, why)};
-  if (e) fail(e, context + ": pulse " + key);
+  if (e) refused_or_fail(e, context, key, "pulse");
   fmt::print("pulsed {}: main light {}, left signal {}, right signal {}\n", key, v(s, "main_light"),
              v(s, "left_signal"), v(s, "right_signal"));
   return kOk;
 }
 
 int run_set(const ChairArgs& a, const std::string& what, const std::string& value) {
-  uint16_t n = 0;
-  if (what == "drive-mode") {
-    n = value == "normal" ? 1 : value == "indoor" ? 2 : value == "outdoor" ? 3 : 0;
-    if (!n)
-      n = static_cast<uint16_t>(parse_number(value, "drive mode (normal, indoor, outdoor or 1..3)", 1, 3));
-  } else if (what == "speed-level") {
-    n = static_cast<uint16_t>(parse_number(value, "speed level", 1, 5));
-  } else if (what == "host-fault") {
-    n = static_cast<uint16_t>(parse_number(value, "host fault code", 0, 0xFFFF));
-  } else {
+  // The setting's row decides what the value may be ("outdoor" or 3; 1..5).
+  const rh::Register* r = what == "host-fault"
+                              ? rh::find_register(rh::reg::kHostFault)
+                              : rh::find_register(std::string_view(profile::canonical_key(what)));
+  if (!r || r->role != rh::Kind::setting)
     throw Failure{kUsage, fmt::format("set {}: expected drive-mode, speed-level or host-fault", what)};
-  }
+  const Outcome<int64_t> n = profile::parse_value(*r, value);
+  if (!n.ok()) throw Failure{kUsage, std::string(n.error().reason())};
+  const auto raw = static_cast<uint16_t>(*n);
   std::string context;
   auto host = start_host(a, &context);
-  std::string why;
-  Error e = what == "drive-mode"    ? host->set_drive_mode(n, &why)
-            : what == "speed-level" ? host->set_speed_level(n, &why)
-                                    : host->set_host_fault(n);
+  const rtukit::Status e = r->address == rh::reg::kDriveMode    ? host->set_drive_mode(raw)
+                           : r->address == rh::reg::kSpeedLevel ? host->set_speed_level(raw)
+                                                                : rtukit::Status(host->set_host_fault(raw));
   host->stop();
-  if (e.code() == Errc::invalid_argument)
-    throw Failure{kRefused, fmt::format("{}: set {} refused: {}", context, what, why)};
-  if (e) fail(e, context + ": set " + what);
+  if (e) refused_or_fail(e, context, what, "set");
   fmt::print("{} = {}\n", what, value);
   return kOk;
 }
@@ -378,15 +381,6 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
     CLI::App* cmd = chair->add_subcommand("errors", "table 3: error codes, functions and UI texts");
     cmd->add_flag("--json", *as_json, "print JSON");
     cmd->callback([&action, as_json] { action = [=] { return run_errors(*as_json); }; });
-  }
-  {
-    CLI::App* cmd = chair->add_subcommand("registers", "tables 1 and 2 (Markdown), from the device table");
-    cmd->callback([&action] {
-      action = [] {
-        fmt::print("{}", rh::registers_markdown());
-        return kOk;
-      };
-    });
   }
 }
 

@@ -29,7 +29,7 @@ void check_table1(const Chair& c) {
   std::array<uint16_t, reg::kStatusCount> t{};
   if (c.read(0, t) != rtukit::Errc::ok) std::abort();
   for (const Register& r : registers()) {
-    if (r.table != Table::status || r.choices.empty()) continue;
+    if (table_of(r) != Table::status || r.names.empty()) continue;
     if (check_value(r, t[r.address]) != rtukit::Errc::ok) std::abort();
   }
   if (t[reg::kBattery] > 100) std::abort();

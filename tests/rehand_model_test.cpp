@@ -8,7 +8,7 @@
 
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/rehand6600/chair.hpp"
-#include "rtukit/devices/rehand6600/simulator.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
 #include "wire.hpp"
 
 namespace rtukit::rehand6600 {
@@ -40,9 +40,8 @@ struct Rig {
 
 TEST(RehandTables, ExceptionMatrixThroughTheEngine) {
   Rig rig;
-  ChairBank bank(rig.chair, [&] { return rig.now; });
   SlaveEngine engine;
-  ASSERT_FALSE(engine.add_unit(1, bank));
+  ASSERT_FALSE(engine.add_unit(1, rig.chair));  // the chair is the bank; requests feed its watchdog
   std::array<uint8_t, 256> out{};
   const auto pdu = [&](const std::string& hex) {
     const auto req = test::bytes(hex);
@@ -69,16 +68,16 @@ TEST(RehandTables, ExceptionMatrixThroughTheEngine) {
 
 TEST(RehandTables, EveryCommandAcceptsItsValuesAndRefusesOthers) {
   for (const Register& r : registers()) {
-    if (r.table != Table::command) continue;
+    if (table_of(r) != Table::command) continue;
     std::vector<uint16_t> good, bad;
-    if (!r.choices.empty()) {
-      for (const Choice& c : r.choices) good.push_back(c.value);
-      bad = {static_cast<uint16_t>(r.choices.back().value + 1), 0xFFFF};
-    } else if (r.is_signed || r.kind == Kind::reserved) {
+    if (!r.names.empty()) {
+      for (const Named& c : r.names) good.push_back(c.value);
+      bad = {static_cast<uint16_t>(r.names.back().value + 1), 0xFFFF};
+    } else if (r.is_signed() || r.role == Kind::reserved) {
       good = {0, 1, 0x7FFF, 0xFFFF};  // any int16 / stored
     } else {
-      good = {r.min, r.max};
-      bad = {static_cast<uint16_t>(r.min - 1), static_cast<uint16_t>(r.max + 1)};
+      good = {static_cast<uint16_t>(r.range.min), static_cast<uint16_t>(r.range.max)};
+      bad = {static_cast<uint16_t>(r.range.min - 1), static_cast<uint16_t>(r.range.max + 1)};
     }
     for (uint16_t v : good) {
       Rig rig;

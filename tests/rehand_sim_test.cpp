@@ -11,6 +11,7 @@
 
 #include "process.hpp"
 #include "rtukit/devices/rehand6600/host.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/port.hpp"
 
@@ -90,7 +91,7 @@ TEST_F(RehandSim, Host_HandshakeWritesBootCompleteAndPolls) {
   Recorder rec;
   auto host = make_host(tty_, rec);
   host->start();
-  ASSERT_TRUE(host->wait_connected(3s)) << host->last_failure();
+  ASSERT_TRUE(host->wait_connected(3s)) << host->last_failure().reason();
   EXPECT_TRUE(eventually([&] { return rec.count(Event::Type::connected) == 1; }));
   const Snapshot s = host->snapshot();
   EXPECT_EQ(s[reg::kDeviceId], 0x68);
@@ -114,9 +115,9 @@ TEST_F(RehandSim, Host_WrongDeviceId_Raises1010UntilFixed) {
       eventually([&] { return rec.count(Event::Type::error_raised, kMasterCommunicationError) == 1; }));
   EXPECT_NE(rec.reason(Event::Type::error_raised).find("device ID 0x69"), std::string::npos);
   EXPECT_EQ(host->active_error(), kMasterCommunicationError);
-  std::string why;
-  EXPECT_EQ(host->hold(reg::kSeatLift, 1, &why), Errc::invalid_argument);
-  EXPECT_NE(why.find("1010 Master Error"), std::string::npos) << why;
+  Status why = host->hold(reg::kSeatLift, 1);
+  EXPECT_EQ(why, Errc::refused);
+  EXPECT_NE(why.reason().find("1010 Master Error"), std::string::npos) << why.reason();
   console("id 0x68");
   ASSERT_TRUE(host->wait_connected(3s));  // the handshake is retried every second
   EXPECT_TRUE(
@@ -191,11 +192,11 @@ TEST_F(RehandSim, Host_ErrorOverlayRefusesCommandsButReleasing) {
   ASSERT_TRUE(eventually([&] { return rec.count(Event::Type::error_raised, 0x10C3) == 1; }));
   EXPECT_EQ(rec.reason(Event::Type::error_raised), "10C3 Seat lift Error");
   EXPECT_EQ(host->active_error(), 0x10C3);
-  std::string why;
-  EXPECT_EQ(host->hold(reg::kStandSit, 1, &why), Errc::invalid_argument);
-  EXPECT_NE(why.find("10C3 Seat lift Error"), std::string::npos) << why;
-  EXPECT_EQ(host->pulse(reg::kLight, &why), Errc::invalid_argument);
-  EXPECT_EQ(host->set_speed_level(3, &why), Errc::invalid_argument);
+  Status why = host->hold(reg::kStandSit, 1);
+  EXPECT_EQ(why, Errc::refused);
+  EXPECT_NE(why.reason().find("10C3 Seat lift Error"), std::string::npos) << why.reason();
+  EXPECT_EQ(host->pulse(reg::kLight), Errc::refused);
+  EXPECT_EQ(host->set_speed_level(3), Errc::refused);
   EXPECT_FALSE(host->release(reg::kStandSit));
   EXPECT_FALSE(host->set_host_fault(0x0042));
   console("error clear");
@@ -209,21 +210,24 @@ TEST_F(RehandSim, Host_UiRules_ChargingPushAndPhoneOnlyWhileStatic) {
   auto host = make_host(tty_, rec);
   host->start();
   ASSERT_TRUE(host->wait_connected(3s));
-  std::string why;
+  Status why;
   console("charger on");
   ASSERT_TRUE(eventually([&] { return host->snapshot().charging(); }));
-  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
-  EXPECT_EQ(why, "no driving while charging");
+  why = host->hold(reg::kPhoneForward, 1);
+  EXPECT_EQ(why, Errc::refused);
+  EXPECT_EQ(why.reason(), "no driving while charging");
   console("charger off");
   console("clutch push");
   ASSERT_TRUE(eventually([&] { return !host->snapshot().clutch_drive(); }));
-  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
-  EXPECT_NE(why.find("push"), std::string::npos);
+  why = host->hold(reg::kPhoneForward, 1);
+  EXPECT_EQ(why, Errc::refused);
+  EXPECT_NE(why.reason().find("push"), std::string::npos);
   console("clutch drive");
   console("joystick 0 80");
   ASSERT_TRUE(eventually([&] { return !host->snapshot().is_static(); }));
-  EXPECT_EQ(host->hold(reg::kPhoneForward, 1, &why), Errc::invalid_argument);
-  EXPECT_EQ(why, "phone drive only while the chair is static");
+  why = host->hold(reg::kPhoneForward, 1);
+  EXPECT_EQ(why, Errc::refused);
+  EXPECT_EQ(why.reason(), "phone drive only while the chair is static");
   console("joystick 0 0");
   ASSERT_TRUE(eventually([&] { return host->snapshot().is_static(); }, 5s));
   EXPECT_FALSE(host->hold(reg::kPhoneForward, 1));
@@ -274,8 +278,13 @@ TEST_F(RehandSim, Cli_FailuresExitCodes) {
       {{"rehand6600", "hold", "seat_lift", "7"}, 2, "seat_lift: value 7 is not one of"},
       {{"rehand6600", "hold", "seat_lift", "--for", "0s"}, 2, "duration '0s'"},
       {{"rehand6600", "pulse", "stand"}, 2, "'stand' is not a pulse command"},
-      {{"rehand6600", "set", "speed-level", "6"}, 2, "speed level 6 is out of range 1..5"},
-      {{"rehand6600", "set", "drive-mode", "fast"}, 2, "drive mode"},
+      {{"rehand6600", "set", "speed-level", "6"}, 2, "speed_level: 6 is outside 1..5"},
+      {{"rehand6600", "set", "drive-mode", "fast"},
+       2,
+       "'fast' is not a drive_mode (normal, indoor, outdoor)"},
+      {{"rehand6600", "set", "drive_mode", "fast"},
+       2,
+       "'fast' is not a drive_mode (normal, indoor, outdoor)"},
       {{"rehand6600", "status", "--unit", "9"}, 3, "1010 Master Error: handshake: no answer"},
   };
   for (const Case& c : usage) {
@@ -325,7 +334,7 @@ TEST(RehandInterop, HostController_GenericLibmodbusSlaveWithId68) {
   Recorder rec;
   auto host = make_host(pair.a(), rec);
   host->start();
-  ASSERT_TRUE(host->wait_connected(5s)) << host->last_failure();
+  ASSERT_TRUE(host->wait_connected(5s)) << host->last_failure().reason();
   const Snapshot s = host->snapshot();
   EXPECT_EQ(s[reg::kDeviceId], 0x68);
   EXPECT_EQ(s.battery(), 10u);  // the generic slave holds 10 x address

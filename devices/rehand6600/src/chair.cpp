@@ -36,10 +36,11 @@ uint16_t motion_of(int x, int y) {  // x, y in {-1, 0, 1}
 }  // namespace
 
 Chair::Chair(uint64_t now_ms, uint32_t watchdog_ms, const ChairModel& model) noexcept
-    : model_(model), now_(now_ms), last_frame_(now_ms), watchdog_ms_(watchdog_ms) {
-  for (const Register& r : registers()) {
-    if (r.table == Table::command) commands_[r.address - reg::kCommandFirst] = r.default_value;
-  }
+    : Model(kProfile, words), model_(model), now_(now_ms), last_frame_(now_ms), watchdog_ms_(watchdog_ms) {}
+
+// Table 1 as the controller shows it now.
+void Chair::refresh(Space) noexcept {
+  for (uint16_t a = 0; a < reg::kStatusCount; ++a) image().set(*find_register(a), status(a));
 }
 
 // ---------------------------------------------------------------- Modbus side
@@ -93,12 +94,6 @@ uint16_t Chair::status(uint16_t address) const noexcept {
   return 0;  // joystick Z, reserved
 }
 
-Errc Chair::read(uint16_t address, std::span<uint16_t> out) const noexcept {
-  if (size_t{address} + out.size() > reg::kStatusCount) return Errc::illegal_data_address;  // D-3
-  for (size_t i = 0; i < out.size(); ++i) out[i] = status(static_cast<uint16_t>(address + i));
-  return Errc::ok;
-}
-
 bool Chair::phone_driving() const noexcept {
   for (uint16_t r = reg::kPhoneForward; r <= reg::kPhoneRight; ++r) {
     if (command(r)) return true;
@@ -106,26 +101,22 @@ bool Chair::phone_driving() const noexcept {
   return false;
 }
 
-Errc Chair::write(uint16_t address, std::span<const uint16_t> values) noexcept {
-  // Validate everything first: all or nothing.
+// The map has checked the tables and the values (02, 03); the device's own
+// rules are checked for the whole request before anything changes.
+Error Chair::apply_write(Space, uint16_t address, std::span<const uint16_t> values) noexcept {
   for (size_t i = 0; i < values.size(); ++i) {
-    const Register* r = find_register(static_cast<uint16_t>(address + i));
-    if (!r || r->table != Table::command) return Errc::illegal_data_address;  // D-3
-  }
-  for (size_t i = 0; i < values.size(); ++i) {
-    const Register* r = find_register(static_cast<uint16_t>(address + i));
-    if (Errc e = check_value(*r, values[i]); e != Errc::ok) return e;
-    if (values[i] == 0) continue;                                      // releasing is always allowed
-    if (r->motion && error_ != 0) return Errc::server_device_failure;  // D-6
-    const bool phone_drive = r->address >= reg::kPhoneForward && r->address <= reg::kPhoneRight;
+    const Row& r = *find_register(static_cast<uint16_t>(address + i));
+    if (values[i] == 0) continue;  // releasing is always allowed
+    if (r.has(kMotion) && error_ != 0)
+      return Error(Errc::server_device_failure, "a local fault is active (D-6)");
+    const bool phone_drive = r.address >= reg::kPhoneForward && r.address <= reg::kPhoneRight;
     if (phone_drive && (!joystick_neutral() || (local_control_ && speed_ > 0)))
-      return Errc::server_device_failure;  // the local user has the chair
+      return Error(Errc::server_device_failure, "the local user has the chair");
   }
   for (size_t i = 0; i < values.size(); ++i) {
     const auto a = static_cast<uint16_t>(address + i);
-    uint16_t& slot = commands_[a - reg::kCommandFirst];
-    const bool rising = slot == 0 && values[i] != 0;
-    slot = values[i];
+    const bool rising = command(a) == 0 && values[i] != 0;
+    set_command(a, values[i]);
     if (!rising) continue;
     // Pulse commands act on the rising edge only.
     switch (a) {
@@ -155,7 +146,7 @@ void Chair::set_joystick(int x, int y) noexcept {
   joy_y_ = std::clamp(y, -100, 100);
   // Local input overrides the phone at once.
   if (!joystick_neutral()) {
-    for (uint16_t r = reg::kPhoneForward; r <= reg::kPhoneRight; ++r) commands_[r - reg::kCommandFirst] = 0;
+    for (uint16_t r = reg::kPhoneForward; r <= reg::kPhoneRight; ++r) set_command(r, 0);
   }
 }
 
@@ -242,9 +233,8 @@ void Chair::step(uint32_t dt_ms) noexcept {
   if (watchdog_ms_ && now_ >= last_frame_ + watchdog_ms_) {
     bool reset = false;
     for (uint16_t r : kWatchdogHolds) {
-      uint16_t& slot = commands_[r - reg::kCommandFirst];
-      reset = reset || slot != 0;
-      slot = 0;
+      reset = reset || command(r) != 0;
+      set_command(r, 0);
     }
     if (reset) ++watchdog_trips_;
   }

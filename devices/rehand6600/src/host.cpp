@@ -6,6 +6,9 @@
 
 #include <vector>
 
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
+
 namespace rtukit::rehand6600 {
 namespace {
 
@@ -84,11 +87,11 @@ void Host::run() {
   }
 }
 
-void Host::raise_comm_error(const std::string& reason) {
+void Host::raise_comm_error(Error cause, const std::string& reason) {
   bool raised = false;
   {
     std::lock_guard lock(mutex_);
-    last_failure_ = reason;
+    last_failure_ = rtukit::Status(cause, reason);
     connected_ = false;
     failures_ = 0;
     if (!comm_error_) comm_error_ = raised = true;
@@ -100,15 +103,16 @@ void Host::raise_comm_error(const std::string& reason) {
 bool Host::handshake() {
   std::array<uint16_t, 1> id{};
   if (Error e = master_.read_holding_registers(options_.unit, reg::kDeviceId, id)) {
-    raise_comm_error("handshake: " + failure_text(e));
+    raise_comm_error(e, "handshake: " + failure_text(e));
     return false;
   }
   if (id[0] != kDeviceId) {
-    raise_comm_error(fmt::format("handshake: device ID 0x{:02X}, expected 0x{:02X}", id[0], kDeviceId));
+    raise_comm_error(Error::refused("not a Rehand 6600 controller"),
+                     fmt::format("handshake: device ID 0x{:02X}, expected 0x{:02X}", id[0], kDeviceId));
     return false;
   }
   if (Error e = master_.write_single_register(options_.unit, reg::kHostReady, 1)) {
-    raise_comm_error("handshake: boot-complete write: " + failure_text(e));
+    raise_comm_error(e, "handshake: boot-complete write: " + failure_text(e));
     return false;
   }
   bool cleared = false;
@@ -117,7 +121,7 @@ bool Host::handshake() {
     connected_ = true;
     failures_ = 0;
     cleared = std::exchange(comm_error_, false);
-    last_failure_.clear();
+    last_failure_ = {};
   }
   cv_.notify_all();
   if (cleared) emit(Event{Event::Type::error_cleared, 0, 0, 0, kMasterCommunicationError, {}});
@@ -131,12 +135,12 @@ bool Host::poll() {
     bool down = false;
     {
       std::lock_guard lock(mutex_);
-      last_failure_ = failure_text(e);
+      last_failure_ = rtukit::Status(e, failure_text(e));
       down = ++failures_ >= options_.failures_to_error;
     }
     if (down)
       raise_comm_error(
-          fmt::format("{} consecutive polls failed ({})", options_.failures_to_error, failure_text(e)));
+          e, fmt::format("{} consecutive polls failed ({})", options_.failures_to_error, failure_text(e)));
     return false;
   }
   std::vector<Event> events;
@@ -204,7 +208,7 @@ uint16_t Host::active_error() const {
   return snapshot_.valid ? snapshot_.error_code() : 0;
 }
 
-std::string Host::last_failure() const {
+rtukit::Status Host::last_failure() const {
   std::lock_guard lock(mutex_);
   return last_failure_;
 }
@@ -220,11 +224,8 @@ bool Host::wait_poll(std::chrono::milliseconds timeout) const {
   return cv_.wait_for(lock, timeout, [&] { return snapshot_.sequence > seen; });
 }
 
-Error Host::check_ui_rules(const Register& r, uint16_t value, std::string* why) const {
-  const auto refuse = [why](std::string reason) {
-    if (why) *why = std::move(reason);
-    return Error(Errc::invalid_argument);
-  };
+rtukit::Status Host::check_ui_rules(const Register& r, uint16_t value) const {
+  const auto refuse = [](std::string reason) { return rtukit::Status(Errc::refused, std::move(reason)); };
   if (value == 0) return {};
   const uint16_t error = active_error();
   if (error) {
@@ -253,18 +254,15 @@ Error Host::write_command(uint16_t address, uint16_t value) {
   return master_.write_single_register(options_.unit, address, value);
 }
 
-Error Host::hold(uint16_t command, uint16_t value, std::string* why) {
+rtukit::Status Host::hold(uint16_t command, uint16_t value) {
   const Register* r = find_register(command);
-  if (!r || r->kind != Kind::hold || command == reg::kHostReady) {
-    if (why) *why = fmt::format("0x{:04X} is not a hold command", command);
-    return Errc::invalid_argument;
-  }
-  if (check_value(*r, value) != Errc::ok) {
-    if (why) *why = fmt::format("{}: value {} is not one of its values", r->key, value);
-    return Errc::invalid_argument;
-  }
+  if (!r || r->role != Role::hold || command == reg::kHostReady)
+    return rtukit::Status(Errc::invalid_argument, fmt::format("0x{:04X} is not a hold command", command));
+  if (check_value(*r, value) != Errc::ok)
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("{}: value {} is not one of its values", r->key, value));
   if (value == 0) return release(command);
-  if (Error e = check_ui_rules(*r, value, why)) return e;
+  if (rtukit::Status e = check_ui_rules(*r, value)) return e;
   bool changed = false;
   {
     std::lock_guard lock(mutex_);
@@ -277,9 +275,9 @@ Error Host::hold(uint16_t command, uint16_t value, std::string* why) {
   if (e) {
     std::lock_guard lock(mutex_);
     holds_[command - reg::kCommandFirst] = {};
-    if (why) *why = failure_text(e);
+    return rtukit::Status(e, failure_text(e));
   }
-  return e;
+  return {};
 }
 
 Error Host::release(uint16_t command) {
@@ -292,36 +290,32 @@ Error Host::release(uint16_t command) {
   return write_command(command, 0);
 }
 
-Error Host::pulse(uint16_t command, std::string* why) {
+rtukit::Status Host::pulse(uint16_t command) {
   const Register* r = find_register(command);
-  if (!r || r->kind != Kind::pulse) {
-    if (why) *why = fmt::format("0x{:04X} is not a pulse command", command);
-    return Errc::invalid_argument;
-  }
+  if (!r || r->role != Role::pulse)
+    return rtukit::Status(Errc::invalid_argument, fmt::format("0x{:04X} is not a pulse command", command));
   const uint16_t on = command == reg::kPhoneLight ? 2 : 1;  // the seed's value for phone lighting
-  if (Error e = check_ui_rules(*r, on, why)) return e;
-  if (Error e = write_command(command, on)) return e;
-  return write_command(command, 0);
+  if (rtukit::Status e = check_ui_rules(*r, on)) return e;
+  if (Error e = write_command(command, on)) return rtukit::Status(e, failure_text(e));
+  if (Error e = write_command(command, 0)) return rtukit::Status(e, failure_text(e));
+  return {};
 }
 
-Error Host::set_drive_mode(uint16_t mode, std::string* why) {
+// A setting: the value checked against its row, then the UI rules.
+rtukit::Status Host::set_drive_mode(uint16_t mode) {
   const Register& r = *find_register(reg::kDriveMode);
-  if (check_value(r, mode) != Errc::ok) {
-    if (why) *why = fmt::format("drive mode {}: 1 normal, 2 indoor, 3 outdoor", mode);
-    return Errc::invalid_argument;
-  }
-  if (Error e = check_ui_rules(r, mode, why)) return e;
-  return write_command(reg::kDriveMode, mode);
+  if (rtukit::Status e = profile::check_argument(r, mode)) return e;
+  if (rtukit::Status e = check_ui_rules(r, mode)) return e;
+  if (Error e = write_command(reg::kDriveMode, mode)) return rtukit::Status(e, failure_text(e));
+  return {};
 }
 
-Error Host::set_speed_level(uint16_t level, std::string* why) {
+rtukit::Status Host::set_speed_level(uint16_t level) {
   const Register& r = *find_register(reg::kSpeedLevel);
-  if (check_value(r, level) != Errc::ok) {
-    if (why) *why = fmt::format("speed level {} is out of range 1..5", level);
-    return Errc::invalid_argument;
-  }
-  if (Error e = check_ui_rules(r, level, why)) return e;
-  return write_command(reg::kSpeedLevel, level);
+  if (rtukit::Status e = profile::check_argument(r, level)) return e;
+  if (rtukit::Status e = check_ui_rules(r, level)) return e;
+  if (Error e = write_command(reg::kSpeedLevel, level)) return rtukit::Status(e, failure_text(e));
+  return {};
 }
 
 Error Host::set_host_fault(uint16_t code) {

@@ -1,11 +1,14 @@
 // The Rehand 6600 controller as a behaviour model: a pure step function over
 // an injected clock (device milliseconds), no I/O, no threads.
 //
-// Modbus side: read (table 1) and write (table 2) with the spec's strict
-// tables (D-3), the fault lock-out (D-6) and the communication watchdog (D-5):
-// `frame_received(now)` is called for every valid frame addressed to the
-// controller; when none came for `watchdog_ms`, every hold-type motion
-// command is reset to 0 and the chair stops.
+// Modbus side: a profile::Model. The register map (registers.hpp) makes the
+// tables strict (D-3: table 1 read-only, table 2 write-only, the gap and
+// values not listed refused); table 2 lives in the model's Image, table 1 is
+// put there before each read. This class adds the behaviour: the fault
+// lock-out (D-6), the phone rules, pulses on the rising edge, and the
+// communication watchdog (D-5): every request that reaches the tables feeds
+// it (`frame_received`); when none came for `watchdog_ms`, every hold-type
+// motion command is reset to 0 and the chair stops.
 //
 // Physical side (the simulator's console, or a test): joystick, physical
 // posture buttons (they outrank UI commands), charger, clutch, obstacle
@@ -19,6 +22,7 @@
 #include <span>
 
 #include "rtukit/core/error.hpp"
+#include "rtukit/devices/profile/model.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 
 namespace rtukit::rehand6600 {
@@ -33,7 +37,7 @@ struct ChairModel {
   uint16_t software_version = 0x0102;  ///< V1.2
 };
 
-class Chair {
+class Chair final : private profile::ImageStorage<kMap.image_size()>, public profile::Model {
  public:
   static constexpr unsigned kActuators = 6;
 
@@ -41,19 +45,32 @@ class Chair {
   explicit Chair(uint64_t now_ms = 0, uint32_t watchdog_ms = 500, const ChairModel& model = {}) noexcept;
 
   // ---- clock ----
-  void advance_to(uint64_t now_ms) noexcept;
+  void advance_to(uint64_t now_ms) noexcept override;
   uint64_t now_ms() const noexcept { return now_; }
 
   // ---- Modbus side ----
   /// A valid frame addressed to the controller arrived (feeds the watchdog).
   void frame_received() noexcept { last_frame_ = now_; }
+  using Model::read;
+  using Model::write;
   /// FC03: table 1 only. Errors: 02 for table 2, the gap, or past 0x007F.
-  Errc read(uint16_t address, std::span<uint16_t> out) const noexcept;
+  Errc read(uint16_t address, std::span<uint16_t> out) { return read(Space::holding, address, out); }
   /// FC06/FC10: table 2 only. Errors: 02 (table 1, gap), 03 (value not
   /// listed), 04 (a motion command during a local fault, D-6; a phone drive
   /// command while the joystick is used or the chair moves under local
   /// control). All or nothing.
-  Errc write(uint16_t address, std::span<const uint16_t> values) noexcept;
+  Errc write(uint16_t address, std::span<const uint16_t> values) {
+    return write(Space::holding, address, values);
+  }
+  /// As the bus sees them: a request that reaches the tables feeds the watchdog.
+  Errc read_holding_registers(uint16_t address, std::span<uint16_t> out) override {
+    frame_received();
+    return read(address, out);
+  }
+  Errc write_holding_registers(uint16_t address, std::span<const uint16_t> values) override {
+    frame_received();
+    return write(address, values);
+  }
 
   // ---- physical side ----
   /// Joystick deflection, -100..100 each (x: right positive, y: forward positive).
@@ -76,13 +93,26 @@ class Chair {
   /// A table-1 register's value (0x0000..0x002F).
   uint16_t status(uint16_t address) const noexcept;
   /// A table-2 register's value as last written (or reset by the watchdog).
-  uint16_t command(uint16_t address) const noexcept { return commands_[address - reg::kCommandFirst]; }
+  uint16_t command(uint16_t address) const noexcept {
+    return image().words()[kCommandSlot + address - reg::kCommandFirst];
+  }
   double speed_kmh() const noexcept { return speed_; }
   double actuator(unsigned i) const noexcept { return position_[i - 1]; }  ///< 1..6, per-mille
   /// Times the watchdog has reset the motion commands.
   unsigned watchdog_trips() const noexcept { return watchdog_trips_; }
 
+ protected:
+  void refresh(Space space) noexcept override;
+  Error apply_write(Space space, uint16_t address, std::span<const uint16_t> values) noexcept override;
+
  private:
+  // Table 2 is one row per register, in address order: its image slots are consecutive.
+  static constexpr size_t kCommandSlot = kMap.slot_of(*find_register(reg::kCommandFirst));
+  static_assert(kMap.slot_of(*find_register(reg::kCommandFirst + reg::kCommandCount - 1)) ==
+                kCommandSlot + reg::kCommandCount - 1);
+  void set_command(uint16_t address, uint16_t value) noexcept {
+    image().words()[kCommandSlot + address - reg::kCommandFirst] = value;
+  }
   struct Drive {
     uint16_t motion = 1;  ///< table 1 motion code
     double target = 0;    ///< km/h
@@ -101,7 +131,6 @@ class Chair {
   uint32_t watchdog_ms_;
   unsigned watchdog_trips_ = 0;
 
-  std::array<uint16_t, reg::kCommandCount> commands_{};
   int joy_x_ = 0, joy_y_ = 0;
   uint16_t button_command_ = 0, button_value_ = 0;
   bool charging_ = false;

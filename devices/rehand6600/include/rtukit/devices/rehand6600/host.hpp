@@ -37,6 +37,7 @@
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/link.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace rtukit::rehand6600 {
 
@@ -105,8 +106,9 @@ class Host {
   bool connected() const;
   /// The error the overlay shows: 1010 while the link is down, else 0x0026; 0 = none.
   uint16_t active_error() const;
-  /// Why the last handshake or poll failed ("timeout", "device ID 0x69, expected 0x68").
-  std::string last_failure() const;
+  /// Why the last handshake or poll failed: the error (timeout, io_error,
+  /// refused for another device) and its reason ("handshake: device ID 0x69, expected 0x68").
+  rtukit::Status last_failure() const;
   /// Blocks until connected or `timeout`; true when connected.
   bool wait_connected(std::chrono::milliseconds timeout) const;
   /// Blocks until a poll newer than the current snapshot arrived (or timeout).
@@ -114,17 +116,18 @@ class Host {
 
   /// Holds a hold-type command (posture 0x0062..0x0068, anti-pinch, phone
   /// drive 0x006E..0x0071, phone horn, SOS) at `value` for one lease; call
-  /// again to renew. Errors: invalid_argument with `why` (not a hold
-  /// command, a value not listed, a UI rule), or the write's error.
-  Error hold(uint16_t command, uint16_t value, std::string* why = nullptr);
+  /// again to renew. Errors, with their reason: invalid_argument (not a hold
+  /// command, a value not listed), refused (a UI rule: the error overlay,
+  /// charging, the chair moving), or the write's error.
+  rtukit::Status hold(uint16_t command, uint16_t value);
   /// Releases a hold now (writes 0). Always allowed.
   Error release(uint16_t command);
   /// A pulse command (0x0061, 0x0072, 0x0073, 0x0075): writes 1 (2 for
   /// 0x0075, as the seed does), then 0.
-  Error pulse(uint16_t command, std::string* why = nullptr);
-  Error set_drive_mode(uint16_t mode, std::string* why = nullptr);    ///< 1 normal, 2 indoor, 3 outdoor
-  Error set_speed_level(uint16_t level, std::string* why = nullptr);  ///< 1..5
-  Error set_host_fault(uint16_t code);                                ///< 0 = none; allowed during an overlay
+  rtukit::Status pulse(uint16_t command);
+  rtukit::Status set_drive_mode(uint16_t mode);    ///< 1 normal, 2 indoor, 3 outdoor
+  rtukit::Status set_speed_level(uint16_t level);  ///< 1..5
+  Error set_host_fault(uint16_t code);             ///< 0 = none; allowed during an overlay
 
   const HostOptions& options() const noexcept { return options_; }
   std::string describe() const { return master_.describe(); }
@@ -135,8 +138,8 @@ class Host {
   bool poll();
   void service_holds();
   void emit(const Event& e);
-  void raise_comm_error(const std::string& reason);
-  Error check_ui_rules(const Register& r, uint16_t value, std::string* why) const;
+  void raise_comm_error(Error cause, const std::string& reason);
+  rtukit::Status check_ui_rules(const Register& r, uint16_t value) const;
   Error write_command(uint16_t address, uint16_t value);
 
   HostOptions options_;
@@ -150,7 +153,7 @@ class Host {
   bool connected_ = false;
   bool comm_error_ = false;
   unsigned failures_ = 0;
-  std::string last_failure_;
+  rtukit::Status last_failure_;
   Snapshot snapshot_{};
   struct Lease {
     uint16_t value = 0;

@@ -1,0 +1,117 @@
+// The Rehand 6600's tables as people read them: values with the device's
+// own formats (error codes as "1010 Master Error", the device ID in hex) and
+// the references in docs/rehand6600.md.
+#include "rtukit/devices/rehand6600/reference.hpp"
+
+#include <fmt/core.h>
+
+#include <algorithm>
+#include <vector>
+
+#include "rtukit/devices/profile/text.hpp"
+
+namespace rtukit::rehand6600 {
+namespace {
+
+std::string_view kind_name(Role k) {
+  switch (k) {
+    case Role::status:
+      return "read";
+    case Role::control:
+      return "control";
+    case Role::setting:
+      return "setting";
+    case Role::hold:
+      return "hold";
+    case Role::pulse:
+      return "pulse";
+    case Role::reserved:
+      return "reserved";
+  }
+  return "?";
+}
+
+}  // namespace
+
+std::string format_value(const Register& reg, uint16_t raw) {
+  if (!reg.names.empty()) {
+    const std::string_view name = profile::name_of(reg, raw);
+    return name.empty() ? fmt::format("unknown ({})", raw) : fmt::format("{} ({})", name, raw);
+  }
+  if (reg.address == reg::kErrorCode || reg.address == reg::kHostFault)
+    return raw == 0 ? "none" : error_text(raw);
+  if (reg.address == reg::kDeviceId) return fmt::format("0x{:02X}", raw);
+  if (reg.is_signed()) return fmt::format("{}", static_cast<int16_t>(raw));
+  return reg.unit.empty() ? fmt::format("{}", raw) : fmt::format("{} {}", raw, reg.unit);
+}
+
+std::string registers_markdown() {
+  std::string out;
+  for (const Table table : {Table::status, Table::command}) {
+    out += table == Table::status
+               ? "### Table 1: the host reads (FC03, 0x0000..0x002F; writes get exception 02)\n\n"
+               : "### Table 2: the host writes (FC06/FC10, 0x0060..0x007F; reads get exception 02)\n\n";
+    out += "| address | key | name | kind | values | default | notes |\n|---|---|---|---|---|---|---|\n";
+    for (const Register& r : kRows) {
+      if (table_of(r) != table) continue;
+      std::string values;
+      for (const Named& c : r.names)
+        values += fmt::format("{}{} {}", values.empty() ? "" : ", ", c.value, c.name);
+      if (values.empty()) {
+        if (r.is_signed())
+          values = "int16";
+        else if (r.range.min != 0 || r.range.max != 0xFFFF)
+          values = fmt::format("{}..{}", r.range.min, r.range.max);
+        else
+          values = "uint16";
+        if (!r.unit.empty()) values += " " + std::string(r.unit);
+      }
+      std::string notes(r.notes);
+      if (r.has(kMotion))
+        notes += std::string(notes.empty() ? "" : "; ") + "refused (04) during a local fault";
+      out += fmt::format("| 0x{:04X} | `{}` | {} | {} | {} | {} | {} |\n", r.address, r.key, r.title,
+                         kind_name(r.role), values,
+                         table == Table::status ? "-" : std::to_string(r.default_value),
+                         notes.empty() ? "-" : notes);
+    }
+    out += "\n";
+  }
+  out +=
+      "0x0030..0x005F and everything above 0x007F do not exist (exception 02). A value outside a register's "
+      "list gets exception 03; a multi-register write is validated whole, then applied all or nothing.\n";
+  return out;
+}
+
+std::string error_text(uint16_t code) {
+  const std::string_view f = error_function(code);
+  return fmt::format("{:04X} {} Error", code, f.empty() ? std::string_view("Unknown") : f);
+}
+
+std::span<const uint16_t> error_codes() noexcept {
+  static const std::vector<uint16_t> codes = [] {
+    std::vector<uint16_t> v;
+    for (const ErrorGroup& g : error_groups()) {
+      for (uint32_t c = g.first; c <= g.last; ++c) v.push_back(static_cast<uint16_t>(c));
+      for (uint16_t e : g.extra) v.push_back(e);
+    }
+    std::sort(v.begin(), v.end());
+    return v;
+  }();
+  return codes;
+}
+
+std::string errors_markdown() {
+  std::string out = "| codes | function | UI text (example) |\n|---|---|---|\n";
+  for (const ErrorGroup& g : error_groups()) {
+    std::string codes = fmt::format("{:04X}..{:04X}", g.first, g.last);
+    for (uint16_t e : g.extra) codes += fmt::format(", {:04X}", e);
+    out += fmt::format("| {} | {} | {} |\n", codes, g.function, error_text(g.first));
+  }
+  out +=
+      "\nEvery active error shows as a full-screen overlay and disables every function. 1010 is also raised "
+      "by "
+      "the host itself when the controller does not answer (communication error).\n";
+  return out;
+}
+
+}  // namespace rtukit::rehand6600
