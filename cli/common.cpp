@@ -27,6 +27,12 @@ void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_bau
     cmd.add_flag("--echo", echo, "discard the echo of our own request (half-duplex adapters)");
     cmd.add_flag("--stats", stats, "print the master's counters to stderr at the end");
   }
+  cmd.add_option(
+         "--quirk", quirks,
+         "accept a documented frame deviation on RTU links (repeatable): fc10-no-count (FC10 requests "
+         "without byte count; a master also sends them so), fc03-two-byte-count (FC03/04 responses with a "
+         "2-byte count)")
+      ->check(CLI::IsMember({"fc10-no-count", "fc03-two-byte-count"}));
   cmd.add_option("--baud,-b", baud, "serial baud rate (1200..921600)")->capture_default_str();
   cmd.add_option("--parity", parity, "none, even or odd (N, E, O)")->capture_default_str();
   cmd.add_option("--data-bits", data_bits, "7 or 8")->capture_default_str();
@@ -67,8 +73,19 @@ io::PortSpec LinkOptions::spec(bool listening) const {
   return *spec;
 }
 
+FrameQuirks LinkOptions::frame_quirks() const {
+  FrameQuirks q;
+  for (const std::string& name : quirks) {
+    if (name == "fc10-no-count") q.fc10_without_byte_count = true;
+    if (name == "fc03-two-byte-count") q.fc03_two_byte_count = true;
+  }
+  return q;
+}
+
 MasterOptions LinkOptions::master_options() const {
   MasterOptions o;
+  o.quirks = frame_quirks();
+  o.fc10_without_byte_count = o.quirks.fc10_without_byte_count;
   o.response_timeout = std::chrono::milliseconds(timeout_ms);
   o.retries = retries;
   o.inter_request_delay = std::chrono::milliseconds(delay_ms);

@@ -10,6 +10,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "commands.hpp"
 #include "rtukit/driver/master.hpp"
@@ -49,12 +50,15 @@ struct LinkOptions {
   unsigned delay_ms = 0;
   bool echo = false;
   bool stats = false;
+  std::vector<std::string> quirks;  ///< fc10-no-count, fc03-two-byte-count
 
   /// Adds the options to `cmd`. `listening`: the port is where we listen.
   void add_to(CLI::App& cmd, bool listening, uint32_t default_baud = 9600);
   /// The parsed port spec; throws Failure{kUsage} with the reason.
   io::PortSpec spec(bool listening) const;
   MasterOptions master_options() const;
+  /// The --quirk options as FrameQuirks (RTU links only).
+  FrameQuirks frame_quirks() const;
   /// A master on the port (not opened yet).
   std::unique_ptr<Master> make_master() const;
 };

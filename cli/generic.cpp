@@ -482,6 +482,7 @@ int run_slave(const SlaveArgs& a) {
     const UnitId unit = parse_unit(u, spec.kind == io::PortSpec::Kind::tcp);
     if (unit.value == 0) throw Failure{kUsage, "unit 0 is the broadcast address"};
     banks.push_back(std::make_unique<MemoryBank>(size));
+    banks.back()->accepted_quirks = a.link.frame_quirks();
     if (!a.init.empty()) load_init(a.init, *banks.back());
     if (engine.add_unit(unit.value, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};

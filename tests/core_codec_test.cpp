@@ -70,11 +70,14 @@ TEST(Crc16, RejectsShortAndCorruptFrames) {
   EXPECT_FALSE(rtu_crc_ok(bytes("15 03 00 00 00 01 87 1F")));
 }
 
+// The Inverjet document's FC10 form is accepted only where a device opts in.
+constexpr FrameQuirks kInverjetQuirks{.fc10_without_byte_count = true};
+
 TEST(Codec, InverjetExamplesDecodeAndReencodeByteForByte) {
   for (const char* text : kInverjetExamples) {
     const auto frame = bytes(text);
     const auto pdu = std::span<const uint8_t>(frame).subspan(1, frame.size() - 3);
-    const Result<Request> r = decode_request(pdu);
+    const Result<Request> r = decode_request(pdu, kInverjetQuirks);
     ASSERT_TRUE(r.ok()) << text << ": " << r.error().name();
     std::array<uint8_t, kMaxRtuAduSize> pdu_out{};
     const Result<size_t> n = encode_request(*r, pdu_out);
@@ -88,7 +91,8 @@ TEST(Codec, InverjetExamplesDecodeAndReencodeByteForByte) {
 
 TEST(Codec, InverjetFc10PrintedFormIsTheShortForm) {
   const auto frame = bytes("15 10 00 21 00 04 00 00 00 06 00 50 07 08 97 5F");
-  const Result<Request> r = decode_request(std::span<const uint8_t>(frame).subspan(1, frame.size() - 3));
+  const Result<Request> r =
+      decode_request(std::span<const uint8_t>(frame).subspan(1, frame.size() - 3), kInverjetQuirks);
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(r->without_byte_count);
   EXPECT_EQ(r->address, 0x0021);
@@ -102,7 +106,7 @@ TEST(Codec, InverjetFc10StandardFormEncodesFromTheSameValues) {
   for (size_t i = 0; i < std::size(kInverjetFc10Standard); ++i) {
     const auto printed = bytes(kInverjetExamples[7 + i]);
     const Result<Request> r =
-        decode_request(std::span<const uint8_t>(printed).subspan(1, printed.size() - 3));
+        decode_request(std::span<const uint8_t>(printed).subspan(1, printed.size() - 3), kInverjetQuirks);
     ASSERT_TRUE(r.ok());
     Request standard = *r;
     standard.without_byte_count = false;
@@ -226,7 +230,7 @@ TEST(Codec, RehandTwoByteByteCountIsAcceptedByTheMaster) {
   read.function = 0x03;
   read.quantity = 2;
   const auto longer = bytes("03 00 04 00 68 00 50");  // the response views these bytes
-  const Result<Response> r = decode_response(read, longer);
+  const Result<Response> r = decode_response(read, longer, FrameQuirks{.fc03_two_byte_count = true});
   ASSERT_TRUE(r.ok());
   EXPECT_TRUE(r->long_byte_count);
   EXPECT_EQ(load_be16(&r->data[0]), 0x68);
@@ -250,4 +254,17 @@ TEST(Mbap, EncodesAndSizesAdus) {
   const MbapHeader h = mbap_header({out.data(), *n});
   EXPECT_EQ(h.transaction, 0x0102);
   EXPECT_EQ(h.unit, 0x15);
+}
+
+TEST(Codec, QuirksAreOffByDefault) {
+  // The short FC10 form is a byte-count mismatch to a standard decoder (03).
+  const std::vector<uint8_t> short_fc10 = bytes("10 00 21 00 02 00 07 00 08");
+  EXPECT_EQ(decode_request(short_fc10).error().code(), Errc::illegal_data_value);
+  EXPECT_TRUE(decode_request(short_fc10, FrameQuirks{.fc10_without_byte_count = true}).ok());
+  // A 2-byte byte count is not an answer to a standard master.
+  Request read;
+  read.function = 0x03;
+  read.quantity = 2;
+  const std::vector<uint8_t> longer = bytes("03 00 04 00 68 00 50");
+  EXPECT_EQ(decode_response(read, longer).error().code(), Errc::unexpected_response);
 }

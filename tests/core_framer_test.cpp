@@ -47,6 +47,7 @@ TEST(RtuFramer, SplitFrame_ByteByByte_IsAssembled) {
 
 TEST(RtuFramer, BackToBackFrames_InOneRead_AreAllReturned) {
   RtuFramer f(FrameShape::request);
+  f.set_quirks({.fc10_without_byte_count = true});  // the last one is the Inverjet's short FC10
   auto in = bytes(std::string(kRead) + " " + kWrite + " 15 10 00 21 00 02 00 00 00 01 25 40");
   EXPECT_EQ(frames_of(f, in),
             (std::vector<std::string>{kRead, kWrite, "15 10 00 21 00 02 00 00 00 01 25 40"}));
@@ -75,6 +76,7 @@ TEST(RtuFramer, FlippedBitAnywhere_IsNeverAccepted) {
       auto bad = good;
       bad[bit / 8] ^= static_cast<uint8_t>(1U << (bit % 8));
       RtuFramer f(FrameShape::request, RtuTiming::for_serial(9600));
+      f.set_quirks({.fc10_without_byte_count = true});  // with the short form's lengths in play too
       EXPECT_TRUE(frames_of(f, bad, 0).empty()) << text << " bit " << bit;
       EXPECT_FALSE(f.next(1'000'000)) << text << " bit " << bit;  // nor after silence
       // And the next good frame still gets through.
@@ -152,6 +154,7 @@ TEST(RtuFramer, TruncatedFrame_IsDroppedAtSilence) {
 
 TEST(RtuFramer, Fc10BothForms_AreRecognisedByLengthAndCrc) {
   RtuFramer f(FrameShape::request);
+  f.set_quirks({.fc10_without_byte_count = true});
   const char* short_form = "15 10 00 21 00 02 00 02 00 0D 84 85";
   const char* standard = "15 10 00 21 00 02 04 00 02 00 0D 11 8E";
   EXPECT_EQ(frames_of(f, bytes(std::string(short_form) + " " + standard + " " + short_form)),
@@ -161,12 +164,22 @@ TEST(RtuFramer, Fc10BothForms_AreRecognisedByLengthAndCrc) {
 TEST(RtuFramer, RehandTwoByteByteCount_WithAndWithoutExpectation) {
   const char* longer = "01 03 00 04 00 68 00 50 C2 E7";
   RtuFramer expecting(FrameShape::response);
+  expecting.set_quirks({.fc03_two_byte_count = true});
   expecting.expect_response(0x03, 2);
   EXPECT_EQ(frames_of(expecting, bytes(longer)), std::vector<std::string>{longer});
   RtuFramer sniffing(FrameShape::response);
+  sniffing.set_quirks({.fc03_two_byte_count = true});
   EXPECT_EQ(frames_of(sniffing, bytes(longer)), std::vector<std::string>{longer});
   EXPECT_EQ(frames_of(sniffing, bytes("01 03 04 00 68 00 50 7B D3")),
             std::vector<std::string>{"01 03 04 00 68 00 50 7B D3"});
+}
+
+TEST(RtuFramer, QuirkForms_NotRecognisedUnlessEnabled) {
+  RtuFramer f(FrameShape::request, RtuTiming::for_serial(9600));
+  EXPECT_TRUE(frames_of(f, bytes("15 10 00 21 00 02 00 02 00 0D 84 85"), 0).empty());
+  RtuFramer r(FrameShape::response, RtuTiming::for_serial(9600));
+  r.expect_response(0x03, 2);
+  EXPECT_TRUE(frames_of(r, bytes("01 03 00 04 00 68 00 50 C2 E7"), 0).empty());
 }
 
 TEST(RtuFramer, ExceptionResponse_IsFiveBytes) {

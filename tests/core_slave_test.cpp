@@ -14,6 +14,8 @@ namespace {
 // 100 holding registers at 0..99 accepting 0..1000; 10 coils; no input tables.
 class TestBank : public RegisterBank {
  public:
+  FrameQuirks accepted{};
+  FrameQuirks quirks() const noexcept override { return accepted; }
   std::array<uint16_t, 100> holding{};
   std::array<uint8_t, 10> coils{};
   int writes = 0;
@@ -142,9 +144,29 @@ TEST_F(SlaveEngineTest, MultiWrite_IsAllOrNothing) {
 }
 
 TEST_F(SlaveEngineTest, Fc10WithoutByteCount_IsAccepted) {
+  bank.accepted.fc10_without_byte_count = true;  // a device documented to use it (the Inverjet)
   EXPECT_EQ(answer(engine, "01 10 00 21 00 02 00 07 00 08"), "01 10 00 21 00 02 11 C2");
   EXPECT_EQ(bank.holding[0x21], 7);
   EXPECT_EQ(bank.holding[0x22], 8);
+}
+
+TEST_F(SlaveEngineTest, Fc10WithoutByteCount_IsRefusedUnlessTheDeviceOptsIn) {
+  EXPECT_EQ(answer(engine, "01 10 00 21 00 02 00 07 00 08").substr(0, 5), "01 90");  // 03: count disagrees
+  EXPECT_EQ(bank.holding[0x21], 0);
+}
+
+// A standard FC10 whose last register was cut off in transit looks like the
+// short form by its length. Over Modbus TCP the quirk never applies: the
+// request gets 03 and nothing is written shifted.
+TEST_F(SlaveEngineTest, TruncatedFc10OverTcp_Gets03EvenWithTheQuirkOn) {
+  bank.accepted.fc10_without_byte_count = true;
+  // FC10 at 0x21, quantity 2, byte count 4, but only one register (00 07) arrived.
+  const auto adu = bytes("00 01 00 00 00 08 01 10 00 21 00 02 04 00 07");
+  std::array<uint8_t, kMaxMbapAduSize> out{};
+  const size_t n = engine.handle_tcp(adu, out);
+  EXPECT_EQ(hex({out.data(), n}), "00 01 00 00 00 03 01 90 03");
+  EXPECT_EQ(bank.holding[0x21], 0);
+  EXPECT_EQ(bank.holding[0x22], 0);
 }
 
 TEST_F(SlaveEngineTest, BroadcastRead_IsSilentAndNotExecuted) {

@@ -29,9 +29,10 @@ void MasterTransaction::prepare(RtuFramer& framer, bool discard_echo) const noex
   if (discard_echo) framer.expect_echo(request_bytes());
 }
 
-std::optional<Result<Response>> MasterTransaction::accept_rtu(const RtuFrame& frame) const noexcept {
+std::optional<Result<Response>> MasterTransaction::accept_rtu(const RtuFrame& frame,
+                                                              FrameQuirks quirks) const noexcept {
   if (frame.unit() != unit_) return std::nullopt;
-  return decode_response(request_, frame.pdu());
+  return decode_response(request_, frame.pdu(), quirks);
 }
 
 std::optional<Result<Response>> MasterTransaction::accept_tcp(std::span<const uint8_t> adu) const noexcept {

@@ -81,7 +81,7 @@ Errc check_range(uint8_t function, uint16_t address, uint16_t quantity) noexcept
 
 }  // namespace
 
-Result<Request> decode_request(std::span<const uint8_t> pdu) noexcept {
+Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks) noexcept {
   if (pdu.empty()) return Errc::malformed;
   Request r;
   r.function = pdu[0];
@@ -112,9 +112,12 @@ Result<Request> decode_request(std::span<const uint8_t> pdu) noexcept {
       const size_t expected_bytes = r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
       if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
         r.data = pdu.subspan(6);
-      } else if (r.function == 0x10 && pdu.size() == 5 + expected_bytes && r.quantity > 0) {
+      } else if (quirks.fc10_without_byte_count && r.function == 0x10 && pdu.size() == 5 + expected_bytes &&
+                 r.quantity > 0) {
         // The Inverjet document prints FC10 requests without the byte count;
         // the length (already CRC-checked by the framer) tells the two apart.
+        // Only for a device that opts in, and only on RTU links: over Modbus
+        // TCP a truncated standard request would be taken for it.
         r.data = pdu.subspan(5);
         r.without_byte_count = true;
       } else if (pdu.size() < 6) {
@@ -230,7 +233,8 @@ Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uin
   return 6 + bytes;
 }
 
-Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu) noexcept {
+Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu,
+                                 FrameQuirks quirks) noexcept {
   if (pdu.empty()) return Errc::malformed;
   if (pdu[0] == (request.function | kExceptionBit)) {
     if (pdu.size() != 2) return Errc::malformed;
@@ -249,8 +253,10 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       const size_t expected = registers ? size_t{2} * request.quantity : packed_size(request.quantity);
       if (pdu.size() >= 2 && pdu[1] == expected && pdu.size() == 2 + expected) {
         r.data = pdu.subspan(2);
-      } else if (registers && pdu.size() == 3 + expected && load_be16(&pdu[1]) == expected) {
-        // The Rehand 6600 document prints a 2-byte byte count; accept it.
+      } else if (quirks.fc03_two_byte_count && registers && pdu.size() == 3 + expected &&
+                 load_be16(&pdu[1]) == expected) {
+        // The Rehand 6600 document prints a 2-byte byte count; accepted from a
+        // device that opts in.
         r.data = pdu.subspan(3);
         r.long_byte_count = true;
       } else if (pdu.size() < 2) {

@@ -115,7 +115,7 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     if (avail < 7) return c;
     add(9 + size_t{p[6]});
     // Short form (no byte count), FC10 only: length from the quantity.
-    if (function == 0x10) {
+    if (function == 0x10 && quirks_.fc10_without_byte_count) {
       const uint16_t q = load_be16(p + 4);
       if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
     }
@@ -133,7 +133,7 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     case 0x04: {
       if (avail < 3) return c;
       add(5 + size_t{p[2]});
-      if (function >= 0x03) {
+      if (function >= 0x03 && quirks_.fc03_two_byte_count) {
         // 2-byte byte count (Rehand 6600 document). With an expectation the
         // length is known; without one, read it from the frame.
         if (expected_function_ == function && expected_quantity_ > 0) {

@@ -37,6 +37,16 @@ bool SlaveEngine::remove_unit(uint8_t unit) noexcept {
   return false;
 }
 
+FrameQuirks SlaveEngine::quirks() const noexcept {
+  FrameQuirks q;
+  for (size_t i = 0; i < count_; ++i) {
+    const FrameQuirks b = units_[i].bank->quirks();
+    q.fc10_without_byte_count = q.fc10_without_byte_count || b.fc10_without_byte_count;
+    q.fc03_two_byte_count = q.fc03_two_byte_count || b.fc03_two_byte_count;
+  }
+  return q;
+}
+
 RegisterBank* SlaveEngine::find(uint8_t unit) const noexcept {
   for (size_t i = 0; i < count_; ++i)
     if (units_[i].address == unit) return units_[i].bank;
@@ -123,7 +133,11 @@ size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::
     }
   }
   ++counters_.requests;
-  const Result<Request> request = decode_request(pdu);
+  // Quirks apply on RTU links only; a broadcast is decoded with every hosted unit's.
+  const FrameQuirks quirks = addressing != Addressing::rtu ? FrameQuirks{}
+                             : broadcast                   ? this->quirks()
+                                                           : bank->quirks();
+  const Result<Request> request = decode_request(pdu, quirks);
 
   if (broadcast) {
     // Only writes are executed; nobody answers, whatever the outcome.
@@ -133,6 +147,7 @@ size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::
     size_t len = 0;
     for (size_t i = 0; i < count_; ++i) {
       if (!(units_[i].bank->functions() & function_bit(request->function))) continue;
+      if (request->without_byte_count && !units_[i].bank->quirks().fc10_without_byte_count) continue;
       (void)execute(*units_[i].bank, *request, scratch, &len);
       units_[i].bank->after_response();
     }

@@ -8,6 +8,7 @@ namespace rtukit {
 Master::Master(std::unique_ptr<io::Link> link, MasterOptions options)
     : link_(std::move(link)), options_(options) {
   framer_.set_timing(link_->timing());
+  framer_.set_quirks(options_.quirks);
 }
 
 Master::~Master() = default;
@@ -121,7 +122,7 @@ Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_poin
     do {
       fed += framer_.feed(std::span<const uint8_t>(chunk.data() + fed, *n - fed), now);
       while (auto frame = framer_.next(now)) {
-        if (auto outcome = tx.accept_rtu(*frame)) {
+        if (auto outcome = tx.accept_rtu(*frame, options_.quirks)) {
           stats_.crc_errors += framer_.counters().crc_errors - crc_before;
           return *outcome;
         }

@@ -23,6 +23,8 @@ class RtuResponder {
 
   template <class Send>
   void on_bytes(std::span<const uint8_t> bytes, uint64_t now, Send&& send) {
+    // The frame forms to recognise are those of the units hosted now.
+    framer_.set_quirks(engine_.quirks());
     size_t fed = 0;
     do {
       fed += framer_.feed(bytes.subspan(fed), now);

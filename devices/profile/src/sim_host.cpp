@@ -22,6 +22,7 @@ struct SimHost::Bank final : RegisterBank {
   void sync() { m().advance_to(host.device_ms()); }
 
   FunctionSet functions() const noexcept override { return host.device_.model->functions(); }
+  FrameQuirks quirks() const noexcept override { return host.device_.model->quirks(); }
   Errc read_coils(uint16_t a, uint16_t n, std::span<uint8_t> out) override {
     sync();
     return m().read_coils(a, n, out);

@@ -27,7 +27,8 @@ bool is_phone_drive(uint16_t a) {
 
 Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
     : options_(options),
-      master_(std::move(link), MasterOptions{.response_timeout = options.response_timeout}) {}
+      master_(std::move(link),
+              MasterOptions{.response_timeout = options.response_timeout, .quirks = kProfile.quirks}) {}
 
 Host::~Host() {
   stop();

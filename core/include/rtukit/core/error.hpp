@@ -102,11 +102,11 @@ class [[nodiscard]] Result {
   constexpr Result(T value) noexcept(noexcept(T(std::move(value))))  // NOLINT: implicit
       : value_(std::move(value)) {}
   constexpr Result(E error) noexcept : error_(std::move(error)) {}  // NOLINT: implicit
-  constexpr Result(Errc code) noexcept : error_(code) {}           // NOLINT: implicit
+  constexpr Result(Errc code) noexcept : error_(code) {}            // NOLINT: implicit
   /// A Result with another error type whose error converts (Error -> Status).
   template <class E2>
-    requires(!std::is_same_v<E, E2> && std::is_convertible_v<E2, E>)
-  constexpr Result(Result<T, E2> other) noexcept  // NOLINT: implicit
+  requires(!std::is_same_v<E, E2> &&
+           std::is_convertible_v<E2, E>) constexpr Result(Result<T, E2> other) noexcept  // NOLINT: implicit
       : value_(std::move(other.value())), error_(other.error()) {}
 
   constexpr bool ok() const noexcept { return error_.ok(); }

@@ -48,8 +48,9 @@ class MasterTransaction {
   /// Checks an RTU frame received while waiting. nullopt: the frame is not an
   /// answer to us (another unit's traffic), keep waiting. Otherwise the
   /// outcome: the decoded response (data views the frame), the exception the
-  /// slave answered, or unexpected_response.
-  std::optional<Result<Response>> accept_rtu(const RtuFrame& frame) const noexcept;
+  /// slave answered, or unexpected_response. `quirks`: the documented
+  /// response forms the device is known to use (off by default).
+  std::optional<Result<Response>> accept_rtu(const RtuFrame& frame, FrameQuirks quirks = {}) const noexcept;
 
   /// Checks a complete MBAP ADU. nullopt: another transaction id (a late
   /// answer to an earlier request that timed out), keep waiting.

@@ -125,7 +125,7 @@ struct Request {
 /// FC05 value other than 0xFF00/0x0000), illegal_data_address (address +
 /// quantity past 0xFFFF), malformed (too short to hold the fixed fields: a
 /// slave drops it without answering).
-Result<Request> decode_request(std::span<const uint8_t> pdu) noexcept;
+Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks = {}) noexcept;
 
 /// Encodes `request` into `out` (FC10 without byte count if
 /// `request.without_byte_count`). The same validation as decode_request,
@@ -159,7 +159,8 @@ struct Response {
 /// An exception response returns its exception code as the Error.
 /// Errors: malformed (length wrong for the function), unexpected_response
 /// (other function, byte count or echo that does not match the request).
-Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu) noexcept;
+Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu,
+                                 FrameQuirks quirks = {}) noexcept;
 
 // Response encoders for a slave. Each returns the PDU length written to `out`.
 size_t encode_exception_response(uint8_t function, Errc exception, std::span<uint8_t> out) noexcept;

@@ -102,6 +102,9 @@ class RtuFramer {
   std::optional<uint64_t> silence_deadline() const noexcept;
 
   /// Master side: the response expected next is for `function` and `quantity`.
+  /// Which documented frame quirks to recognise (off by default). Kept by reset().
+  void set_quirks(FrameQuirks quirks) noexcept { quirks_ = quirks; }
+  FrameQuirks quirks() const noexcept { return quirks_; }
   /// Makes the 2-byte-byte-count form of FC03/04 predictable. Cleared by reset().
   void expect_response(uint8_t function, uint16_t quantity) noexcept;
 
@@ -134,6 +137,7 @@ class RtuFramer {
   void consume_pending() noexcept;
 
   FrameShape shape_;
+  FrameQuirks quirks_{};
   RtuTiming timing_;
   std::array<uint8_t, kBufferSize> buf_{};
   size_t head_ = 0;

@@ -65,6 +65,10 @@ class RegisterBank {
   /// exception 01 before its quantity or values are looked at (Modbus checks
   /// the function first). Default: the eight data functions.
   virtual FunctionSet functions() const noexcept { return kDataFunctions; }
+  /// The documented request forms this device accepts (the Inverjet's FC10
+  /// without byte count). Off by default; the engine applies them on RTU
+  /// links only (an MBAP frame carries its length).
+  virtual FrameQuirks quirks() const noexcept { return {}; }
   /// Called by the driver once the response to the last request of this unit
   /// has been sent (or would have been: broadcast). A device applies changes
   /// that must not affect that response here, such as a new address or baud rate.
@@ -117,6 +121,9 @@ class SlaveEngine {
                     RegisterBank** handled = nullptr) noexcept;
 
   const Counters& counters() const noexcept { return counters_; }
+  /// The quirks of every hosted unit together: what an RTU framer serving
+  /// this engine must recognise.
+  FrameQuirks quirks() const noexcept;
 
  private:
   struct Unit {

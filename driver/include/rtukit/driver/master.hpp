@@ -40,6 +40,9 @@ struct MasterOptions {
   bool discard_echo = false;
   /// Send FC10 without its byte count (Inverjet document form). Off: standard form.
   bool fc10_without_byte_count = false;
+  /// Response forms the device is documented to use (the Rehand 6600's FC03
+  /// with a 2-byte byte count). Off by default; RTU framing only.
+  FrameQuirks quirks{};
 };
 
 /// Counters since construction. Readable from any thread.

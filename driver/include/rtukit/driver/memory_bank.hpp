@@ -18,6 +18,10 @@ class MemoryBank final : public RegisterBank {
   explicit MemoryBank(size_t size = 10000)
       : holding(size, 0), input(size, 0), coils(size, 0), discrete(size, 0) {}
 
+  /// The documented frame forms this slave accepts (`rtukit slave --quirk`).
+  FrameQuirks accepted_quirks{};
+  FrameQuirks quirks() const noexcept override { return accepted_quirks; }
+
   std::vector<uint16_t> holding;
   std::vector<uint16_t> input;
   std::vector<uint8_t> coils;     ///< one element per coil, 0 or 1

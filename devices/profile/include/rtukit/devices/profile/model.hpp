@@ -80,6 +80,7 @@ class Model : public RegisterBank {
 
   // ---- RegisterBank, generic over the map ----
   FunctionSet functions() const noexcept override { return functions_; }
+  FrameQuirks quirks() const noexcept override { return profile_->quirks; }
   Errc read_holding_registers(uint16_t address, std::span<uint16_t> out) override {
     return read(Space::holding, address, out);
   }
