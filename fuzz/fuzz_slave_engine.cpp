@@ -57,7 +57,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Result<size_t> n = rtu_encode(data[0] % 3, {data + 1, size - 1}, adu);
   if (!n.ok()) return 0;
   std::array<uint8_t, kMaxRtuAduSize> out{};
-  const size_t m = engine.handle_rtu({adu.data(), *n}, out);
+  const size_t m = engine.handle_rtu({adu.data(), *n}, out).length;
   if (m) {
     if (adu[0] == 0) std::abort();  // broadcast answered
     if (out[0] != adu[0] || !rtu_crc_ok({out.data(), m})) std::abort();
@@ -70,7 +70,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Result<size_t> t = mbap_encode(0x1234, 1, {data + 1, size - 1}, tcp);
   if (!t.ok()) return 0;
   std::array<uint8_t, kMaxMbapAduSize> tout{};
-  const size_t k = engine.handle_tcp({tcp.data(), *t}, tout);
+  const size_t k = engine.handle_tcp({tcp.data(), *t}, tout).length;
   if (k && (k < 9 || tout[0] != 0x12 || tout[1] != 0x34 || *mbap_adu_size({tout.data(), k}) != k))
     std::abort();
   return 0;

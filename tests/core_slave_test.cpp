@@ -51,7 +51,7 @@ std::string answer(SlaveEngine& engine, const std::string& frame_without_crc) {
   std::array<uint8_t, kMaxRtuAduSize> adu{};
   const size_t n = *rtu_encode(body[0], std::span(body).subspan(1), adu);
   std::array<uint8_t, kMaxRtuAduSize> out{};
-  const size_t m = engine.handle_rtu({adu.data(), n}, out);
+  const size_t m = engine.handle_rtu({adu.data(), n}, out).length;
   return hex({out.data(), m});
 }
 
@@ -64,7 +64,7 @@ std::string answer_framed(SlaveEngine& engine, const std::string& full_frame) {
   if (!frame) frame = framer.next(1'000'000);  // silence ends an unpredictable frame
   if (!frame) return "(no frame)";
   std::array<uint8_t, kMaxRtuAduSize> out{};
-  return hex({out.data(), engine.handle_rtu(frame->adu, out)});
+  return hex({out.data(), engine.handle_rtu(frame->adu, out).length});
 }
 
 // Exception response for `unit`, `fc`, `code` with its CRC, as hex.
@@ -163,7 +163,7 @@ TEST_F(SlaveEngineTest, TruncatedFc10OverTcp_Gets03EvenWithTheQuirkOn) {
   // FC10 at 0x21, quantity 2, byte count 4, but only one register (00 07) arrived.
   const auto adu = bytes("00 01 00 00 00 08 01 10 00 21 00 02 04 00 07");
   std::array<uint8_t, kMaxMbapAduSize> out{};
-  const size_t n = engine.handle_tcp(adu, out);
+  const size_t n = engine.handle_tcp(adu, out).length;
   EXPECT_EQ(hex({out.data(), n}), "00 01 00 00 00 03 01 90 03");
   EXPECT_EQ(bank.holding[0x21], 0);
   EXPECT_EQ(bank.holding[0x22], 0);
@@ -213,11 +213,11 @@ TEST_F(SlaveEngineTest, ModbusTcp_EchoesTheHeader) {
   bank.holding[0] = 0x15;
   const auto adu = bytes("12 34 00 00 00 06 01 03 00 00 00 01");
   std::array<uint8_t, kMaxMbapAduSize> out{};
-  const size_t n = engine.handle_tcp(adu, out);
+  const size_t n = engine.handle_tcp(adu, out).length;
   EXPECT_EQ(hex({out.data(), n}), "12 34 00 00 00 05 01 03 02 00 15");
   // Unit 0xFF addresses the device itself on TCP.
   const auto ff = bytes("00 01 00 00 00 06 FF 03 00 00 00 01");
-  EXPECT_EQ(hex({out.data(), engine.handle_tcp(ff, out)}), "00 01 00 00 00 05 FF 03 02 00 15");
+  EXPECT_EQ(hex({out.data(), engine.handle_tcp(ff, out).length}), "00 01 00 00 00 05 FF 03 02 00 15");
 }
 
 TEST(MasterTransaction, RtuRequestAndResponse) {

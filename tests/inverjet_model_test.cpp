@@ -58,8 +58,7 @@ struct Rig {
     machine.advance_to(now);  // as the simulator host does before every request
     const auto adu = bytes(frame);
     std::array<uint8_t, 256> out{};
-    RegisterBank* handled = nullptr;
-    const size_t n = engine.handle_rtu(adu, out, &handled);
+    const auto [n, handled] = engine.handle_rtu(adu, out);
     if (handled) {
       const auto change = machine.take_link_change();
       if (change.address) (void)engine.change_unit_address(unit, *change.address), unit = *change.address;

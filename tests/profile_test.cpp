@@ -205,7 +205,7 @@ TEST(ProfileModel, EngineServesItStrictly) {
   std::array<uint8_t, 256> out{};
   const auto ask = [&](std::initializer_list<uint8_t> pdu) {
     const std::vector<uint8_t> p(pdu);
-    const size_t n = engine.handle_pdu(7, p, out);
+    const size_t n = engine.handle_pdu(7, p, out).length;
     return std::vector<uint8_t>(out.begin(), out.begin() + static_cast<ptrdiff_t>(n));
   };
   // The functions come from the rows: no discrete inputs -> 01, even with a bad quantity.

@@ -45,7 +45,7 @@ TEST(RehandTables, ExceptionMatrixThroughTheEngine) {
   std::array<uint8_t, 256> out{};
   const auto pdu = [&](const std::string& hex) {
     const auto req = test::bytes(hex);
-    const size_t n = engine.handle_pdu(1, req, out);
+    const size_t n = engine.handle_pdu(1, req, out).length;
     return test::hex({out.data(), n});
   };
   EXPECT_EQ(pdu("03 00 00 00 01"), "03 02 00 68");           // device ID

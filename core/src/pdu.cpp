@@ -6,14 +6,14 @@ namespace rtukit {
 
 bool is_supported_function(uint8_t function) noexcept {
   switch (function) {
-    case 0x01:
-    case 0x02:
-    case 0x03:
-    case 0x04:
-    case 0x05:
-    case 0x06:
-    case 0x0F:
-    case 0x10:
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers):
       return true;
     default:
       return false;
@@ -21,26 +21,26 @@ bool is_supported_function(uint8_t function) noexcept {
 }
 
 bool is_read_function(uint8_t function) noexcept {
-  return function >= 0x01 && function <= 0x04;
+  return function >= fc(Function::read_coils) && function <= fc(Function::read_input_registers);
 }
 
 const char* function_name(uint8_t function) noexcept {
   switch (function) {
-    case 0x01:
+    case fc(Function::read_coils):
       return "read coils";
-    case 0x02:
+    case fc(Function::read_discrete_inputs):
       return "read discrete inputs";
-    case 0x03:
+    case fc(Function::read_holding_registers):
       return "read holding registers";
-    case 0x04:
+    case fc(Function::read_input_registers):
       return "read input registers";
-    case 0x05:
+    case fc(Function::write_single_coil):
       return "write single coil";
-    case 0x06:
+    case fc(Function::write_single_register):
       return "write single register";
-    case 0x0F:
+    case fc(Function::write_multiple_coils):
       return "write multiple coils";
-    case 0x10:
+    case fc(Function::write_multiple_registers):
       return "write multiple registers";
     default:
       return "unknown function";
@@ -55,15 +55,15 @@ namespace {
 
 uint16_t max_quantity(uint8_t function) noexcept {
   switch (function) {
-    case 0x01:
-    case 0x02:
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
       return kMaxReadBits;
-    case 0x03:
-    case 0x04:
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
       return kMaxReadRegisters;
-    case 0x0F:
+    case fc(Function::write_multiple_coils):
       return kMaxWriteBits;
-    case 0x10:
+    case fc(Function::write_multiple_registers):
       return kMaxWriteRegisters;
     default:
       return 1;
@@ -89,31 +89,34 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
   if (pdu.size() < 5) return Errc::malformed;
   r.address = load_be16(&pdu[1]);
   switch (r.function) {
-    case 0x01:
-    case 0x02:
-    case 0x03:
-    case 0x04: {
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers): {
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.quantity = load_be16(&pdu[3]);
       if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
       return r;
     }
-    case 0x05:
-    case 0x06: {
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register): {
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.quantity = 1;
       r.value = load_be16(&pdu[3]);
-      if (r.function == 0x05 && r.value != 0xFF00 && r.value != 0x0000) return Errc::illegal_data_value;
+      if (r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0x0000)
+        return Errc::illegal_data_value;
       return r;
     }
-    case 0x0F:
-    case 0x10: {
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers): {
       r.quantity = load_be16(&pdu[3]);
-      const size_t expected_bytes = r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
+      const size_t expected_bytes = r.function == fc(Function::write_multiple_registers)
+                                        ? size_t{2} * r.quantity
+                                        : packed_size(r.quantity);
       if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
         r.data = pdu.subspan(6);
-      } else if (quirks.fc10_without_byte_count && r.function == 0x10 && pdu.size() == 5 + expected_bytes &&
-                 r.quantity > 0) {
+      } else if (quirks.fc10_without_byte_count && r.function == fc(Function::write_multiple_registers) &&
+                 pdu.size() == 5 + expected_bytes && r.quantity > 0) {
         // The Inverjet document prints FC10 requests without the byte count;
         // the length (already CRC-checked by the framer) tells the two apart.
         // Only for a device that opts in, and only on RTU links: over Modbus
@@ -137,28 +140,30 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
   if (!is_supported_function(r.function)) return Errc::invalid_argument;
   size_t n = 0;
   switch (r.function) {
-    case 0x01:
-    case 0x02:
-    case 0x03:
-    case 0x04:
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
       n = 5;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.quantity);
       break;
-    case 0x05:
-    case 0x06:
-      if (r.function == 0x05 && r.value != 0xFF00 && r.value != 0) return Errc::invalid_argument;
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+      if (r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0)
+        return Errc::invalid_argument;
       n = 5;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.value);
       break;
-    case 0x0F:
-    case 0x10: {
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers): {
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
-      const size_t bytes = r.function == 0x10 ? size_t{2} * r.quantity : packed_size(r.quantity);
+      const size_t bytes = r.function == fc(Function::write_multiple_registers) ? size_t{2} * r.quantity
+                                                                                : packed_size(r.quantity);
       if (r.data.size() != bytes) return Errc::invalid_argument;
-      const bool short_form = r.function == 0x10 && r.without_byte_count;
+      const bool short_form = r.function == fc(Function::write_multiple_registers) && r.without_byte_count;
       const size_t header = short_form ? 5 : 6;
       n = header + bytes;
       if (out.size() < n) return Errc::buffer_too_small;
@@ -245,11 +250,11 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
   Response r;
   r.function = pdu[0];
   switch (request.function) {
-    case 0x01:
-    case 0x02:
-    case 0x03:
-    case 0x04: {
-      const bool registers = request.function >= 0x03;
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers): {
+      const bool registers = request.function >= fc(Function::read_holding_registers);
       const size_t expected = registers ? size_t{2} * request.quantity : packed_size(request.quantity);
       if (pdu.size() >= 2 && pdu[1] == expected && pdu.size() == 2 + expected) {
         r.data = pdu.subspan(2);
@@ -266,14 +271,15 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       }
       return r;
     }
-    case 0x05:
-    case 0x06:
-    case 0x0F:
-    case 0x10: {
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers): {
       if (pdu.size() != 5) return Errc::malformed;
       r.address = load_be16(&pdu[1]);
       r.value = load_be16(&pdu[3]);
-      const uint16_t expected = request.function <= 0x06 ? request.value : request.quantity;
+      const uint16_t expected =
+          request.function <= fc(Function::write_single_register) ? request.value : request.quantity;
       if (r.address != request.address || r.value != expected) return Errc::unexpected_response;
       return r;
     }

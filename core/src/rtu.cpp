@@ -108,14 +108,15 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       c.predictable = false;
       return c;
     }
-    if (function != 0x0F && function != 0x10) {
+    if (function != fc(Function::write_multiple_coils) &&
+        function != fc(Function::write_multiple_registers)) {
       add(8);  // reads and single writes: address, function, 4 bytes, CRC
       return c;
     }
     if (avail < 7) return c;
     add(9 + size_t{p[6]});
     // Short form (no byte count), FC10 only: length from the quantity.
-    if (function == 0x10 && quirks_.fc10_without_byte_count) {
+    if (function == fc(Function::write_multiple_registers) && quirks_.fc10_without_byte_count) {
       const uint16_t q = load_be16(p + 4);
       if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
     }
@@ -127,13 +128,13 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     return c;
   }
   switch (function) {
-    case 0x01:
-    case 0x02:
-    case 0x03:
-    case 0x04: {
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers): {
       if (avail < 3) return c;
       add(5 + size_t{p[2]});
-      if (function >= 0x03 && quirks_.fc03_two_byte_count) {
+      if (function >= fc(Function::read_holding_registers) && quirks_.fc03_two_byte_count) {
         // 2-byte byte count (Rehand 6600 document). With an expectation the
         // length is known; without one, read it from the frame.
         if (expected_function_ == function && expected_quantity_ > 0) {
@@ -144,10 +145,10 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       }
       return c;
     }
-    case 0x05:
-    case 0x06:
-    case 0x0F:
-    case 0x10:
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers):
       add(8);
       return c;
     default:

@@ -58,11 +58,11 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
                           size_t* length) noexcept {
   out[0] = r.function;
   switch (r.function) {
-    case 0x01:
-    case 0x02: {
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs): {
       const size_t bytes = packed_size(r.quantity);
       std::memset(&out[2], 0, bytes);
-      const Errc e = r.function == 0x01
+      const Errc e = r.function == fc(Function::read_coils)
                          ? bank.read_coils(r.address, r.quantity, out.subspan(2, bytes))
                          : bank.read_discrete_inputs(r.address, r.quantity, out.subspan(2, bytes));
       if (e != Errc::ok) return e;
@@ -70,36 +70,37 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       *length = 2 + bytes;
       return Errc::ok;
     }
-    case 0x03:
-    case 0x04: {
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers): {
       std::array<uint16_t, kMaxReadRegisters> regs{};
       const std::span<uint16_t> view(regs.data(), r.quantity);
-      const Errc e = r.function == 0x03 ? bank.read_holding_registers(r.address, view)
-                                        : bank.read_input_registers(r.address, view);
+      const Errc e = r.function == fc(Function::read_holding_registers)
+                         ? bank.read_holding_registers(r.address, view)
+                         : bank.read_input_registers(r.address, view);
       if (e != Errc::ok) return e;
       out[1] = static_cast<uint8_t>(2 * r.quantity);
       for (size_t i = 0; i < r.quantity; ++i) store_be16(&out[2 + 2 * i], regs[i]);
       *length = 2 + 2 * size_t{r.quantity};
       return Errc::ok;
     }
-    case 0x05: {
+    case fc(Function::write_single_coil): {
       const uint8_t bit = r.value == 0xFF00 ? 1 : 0;
       const Errc e = bank.write_coils(r.address, 1, {&bit, 1});
       if (e != Errc::ok) return e;
       break;
     }
-    case 0x06: {
+    case fc(Function::write_single_register): {
       const uint16_t value = r.value;
       const Errc e = bank.write_holding_registers(r.address, {&value, 1});
       if (e != Errc::ok) return e;
       break;
     }
-    case 0x0F: {
+    case fc(Function::write_multiple_coils): {
       const Errc e = bank.write_coils(r.address, r.quantity, r.data);
       if (e != Errc::ok) return e;
       break;
     }
-    case 0x10: {
+    case fc(Function::write_multiple_registers): {
       std::array<uint16_t, kMaxWriteRegisters> regs{};
       load_registers(r.data, {regs.data(), r.quantity});
       const Errc e = bank.write_holding_registers(r.address, {regs.data(), r.quantity});
@@ -111,38 +112,40 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
   }
   // Write responses echo address and value (single) or quantity (multiple).
   store_be16(&out[1], r.address);
-  store_be16(&out[3], r.function == 0x05 || r.function == 0x06 ? r.value : r.quantity);
+  store_be16(&out[3], r.function == fc(Function::write_single_coil) ||
+                              r.function == fc(Function::write_single_register)
+                          ? r.value
+                          : r.quantity);
   *length = 5;
   return Errc::ok;
 }
 
-size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
-                               Addressing addressing, RegisterBank** handled) noexcept {
-  if (handled) *handled = nullptr;
-  if (pdu.empty() || out.size() < kMaxPduSize) return 0;
-  const bool broadcast = addressing == Addressing::rtu && unit == 0;
+SlaveEngine::Handled SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu,
+                                             std::span<uint8_t> out, Framing framing) noexcept {
+  if (pdu.empty() || out.size() < kMaxPduSize) return {};
+  const bool broadcast = framing == Framing::rtu && unit == 0;
   RegisterBank* bank = nullptr;
   if (!broadcast) {
     bank = find(unit);
-    if (bank == nullptr && addressing == Addressing::tcp && (unit == 0 || unit == 0xFF) && count_ > 0) {
+    if (bank == nullptr && framing == Framing::tcp && (unit == 0 || unit == 0xFF) && count_ > 0) {
       bank = units_[0].bank;
     }
     if (bank == nullptr) {
       ++counters_.ignored;
-      return 0;
+      return {};
     }
   }
   ++counters_.requests;
   // Quirks apply on RTU links only; a broadcast is decoded with every hosted unit's.
-  const FrameQuirks quirks = addressing != Addressing::rtu ? FrameQuirks{}
-                             : broadcast                   ? this->quirks()
-                                                           : bank->quirks();
+  const FrameQuirks quirks = framing != Framing::rtu ? FrameQuirks{}
+                             : broadcast             ? this->quirks()
+                                                     : bank->quirks();
   const Result<Request> request = decode_request(pdu, quirks);
 
   if (broadcast) {
     // Only writes are executed; nobody answers, whatever the outcome.
     ++counters_.broadcasts;
-    if (!request.ok() || is_read_function(request->function)) return 0;
+    if (!request.ok() || is_read_function(request->function)) return {};
     std::array<uint8_t, kMaxPduSize> scratch{};
     size_t len = 0;
     for (size_t i = 0; i < count_; ++i) {
@@ -151,58 +154,56 @@ size_t SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::
       (void)execute(*units_[i].bank, *request, scratch, &len);
       units_[i].bank->after_response();
     }
-    return 0;
+    return {};
   }
 
-  if (handled) *handled = bank;
   // The function first: a function the bank does not implement is 01 even
   // when its quantity or value is also wrong.
   if (!(bank->functions() & function_bit(pdu[0]))) {
     ++counters_.exceptions;
-    return encode_exception_response(pdu[0], Errc::illegal_function, out);
+    return {encode_exception_response(pdu[0], Errc::illegal_function, out), bank};
   }
   if (!request.ok()) {
     if (!request.error().is_exception()) {
       ++counters_.malformed;
-      return 0;
+      return {0, bank};
     }
     ++counters_.exceptions;
-    return encode_exception_response(pdu[0], request.error().code(), out);
+    return {encode_exception_response(pdu[0], request.error().code(), out), bank};
   }
   size_t len = 0;
   const Errc e = execute(*bank, *request, out, &len);
   if (e != Errc::ok) {
     ++counters_.exceptions;
-    return encode_exception_response(pdu[0], e, out);
+    return {encode_exception_response(pdu[0], e, out), bank};
   }
   ++counters_.responses;
-  return len;
+  return {len, bank};
 }
 
-size_t SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out,
-                               RegisterBank** handled) noexcept {
-  if (handled) *handled = nullptr;
-  if (adu.size() < 4 || out.size() < kMaxRtuAduSize) return 0;
-  const size_t n =
-      handle_pdu(adu[0], adu.subspan(1, adu.size() - 3), out.subspan(1), Addressing::rtu, handled);
-  if (n == 0) return 0;
+SlaveEngine::Handled SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept {
+  if (adu.size() < 4 || out.size() < kMaxRtuAduSize) return {};
+  Handled h = handle_pdu(adu[0], adu.subspan(1, adu.size() - 3), out.subspan(1), Framing::rtu);
+  if (h.length == 0) return h;
+  const size_t n = h.length;
   out[0] = adu[0];
   const uint16_t crc = crc16(out.first(n + 1));
   out[n + 1] = static_cast<uint8_t>(crc & 0xFF);
   out[n + 2] = static_cast<uint8_t>(crc >> 8);
-  return n + 3;
+  h.length = n + 3;
+  return h;
 }
 
-size_t SlaveEngine::handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out,
-                               RegisterBank** handled) noexcept {
-  if (handled) *handled = nullptr;
-  if (adu.size() < kMbapHeaderSize + 1 || out.size() < kMaxMbapAduSize) return 0;
-  const size_t n = handle_pdu(adu[6], mbap_pdu(adu), out.subspan(kMbapHeaderSize), Addressing::tcp, handled);
-  if (n == 0) return 0;
+SlaveEngine::Handled SlaveEngine::handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept {
+  if (adu.size() < kMbapHeaderSize + 1 || out.size() < kMaxMbapAduSize) return {};
+  Handled h = handle_pdu(adu[6], mbap_pdu(adu), out.subspan(kMbapHeaderSize), Framing::tcp);
+  if (h.length == 0) return h;
+  const size_t n = h.length;
   std::memcpy(out.data(), adu.data(), 4);  // transaction and protocol id echoed
   store_be16(&out[4], static_cast<uint16_t>(n + 1));
   out[6] = adu[6];
-  return kMbapHeaderSize + n;
+  h.length = kMbapHeaderSize + n;
+  return h;
 }
 
 }  // namespace rtukit

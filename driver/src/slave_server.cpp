@@ -35,8 +35,7 @@ class RtuResponder {
   template <class Send>
   void drain(uint64_t now, Send&& send) {
     while (auto frame = framer_.next(now)) {
-      RegisterBank* bank = nullptr;
-      const size_t n = engine_.handle_rtu(frame->adu, tx_, &bank);
+      const auto [n, bank] = engine_.handle_rtu(frame->adu, tx_);
       if (log_) log_(frame->adu, {tx_.data(), n});
       if (n) send(std::span<const uint8_t>(tx_.data(), n));
       if (bank) bank->after_response();
@@ -173,9 +172,8 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
       if (!size.ok()) return false;
       if (*size == 0 || *size > rx_len_ - pos) break;
       const std::span<const uint8_t> adu(rx_.data() + pos, *size);
-      RegisterBank* bank = nullptr;
       std::array<uint8_t, kMaxMbapAduSize> tx{};
-      const size_t out = engine_.handle_tcp(adu, tx, &bank);
+      const auto [out, bank] = engine_.handle_tcp(adu, tx);
       if (log_) log_(adu, {tx.data(), out});
       if (out) queue({tx.data(), out});
       if (bank) bank->after_response();

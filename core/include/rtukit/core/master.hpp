@@ -21,11 +21,6 @@
 
 namespace rtukit {
 
-enum class Framing : uint8_t {
-  rtu,  ///< address + PDU + CRC (serial, pty, RTU-over-TCP)
-  tcp,  ///< MBAP header + PDU (Modbus TCP)
-};
-
 class MasterTransaction {
  public:
   /// Encodes `request` for `unit`. RTU unit 0 is a broadcast: only writes may

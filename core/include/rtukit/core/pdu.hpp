@@ -61,6 +61,12 @@ struct FrameQuirks {
   bool fc03_two_byte_count = false;      ///< the Rehand 6600's FC03 response with a 2-byte count
 };
 
+/// How a PDU travels, for master and slave alike.
+enum class Framing : uint8_t {
+  rtu,  ///< address + PDU + CRC (serial, pty, RTU-over-TCP); unit 0 is a broadcast
+  tcp,  ///< MBAP header + PDU (Modbus TCP); units 0 and 0xFF address a TCP device directly
+};
+
 /// A set of function codes: bit n stands for function code n (0..63).
 using FunctionSet = uint64_t;
 constexpr FunctionSet function_bit(uint8_t function) noexcept {

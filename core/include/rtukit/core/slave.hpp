@@ -75,12 +75,6 @@ class RegisterBank {
   virtual void after_response() {}
 };
 
-/// How the unit byte is read.
-enum class Addressing : uint8_t {
-  rtu,  ///< 0 = broadcast (writes run on every unit, nobody answers)
-  tcp,  ///< 0 and 0xFF address the first unit (a TCP device addressed directly)
-};
-
 class SlaveEngine {
  public:
   static constexpr size_t kMaxUnits = 16;
@@ -103,22 +97,29 @@ class SlaveEngine {
   RegisterBank* find(uint8_t unit) const noexcept;
   size_t unit_count() const noexcept { return count_; }
 
-  /// Handles the request `pdu` addressed to `unit`. Writes the response PDU to
-  /// `out` (>= 253 bytes) and returns its length; 0 means stay silent
-  /// (broadcast, another unit's frame, or a malformed request).
-  /// `handled` receives the bank that ran the request (for after_response), or nullptr.
-  size_t handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
-                    Addressing addressing = Addressing::rtu, RegisterBank** handled = nullptr) noexcept;
+  /// What a request came to: the length of the response written to `out`
+  /// (0 = stay silent) and the bank that ran it (for after_response), or nullptr.
+  struct Handled {
+    size_t length = 0;
+    RegisterBank* bank = nullptr;
+  };
+
+  /// Handles the request `pdu` addressed to `unit`, read as `framing` says:
+  /// on RTU unit 0 is a broadcast (writes run on every unit, nobody answers);
+  /// on Modbus TCP units 0 and 0xFF address the first unit (a TCP device
+  /// addressed directly), and no frame quirk applies. Writes the response PDU to
+  /// `out` (>= 253 bytes). Silent for a broadcast, another unit's frame, or a
+  /// malformed request.
+  Handled handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
+                     Framing framing = Framing::rtu) noexcept;
 
   /// RTU: `adu` is a CRC-checked frame (address + PDU + CRC). Writes the
-  /// response ADU to `out` (>= 256 bytes); returns its length, 0 = silence.
-  size_t handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out,
-                    RegisterBank** handled = nullptr) noexcept;
+  /// response ADU to `out` (>= 256 bytes).
+  Handled handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
 
   /// Modbus TCP: `adu` is a complete MBAP ADU. Writes the response ADU to
-  /// `out` (>= 260 bytes); returns its length, 0 = silence.
-  size_t handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out,
-                    RegisterBank** handled = nullptr) noexcept;
+  /// `out` (>= 260 bytes).
+  Handled handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
 
   const Counters& counters() const noexcept { return counters_; }
   /// The quirks of every hosted unit together: what an RTU framer serving
