@@ -18,14 +18,14 @@ namespace {
 
 using namespace rtukit::rehand6600;
 
-std::array<uint16_t, reg::kCommandCount> commands(const Chair& c) {
+std::array<uint16_t, reg::kCommandCount> commands(Chair& c) {
   std::array<uint16_t, reg::kCommandCount> out{};
   for (uint16_t i = 0; i < reg::kCommandCount; ++i)
     out[i] = c.command(static_cast<uint16_t>(reg::kCommandFirst + i));
   return out;
 }
 
-void check_table1(const Chair& c) {
+void check_table1(Chair& c) {
   std::array<uint16_t, reg::kStatusCount> t{};
   if (c.read(0, t) != rtukit::Errc::ok) std::abort();
   for (const Register& r : registers()) {
