@@ -6,7 +6,9 @@
 namespace rtukit {
 
 Master::Master(std::unique_ptr<io::Link> link, MasterOptions options)
-    : link_(std::move(link)), options_(options) {
+    : link_(std::move(link)),
+      options_(options),
+      clock_(options.clock ? *options.clock : static_cast<DriverClock&>(SteadyClock::instance())) {
   framer_.set_timing(link_->timing());
   framer_.set_quirks(options_.quirks);
 }
@@ -48,12 +50,13 @@ Error Master::transact_locked(UnitId unit, const Request& request,
 
   if (options_.inter_request_delay.count() > 0) {
     const auto ready = last_end_ + options_.inter_request_delay;
-    if (io::Clock::now() < ready) std::this_thread::sleep_until(ready);
+    if (clock_.now() < ready) clock_.sleep_until(ready);
   }
   struct EndMark {
     io::Clock::time_point& t;
-    ~EndMark() { t = io::Clock::now(); }
-  } end_mark{last_end_};
+    DriverClock& clock;
+    ~EndMark() { t = clock.now(); }
+  } end_mark{last_end_, clock_};
 
   MasterTransaction tx;
   Error last;
@@ -68,14 +71,14 @@ Error Master::transact_locked(UnitId unit, const Request& request,
     if (Error e = tx.begin(link_->framing(), unit.value, req, ++transaction_id_)) return e;
     if (attempt > 0) ++stats_.retries;
     link_->discard_input();  // a late answer to an earlier request must not match this one
-    const auto deadline = io::Clock::now() + options_.response_timeout;
+    const auto deadline = clock_.now() + options_.response_timeout;
     if (Error e = link_->write(tx.request_bytes(), deadline)) {
       ++stats_.io_errors;
       return e;
     }
     ++stats_.requests;
     if (!tx.expects_response()) {
-      std::this_thread::sleep_for(options_.turnaround_delay);
+      clock_.sleep_for(options_.turnaround_delay);
       return {};
     }
     Result<Response> r =
@@ -113,8 +116,9 @@ Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_poin
   for (;;) {
     const Result<size_t> n = link_->read_some(chunk, deadline);
     if (!n.ok()) return n.error();
-    const uint64_t now = io::now_us();
-    if (*n == 0 && io::Clock::now() >= deadline) {
+    const uint64_t now = static_cast<uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(clock_.now().time_since_epoch()).count());
+    if (*n == 0 && clock_.now() >= deadline) {
       stats_.crc_errors += framer_.counters().crc_errors - crc_before;
       return Errc::timeout;
     }

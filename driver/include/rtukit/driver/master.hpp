@@ -24,6 +24,7 @@
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
+#include "rtukit/driver/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {
@@ -43,6 +44,9 @@ struct MasterOptions {
   /// Response forms the device is documented to use (the Rehand 6600's FC03
   /// with a 2-byte byte count). Off by default; RTU framing only.
   FrameQuirks quirks{};
+  /// The clock deadlines and delays run on; nullptr: the steady clock. Must
+  /// outlive the master. Tests pass a ManualClock (driver/clock.hpp).
+  DriverClock* clock = nullptr;
 };
 
 /// Counters since construction. Readable from any thread.
@@ -114,6 +118,7 @@ class Master {
   std::array<uint8_t, kMaxMbapAduSize * 2> rx_{};
   size_t rx_len_ = 0;
   uint16_t transaction_id_ = 0;
+  DriverClock& clock_;
   io::Clock::time_point last_end_{};
 };
 
