@@ -28,7 +28,8 @@ bool is_phone_drive(uint16_t a) {
 Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
     : options_(options),
       master_(std::move(link),
-              MasterOptions{.response_timeout = options.response_timeout, .quirks = kProfile.quirks}) {}
+              MasterOptions{.response_timeout = options.response_timeout, .quirks = kProfile.quirks}),
+      logic_(options) {}
 
 Host::~Host() {
   stop();
@@ -48,13 +49,14 @@ void Host::stop() {
   if (!thread_.joinable()) return;
   // Safety: nothing stays held when the host goes away.
   for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
     bool held = false;
     {
       std::lock_guard lock(mutex_);
-      held = holds_[i].value != 0;
-      holds_[i] = {};
+      held = logic_.held(command) != 0;
+      logic_.release(command);
     }
-    if (held) (void)write_command(static_cast<uint16_t>(reg::kCommandFirst + i), 0);
+    if (held) (void)write_command(command, 0);  // best effort: the controller's watchdog is the backstop
   }
   {
     std::lock_guard lock(mutex_);
@@ -68,161 +70,221 @@ void Host::emit(const Event& e) {
   if (handler_) handler_(e);
 }
 
-void Host::run() {
-  const auto period =
-      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options_.poll_hz));
-  for (;;) {
-    {
-      std::lock_guard lock(mutex_);
-      if (stopping_) return;
+// ---------------------------------------------------------------- HostLogic
+
+std::optional<HostLogic::Request> HostLogic::next(TimePoint now) {
+  if (in_flight_) return std::nullopt;
+  if (phase_ == Phase::holds) {
+    if (queue_.empty()) {
+      phase_ = Phase::poll;
+      next_at_ = cycle_start_ + period();
+      return std::nullopt;
     }
-    const auto started = Clock::now();
-    Clock::duration wait = period;
-    if (!connected()) {
-      if (!handshake()) wait = options_.handshake_retry;
-    } else if (poll()) {
-      service_holds();
-    }
-    std::unique_lock lock(mutex_);
-    cv_.wait_until(lock, started + wait, [this] { return stopping_; });
+    Request r = queue_.front();
+    queue_.erase(queue_.begin());
+    in_flight_ = true;
+    return r;
+  }
+  if (phase_ == Phase::write_ready) {
+    in_flight_ = true;
+    return Request{Request::Kind::write, reg::kHostReady, 1};
+  }
+  if (now < next_at_) return std::nullopt;
+  cycle_start_ = now;
+  in_flight_ = true;
+  return Request{phase_ == Phase::poll ? Request::Kind::poll : Request::Kind::read_device_id};
+}
+
+HostLogic::TimePoint::duration HostLogic::period() const noexcept {
+  return std::chrono::duration_cast<TimePoint::duration>(
+      std::chrono::duration<double>(1.0 / options_.poll_hz));
+}
+
+void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> words) {
+  in_flight_ = false;
+  switch (phase_) {
+    case Phase::read_id:
+      if (e) {
+        raise_comm_error(e, "handshake: " + failure_text(e));
+      } else if (words.empty() || words[0] != kDeviceId) {
+        raise_comm_error(Error::refused("not a Rehand 6600 controller"),
+                         fmt::format("handshake: device ID 0x{:02X}, expected 0x{:02X}",
+                                     words.empty() ? 0 : words[0], kDeviceId));
+      } else {
+        phase_ = Phase::write_ready;
+        return;
+      }
+      next_at_ = cycle_start_ + options_.handshake_retry;
+      return;
+    case Phase::write_ready:
+      if (e) {
+        raise_comm_error(e, "handshake: boot-complete write: " + failure_text(e));
+        phase_ = Phase::read_id;
+        next_at_ = cycle_start_ + options_.handshake_retry;
+        return;
+      }
+      connected_ = true;
+      failures_ = 0;
+      last_failure_ = {};
+      if (std::exchange(comm_error_, false))
+        events_.push_back(Event{Event::Type::error_cleared, 0, 0, 0, kMasterCommunicationError, {}});
+      events_.push_back(Event{Event::Type::connected});
+      phase_ = Phase::poll;
+      next_at_ = cycle_start_ + period();
+      return;
+    case Phase::poll:
+      on_poll(now, e, words);
+      return;
+    case Phase::holds:
+      return;  // a held command's rewrite: the next poll shows what the controller holds
   }
 }
 
-void Host::raise_comm_error(Error cause, const std::string& reason) {
-  bool raised = false;
-  {
-    std::lock_guard lock(mutex_);
-    last_failure_ = rtukit::Status(cause, reason);
-    connected_ = false;
-    failures_ = 0;
-    if (!comm_error_) comm_error_ = raised = true;
-  }
-  cv_.notify_all();
-  if (raised) emit(Event{Event::Type::error_raised, 0, 0, 0, kMasterCommunicationError, reason});
-}
-
-bool Host::handshake() {
-  std::array<uint16_t, 1> id{};
-  if (Error e = master_.read_holding_registers(options_.unit, reg::kDeviceId, id)) {
-    raise_comm_error(e, "handshake: " + failure_text(e));
-    return false;
-  }
-  if (id[0] != kDeviceId) {
-    raise_comm_error(Error::refused("not a Rehand 6600 controller"),
-                     fmt::format("handshake: device ID 0x{:02X}, expected 0x{:02X}", id[0], kDeviceId));
-    return false;
-  }
-  if (Error e = master_.write_single_register(options_.unit, reg::kHostReady, 1)) {
-    raise_comm_error(e, "handshake: boot-complete write: " + failure_text(e));
-    return false;
-  }
-  bool cleared = false;
-  {
-    std::lock_guard lock(mutex_);
-    connected_ = true;
-    failures_ = 0;
-    cleared = std::exchange(comm_error_, false);
-    last_failure_ = {};
-  }
-  cv_.notify_all();
-  if (cleared) emit(Event{Event::Type::error_cleared, 0, 0, 0, kMasterCommunicationError, {}});
-  emit(Event{Event::Type::connected});
-  return true;
-}
-
-bool Host::poll() {
-  Snapshot next;
-  if (Error e = master_.read_holding_registers(options_.unit, 0, next.regs)) {
-    bool down = false;
-    {
-      std::lock_guard lock(mutex_);
-      last_failure_ = rtukit::Status(e, failure_text(e));
-      down = ++failures_ >= options_.failures_to_error;
-    }
-    if (down)
+void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words) {
+  next_at_ = cycle_start_ + period();
+  if (e || words.size() != reg::kStatusCount) {
+    if (!e) e = Errc::unexpected_response;
+    last_failure_ = rtukit::Status(e, failure_text(e));
+    if (++failures_ >= options_.failures_to_error)
       raise_comm_error(
           e, fmt::format("{} consecutive polls failed ({})", options_.failures_to_error, failure_text(e)));
-    return false;
+    return;
   }
-  std::vector<Event> events;
-  {
-    std::lock_guard lock(mutex_);
-    failures_ = 0;
-    const Snapshot& prev = snapshot_;
-    for (uint16_t a = 0; a < reg::kStatusCount && prev.valid; ++a) {
-      if (prev.regs[a] != next.regs[a])
-        events.push_back({Event::Type::changed, a, prev.regs[a], next.regs[a]});
-    }
-    const auto rising = [&](uint16_t a) { return next.regs[a] != 0 && (!prev.valid || prev.regs[a] == 0); };
-    if (rising(reg::kHornButton)) events.push_back({Event::Type::horn, reg::kHornButton, 0, 1});
-    if (rising(reg::kViewButton)) events.push_back({Event::Type::view, reg::kViewButton, 0, 1});
-    const uint16_t before = prev.valid ? prev.error_code() : 0;
-    if (before != next.error_code()) {
-      if (before) events.push_back({Event::Type::error_cleared, reg::kErrorCode, 0, 0, before, {}});
-      if (next.error_code())
-        events.push_back({Event::Type::error_raised, reg::kErrorCode, 0, 0, next.error_code(),
-                          error_text(next.error_code())});
-    }
-    next.valid = true;
-    next.sequence = prev.sequence + 1;
-    snapshot_ = next;
+  failures_ = 0;
+  Snapshot next;
+  std::copy(words.begin(), words.end(), next.regs.begin());
+  const Snapshot& prev = snapshot_;
+  for (uint16_t a = 0; a < reg::kStatusCount && prev.valid; ++a) {
+    if (prev.regs[a] != next.regs[a])
+      events_.push_back({Event::Type::changed, a, prev.regs[a], next.regs[a]});
   }
-  cv_.notify_all();
-  for (const Event& e : events) emit(e);
-  return true;
+  const auto rising = [&](uint16_t a) { return next.regs[a] != 0 && (!prev.valid || prev.regs[a] == 0); };
+  if (rising(reg::kHornButton)) events_.push_back({Event::Type::horn, reg::kHornButton, 0, 1});
+  if (rising(reg::kViewButton)) events_.push_back({Event::Type::view, reg::kViewButton, 0, 1});
+  const uint16_t before = prev.valid ? prev.error_code() : 0;
+  if (before != next.error_code()) {
+    if (before) events_.push_back({Event::Type::error_cleared, reg::kErrorCode, 0, 0, before, {}});
+    if (next.error_code())
+      events_.push_back({Event::Type::error_raised, reg::kErrorCode, 0, 0, next.error_code(),
+                         error_text(next.error_code())});
+  }
+  next.valid = true;
+  next.sequence = prev.sequence + 1;
+  snapshot_ = next;
+  // Expired leases are released; live ones are written again, so the
+  // controller holds exactly what the UI holds even after its watchdog fired.
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    Lease& l = holds_[i];
+    if (l.value == 0) continue;
+    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
+    const bool expired = now >= l.until;
+    queue_.push_back(Request{Request::Kind::write, address, expired ? uint16_t{0} : l.value});
+    if (expired) {
+      l = {};
+      events_.push_back(Event{Event::Type::released, address});
+    }
+  }
+  phase_ = Phase::holds;
 }
 
-// Expired leases are released; live ones are written again, so the
-// controller holds exactly what the UI holds even after its watchdog fired.
-void Host::service_holds() {
-  const auto now = Clock::now();
-  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-    uint16_t value = 0;
-    bool expired = false;
+void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
+  last_failure_ = rtukit::Status(cause, reason);
+  connected_ = false;
+  failures_ = 0;
+  phase_ = Phase::read_id;
+  queue_.clear();
+  if (!comm_error_) {
+    comm_error_ = true;
+    events_.push_back(Event{Event::Type::error_raised, 0, 0, 0, kMasterCommunicationError, reason});
+  }
+}
+
+bool HostLogic::hold(uint16_t command, uint16_t value, TimePoint now) {
+  Lease& l = holds_[command - reg::kCommandFirst];
+  const bool changed = l.value != value;
+  l = {value, now + options_.lease};
+  return changed;
+}
+
+void HostLogic::release(uint16_t command) {
+  holds_[command - reg::kCommandFirst] = {};
+}
+
+uint16_t HostLogic::active_error() const noexcept {
+  if (comm_error_ || !connected_) return kMasterCommunicationError;
+  return snapshot_.valid ? snapshot_.error_code() : 0;
+}
+
+// ---------------------------------------------------------------- Host: the logic on a thread
+
+void Host::run() {
+  for (;;) {
+    std::optional<HostLogic::Request> request;
+    {
+      std::unique_lock lock(mutex_);
+      if (stopping_) return;
+      request = logic_.next(Clock::now());
+      if (!request) {
+        cv_.wait_until(lock, logic_.wake_at(), [this] { return stopping_; });
+        continue;
+      }
+    }
+    std::array<uint16_t, reg::kStatusCount> words{};
+    size_t n = 0;
+    Error e;
+    switch (request->kind) {
+      case HostLogic::Request::Kind::read_device_id:
+        n = 1;
+        e = master_.read_holding_registers(options_.unit, reg::kDeviceId, std::span(words.data(), n));
+        break;
+      case HostLogic::Request::Kind::poll:
+        n = reg::kStatusCount;
+        e = master_.read_holding_registers(options_.unit, 0, words);
+        break;
+      case HostLogic::Request::Kind::write:
+        e = write_command(request->address, request->value);
+        break;
+    }
+    std::vector<Event> events;
     {
       std::lock_guard lock(mutex_);
-      Lease& l = holds_[i];
-      if (l.value == 0) continue;
-      expired = now >= l.until;
-      value = expired ? 0 : l.value;
-      if (expired) l = {};
+      logic_.on_result(Clock::now(), e, std::span<const uint16_t>(words.data(), e ? 0 : n));
+      events = logic_.take_events();
     }
-    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
-    (void)write_command(address, value);
-    if (expired) emit(Event{Event::Type::released, address});
+    cv_.notify_all();
+    for (const Event& ev : events) emit(ev);
   }
 }
 
 Snapshot Host::snapshot() const {
   std::lock_guard lock(mutex_);
-  return snapshot_;
+  return logic_.snapshot();
 }
 
 bool Host::connected() const {
   std::lock_guard lock(mutex_);
-  return connected_;
+  return logic_.connected();
 }
 
 uint16_t Host::active_error() const {
   std::lock_guard lock(mutex_);
-  if (comm_error_ || !connected_) return kMasterCommunicationError;
-  return snapshot_.valid ? snapshot_.error_code() : 0;
+  return logic_.active_error();
 }
 
 rtukit::Status Host::last_failure() const {
   std::lock_guard lock(mutex_);
-  return last_failure_;
+  return logic_.last_failure();
 }
 
 bool Host::wait_connected(std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
-  return cv_.wait_for(lock, timeout, [this] { return connected_ && snapshot_.valid; });
+  return cv_.wait_for(lock, timeout, [this] { return logic_.connected() && logic_.snapshot().valid; });
 }
 
 bool Host::wait_poll(std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
-  const uint64_t seen = snapshot_.sequence;
-  return cv_.wait_for(lock, timeout, [&] { return snapshot_.sequence > seen; });
+  const uint64_t seen = logic_.snapshot().sequence;
+  return cv_.wait_for(lock, timeout, [&] { return logic_.snapshot().sequence > seen; });
 }
 
 rtukit::Status Host::check_ui_rules(const Register& r, uint16_t value) const {
@@ -244,7 +306,7 @@ rtukit::Status Host::check_ui_rules(const Register& r, uint16_t value) const {
     {
       std::lock_guard lock(mutex_);
       for (uint16_t a = reg::kPhoneForward; a <= reg::kPhoneRight; ++a)
-        phone_holding = phone_holding || holds_[a - reg::kCommandFirst].value != 0;
+        phone_holding = phone_holding || logic_.held(a) != 0;
     }
     if (!phone_holding && !s.is_static()) return refuse("phone drive only while the chair is static");
   }
@@ -267,15 +329,13 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
   bool changed = false;
   {
     std::lock_guard lock(mutex_);
-    Lease& l = holds_[command - reg::kCommandFirst];
-    changed = l.value != value;
-    l = {value, Clock::now() + options_.lease};
+    changed = logic_.hold(command, value, Clock::now());
   }
   if (!changed) return {};
   Error e = write_command(command, value);
   if (e) {
     std::lock_guard lock(mutex_);
-    holds_[command - reg::kCommandFirst] = {};
+    logic_.release(command);
     return rtukit::Status(e, failure_text(e));
   }
   return {};
@@ -286,7 +346,7 @@ Error Host::release(uint16_t command) {
     return Errc::invalid_argument;
   {
     std::lock_guard lock(mutex_);
-    holds_[command - reg::kCommandFirst] = {};
+    logic_.release(command);
   }
   return write_command(command, 0);
 }

@@ -19,8 +19,13 @@
 //   rtukit::rehand6600::Host host(rtukit::io::make_link(spec));
 //   host.on_event([](const rtukit::rehand6600::Event& e) { ... });  // on the host's thread
 //   host.start();
-//   std::string why;
-//   if (rtukit::Error e = host.hold(rtukit::rehand6600::reg::kSeatLift, 1, &why)) { ... why ... }
+//   if (rtukit::Status e = host.hold(rtukit::rehand6600::reg::kSeatLift, 1)) { ... e.reason() ... }
+//
+// The decisions (handshake and its retry, polling, 1010 after N failures,
+// leases, events) are `HostLogic`, sans-IO: it says which request to send
+// when and what each result means, on whatever clock the caller passes, so
+// it is tested on virtual time. `Host` is the thin thread that runs it over
+// a Master.
 #pragma once
 
 #include <array>
@@ -30,8 +35,11 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <span>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
@@ -88,6 +96,74 @@ struct Event {
   std::string reason;  ///< for error_raised: why (e.g. "device ID 0x69, expected 0x68", "timeout")
 };
 
+/// The host controller's decisions, sans-IO. Not thread-safe (Host locks it).
+class HostLogic {
+ public:
+  using TimePoint = std::chrono::steady_clock::time_point;
+
+  /// A request the logic wants sent.
+  struct Request {
+    enum class Kind : uint8_t {
+      read_device_id,  ///< FC03 0x0000 x1
+      poll,            ///< FC03 0x0000 x48 (table 1)
+      write,           ///< FC06 `address` = `value` (boot complete, held commands)
+    };
+    Kind kind;
+    uint16_t address = 0;
+    uint16_t value = 0;
+  };
+
+  explicit HostLogic(const HostOptions& options) : options_(options) {}
+
+  /// The request to send at `now`, or nullopt: nothing to do before wake_at().
+  std::optional<Request> next(TimePoint now);
+  /// The outcome of the request next() returned last: `e`, and for reads the
+  /// words read (1 for the device ID, 48 for a poll).
+  void on_result(TimePoint now, Error e, std::span<const uint16_t> words = {});
+  /// When next() has something to do again.
+  TimePoint wake_at() const noexcept { return next_at_; }
+  /// Events since the last call, in order.
+  std::vector<Event> take_events() { return std::exchange(events_, {}); }
+
+  // ---- leases (hold-type commands the UI keeps alive) ----
+  /// Holds `command` at `value` until `now` + lease. True when the value
+  /// changed (the caller writes it at once).
+  bool hold(uint16_t command, uint16_t value, TimePoint now);
+  void release(uint16_t command);
+  uint16_t held(uint16_t command) const { return holds_[command - reg::kCommandFirst].value; }
+
+  // ---- what the controller looks like ----
+  const Snapshot& snapshot() const noexcept { return snapshot_; }
+  bool connected() const noexcept { return connected_; }
+  /// 1010 while the link is down, else 0x0026; 0 = none.
+  uint16_t active_error() const noexcept;
+  const rtukit::Status& last_failure() const noexcept { return last_failure_; }
+
+ private:
+  enum class Phase : uint8_t { read_id, write_ready, poll, holds };
+  TimePoint::duration period() const noexcept;
+  void raise_comm_error(Error cause, const std::string& reason);
+  void on_poll(TimePoint now, Error e, std::span<const uint16_t> words);
+
+  HostOptions options_;
+  Phase phase_ = Phase::read_id;
+  TimePoint next_at_{};
+  TimePoint cycle_start_{};
+  bool in_flight_ = false;
+  std::vector<Request> queue_;  ///< the held commands of this cycle, to write
+  std::vector<Event> events_;
+  bool connected_ = false;
+  bool comm_error_ = false;
+  unsigned failures_ = 0;
+  rtukit::Status last_failure_;
+  Snapshot snapshot_{};
+  struct Lease {
+    uint16_t value = 0;
+    TimePoint until{};
+  };
+  std::array<Lease, reg::kCommandCount> holds_{};
+};
+
 class Host {
  public:
   /// Takes the link (opened by the host's thread).
@@ -134,11 +210,7 @@ class Host {
 
  private:
   void run();
-  bool handshake();
-  bool poll();
-  void service_holds();
   void emit(const Event& e);
-  void raise_comm_error(Error cause, const std::string& reason);
   rtukit::Status check_ui_rules(const Register& r, uint16_t value) const;
   Error write_command(uint16_t address, uint16_t value);
 
@@ -147,19 +219,10 @@ class Host {
   std::function<void(const Event&)> handler_;
   std::thread thread_;
 
-  mutable std::mutex mutex_;
+  mutable std::mutex mutex_;  ///< guards logic_ and stopping_
   mutable std::condition_variable cv_;
   bool stopping_ = false;
-  bool connected_ = false;
-  bool comm_error_ = false;
-  unsigned failures_ = 0;
-  rtukit::Status last_failure_;
-  Snapshot snapshot_{};
-  struct Lease {
-    uint16_t value = 0;
-    std::chrono::steady_clock::time_point until{};
-  };
-  std::array<Lease, reg::kCommandCount> holds_{};
+  HostLogic logic_;
 };
 
 }  // namespace rtukit::rehand6600
