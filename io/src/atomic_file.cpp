@@ -61,3 +61,32 @@ Error write_file_atomically(const std::string& path, std::string_view content, s
 }
 
 }  // namespace rtukit::io
+
+namespace rtukit::io {
+
+Outcome<std::string> read_regular_file(const std::string& path, size_t max_size) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return Status(Error(Errc::io_error, errno), std::strerror(errno));
+  struct stat st {};
+  std::string text;
+  Status status;
+  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
+    status = Status(Errc::malformed, "not a regular file");
+  } else if (static_cast<size_t>(st.st_size) > max_size) {
+    status = Status(Errc::malformed, "larger than " + std::to_string(max_size) + " bytes");
+  } else {
+    text.resize(static_cast<size_t>(st.st_size));
+    size_t got = 0;
+    while (got < text.size()) {
+      const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
+      if (n <= 0) break;
+      got += static_cast<size_t>(n);
+    }
+    text.resize(got);
+  }
+  ::close(fd);
+  if (!status.ok()) return status;
+  return text;
+}
+
+}  // namespace rtukit::io

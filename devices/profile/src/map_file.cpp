@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::profile {
 namespace {
@@ -112,31 +113,6 @@ void check_fields(const Reader& reader, const YAML::Node& node, std::initializer
       reader.fail(kv.first, fmt::format("unknown field '{}' in {} (fields: {})", key, what, list));
     }
   }
-}
-
-Outcome<std::string> read_small_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return Status(Error(Errc::io_error, errno), fmt::format("{}: {}", path, std::strerror(errno)));
-  struct stat st {};
-  std::string text;
-  Status status;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    status = Status(Errc::invalid_argument, fmt::format("{}: not a regular file", path));
-  } else if (static_cast<size_t>(st.st_size) > kMaxMapFile) {
-    status = Status(Errc::invalid_argument, fmt::format("{}: larger than 4 MiB, not a register map", path));
-  } else {
-    text.resize(static_cast<size_t>(st.st_size));
-    size_t got = 0;
-    while (got < text.size()) {
-      const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
-      if (n <= 0) break;
-      got += static_cast<size_t>(n);
-    }
-    text.resize(got);
-  }
-  ::close(fd);
-  if (!status.ok()) return status;
-  return text;
 }
 
 }  // namespace
@@ -369,8 +345,13 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
 }
 
 Outcome<std::unique_ptr<MapProfile>> load_map(const std::string& path) {
-  Outcome<std::string> text = read_small_file(path);
-  if (!text.ok()) return text.error();
+  Outcome<std::string> text = io::read_regular_file(path, kMaxMapFile);
+  if (!text.ok()) {
+    const Status& e = text.error();
+    return Status(
+        e.code() == Errc::io_error ? e.error() : Error(Errc::invalid_argument),
+        fmt::format("{}: {}", path, e.code() == Errc::io_error ? std::strerror(e.os_error()) : e.reason()));
+  }
   return parse_map(*text, path);
 }
 

@@ -46,33 +46,6 @@ std::string checksum_text(const json& registers) {
   return crc;
 }
 
-// Reads a small regular file; never blocks on a FIFO, never reads a device
-// or a huge file into memory.
-Outcome<std::string> read_small_file(const std::string& path) {
-  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
-  if (fd < 0) return Status(Error(Errc::io_error, errno), "cannot open");
-  struct stat st {};
-  std::string text;
-  Status status;
-  if (::fstat(fd, &st) != 0 || !S_ISREG(st.st_mode)) {
-    status = Status(Errc::malformed, "not a regular file");
-  } else if (static_cast<size_t>(st.st_size) > kMaxFileSize) {
-    status = Status(Errc::malformed, "too large for a state file");
-  } else {
-    text.resize(static_cast<size_t>(st.st_size));
-    size_t got = 0;
-    while (got < text.size()) {
-      const ssize_t n = ::read(fd, text.data() + got, text.size() - got);
-      if (n <= 0) break;
-      got += static_cast<size_t>(n);
-    }
-    text.resize(got);
-  }
-  ::close(fd);
-  if (!status.ok()) return status;
-  return text;
-}
-
 }  // namespace
 
 std::string default_state_path(std::string_view device) {
@@ -145,7 +118,7 @@ LoadedState load_state(const std::string& path, const Profile& profile, Image& i
     loaded.warning = "no state file at " + path + "; starting with factory settings";
     return loaded;
   }
-  Outcome<std::string> text = read_small_file(path);
+  Outcome<std::string> text = io::read_regular_file(path, kMaxFileSize);
   Status s = text.ok() ? state_from_text(profile, *text, image) : text.error();
   if (!s.ok()) {
     loaded.warning = "state file " + path + " is damaged (" + std::string(s.reason()) +

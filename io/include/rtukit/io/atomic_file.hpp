@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "rtukit/core/error.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace rtukit::io {
 
@@ -15,5 +16,11 @@ namespace rtukit::io {
 /// systems) and flushes the directory. Errors: io_error with the OS error;
 /// `why` gets a one-line reason. A failed write leaves `path` untouched.
 Error write_file_atomically(const std::string& path, std::string_view content, std::string* why = nullptr);
+
+/// Reads a small regular file whole. Never blocks on a FIFO, never reads a
+/// device or a file larger than `max_size` into memory. Errors: io_error
+/// with the OS error (cannot open), malformed ("not a regular file", "larger
+/// than N bytes"), with the reason.
+Outcome<std::string> read_regular_file(const std::string& path, size_t max_size);
 
 }  // namespace rtukit::io
