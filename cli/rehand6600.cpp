@@ -200,7 +200,7 @@ uint16_t command_value(const rh::Register& r, const std::string& text) {
 }
 
 const rh::Register& command_register(const std::string& key, rh::Kind kind) {
-  const rh::Register* r = rh::find_register(key);
+  const rh::Register* r = profile::find_row(rh::kMap, key);  // seat_lift or seat-lift
   if (!r || r->role != kind || r->address == rh::reg::kHostReady) {
     std::string names;
     for (const rh::Register& x : rh::registers()) {

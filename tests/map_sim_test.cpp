@@ -53,6 +53,23 @@ TEST(MapSim, CheckReportsTheMapAndItsErrors) {
   EXPECT_EQ(missing.code, 4) << missing.output;
 }
 
+// A built-in profile exported to the map format loads back as the same map:
+// the JSON of the loaded file equals the JSON of the built-in table.
+TEST(MapSim, BuiltInProfilesExportAndLoadBackIdentical) {
+  TempDir dir;
+  for (const std::string device : {"inverjet", "rehand6600"}) {
+    RunResult yaml = run({kBin, device, "registers", "--yaml"});
+    ASSERT_EQ(yaml.code, 0) << yaml.output;
+    std::ofstream(dir / (device + ".yaml")) << yaml.output;
+    RunResult check = run({kBin, "map", "check", dir / (device + ".yaml")});
+    EXPECT_EQ(check.code, 0) << check.output;
+    RunResult original = run({kBin, device, "registers", "--json"});
+    RunResult loaded = run({kBin, "map", "registers", dir / (device + ".yaml"), "--json"});
+    ASSERT_EQ(loaded.code, 0) << loaded.output;
+    EXPECT_EQ(loaded.output, original.output) << device;
+  }
+}
+
 TEST(MapSim, ReadAndWatchByName) {
   TempDir dir;
   MapSim sim(dir);
