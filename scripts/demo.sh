@@ -91,3 +91,16 @@ run read  --port "$tty" --unit 1 99 5          # past the end: Modbus exception 
 run read  --port "$tty" --unit 9 0 --timeout 200   # nobody at unit 9: exit 3
 echo "== what the slave saw:"
 tail -n +2 "$dir/slave.log"
+
+echo
+echo "===== 4. any other device: a register-map file (examples/maps/energy-meter.yaml), no C++"
+map="$(dirname "$0")/../examples/maps/energy-meter.yaml"
+meter="$dir/meter"
+run map check "$map"
+"$rtukit" sim map "$map" --listen "pty:$meter" --no-state --no-console >"$dir/meter.log" 2>&1 &
+pids+=($!)
+wait_for "$meter"
+run read --port "$meter" --map "$map" voltage current power demand_period relay
+run read --port "$meter" --unit 1 0x0002 1                      # the same register by address: 900 s
+run write --port "$meter" --unit 1 0x0002 30                    # 30 s is below the map's 60..3600: exception 03
+run watch --port "$meter" --map "$map" voltage frequency --count 2 --interval 300
