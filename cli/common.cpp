@@ -59,9 +59,8 @@ io::PortSpec LinkOptions::spec(bool listening) const {
       port.find_first_not_of("0123456789", colon + 1) == std::string::npos)
     throw Failure{kUsage, fmt::format("bad port '{}': did you mean tcp://{} (Modbus TCP) or rtu+tcp://{}?",
                                       port, port, port)};
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(port, listening, &why);
-  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad port '{}': {}", port, why)};
+  Result<io::PortSpec> spec = io::parse_port(port, listening);
+  if (!spec.ok()) throw Failure{kUsage, fmt::format("bad port '{}': {}", port, spec.error().text())};
   spec->serial.baud = baud;
   spec->serial.parity = parity_letter(parity);
   spec->serial.data_bits = static_cast<uint8_t>(data_bits);
@@ -69,7 +68,7 @@ io::PortSpec LinkOptions::spec(bool listening) const {
   spec->serial.rs485.enabled = rs485;
   spec->serial.rs485.delay_before_us = rs485_before_us;
   spec->serial.rs485.delay_after_us = rs485_after_us;
-  if (Error e = spec->serial.validate(&why)) throw Failure{kUsage, why};
+  if (Error e = spec->serial.validate()) throw Failure{kUsage, std::string(e.text())};
   return *spec;
 }
 

@@ -495,9 +495,9 @@ int run_slave(const SlaveArgs& a) {
       std::fflush(stdout);
     };
   }
-  std::string why;
-  auto listener = SlaveListener::start(ctx, engine, spec, &why, log);
-  if (!listener.ok()) throw Failure{kIoError, why.empty() ? std::string(listener.error().name()) : why};
+  auto listener = SlaveListener::start(ctx, engine, spec, log);
+  if (!listener.ok())
+    throw Failure{exit_code(listener.error().error()), std::string(listener.error().reason())};
   fmt::print("listening on {} (units", (*listener)->where());
   for (const auto& u : a.units) fmt::print(" {}", parse_unit(u, true).value);
   fmt::print(")\n");

@@ -24,11 +24,10 @@ class SlaveOnThread {
  public:
   explicit SlaveOnThread(const std::string& listen, uint8_t unit = 1) {
     EXPECT_TRUE(engine.add_unit(unit, bank).ok());
-    std::string why;
-    Result<io::PortSpec> spec = io::parse_port(listen, true, &why);
-    EXPECT_TRUE(spec.ok()) << why;
-    auto l = SlaveListener::start(ctx_, engine, *spec, &why);
-    EXPECT_TRUE(l.ok()) << why;
+    Result<io::PortSpec> spec = io::parse_port(listen, true);
+    EXPECT_TRUE(spec.ok()) << spec.error().text();
+    auto l = SlaveListener::start(ctx_, engine, *spec);
+    EXPECT_TRUE(l.ok()) << l.error().reason();
     listener = std::move(*l);
     thread_ = std::thread([this] { ctx_.run(); });
   }
@@ -58,9 +57,8 @@ class SlaveOnThread {
 };
 
 std::unique_ptr<Master> master_for(const std::string& port, MasterOptions options = {}) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(port, false, &why);
-  EXPECT_TRUE(spec.ok()) << why;
+  Result<io::PortSpec> spec = io::parse_port(port, false);
+  EXPECT_TRUE(spec.ok()) << spec.error().text();
   return std::make_unique<Master>(io::make_link(*spec), options);
 }
 
@@ -241,30 +239,29 @@ TEST(SlaveServer, PtyLinkIsReplacedAndRemoved) {
 }
 
 TEST(PortSpec, ParsesEveryForm) {
-  std::string why;
-  auto serial = io::parse_port("/dev/ttyUSB0", false, &why);
+  auto serial = io::parse_port("/dev/ttyUSB0", false);
   ASSERT_TRUE(serial.ok());
   EXPECT_EQ(serial->kind, io::PortSpec::Kind::serial);
-  auto tcp = io::parse_port("tcp://localhost:1502", false, &why);
+  auto tcp = io::parse_port("tcp://localhost:1502", false);
   ASSERT_TRUE(tcp.ok());
   EXPECT_EQ(tcp->host, "localhost");
   EXPECT_EQ(tcp->port, 1502);
-  auto rtu = io::parse_port("rtu+tcp://[::1]:4001", false, &why);
+  auto rtu = io::parse_port("rtu+tcp://[::1]:4001", false);
   ASSERT_TRUE(rtu.ok());
   EXPECT_EQ(rtu->kind, io::PortSpec::Kind::rtu_tcp);
   EXPECT_EQ(rtu->host, "::1");
-  EXPECT_FALSE(io::parse_port("pty", false, &why).ok());
-  EXPECT_TRUE(io::parse_port("pty:/tmp/x", true, &why).ok());
-  EXPECT_FALSE(io::parse_port("tcp://host:99999", false, &why).ok());
-  EXPECT_FALSE(io::parse_port("udp://host:1", false, &why).ok());
+  EXPECT_FALSE(io::parse_port("pty", false).ok());
+  EXPECT_TRUE(io::parse_port("pty:/tmp/x", true).ok());
+  EXPECT_FALSE(io::parse_port("tcp://host:99999", false).ok());
+  EXPECT_FALSE(io::parse_port("udp://host:1", false).ok());
   io::SerialSettings s;
   s.baud = 250000;  // non-standard: fine (BOTHER)
   EXPECT_TRUE(s.validate().ok());
   s.baud = 1000000;
-  EXPECT_FALSE(s.validate(&why).ok());
+  EXPECT_FALSE(s.validate().ok());
   s.baud = 9600;
   s.parity = 'X';
-  EXPECT_FALSE(s.validate(&why).ok());
+  EXPECT_FALSE(s.validate().ok());
 }
 
 namespace {
@@ -272,9 +269,8 @@ namespace {
 // A pty whose far side we drive by hand: what a device (or an adapter) sends.
 struct HandDrivenPty {
   HandDrivenPty(const TempDir& dir) {
-    std::string why;
-    auto p = io::Pty::create(dir / "dev", &why);
-    EXPECT_TRUE(p.ok()) << why;
+    auto p = io::Pty::create(dir / "dev");
+    EXPECT_TRUE(p.ok()) << p.error().reason();
     pty = std::move(*p);
   }
   // Reads one chunk the master wrote (bounded wait).
@@ -343,8 +339,7 @@ TEST(SlaveServer, UnknownFunction_IsAnsweredAfterSilence_OnAPty) {
 TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {
   TempDir dir;
   SlaveOnThread slave("pty:" + (dir / "tty"));
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(slave.client_port(), false, &why);
+  Result<io::PortSpec> spec = io::parse_port(slave.client_port(), false);
   ASSERT_TRUE(spec.ok());
   spec->serial.baud = 250000;  // not a Bxxx constant: BOTHER
   spec->serial.parity = 'E';
@@ -360,8 +355,7 @@ TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {
 }
 
 TEST(LinkTiming, UsbAdapterChunks16msApart_StillMakeOneFrame) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port("/dev/ttyUSB0", false, &why);
+  Result<io::PortSpec> spec = io::parse_port("/dev/ttyUSB0", false);
   ASSERT_TRUE(spec.ok());
   RtuFramer framer(FrameShape::request, io::link_timing(*spec));
   const uint8_t first[] = {0x15, 0x03, 0x00, 0x21};

@@ -19,9 +19,8 @@ const std::string kPeers = PEERS_DIR;
 const std::string kPython = "/usr/bin/python3";  // Debian's, which has pymodbus
 
 std::unique_ptr<Master> master_for(const std::string& port) {
-  std::string why;
-  Result<io::PortSpec> spec = io::parse_port(port, false, &why);
-  EXPECT_TRUE(spec.ok()) << why;
+  Result<io::PortSpec> spec = io::parse_port(port, false);
+  EXPECT_TRUE(spec.ok()) << spec.error().text();
   MasterOptions o;
   o.response_timeout = 1000ms;
   o.retries = 1;

@@ -47,8 +47,7 @@ class InverjetSim : public ::testing::Test {
     return r.code == 0 ? json::parse(r.output) : json{};
   }
   std::unique_ptr<Master> master() {
-    std::string why;
-    auto spec = io::parse_port(tty_, false, &why);
+    auto spec = io::parse_port(tty_, false);
     return std::make_unique<Master>(io::make_link(*spec), MasterOptions{.response_timeout = 1000ms});
   }
 

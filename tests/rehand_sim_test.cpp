@@ -52,8 +52,7 @@ class Recorder {
 };
 
 std::unique_ptr<Host> make_host(const std::string& port, Recorder& rec) {
-  std::string why;
-  auto spec = io::parse_port(port, false, &why);
+  auto spec = io::parse_port(port, false);
   spec->serial.baud = 115200;
   HostOptions o;
   o.response_timeout = 100ms;

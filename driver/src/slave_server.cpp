@@ -210,22 +210,18 @@ class TcpServer final : public SlaveListener {
   TcpServer(asio::io_context& ctx, SlaveEngine& engine, Framing framing, RtuTiming timing, RequestLog log)
       : acceptor_(ctx), engine_(engine), framing_(framing), timing_(timing), log_(std::move(log)) {}
 
-  Error listen(const std::string& host, uint16_t port, std::string* why) {
+  Status listen(const std::string& host, uint16_t port) {
     std::error_code ec;
     const auto address = asio::ip::make_address(host.empty() ? "127.0.0.1" : host, ec);
-    if (ec) {
-      if (why) *why = "not an IP address: " + host;
-      return Errc::invalid_argument;
-    }
+    if (ec) return Status(Errc::invalid_argument, "not an IP address: " + host);
     const asio::ip::tcp::endpoint endpoint(address, port);
     acceptor_.open(endpoint.protocol(), ec);
     if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
     if (!ec) acceptor_.bind(endpoint, ec);
     if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec) {
-      if (why) *why = "cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message();
-      return Error(Errc::io_error, ec.value());
-    }
+    if (ec)
+      return Status(Error(Errc::io_error, ec.value()),
+                    "cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message());
     accept();
     return {};
   }
@@ -259,26 +255,23 @@ class TcpServer final : public SlaveListener {
 
 }  // namespace
 
-Result<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ctx, SlaveEngine& engine,
-                                                            const io::PortSpec& spec, std::string* why,
-                                                            RequestLog log) {
+Outcome<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ctx, SlaveEngine& engine,
+                                                             const io::PortSpec& spec, RequestLog log) {
   const RtuTiming timing = io::link_timing(spec);
   switch (spec.kind) {
     case io::PortSpec::Kind::pty: {
-      Result<io::Pty> pty = io::Pty::create(spec.path, why);
+      Outcome<io::Pty> pty = io::Pty::create(spec.path);
       if (!pty.ok()) return pty.error();
       const int fd = ::dup(pty->master_fd());
-      if (fd < 0) return Error(Errc::io_error, errno);
+      if (fd < 0) return Status(Error(Errc::io_error, errno), std::string("dup: ") + std::strerror(errno));
       std::string where = pty->name();
       return std::unique_ptr<SlaveListener>(
           new RtuStreamServer(ctx, engine, fd, spec, std::move(where), std::move(log), std::move(*pty)));
     }
     case io::PortSpec::Kind::serial: {
       Result<int> fd = io::open_serial_port(spec.path, spec.serial);
-      if (!fd.ok()) {
-        if (why) *why = "cannot open " + spec.path + ": " + std::strerror(fd.error().os_error());
-        return fd.error();
-      }
+      if (!fd.ok())
+        return Status(fd.error(), "cannot open " + spec.path + ": " + std::strerror(fd.error().os_error()));
       return std::unique_ptr<SlaveListener>(
           new RtuStreamServer(ctx, engine, *fd, spec, spec.path, std::move(log), io::Pty{}));
     }
@@ -287,11 +280,11 @@ Result<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ct
       auto server = std::make_unique<TcpServer>(
           ctx, engine, spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu, timing,
           std::move(log));
-      if (Error e = server->listen(spec.host, spec.port, why)) return e;
+      if (Status e = server->listen(spec.host, spec.port)) return e;
       return std::unique_ptr<SlaveListener>(std::move(server));
     }
   }
-  return Errc::invalid_argument;
+  return Status(Errc::invalid_argument, "not a listening port");
 }
 
 }  // namespace rtukit

@@ -16,24 +16,23 @@ void make_parents(const std::string& path) {
     ::mkdir(path.substr(0, at).c_str(), 0755);
 }
 
-Error fail(std::string* why, const std::string& what, int err) {
-  if (why) *why = what + ": " + std::strerror(err);
-  return Error(Errc::io_error, err);
+Status fail(const std::string& what, int err) {
+  return Status(Error(Errc::io_error, err), what + ": " + std::strerror(err));
 }
 
 }  // namespace
 
-Error write_file_atomically(const std::string& path, std::string_view content, std::string* why) {
+Status write_file_atomically(const std::string& path, std::string_view content) {
   make_parents(path);
   // Per process, so two writers never share a temporary file.
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
   const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return fail(why, "cannot create " + tmp, errno);
+  if (fd < 0) return fail("cannot create " + tmp, errno);
   const auto abandon = [&](const std::string& what) {
     const int err = errno;
     ::close(fd);
     ::unlink(tmp.c_str());
-    return fail(why, what, err);
+    return fail(what, err);
   };
   size_t done = 0;
   while (done < content.size()) {
@@ -48,7 +47,7 @@ Error write_file_atomically(const std::string& path, std::string_view content, s
   if (::rename(tmp.c_str(), path.c_str()) != 0) {
     const int err = errno;
     ::unlink(tmp.c_str());
-    return fail(why, "cannot replace " + path, err);
+    return fail("cannot replace " + path, err);
   }
   // And the rename itself must survive a power cut.
   const size_t slash = path.rfind('/');

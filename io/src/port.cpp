@@ -5,11 +5,8 @@
 
 namespace rtukit::io {
 
-Error SerialSettings::validate(std::string* why) const {
-  auto fail = [why](const char* reason) {
-    if (why) *why = reason;
-    return Error(Errc::invalid_argument);
-  };
+Error SerialSettings::validate() const {
+  auto fail = [](const char* reason) { return Error(Errc::invalid_argument, reason); };
   if (baud < 1200 || baud > 921600) return fail("baud rate must be 1200..921600");
   if (parity != 'N' && parity != 'E' && parity != 'O') return fail("parity must be N, E or O");
   if (data_bits != 7 && data_bits != 8) return fail("data bits must be 7 or 8");
@@ -34,11 +31,10 @@ std::string PortSpec::describe() const {
 
 namespace {
 
-Result<PortSpec> parse_host_port(std::string_view rest, PortSpec spec, std::string* why) {
+Result<PortSpec> parse_host_port(std::string_view rest, PortSpec spec) {
   const auto colon = rest.rfind(':');
   if (colon == std::string_view::npos || colon == 0) {
-    if (why) *why = "expected HOST:PORT";
-    return Errc::invalid_argument;
+    return Error(Errc::invalid_argument, "expected HOST:PORT");
   }
   spec.host = std::string(rest.substr(0, colon));
   if (spec.host.size() > 2 && spec.host.front() == '[' && spec.host.back() == ']') {
@@ -48,8 +44,7 @@ Result<PortSpec> parse_host_port(std::string_view rest, PortSpec spec, std::stri
   unsigned value = 0;
   const auto [ptr, ec] = std::from_chars(num.data(), num.data() + num.size(), value);
   if (ec != std::errc() || ptr != num.data() + num.size() || value > 65535) {
-    if (why) *why = "port number must be 0..65535";
-    return Errc::invalid_argument;
+    return Error(Errc::invalid_argument, "port number must be 0..65535");
   }
   spec.port = static_cast<uint16_t>(value);
   return spec;
@@ -57,28 +52,26 @@ Result<PortSpec> parse_host_port(std::string_view rest, PortSpec spec, std::stri
 
 }  // namespace
 
-Result<PortSpec> parse_port(std::string_view text, bool listening, std::string* why) {
+Result<PortSpec> parse_port(std::string_view text, bool listening) {
   PortSpec spec;
   if (text.starts_with("tcp://")) {
     spec.kind = PortSpec::Kind::tcp;
-    return parse_host_port(text.substr(6), spec, why);
+    return parse_host_port(text.substr(6), spec);
   }
   if (text.starts_with("rtu+tcp://")) {
     spec.kind = PortSpec::Kind::rtu_tcp;
-    return parse_host_port(text.substr(10), spec, why);
+    return parse_host_port(text.substr(10), spec);
   }
   if (text == "pty" || text.starts_with("pty:")) {
     if (!listening) {
-      if (why) *why = "pty is for listening; to talk to a pty, give its path";
-      return Errc::invalid_argument;
+      return Error(Errc::invalid_argument, "pty is for listening; to talk to a pty, give its path");
     }
     spec.kind = PortSpec::Kind::pty;
     if (text.size() > 4) spec.path = std::string(text.substr(4));
     return spec;
   }
   if (text.empty() || text.find("://") != std::string_view::npos) {
-    if (why) *why = "expected a device path, tcp://HOST:PORT or rtu+tcp://HOST:PORT";
-    return Errc::invalid_argument;
+    return Error(Errc::invalid_argument, "expected a device path, tcp://HOST:PORT or rtu+tcp://HOST:PORT");
   }
   spec.kind = PortSpec::Kind::serial;
   spec.path = std::string(text);

@@ -41,11 +41,10 @@ int Pty::release_master() noexcept {
   return std::exchange(master_, -1);
 }
 
-Result<Pty> Pty::create(const std::string& link, std::string* why) {
-  auto fail = [why](const char* step) {
+Outcome<Pty> Pty::create(const std::string& link) {
+  auto fail = [](const std::string& step) {
     const int err = errno;
-    if (why) *why = std::string(step) + ": " + std::strerror(err);
-    return Error(Errc::io_error, err);
+    return Status(Error(Errc::io_error, err), step + ": " + std::strerror(err));
   };
   Pty pty;
   pty.master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC | O_NONBLOCK);
@@ -67,11 +66,11 @@ Result<Pty> Pty::create(const std::string& link, std::string* why) {
     if (::lstat(link.c_str(), &st) == 0) {
       if (!S_ISLNK(st.st_mode)) {
         errno = EEXIST;
-        return fail(("symlink " + link).c_str());
+        return fail("symlink " + link);
       }
       ::unlink(link.c_str());
     }
-    if (::symlink(name, link.c_str()) != 0) return fail(("symlink " + link).c_str());
+    if (::symlink(name, link.c_str()) != 0) return fail("symlink " + link);
     pty.link_ = link;
   }
   return pty;

@@ -73,7 +73,8 @@ Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& s) {
   // the advisory lock also holds against root among programs that take it
   // (rtukit, pyserial with exclusive=True).
   if (ioctl(fd, TIOCEXCL) != 0) return os_error();
-  if (flock(fd, LOCK_EX | LOCK_NB) != 0) return errno == EWOULDBLOCK ? Error(Errc::io_error, EBUSY) : os_error();
+  if (flock(fd, LOCK_EX | LOCK_NB) != 0)
+    return errno == EWOULDBLOCK ? Error(Errc::io_error, EBUSY) : os_error();
   if (Error e = make_raw(fd)) return e;
 
   struct termios2 tio {};

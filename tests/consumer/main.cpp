@@ -13,11 +13,11 @@ int main(int argc, char** argv) {
   std::printf("state register at 0x%04X\n", static_cast<unsigned>(state->address));
   if (argc < 2) return 0;
 
-  std::string why;
-  auto spec = rtukit::io::parse_port(argv[1], /*listening=*/false, &why);
+  auto spec = rtukit::io::parse_port(argv[1], /*listening=*/false);
   if (!spec) return 2;
   spec->serial.baud = 9600;
-  rtukit::Master master(rtukit::io::make_link(*spec), {.response_timeout = std::chrono::milliseconds(500), .retries = 2});
+  rtukit::Master master(rtukit::io::make_link(*spec),
+                        {.response_timeout = std::chrono::milliseconds(500), .retries = 2});
   std::array<uint16_t, 4> regs{};
   if (rtukit::Error e = master.read_holding_registers(rtukit::UnitId{21}, 0x0021, regs)) {
     std::printf("error: %.*s\n", static_cast<int>(e.name().size()), e.name().data());

@@ -119,9 +119,8 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   host->bank_ = std::make_unique<Bank>(*host);
   if (const Error e = host->engine_.add_unit(host->unit_, *host->bank_))
     return Status(e, "cannot host that unit address");
-  std::string why;
-  auto listener = SlaveListener::start(ctx, host->engine_, o.listen, &why, o.log);
-  if (!listener.ok()) return Status(listener.error(), why);
+  auto listener = SlaveListener::start(ctx, host->engine_, o.listen, o.log);
+  if (!listener.ok()) return listener.error();
   host->listener_ = std::move(*listener);
   // Advance the model regularly, so a timer ends (and a watchdog trips) even
   // when nobody polls.

@@ -130,10 +130,7 @@ LoadedState load_state(const std::string& path, const Profile& profile, Image& i
 }
 
 Status save_state(const std::string& path, const Profile& profile, const Image& image) {
-  std::string why;
-  if (const Error e = io::write_file_atomically(path, state_to_text(profile, image), &why))
-    return Status(e, why);
-  return {};
+  return io::write_file_atomically(path, state_to_text(profile, image));
 }
 
 }  // namespace rtukit::profile

@@ -22,6 +22,7 @@
 #include "rtukit/core/rtu.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/io/port.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace asio {
 class io_context;
@@ -35,11 +36,11 @@ using RequestLog = std::function<void(std::span<const uint8_t> request, std::spa
 
 class SlaveListener {
  public:
-  /// Starts serving `engine` on `spec` (listening form). Errors: io_error with
-  /// a one-line reason in `why` (port busy, no permission, address in use).
-  static Result<std::unique_ptr<SlaveListener>> start(asio::io_context& ctx, SlaveEngine& engine,
-                                                      const io::PortSpec& spec, std::string* why,
-                                                      RequestLog log = {});
+  /// Starts serving `engine` on `spec` (listening form). Errors: io_error
+  /// with a one-line reason (port busy, no permission, address in use),
+  /// invalid_argument (not an IP address).
+  static Outcome<std::unique_ptr<SlaveListener>> start(asio::io_context& ctx, SlaveEngine& engine,
+                                                       const io::PortSpec& spec, RequestLog log = {});
   virtual ~SlaveListener() = default;
   /// Where clients connect: the pty path (or its symlink), the device, or HOST:PORT.
   virtual std::string where() const = 0;

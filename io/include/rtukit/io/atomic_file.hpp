@@ -13,9 +13,9 @@ namespace rtukit::io {
 
 /// Writes `content` to a temporary file next to `path` (its directories are
 /// created), flushes it (fsync), renames it over `path` (atomic on POSIX file
-/// systems) and flushes the directory. Errors: io_error with the OS error;
-/// `why` gets a one-line reason. A failed write leaves `path` untouched.
-Error write_file_atomically(const std::string& path, std::string_view content, std::string* why = nullptr);
+/// systems) and flushes the directory. Errors: io_error with the OS error
+/// and a one-line reason. A failed write leaves `path` untouched.
+Status write_file_atomically(const std::string& path, std::string_view content);
 
 /// Reads a small regular file whole. Never blocks on a FIFO, never reads a
 /// device or a file larger than `max_size` into memory. Errors: io_error

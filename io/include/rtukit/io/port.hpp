@@ -33,8 +33,8 @@ struct SerialSettings {
 
   /// Bits on the wire per character: start + data + parity + stop.
   uint32_t bits_per_char() const noexcept { return 1U + data_bits + (parity == 'N' ? 0U : 1U) + stop_bits; }
-  /// Errors: invalid_argument with a reason in `why`.
-  Error validate(std::string* why = nullptr) const;
+  /// Errors: invalid_argument, with the reason (Error::reason()).
+  Error validate() const;
 };
 
 struct PortSpec {
@@ -50,8 +50,8 @@ struct PortSpec {
 };
 
 /// Parses the port syntax above. `listening` allows `pty`. Errors:
-/// invalid_argument, with a one-line reason in `why`.
-Result<PortSpec> parse_port(std::string_view text, bool listening, std::string* why);
+/// invalid_argument, with a one-line reason (Error::reason()).
+Result<PortSpec> parse_port(std::string_view text, bool listening);
 
 /// Silence that ends a frame on a Linux link, at least. USB serial adapters
 /// deliver bytes in chunks up to 16 ms apart (FTDI's default latency timer)

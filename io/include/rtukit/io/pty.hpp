@@ -5,6 +5,7 @@
 #include <string>
 
 #include "rtukit/core/error.hpp"
+#include "rtukit/io/status.hpp"
 
 namespace rtukit::io {
 
@@ -22,7 +23,7 @@ class Pty {
   /// file there is an error). The slave side is kept open by us too, so the
   /// pty survives clients that open and close it.
   /// Errors: io_error with the OS error number; `why` says which step failed.
-  static Result<Pty> create(const std::string& link, std::string* why);
+  static Outcome<Pty> create(const std::string& link);
 
   /// The master side, for the slave server to read and write. Ownership stays here
   /// unless release_master() is called.
