@@ -41,7 +41,7 @@ void BM_FramerAndEngine_Fc03(benchmark::State& state) {
   const auto request = read_request(static_cast<uint16_t>(state.range(0)));
   Bank bank;
   SlaveEngine engine;
-  (void)engine.add_unit(1, bank);
+  (void)engine.add_unit(UnitId{1}, bank);
   RtuFramer framer(FrameShape::request);
   std::array<uint8_t, kMaxRtuAduSize> out{};
   for (auto _ : state) {
@@ -58,7 +58,7 @@ void BM_MasterParsesResponse_Fc03(benchmark::State& state) {
   r.function = 0x03;
   r.quantity = q;
   MasterTransaction tx;
-  (void)tx.begin(Framing::rtu, 1, r);
+  (void)tx.begin(Framing::rtu, UnitId{1}, r);
   std::vector<uint8_t> pdu{0x03, static_cast<uint8_t>(2 * q)};
   pdu.resize(2 + 2 * q, 0x5A);
   std::array<uint8_t, kMaxRtuAduSize> adu{};

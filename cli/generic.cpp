@@ -484,7 +484,7 @@ int run_slave(const SlaveArgs& a) {
     banks.push_back(std::make_unique<MemoryBank>(size));
     banks.back()->accepted_quirks = a.link.frame_quirks();
     if (!a.init.empty()) load_init(a.init, *banks.back());
-    if (engine.add_unit(unit.value, *banks.back()))
+    if (engine.add_unit(unit, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
   }
   asio::io_context ctx;

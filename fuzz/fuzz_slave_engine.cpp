@@ -49,7 +49,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 2 || size > kMaxPduSize + 1) return 0;
   static Bank bank;
   static SlaveEngine engine;
-  static bool once = [] { return engine.add_unit(1, bank).ok(); }();
+  static bool once = [] { return engine.add_unit(UnitId{1}, bank).ok(); }();
   (void)once;
 
   // RTU: the input is address + PDU; append the CRC so the engine sees it.

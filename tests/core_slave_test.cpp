@@ -76,7 +76,7 @@ std::string exception(uint8_t unit, uint8_t fc, uint8_t code) {
 
 class SlaveEngineTest : public ::testing::Test {
  protected:
-  void SetUp() override { ASSERT_TRUE(engine.add_unit(1, bank).ok()); }
+  void SetUp() override { ASSERT_TRUE(engine.add_unit(UnitId{1}, bank).ok()); }
   TestBank bank;
   SlaveEngine engine;
 };
@@ -195,12 +195,12 @@ TEST_F(SlaveEngineTest, Coils_ReadAndWrite) {
 
 TEST_F(SlaveEngineTest, SeveralUnitsOnOneBus) {
   TestBank other;
-  ASSERT_TRUE(engine.add_unit(21, other).ok());
-  EXPECT_FALSE(engine.add_unit(21, other).ok());
+  ASSERT_TRUE(engine.add_unit(UnitId{21}, other).ok());
+  EXPECT_FALSE(engine.add_unit(UnitId{21}, other).ok());
   EXPECT_EQ(answer(engine, "15 06 00 00 00 0C"), "15 06 00 00 00 0C 8A DB");
   EXPECT_EQ(other.holding[0], 12);
   EXPECT_EQ(bank.holding[0], 0);
-  ASSERT_TRUE(engine.change_unit_address(21, 12).ok());
+  ASSERT_TRUE(engine.change_unit_address(UnitId{21}, UnitId{12}).ok());
   EXPECT_EQ(answer(engine, "15 03 00 00 00 01"), "");
   EXPECT_NE(answer(engine, "0C 03 00 00 00 01"), "");
   // Broadcast reaches every unit.
@@ -226,7 +226,7 @@ TEST(MasterTransaction, RtuRequestAndResponse) {
   r.function = 0x03;
   r.address = 0x0021;
   r.quantity = 4;
-  ASSERT_TRUE(tx.begin(Framing::rtu, 0x15, r).ok());
+  ASSERT_TRUE(tx.begin(Framing::rtu, UnitId{0x15}, r).ok());
   EXPECT_EQ(hex(tx.request_bytes()), "15 03 00 21 00 04 17 17");
   RtuFramer f(FrameShape::response);
   tx.prepare(f, false);
@@ -250,7 +250,7 @@ TEST(MasterTransaction, ExceptionComesBackAsTheError) {
   r.function = 0x03;
   r.address = 0x0005;
   r.quantity = 1;
-  ASSERT_TRUE(tx.begin(Framing::rtu, 0x15, r).ok());
+  ASSERT_TRUE(tx.begin(Framing::rtu, UnitId{0x15}, r).ok());
   RtuFramer f(FrameShape::response);
   f.feed(bytes("15 83 02 80 F5"), 0);
   auto frame = f.next(0);
@@ -265,10 +265,10 @@ TEST(MasterTransaction, BroadcastReadIsRefused_BroadcastWriteExpectsNothing) {
   Request r;
   r.function = 0x03;
   r.quantity = 1;
-  EXPECT_EQ(tx.begin(Framing::rtu, 0, r).code(), Errc::invalid_argument);
+  EXPECT_EQ(tx.begin(Framing::rtu, kBroadcast, r).code(), Errc::invalid_argument);
   r.function = 0x06;
   r.value = 1;
-  ASSERT_TRUE(tx.begin(Framing::rtu, 0, r).ok());
+  ASSERT_TRUE(tx.begin(Framing::rtu, kBroadcast, r).ok());
   EXPECT_FALSE(tx.expects_response());
 }
 
@@ -277,7 +277,7 @@ TEST(MasterTransaction, TcpMatchesTheTransactionId) {
   Request r;
   r.function = 0x03;
   r.quantity = 1;
-  ASSERT_TRUE(tx.begin(Framing::tcp, 1, r, 7).ok());
+  ASSERT_TRUE(tx.begin(Framing::tcp, UnitId{1}, r, 7).ok());
   EXPECT_EQ(hex(tx.request_bytes()), "00 07 00 00 00 06 01 03 00 00 00 01");
   EXPECT_FALSE(tx.accept_tcp(bytes("00 06 00 00 00 05 01 03 02 00 15")).has_value());  // stale
   auto outcome = tx.accept_tcp(bytes("00 07 00 00 00 05 01 03 02 00 15"));

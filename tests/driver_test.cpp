@@ -23,7 +23,7 @@ namespace {
 class SlaveOnThread {
  public:
   explicit SlaveOnThread(const std::string& listen, uint8_t unit = 1) {
-    EXPECT_TRUE(engine.add_unit(unit, bank).ok());
+    EXPECT_TRUE(engine.add_unit(UnitId{unit}, bank).ok());
     Result<io::PortSpec> spec = io::parse_port(listen, true);
     EXPECT_TRUE(spec.ok()) << spec.error().text();
     auto l = SlaveListener::start(ctx_, engine, *spec);

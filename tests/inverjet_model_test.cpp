@@ -43,7 +43,7 @@ struct Rig {
         machine.image().set(reg::plan_end(n), seg.end, k);
       }
     }
-    (void)engine.add_unit(static_cast<uint8_t>(machine.stored(reg::address)), machine);
+    (void)engine.add_unit(UnitId{static_cast<uint8_t>(machine.stored(reg::address))}, machine);
   }
   // The persisted words: what a state file would hold.
   std::vector<uint16_t> persisted() const {
@@ -61,7 +61,8 @@ struct Rig {
     const auto [n, handled] = engine.handle_rtu(adu, out);
     if (handled) {
       const auto change = machine.take_link_change();
-      if (change.address) (void)engine.change_unit_address(unit, *change.address), unit = *change.address;
+      if (change.address)
+        (void)engine.change_unit_address(UnitId{unit}, UnitId{*change.address}), unit = *change.address;
       if (change.baud) baud = *change.baud;
     }
     return hex({out.data(), n});

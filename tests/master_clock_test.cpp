@@ -22,7 +22,7 @@ using namespace std::chrono_literals;
 // A slave behind a MemoryLink; `drop` requests are left unanswered first.
 struct Rig {
   explicit Rig(MasterOptions o = {}, unsigned drop = 0) : to_drop(drop) {
-    (void)engine.add_unit(1, bank);
+    (void)engine.add_unit(UnitId{1}, bank);
     o.clock = &clock;
     auto link = std::make_unique<MemoryLink>(clock, [this](std::span<const uint8_t> request) {
       arrivals.push_back(clock.now());

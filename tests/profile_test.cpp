@@ -201,11 +201,11 @@ TEST(ProfileImage, DefaultsAndHandles) {
 TEST(ProfileModel, EngineServesItStrictly) {
   TestModel model;
   SlaveEngine engine;
-  ASSERT_TRUE(engine.add_unit(7, model).ok());
+  ASSERT_TRUE(engine.add_unit(UnitId{7}, model).ok());
   std::array<uint8_t, 256> out{};
   const auto ask = [&](std::initializer_list<uint8_t> pdu) {
     const std::vector<uint8_t> p(pdu);
-    const size_t n = engine.handle_pdu(7, p, out).length;
+    const size_t n = engine.handle_pdu(UnitId{7}, p, out).length;
     return std::vector<uint8_t>(out.begin(), out.begin() + static_cast<ptrdiff_t>(n));
   };
   // The functions come from the rows: no discrete inputs -> 01, even with a bad quantity.

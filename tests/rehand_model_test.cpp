@@ -41,11 +41,11 @@ struct Rig {
 TEST(RehandTables, ExceptionMatrixThroughTheEngine) {
   Rig rig;
   SlaveEngine engine;
-  ASSERT_FALSE(engine.add_unit(1, rig.chair));  // the chair is the bank; requests feed its watchdog
+  ASSERT_FALSE(engine.add_unit(UnitId{1}, rig.chair));  // the chair is the bank; requests feed its watchdog
   std::array<uint8_t, 256> out{};
   const auto pdu = [&](const std::string& hex) {
     const auto req = test::bytes(hex);
-    const size_t n = engine.handle_pdu(1, req, out).length;
+    const size_t n = engine.handle_pdu(UnitId{1}, req, out).length;
     return test::hex({out.data(), n});
   };
   EXPECT_EQ(pdu("03 00 00 00 01"), "03 02 00 68");           // device ID

@@ -2,20 +2,20 @@
 
 namespace rtukit {
 
-Error MasterTransaction::begin(Framing framing, uint8_t unit, const Request& request,
+Error MasterTransaction::begin(Framing framing, UnitId unit, const Request& request,
                                uint16_t transaction_id) noexcept {
   framing_ = framing;
-  unit_ = unit;
+  unit_ = unit.value;
   transaction_id_ = transaction_id;
-  broadcast_ = framing == Framing::rtu && unit == 0;
+  broadcast_ = framing == Framing::rtu && unit == kBroadcast;
   tx_len_ = 0;
   if (broadcast_ && is_read_function(request.function)) return Errc::invalid_argument;
   std::array<uint8_t, kMaxPduSize> pdu{};
   const Result<size_t> n = encode_request(request, pdu);
   if (!n.ok()) return n.error();
   const std::span<const uint8_t> pdu_view(pdu.data(), *n);
-  const Result<size_t> adu = framing == Framing::rtu ? rtu_encode(unit, pdu_view, tx_)
-                                                     : mbap_encode(transaction_id, unit, pdu_view, tx_);
+  const Result<size_t> adu = framing == Framing::rtu ? rtu_encode(unit.value, pdu_view, tx_)
+                                                     : mbap_encode(transaction_id, unit.value, pdu_view, tx_);
   if (!adu.ok()) return adu.error();
   tx_len_ = *adu;
   request_ = request;

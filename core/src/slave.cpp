@@ -8,27 +8,27 @@
 
 namespace rtukit {
 
-Error SlaveEngine::add_unit(uint8_t unit, RegisterBank& bank) noexcept {
-  if (unit == 0 || find(unit) != nullptr) return Errc::invalid_argument;
+Error SlaveEngine::add_unit(UnitId unit, RegisterBank& bank) noexcept {
+  if (unit == kBroadcast || find(unit) != nullptr) return Errc::invalid_argument;
   if (count_ == units_.size()) return Errc::buffer_too_small;
-  units_[count_++] = Unit{unit, &bank};
+  units_[count_++] = Unit{unit.value, &bank};
   return {};
 }
 
-Error SlaveEngine::change_unit_address(uint8_t from, uint8_t to) noexcept {
-  if (to == 0 || (from != to && find(to) != nullptr)) return Errc::invalid_argument;
+Error SlaveEngine::change_unit_address(UnitId from, UnitId to) noexcept {
+  if (to == kBroadcast || (from != to && find(to) != nullptr)) return Errc::invalid_argument;
   for (size_t i = 0; i < count_; ++i) {
-    if (units_[i].address == from) {
-      units_[i].address = to;
+    if (units_[i].address == from.value) {
+      units_[i].address = to.value;
       return {};
     }
   }
   return Errc::invalid_argument;
 }
 
-bool SlaveEngine::remove_unit(uint8_t unit) noexcept {
+bool SlaveEngine::remove_unit(UnitId unit) noexcept {
   for (size_t i = 0; i < count_; ++i) {
-    if (units_[i].address == unit) {
+    if (units_[i].address == unit.value) {
       units_[i] = units_[count_ - 1];
       units_[--count_] = Unit{};
       return true;
@@ -47,9 +47,9 @@ FrameQuirks SlaveEngine::quirks() const noexcept {
   return q;
 }
 
-RegisterBank* SlaveEngine::find(uint8_t unit) const noexcept {
+RegisterBank* SlaveEngine::find(UnitId unit) const noexcept {
   for (size_t i = 0; i < count_; ++i)
-    if (units_[i].address == unit) return units_[i].bank;
+    if (units_[i].address == unit.value) return units_[i].bank;
   return nullptr;
 }
 
@@ -120,14 +120,15 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
   return Errc::ok;
 }
 
-SlaveEngine::Handled SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8_t> pdu,
+SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_t> pdu,
                                              std::span<uint8_t> out, Framing framing) noexcept {
   if (pdu.empty() || out.size() < kMaxPduSize) return {};
-  const bool broadcast = framing == Framing::rtu && unit == 0;
+  const bool broadcast = framing == Framing::rtu && unit == kBroadcast;
   RegisterBank* bank = nullptr;
   if (!broadcast) {
     bank = find(unit);
-    if (bank == nullptr && framing == Framing::tcp && (unit == 0 || unit == 0xFF) && count_ > 0) {
+    if (bank == nullptr && framing == Framing::tcp && (unit == kBroadcast || unit == UnitId{0xFF}) &&
+        count_ > 0) {
       bank = units_[0].bank;
     }
     if (bank == nullptr) {
@@ -183,7 +184,7 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(uint8_t unit, std::span<const uint8
 
 SlaveEngine::Handled SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept {
   if (adu.size() < 4 || out.size() < kMaxRtuAduSize) return {};
-  Handled h = handle_pdu(adu[0], adu.subspan(1, adu.size() - 3), out.subspan(1), Framing::rtu);
+  Handled h = handle_pdu(UnitId{adu[0]}, adu.subspan(1, adu.size() - 3), out.subspan(1), Framing::rtu);
   if (h.length == 0) return h;
   const size_t n = h.length;
   out[0] = adu[0];
@@ -196,7 +197,7 @@ SlaveEngine::Handled SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::
 
 SlaveEngine::Handled SlaveEngine::handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept {
   if (adu.size() < kMbapHeaderSize + 1 || out.size() < kMaxMbapAduSize) return {};
-  Handled h = handle_pdu(adu[6], mbap_pdu(adu), out.subspan(kMbapHeaderSize), Framing::tcp);
+  Handled h = handle_pdu(UnitId{adu[6]}, mbap_pdu(adu), out.subspan(kMbapHeaderSize), Framing::tcp);
   if (h.length == 0) return h;
   const size_t n = h.length;
   std::memcpy(out.data(), adu.data(), 4);  // transaction and protocol id echoed

@@ -68,7 +68,7 @@ Error Master::transact_locked(UnitId unit, const Request& request,
       }
       ++stats_.reopens;
     }
-    if (Error e = tx.begin(link_->framing(), unit.value, req, ++transaction_id_)) return e;
+    if (Error e = tx.begin(link_->framing(), unit, req, ++transaction_id_)) return e;
     if (attempt > 0) ++stats_.retries;
     link_->discard_input();  // a late answer to an earlier request must not match this one
     const auto deadline = clock_.now() + options_.response_timeout;

@@ -117,7 +117,7 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   }
 
   host->bank_ = std::make_unique<Bank>(*host);
-  if (const Error e = host->engine_.add_unit(host->unit_, *host->bank_))
+  if (const Error e = host->engine_.add_unit(UnitId{host->unit_}, *host->bank_))
     return Status(e, "cannot host that unit address");
   auto listener = SlaveListener::start(ctx, host->engine_, o.listen, o.log);
   if (!listener.ok()) return listener.error();
@@ -155,7 +155,7 @@ void SimHost::after_response() {
     if (options_.notice) options_.notice(line);
   };
   if (change.address && *change.address != unit_) {
-    if (!engine_.change_unit_address(unit_, *change.address)) {
+    if (!engine_.change_unit_address(UnitId{unit_}, UnitId{*change.address})) {
       notice(fmt::format("address changed: {} -> {}", unit_, *change.address));
       unit_ = *change.address;
     }

@@ -28,7 +28,7 @@ class MasterTransaction {
   /// Modbus TCP only. With `fc10_without_byte_count` FC10 is sent in the
   /// Inverjet document's short form (for devices that need it; never default).
   /// Errors: invalid_argument (a read broadcast, a request the codec refuses).
-  Error begin(Framing framing, uint8_t unit, const Request& request, uint16_t transaction_id = 0) noexcept;
+  Error begin(Framing framing, UnitId unit, const Request& request, uint16_t transaction_id = 0) noexcept;
 
   /// The ADU to send. Valid until the next begin().
   std::span<const uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_len_}; }

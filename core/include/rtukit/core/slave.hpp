@@ -90,11 +90,11 @@ class SlaveEngine {
 
   /// Hosts `bank` at `unit` (1..255). The bank must outlive the engine.
   /// Errors: invalid_argument (unit 0 or already hosted), buffer_too_small (full).
-  Error add_unit(uint8_t unit, RegisterBank& bank) noexcept;
+  Error add_unit(UnitId unit, RegisterBank& bank) noexcept;
   /// Moves a hosted unit to a new address. Errors: invalid_argument.
-  Error change_unit_address(uint8_t from, uint8_t to) noexcept;
-  bool remove_unit(uint8_t unit) noexcept;
-  RegisterBank* find(uint8_t unit) const noexcept;
+  Error change_unit_address(UnitId from, UnitId to) noexcept;
+  bool remove_unit(UnitId unit) noexcept;
+  RegisterBank* find(UnitId unit) const noexcept;
   size_t unit_count() const noexcept { return count_; }
 
   /// What a request came to: the length of the response written to `out`
@@ -110,7 +110,7 @@ class SlaveEngine {
   /// addressed directly), and no frame quirk applies. Writes the response PDU to
   /// `out` (>= 253 bytes). Silent for a broadcast, another unit's frame, or a
   /// malformed request.
-  Handled handle_pdu(uint8_t unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
+  Handled handle_pdu(UnitId unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
                      Framing framing = Framing::rtu) noexcept;
 
   /// RTU: `adu` is a CRC-checked frame (address + PDU + CRC). Writes the
