@@ -7,7 +7,10 @@
 #include <charconv>
 #include <csignal>
 #include <cstring>
+#include <ctime>
 #include <thread>
+#include <unistd.h>
+#include <cstdlib>
 
 namespace rtukit::cli {
 
@@ -26,6 +29,8 @@ void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_bau
     cmd.add_option("--delay", delay_ms, "minimum ms between requests (slow devices)")->capture_default_str();
     cmd.add_flag("--echo", echo, "discard the echo of our own request (half-duplex adapters)");
     cmd.add_flag("--stats", stats, "print the master's counters to stderr at the end");
+    cmd.add_flag("--trace", trace, "print every frame sent and received to stderr, with a timestamp");
+    cmd.add_option("--log", log_file, "append every frame sent and received to this file");
   }
   cmd.add_option(
          "--quirk", quirks,
@@ -92,8 +97,148 @@ MasterOptions LinkOptions::master_options() const {
   return o;
 }
 
+namespace {
+
+// "14:02:07.123" in local time.
+std::string clock_text() {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  ::localtime_r(&t, &tm);
+  const auto ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  return fmt::format("{:02}:{:02}:{:02}.{:03}", tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+}
+
+}  // namespace
+
+std::function<void(const TraceEvent&)> LinkOptions::tracer() const {
+  if (!trace && log_file.empty()) return {};
+  std::shared_ptr<std::FILE> log;
+  if (!log_file.empty()) {
+    log.reset(std::fopen(log_file.c_str(), "a"), [](std::FILE* f) {
+      if (f) std::fclose(f);
+    });
+    if (!log)
+      throw Failure{kIoError, fmt::format("--log {}: cannot open for appending: {}", log_file,
+                                          std::strerror(errno))};
+  }
+  const bool to_stderr = trace;
+  return [log, to_stderr](const TraceEvent& e) {
+    // "14:02:07.123 > 15 03 00 21 00 04 xx xx" and
+    // "14:02:07.141 < 15 03 08 ... (ok, 18.2 ms)".
+    std::string line;
+    if (e.direction == TraceEvent::Direction::sent) {
+      line = fmt::format("{} > {}{}{}\n", clock_text(), hex(e.bytes), e.outcome.empty() ? "" : "  (",
+                         e.outcome.empty() ? std::string() : std::string(e.outcome) + ")");
+    } else {
+      line = fmt::format("{} < {}({}, {:.1f} ms)\n", clock_text(),
+                         e.bytes.empty() ? std::string("nothing ") : hex(e.bytes) + "  ", e.outcome,
+                         static_cast<double>(e.elapsed.count()) / 1000.0);
+    }
+    if (to_stderr) std::fputs(line.c_str(), stderr);
+    if (log) {
+      std::fputs(line.c_str(), log.get());
+      std::fflush(log.get());
+    }
+  };
+}
+
 std::unique_ptr<Master> LinkOptions::make_master() const {
-  return std::make_unique<Master>(io::make_link(spec(false)), master_options());
+  MasterOptions o = master_options();
+  o.trace = tracer();
+  return std::make_unique<Master>(io::make_link(spec(false)), std::move(o));
+}
+
+void examples(CLI::App& cmd, std::initializer_list<std::string_view> lines) {
+  std::string text = "Examples:";
+  for (std::string_view l : lines) text += fmt::format("\n  {}", l);
+  cmd.footer(text);
+}
+
+std::string clock_hms() {
+  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  ::localtime_r(&t, &tm);
+  return fmt::format("{:02}:{:02}:{:02}", tm.tm_hour, tm.tm_min, tm.tm_sec);
+}
+
+LivePanel::LivePanel(std::string title, unsigned interval_ms)
+    : title_(std::move(title)), interval_ms_(interval_ms) {}
+
+bool LivePanel::colour() {
+  const char* no_color = std::getenv("NO_COLOR");
+  return ::isatty(STDOUT_FILENO) && (no_color == nullptr || *no_color == '\0');
+}
+
+std::string LivePanel::alert(std::string_view text) {
+  return colour() ? fmt::format("\x1b[1;31m{}\x1b[0m", text) : std::string(text);
+}
+
+void LivePanel::show(const std::string& body) {
+  last_body_ = body;
+  stale_since_.clear();
+  draw({});
+}
+
+void LivePanel::stale(std::string_view error) {
+  if (stale_since_.empty()) stale_since_ = clock_hms();
+  draw(alert(fmt::format("STALE since {}: {}", stale_since_, error)));
+}
+
+void LivePanel::draw(std::string_view banner) {
+  // Home and clear, then the whole panel at once: no scrolling, no flicker of half panels.
+  std::string out = "\x1b[H\x1b[2J";
+  out += fmt::format("{}\n(every {} ms, Ctrl-C to stop; updated {})\n\n", title_.substr(0, 80), interval_ms_,
+                     clock_hms());
+  if (!banner.empty()) out += fmt::format("{}\n\n", banner);
+  out += last_body_.empty() ? std::string("(no data yet)\n") : last_body_;
+  fmt::print("{}", out);
+  std::fflush(stdout);
+}
+
+Json json_document(std::string_view device, int unit) {
+  const auto now = std::chrono::system_clock::now();
+  const std::time_t t = std::chrono::system_clock::to_time_t(now);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  const auto ms =
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  Json j;
+  j["time"] = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", tm.tm_year + 1900, tm.tm_mon + 1,
+                          tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+  j["ok"] = true;
+  if (!device.empty()) j["device"] = device;
+  if (unit >= 0) j["unit"] = unit;
+  return j;
+}
+
+Json json_quantity(Json value, std::string_view unit, std::string text) {
+  Json j;
+  j["value"] = std::move(value);
+  if (!unit.empty()) j["unit"] = unit;
+  j["text"] = std::move(text);
+  return j;
+}
+
+void print_json(const Json& document) {
+  fmt::print("{}\n", document.dump());
+}
+
+Json json_failure(const Failure& f) {
+  static constexpr const char* kKinds[] = {"ok",          "modbus_exception", "usage",
+                                           "no_response", "io_error",         "refused"};
+  Json j = json_document();
+  j["ok"] = false;
+  j["error"] = {{"exit", f.code},
+                {"kind", f.code >= 0 && f.code <= 5 ? kKinds[f.code] : "error"},
+                {"message", f.message}};
+  return j;
+}
+
+bool& json_requested() {
+  static bool requested = false;
+  return requested;
 }
 
 int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max) {

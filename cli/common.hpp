@@ -3,6 +3,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -10,6 +11,8 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <type_traits>
+#include <initializer_list>
 #include <vector>
 
 #include "commands.hpp"
@@ -51,6 +54,8 @@ struct LinkOptions {
   bool echo = false;
   bool stats = false;
   std::vector<std::string> quirks;  ///< fc10-no-count, fc03-two-byte-count
+  bool trace = false;               ///< each frame to stderr with a timestamp
+  std::string log_file;             ///< each frame appended to this file
 
   /// Adds the options to `cmd`. `listening`: the port is where we listen.
   void add_to(CLI::App& cmd, bool listening, uint32_t default_baud = 9600);
@@ -59,6 +64,9 @@ struct LinkOptions {
   MasterOptions master_options() const;
   /// The --quirk options as FrameQuirks (RTU links only).
   FrameQuirks frame_quirks() const;
+  /// The --trace / --log callback (empty when neither is given). Throws
+  /// Failure{kIoError} when the log file cannot be opened.
+  std::function<void(const TraceEvent&)> tracer() const;
   /// A master on the port (not opened yet).
   std::unique_ptr<Master> make_master() const;
 };
@@ -114,9 +122,63 @@ CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name,
   auto args = std::make_shared<Args>();
   CLI::App* cmd = parent.add_subcommand(name, description);
   setup(*cmd, *args);
-  cmd->callback([&action, args, run] { action = [args, run] { return run(*args); }; });
+  cmd->callback([&action, args, run, cmd] {
+    // `run(args, cmd)` when it wants to ask what was given on the command line.
+    if constexpr (std::is_invocable_v<Run, Args&, const CLI::App&>)
+      action = [args, run, cmd] { return run(*args, *cmd); };
+    else
+      action = [args, run] { return run(*args); };
+  });
   return cmd;
 }
+
+/// Sets the "Examples:" footer of a command's --help (one command a line).
+void examples(CLI::App& cmd, std::initializer_list<std::string_view> lines);
+
+/// rtukit's JSON documents (docs/json.md): objects keep their key order.
+using Json = nlohmann::ordered_json;
+
+/// The head every JSON document starts with: {"time": UTC ISO 8601 with ms,
+/// "ok": true, "device": name (absent when empty), "unit": n (absent when < 0)}.
+Json json_document(std::string_view device = {}, int unit = -1);
+/// A derived value with a unit, shaped like a register entry: {"value", "unit", "text"}.
+Json json_quantity(Json value, std::string_view unit, std::string text);
+/// Prints one document on one line.
+void print_json(const Json& document);
+/// True when the command line asked for --json (set by main()): a failure is
+/// then also printed on stdout as {"time", "ok": false, "error": {...}}.
+bool& json_requested();
+/// {"time", "ok": false, "error": {"exit": 3, "kind": "no_response", "message": "..."}}.
+Json json_failure(const Failure& f);
+
+/// The live panel of a `watch` command, the same for every device: on a
+/// terminal it redraws in place (no scrolling), at most 80 columns. When a
+/// refresh fails the last good panel stays on screen, marked stale with the
+/// error and since when; faults are highlighted. Colour only on a terminal
+/// and never when NO_COLOR is set (https://no-color.org).
+class LivePanel {
+ public:
+  /// `title`: the device and link ("Inverjet 21 on /dev/ttyUSB0").
+  LivePanel(std::string title, unsigned interval_ms);
+  /// Draws a fresh panel (lines of at most 80 columns).
+  void show(const std::string& body);
+  /// Keeps the last panel, marked stale: "STALE since 14:02:07: no response".
+  void stale(std::string_view error);
+  /// Whether to colour: stdout is a terminal and NO_COLOR is unset.
+  static bool colour();
+  /// `text` in bold red when colouring, else as it is.
+  static std::string alert(std::string_view text);
+
+ private:
+  void draw(std::string_view banner);
+  std::string title_;
+  unsigned interval_ms_;
+  std::string last_body_;
+  std::string stale_since_;
+};
+
+/// The wall clock as "14:02:07" (local time).
+std::string clock_hms();
 
 /// Bytes as "15 03 00 21" (request logs).
 std::string hex(std::span<const uint8_t> bytes);

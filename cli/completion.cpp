@@ -69,6 +69,8 @@ void add_completion_command(CLI::App& app, Action& action) {
       app, action, "completion", "print shell completion: eval \"$(rtukit completion bash)\"",
       [](CLI::App& cmd, Args& a) {
         cmd.add_option("shell", a.shell, "bash or zsh")->required()->check(CLI::IsMember({"bash", "zsh"}));
+        examples(cmd, {"eval \"$(rtukit completion bash)\"      (in ~/.bashrc)",
+                       "rtukit completion zsh > ~/.zfunc/_rtukit"});
       },
       [&app](const Args& a) {
         if (a.shell == "zsh") fmt::print("#compdef rtukit\nautoload -U +X bashcompinit && bashcompinit\n");

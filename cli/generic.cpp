@@ -234,12 +234,12 @@ int run_read(ReadArgs a) {
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, read_context(p, *master));
   if (a.json) {
-    nlohmann::json out{{"unit", p.unit.value},
-                       {"table", table_name(p.table)},
-                       {"address", p.address},
-                       {"type", p.bits ? "bit" : a.type},
-                       {"values", values}};
-    fmt::print("{}\n", out.dump());
+    Json out = json_document({}, p.unit.value);
+    out["table"] = table_name(p.table);
+    out["address"] = p.address;
+    out["type"] = p.bits ? "bit" : a.type;
+    out["values"] = values;
+    print_json(out);
     return kOk;
   }
   for (size_t i = 0; i < p.count; ++i) {
@@ -256,16 +256,6 @@ struct PollArgs {
   WatchOptions watch{1000};
   std::string output = "table";
 };
-
-std::string timestamp() {
-  const auto now = std::chrono::system_clock::now();
-  const auto ms = std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  std::tm tm{};
-  ::gmtime_r(&t, &tm);
-  return fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", tm.tm_year + 1900, tm.tm_mon + 1,
-                     tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ms % 1000);
-}
 
 int run_poll(PollArgs args) {
   ReadArgs& a = args.read;
@@ -284,15 +274,19 @@ int run_poll(PollArgs args) {
     last = read_values(*master, p, a, values);
     ++polls;
     if (last) ++failures;
-    const std::string time = timestamp();
+    Json line = json_document({}, p.unit.value);
+    const std::string time = line["time"];
     if (args.output == "jsonl") {
-      nlohmann::json line{
-          {"time", time}, {"unit", p.unit.value}, {"table", table_name(p.table)}, {"address", p.address}};
-      if (last)
-        line["error"] = std::string(last.text());
-      else
+      line["table"] = table_name(p.table);
+      line["address"] = p.address;
+      line["type"] = p.bits ? "bit" : a.type;
+      if (last) {
+        line["ok"] = false;
+        line["error"] = {{"kind", last.name()}, {"message", std::string(last.text())}};
+      } else {
         line["values"] = values;
-      fmt::print("{}\n", line.dump());
+      }
+      print_json(line);
     } else if (args.output == "csv") {
       std::string row = time;
       for (size_t i = 0; i < p.count; ++i) row += "," + (last ? std::string() : value_text(values[i], a, p));
@@ -321,6 +315,7 @@ struct WriteArgs {
   std::string type = "u16";
   std::string order = "high-first";
   bool one_based = false;
+  bool json = false;
 };
 
 int run_write(const WriteArgs& a) {
@@ -354,6 +349,13 @@ int run_write(const WriteArgs& a) {
   }
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
+  if (a.json) {
+    Json out = json_document({}, unit.value);
+    out["table"] = a.coils ? "coils" : "holding";
+    out["address"] = address;
+    out["written"] = a.values.size();
+    print_json(out);
+  }
   return kOk;
 }
 
@@ -385,7 +387,8 @@ std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
   return units;
 }
 
-int run_scan(ScanArgs a) {
+int run_scan(ScanArgs a, const CLI::App& cmd) {
+  a.timeout_given = cmd.count("--timeout") > 0;
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
   const std::vector<unsigned> units = parse_units(a.units, tcp ? 255 : 247);
   // Scanning: a short default timeout, but never in place of one the user chose
@@ -408,7 +411,11 @@ int run_scan(ScanArgs a) {
     }
   }
   if (a.link.stats) print_stats(*master);
-  if (a.json) fmt::print("{}\n", nlohmann::json{{"units", found}}.dump());
+  if (a.json) {
+    Json out = json_document();
+    out["units"] = found;
+    print_json(out);
+  }
   if (found.empty()) {
     throw Failure{
         kNoResponse,
@@ -510,96 +517,104 @@ int run_slave(const SlaveArgs& a) {
 
 }  // namespace
 
+namespace {
+
+void add_table_flags(CLI::App& cmd, ReadArgs& a) {
+  auto* g = cmd.add_option_group("table");
+  g->add_flag("--holding", a.holding, "holding registers, FC03 (default)");
+  g->add_flag("--input", a.input, "input registers, FC04");
+  g->add_flag("--coils", a.coils, "coils, FC01");
+  g->add_flag("--discrete", a.discrete, "discrete inputs, FC02");
+}
+
+}  // namespace
+
 void add_generic_commands(CLI::App& app, Action& action) {
-  {
-    auto args = std::make_shared<ReadArgs>();
-    auto* cmd = app.add_subcommand("read", "read registers, coils or inputs");
-    args->link.add_to(*cmd, false);
-    cmd->add_option("--unit,-u", args->unit, "slave unit address")->capture_default_str();
-    auto* g = cmd->add_option_group("table");
-    g->add_flag("--holding", args->holding, "holding registers, FC03 (default)");
-    g->add_flag("--input", args->input, "input registers, FC04");
-    g->add_flag("--coils", args->coils, "coils, FC01");
-    g->add_flag("--discrete", args->discrete, "discrete inputs, FC02");
-    cmd->add_option("operands", args->operands,
-                    "ADDRESS [COUNT]: first address, 0-based (33 or 0x21), how many values (default 1); "
-                    "with --map: register keys (none: all)");
-    cmd->add_option("--map", args->map, "decode by name with a register-map file (docs/register-maps.md)");
-    add_type_options(*cmd, args->type, args->order);
-    cmd->add_option("--format", args->format, "dec | hex")
-        ->check(CLI::IsMember({"dec", "hex"}))
-        ->capture_default_str();
-    cmd->add_flag("--json", args->json, "print JSON");
-    cmd->add_flag("--one-based", args->one_based,
-                  "addresses count from 1, as mbpoll and Modbus Poll show them");
-    cmd->callback([&action, args, cmd] {
-      args->unit_given = cmd->count("--unit") > 0;
-      action = [args] { return run_read(*args); };
-    });
-  }
+  add_command<ReadArgs>(
+      app, action, "read", "read registers, coils or inputs",
+      [](CLI::App& cmd, ReadArgs& a) {
+        cmd.add_option("--unit,-u", a.unit, "slave unit address")->capture_default_str();
+        add_table_flags(cmd, a);
+        cmd.add_option("operands", a.operands,
+                       "ADDRESS [COUNT]: first address, 0-based (33 or 0x21), how many values (default 1); "
+                       "with --map: register keys (none: all)");
+        cmd.add_option("--map", a.map, "decode by name with a register-map file (docs/register-maps.md)");
+        add_type_options(cmd, a.type, a.order);
+        cmd.add_option("--format", a.format, "dec | hex")
+            ->check(CLI::IsMember({"dec", "hex"}))
+            ->capture_default_str();
+        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+        cmd.add_flag("--one-based", a.one_based, "addresses count from 1, as mbpoll and Modbus Poll show them");
+        a.link.add_to(cmd, false);
+        examples(cmd, {"rtukit read --port /dev/ttyUSB0 --unit 21 0x21 4",
+                       "rtukit read --port tcp://127.0.0.1:1502 --input 0 2 --type f32 --json",
+                       "rtukit read --port /dev/ttyUSB0 --one-based 40034      (mbpoll -r 34)",
+                       "rtukit read --port /dev/ttyUSB0 --map meter.yaml voltage current"});
+      },
+      [](ReadArgs& a, const CLI::App& cmd) {
+        a.unit_given = cmd.count("--unit") > 0;
+        return run_read(a);
+      });
   add_command<PollArgs>(
       app, action, "poll", "poll registers again and again, one timestamped line each (like mbpoll -l)",
       [](CLI::App& cmd, PollArgs& a) {
         cmd.add_option("--unit,-u", a.read.unit, "slave unit address")->capture_default_str();
-        auto* g = cmd.add_option_group("table");
-        g->add_flag("--holding", a.read.holding, "holding registers, FC03 (default)");
-        g->add_flag("--input", a.read.input, "input registers, FC04");
-        g->add_flag("--coils", a.read.coils, "coils, FC01");
-        g->add_flag("--discrete", a.read.discrete, "discrete inputs, FC02");
+        add_table_flags(cmd, a.read);
         cmd.add_option("operands", a.read.operands, "ADDRESS [COUNT]")->required();
         add_type_options(cmd, a.read.type, a.read.order);
         cmd.add_option("--format", a.read.format, "dec | hex")
             ->check(CLI::IsMember({"dec", "hex"}))
             ->capture_default_str();
-        cmd.add_option("--output,-o", a.output, "table | csv | jsonl (one JSON object per line)")
+        cmd.add_option("--output,-o", a.output, "table | csv | jsonl (one JSON document per line)")
             ->check(CLI::IsMember({"table", "csv", "jsonl"}))
             ->capture_default_str();
         cmd.add_flag("--one-based", a.read.one_based,
                      "addresses count from 1, as mbpoll and Modbus Poll show them");
         a.watch.add_to(cmd);
         a.read.link.add_to(cmd, false);
-        cmd.footer(
-            "Examples:\n"
-            "  rtukit poll --port /dev/ttyUSB0 --unit 21 0x21 4 --interval 500\n"
-            "  rtukit poll --port tcp://127.0.0.1:1502 --input 0 2 --output csv --count 60 > log.csv");
+        examples(cmd, {"rtukit poll --port /dev/ttyUSB0 --unit 21 0x21 4 --interval 500",
+                       "rtukit poll --port tcp://127.0.0.1:1502 --input 0 2 --output csv --count 60 > log.csv"});
       },
       [](const PollArgs& a) { return run_poll(a); });
-  {
-    auto args = std::make_shared<WriteArgs>();
-    auto* cmd = app.add_subcommand("write", "write registers (FC06 / FC10) or coils (FC05 / FC0F)");
-    args->link.add_to(*cmd, false);
-    cmd->add_option("--unit,-u", args->unit, "slave unit address (0 = broadcast)")->capture_default_str();
-    cmd->add_option("address", args->address, "first address, 0-based")->required();
-    cmd->add_option("values", args->values, "values to write")->required();
-    cmd->add_flag("--multiple", args->multiple, "use FC10 / FC0F even for one value");
-    cmd->add_flag("--coils", args->coils, "write coils (values 0 or 1)");
-    cmd->add_flag("--one-based", args->one_based,
-                  "addresses count from 1, as mbpoll and Modbus Poll show them");
-    add_type_options(*cmd, args->type, args->order);
-    cmd->callback([&action, args] { action = [args] { return run_write(*args); }; });
-  }
-  {
-    auto args = std::make_shared<ScanArgs>();
-    auto* cmd = app.add_subcommand("scan", "find which unit addresses answer");
-    args->link.add_to(*cmd, false);
-    cmd->add_option("--units", args->units, "units to try: 1-247, 21, 1,5,21-30")->capture_default_str();
-    cmd->add_flag("--json", args->json, "print JSON");
-    cmd->callback([&action, args, cmd] {
-      args->timeout_given = cmd->count("--timeout") > 0;
-      action = [args] { return run_scan(*args); };
-    });
-  }
-  {
-    auto args = std::make_shared<SlaveArgs>();
-    auto* cmd = app.add_subcommand("slave", "a generic in-memory slave (holding, input, coils, discrete)");
-    args->link.add_to(*cmd, true);
-    cmd->add_option("--unit,-u", args->units, "unit address(es) to answer (repeatable)")
-        ->capture_default_str();
-    cmd->add_option("--registers", args->registers, "entries per table")->capture_default_str();
-    cmd->add_option("--init", args->init, "JSON file with initial values");
-    cmd->add_flag("-v,--verbose", args->verbose, "log each request and response");
-    cmd->callback([&action, args] { action = [args] { return run_slave(*args); }; });
-  }
+  add_command<WriteArgs>(
+      app, action, "write", "write registers (FC06 / FC10) or coils (FC05 / FC0F)",
+      [](CLI::App& cmd, WriteArgs& a) {
+        cmd.add_option("--unit,-u", a.unit, "slave unit address (0 = broadcast)")->capture_default_str();
+        cmd.add_option("address", a.address, "first address, 0-based")->required();
+        cmd.add_option("values", a.values, "values to write")->required();
+        cmd.add_flag("--multiple", a.multiple, "use FC10 / FC0F even for one value");
+        cmd.add_flag("--coils", a.coils, "write coils (values 0 or 1)");
+        cmd.add_flag("--one-based", a.one_based, "addresses count from 1, as mbpoll and Modbus Poll show them");
+        cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
+        add_type_options(cmd, a.type, a.order);
+        a.link.add_to(cmd, false);
+        examples(cmd, {"rtukit write --port /dev/ttyUSB0 --unit 21 0x23 80",
+                       "rtukit write --port tcp://127.0.0.1:1502 --unit 5 30 1 2 3      (FC10)",
+                       "rtukit write --port /dev/ttyUSB0 --coils 7 1"});
+      },
+      [](const WriteArgs& a) { return run_write(a); });
+  add_command<ScanArgs>(
+      app, action, "scan", "find which unit addresses answer",
+      [](CLI::App& cmd, ScanArgs& a) {
+        cmd.add_option("--units", a.units, "units to try: 1-247, 21, 1,5,21-30")->capture_default_str();
+        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+        a.link.add_to(cmd, false);
+        examples(cmd, {"rtukit scan --port /dev/ttyUSB0 --baud 19200 --parity even",
+                       "rtukit scan --port /dev/ttyUSB0 --units 1,5,21-30 --timeout 300"});
+      },
+      [](ScanArgs& a, const CLI::App& cmd) { return run_scan(a, cmd); });
+  add_command<SlaveArgs>(
+      app, action, "slave", "a generic in-memory slave (holding, input, coils, discrete)",
+      [](CLI::App& cmd, SlaveArgs& a) {
+        cmd.add_option("--unit,-u", a.units, "unit address(es) to answer (repeatable)")->capture_default_str();
+        cmd.add_option("--registers", a.registers, "entries per table")->capture_default_str();
+        cmd.add_option("--init", a.init, "JSON file with initial values");
+        cmd.add_flag("-v,--verbose", a.verbose, "log each request and response");
+        a.link.add_to(cmd, true);
+        examples(cmd, {"rtukit slave --listen pty:/tmp/ttyV0 --unit 5 -v",
+                       "rtukit slave --listen tcp://127.0.0.1:1502 --unit 1 --unit 2 --init values.json"});
+      },
+      [](const SlaveArgs& a) { return run_slave(a); });
 }
 
 }  // namespace rtukit::cli

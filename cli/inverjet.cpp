@@ -25,16 +25,29 @@ namespace {
 namespace ij = rtukit::inverjet;
 using nlohmann::json;
 
+struct StartArgs {
+  bool free = false;
+  std::string timer, plan, speed, from;
+  bool remember = false;
+};
+
+// Every inverjet command's options (each command uses the ones it declares).
 struct JetArgs {
   LinkOptions link;
   std::string unit = "21";
   bool json = false;
+  WatchOptions watch{500};
+  StartArgs start;
+  std::string value;          ///< speed, config value
+  std::string plan;           ///< plan number
+  std::string file;           ///< plan file
+  std::string what = "show";  ///< config item
 };
 
 void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
   a.link.add_to(cmd, false, ij::kDefaultBaud);
   cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
-  if (json_flag) cmd.add_flag("--json", a.json, "print JSON");
+  cmd.add_flag("--json", a.json, json_flag ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
 }
 
 // A master and the typed client on the command's link.
@@ -94,30 +107,57 @@ std::string version_text(uint32_t v) {
   return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
 }
 
-json status_json(const ij::MachineStatus& s) {
-  json faults = json::array();
-  for (auto n : s.fault_names()) faults.push_back(n);
-  return json{{"mode", s.mode},
-              {"mode_name", profile::name_of(ij::kMap.row(ij::reg::work_mode), s.mode)},
-              {"state", s.state},
-              {"state_name", s.state_name()},
-              {"phase", ij::phase_name(s.phase())},
-              {"family", ij::family_name(s.family())},
-              {"speed", s.speed},
-              {"run_time", s.run_time},
-              {"run_time_text", profile::format_mm_ss(s.run_time)},
-              {"faults", s.faults},
-              {"fault_names", faults},
-              {"mosfet_temperature_c", s.mosfet_c},
-              {"motor_temperature_c", s.motor_c},
-              {"current_a", s.current_a},
-              {"rpm", s.rpm},
-              {"bus_voltage_v", s.bus_v},
-              {"versions",
-               {{"display_software", version_text(s.display_software)},
-                {"display_hardware", version_text(s.display_hardware)},
-                {"driver_software", version_text(s.driver_software)},
-                {"driver_hardware", version_text(s.driver_hardware)}}}};
+// In the fault screen (state 17) the state no longer says whether a free or
+// a timer run was going; a watch remembers the last family it saw so the
+// time keeps its meaning ("remaining" stays remaining).
+ij::Family time_family(const ij::MachineStatus& s, ij::Family remembered) {
+  if (s.family() != ij::Family::none) return s.family();
+  if (s.mode >= 1) return ij::Family::training;  // a plan's time counts up
+  return remembered;
+}
+
+// "remaining", "elapsed" or, when nothing tells, "at the fault".
+std::string_view time_counts(const ij::MachineStatus& s, ij::Family remembered) {
+  switch (time_family(s, remembered)) {
+    case ij::Family::timer:
+      return "remaining";
+    case ij::Family::none:
+      return s.state == 17 ? "at the fault" : "elapsed";
+    default:
+      return "elapsed";
+  }
+}
+
+Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
+  Json out = json_document("inverjet", unit.value);
+  Json& v = out["values"] = Json::object();
+  const auto reg = [&v](profile::Handle h, int64_t raw) {
+    const profile::Row& r = ij::kMap.row(h);
+    v[std::string(r.key)] = profile::entry_json(r, raw);
+  };
+  const auto named = [&v](const char* key, std::string_view value) {
+    v[key] = json_quantity(std::string(value), {}, std::string(value));
+  };
+  reg(ij::reg::work_mode, s.mode);
+  reg(ij::reg::state, s.state);
+  named("phase", ij::phase_name(s.phase()));
+  named("family", ij::family_name(s.family()));
+  reg(ij::reg::speed, s.speed);
+  reg(ij::reg::run_time, s.run_time);
+  named("run_time_counts", time_counts(s, remembered));
+  reg(ij::reg::faults, s.faults);
+  const auto scaled = [](double value, unsigned scale) { return std::lround(value * scale); };
+  reg(ij::kMap.handle("mosfet_temperature"), scaled(s.mosfet_c, 10));
+  reg(ij::kMap.handle("motor_temperature"), scaled(s.motor_c, 10));
+  reg(ij::kMap.handle("motor_current"), scaled(s.current_a, 100));
+  reg(ij::kMap.handle("motor_speed"), s.rpm_x_poles);
+  v["rpm"] = json_quantity(s.rpm, "rpm", fmt::format("{} rpm", s.rpm));
+  reg(ij::kMap.handle("bus_voltage"), scaled(s.bus_v, 10));
+  reg(ij::reg::display_software, s.display_software);
+  reg(ij::reg::display_hardware, s.display_hardware);
+  reg(ij::reg::driver_software, s.driver_software);
+  reg(ij::reg::driver_hardware, s.driver_hardware);
+  return out;
 }
 
 std::string faults_text(const ij::MachineStatus& s) {
@@ -126,12 +166,13 @@ std::string faults_text(const ij::MachineStatus& s) {
   return out.empty() ? "none" : fmt::format("{} (0x{:04X})", out, s.faults);
 }
 
-std::string time_text(const ij::MachineStatus& s) {
-  return fmt::format("{} {}", profile::format_mm_ss(s.run_time),
-                     s.family() == ij::Family::timer ? "remaining" : "elapsed");
+std::string time_text(const ij::MachineStatus& s, ij::Family remembered) {
+  return fmt::format("{} {}", profile::format_mm_ss(s.run_time), time_counts(s, remembered));
 }
 
-std::string status_panel(const ij::MachineStatus& s) {
+// At most 80 columns.
+std::string status_panel(const ij::MachineStatus& s, ij::Family remembered) {
+  const std::string faults = faults_text(s);
   return fmt::format(
       "state     {} ({})   mode {}\n"
       "speed     {} %   motor {} rpm, {:.2f} A\n"
@@ -140,17 +181,19 @@ std::string status_panel(const ij::MachineStatus& s) {
       "temps     MOSFET {:.1f} degC, motor {:.1f} degC\n"
       "bus       {:.1f} V\n"
       "versions  display {} (hw {}), driver {} (hw {})\n",
-      s.state_name(), s.state, profile::format_value(ij::kMap.row(ij::reg::work_mode), s.mode), s.speed,
-      s.rpm, s.current_a, time_text(s), faults_text(s), s.mosfet_c, s.motor_c, s.bus_v,
+      s.state == 17 ? LivePanel::alert(s.state_name()) : std::string(s.state_name()), s.state,
+      profile::format_value(ij::kMap.row(ij::reg::work_mode), s.mode), s.speed, s.rpm, s.current_a,
+      time_text(s, remembered), s.faults ? LivePanel::alert(faults) : faults, s.mosfet_c, s.motor_c, s.bus_v,
       version_text(s.display_software), version_text(s.display_hardware), version_text(s.driver_software),
       version_text(s.driver_hardware));
 }
 
-std::string status_line(const ij::MachineStatus& s) {
+std::string status_line(const ij::MachineStatus& s, ij::Family remembered) {
   return fmt::format(
-      "{:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults "
+      "{} {:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults "
       "{}",
-      s.state_name(), s.speed, time_text(s), s.rpm, s.current_a, s.mosfet_c, s.motor_c, faults_text(s));
+      clock_hms(), s.state_name(), s.speed, time_text(s, remembered), s.rpm, s.current_a, s.mosfet_c,
+      s.motor_c, faults_text(s));
 }
 
 int run_status(const JetArgs& a) {
@@ -158,38 +201,62 @@ int run_status(const JetArgs& a) {
   Result<ij::MachineStatus> st = s.jet.status();
   if (!st.ok()) s.fail(st.error(), "status");
   if (a.json)
-    fmt::print("{}\n", status_json(*st).dump());
+    print_json(status_document(*st, s.jet.unit(), ij::Family::none));
   else
-    fmt::print("{}", status_panel(*st));
+    fmt::print("{}", status_panel(*st, ij::Family::none));
   return kOk;
 }
 
-int run_watch(const JetArgs& a, const WatchOptions& w) {
+int run_watch(const JetArgs& a) {
   Session s(a);
   const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
-  watch_loop(w, [&](unsigned n) {
+  LivePanel panel(s.context, a.watch.interval_ms);
+  ij::Family remembered = ij::Family::none;
+  std::string down_since;
+  watch_loop(a.watch, [&](unsigned n) {
     Result<ij::MachineStatus> st = s.jet.status();
     if (!st.ok()) {
       if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
-      fmt::print("{}\n",
-                 st.error().code() == Errc::timeout ? "(no response)" : std::string(st.error().name()));
-    } else if (a.json) {
-      fmt::print("{}\n", status_json(*st).dump());
-    } else if (tty) {
-      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n{}", s.context, w.interval_ms,
-                 status_panel(*st));
-    } else {
-      fmt::print("{}\n", status_line(*st));
+      if (down_since.empty()) down_since = clock_hms();
+      const std::string why(st.error().code() == Errc::timeout ? "no response" : st.error().text());
+      if (a.json) {
+        Json j = json_document("inverjet", s.jet.unit().value);
+        j["ok"] = false;
+        j["error"] = {{"kind", st.error().name()}, {"message", why}, {"since", down_since}};
+        print_json(j);
+      } else if (tty) {
+        panel.stale(why);
+      } else {
+        fmt::print("{} stale since {}: {}\n", clock_hms(), down_since, why);
+      }
+      return;
     }
+    down_since.clear();
+    if (st->family() != ij::Family::none) remembered = st->family();
+    if (st->state == 0) remembered = ij::Family::none;
+    if (a.json)
+      print_json(status_document(*st, s.jet.unit(), remembered));
+    else if (tty)
+      panel.show(status_panel(*st, remembered));
+    else
+      fmt::print("{}\n", status_line(*st, remembered));
   });
   return kOk;
 }
 
-struct StartArgs {
-  bool free = false;
-  std::string timer, plan, speed, from;
-  bool remember = false;
-};
+// What a command did, as a line or as a JSON document.
+void done(const JetArgs& a, const Session& s, std::string_view action, const std::string& text,
+          Json values = Json::object()) {
+  if (!a.json) {
+    fmt::print("{}\n", text);
+    return;
+  }
+  Json out = json_document("inverjet", s.jet.unit().value);
+  out["action"] = action;
+  out["text"] = text;
+  if (!values.empty()) out["values"] = std::move(values);
+  print_json(out);
+}
 
 int run_start(const JetArgs& a, const StartArgs& s) {
   if (s.free + !s.timer.empty() + !s.plan.empty() != 1)
@@ -220,7 +287,7 @@ int run_start(const JetArgs& a, const StartArgs& s) {
                                         session.context, plan, profile::format_mm_ss(from), plan)};
   }
   session.check(e, "start " + what);
-  fmt::print("started {}{}\n", what, s.remember ? " (after 3 s; saved as memory)" : "");
+  done(a, session, "start", fmt::format("started {}{}", what, s.remember ? " (after 3 s; saved as memory)" : ""));
   return kOk;
 }
 
@@ -234,7 +301,7 @@ int run_simple(const JetArgs& a, const std::string& verb) {
     if (e == Errc::invalid_argument) throw Failure{kUsage, s.context + ": resume: nothing is paused"};
   }
   s.check(e, verb);
-  fmt::print("{}: ok\n", verb);
+  done(a, s, verb, fmt::format("{}: ok", verb));
   return kOk;
 }
 
@@ -242,7 +309,8 @@ int run_speed(const JetArgs& a, const std::string& value) {
   const uint16_t speed = parse_speed(value);
   Session s(a);
   s.check(s.jet.set_speed(speed), fmt::format("speed {} %", speed));
-  fmt::print("speed {} %\n", speed);
+  done(a, s, "speed", fmt::format("speed {} %", speed),
+       {{"speed", profile::entry_json(ij::kMap.row(ij::reg::speed), speed)}});
   return kOk;
 }
 
@@ -252,10 +320,12 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
   Outcome<std::vector<ij::Segment>> segments = s.jet.read_plan(plan);
   if (!segments.ok()) s.fail(segments.error(), fmt::format("read plan P{}", plan));
   if (a.json) {
-    json out = json::array();
+    Json out = json_document("inverjet", s.jet.unit().value);
+    out["plan"] = plan;
+    Json& list = out["segments"] = Json::array();
     for (const auto& seg : *segments)
-      out.push_back({{"speed", seg.speed}, {"end", profile::format_mm_ss(seg.end)}});
-    fmt::print("{}\n", out.dump());
+      list.push_back({{"speed", seg.speed}, {"end", seg.end}, {"end_text", profile::format_mm_ss(seg.end)}});
+    print_json(out);
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
   }
@@ -272,8 +342,9 @@ int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file
   if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, segments.error().reason())};
   Session s(a);
   s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));
-  fmt::print("plan P{}: {} segment(s) written, ends at {}\n", plan, segments->size(),
-             profile::format_mm_ss(segments->back().end));
+  done(a, s, "plan set",
+       fmt::format("plan P{}: {} segment(s) written, ends at {}", plan, segments->size(),
+                   profile::format_mm_ss(segments->back().end)));
   return kOk;
 }
 
@@ -281,7 +352,7 @@ int run_plan_clear(const JetArgs& a, const std::string& n) {
   const unsigned plan = parse_plan_number(n);
   Session s(a);
   s.check(s.jet.clear_plan(plan), fmt::format("clear plan P{}", plan));
-  fmt::print("plan P{}: factory plan (01:00 at 20 %)\n", plan);
+  done(a, s, "plan clear", fmt::format("plan P{}: factory plan (01:00 at 20 %)", plan));
   return kOk;
 }
 
@@ -290,14 +361,15 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     Session s(a);
     Result<ij::Config> c = s.jet.config();
     if (!c.ok()) s.fail(c.error(), "config");
-    json out;
+    Json out = json_document("inverjet", s.jet.unit().value);
+    Json& values = out["values"] = Json::object();
     for (const ij::ConfigValue& v : *c) {
       if (a.json)
-        out[std::string(v.row->key)] = v.raw;
+        values[std::string(v.row->key)] = profile::entry_json(*v.row, v.raw);
       else
         fmt::print("{:<14} {}\n", v.row->key, profile::format_value(*v.row, v.raw));
     }
-    if (a.json) fmt::print("{}\n", out.dump());
+    if (a.json) print_json(out);
     return kOk;
   }
   if (value.empty()) throw Failure{kUsage, fmt::format("config {} needs a value", what)};
@@ -305,7 +377,9 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     const auto address = static_cast<uint8_t>(parse_number(value, "address", 1, 254));
     Session s(a);
     s.check(s.jet.set_address(address), fmt::format("set address {}", address));
-    fmt::print("address {} -> {} (talk to --unit {} from now on)\n", a.unit, address, address);
+    done(a, s, "config address",
+         fmt::format("address {} -> {} (talk to --unit {} from now on)", a.unit, address, address),
+         {{"address", profile::entry_json(ij::kMap.row(ij::reg::address), address)}});
   } else if (what == "baud") {
     const auto baud = static_cast<uint32_t>(parse_number(value, "baud", 0, 1000000));
     if (ij::code_of_baud(baud) < 0)
@@ -313,18 +387,23 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
                     fmt::format("baud {}: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200", baud)};
     Session s(a);
     s.check(s.jet.set_baud(baud), fmt::format("set baud {}", baud));
-    fmt::print("baud rate {} (talk at --baud {} from now on)\n", baud, baud);
+    done(a, s, "config baud", fmt::format("baud rate {} (talk at --baud {} from now on)", baud, baud),
+         {{"baud", profile::entry_json(ij::kMap.row(ij::reg::baud), ij::code_of_baud(baud))}});
   } else if (what == "mask") {
     const auto mask = static_cast<uint16_t>(parse_number(value, "control mask", 0, 7));
     Session s(a);
     s.check(s.jet.set_control_mask(mask), fmt::format("set control mask {}", mask));
-    fmt::print("control mask {}\n", profile::format_value(ij::kMap.row(ij::reg::control_mask), mask));
+    done(a, s, "config mask",
+         fmt::format("control mask {}", profile::format_value(ij::kMap.row(ij::reg::control_mask), mask)),
+         {{"control_mask", profile::entry_json(ij::kMap.row(ij::reg::control_mask), mask)}});
   } else if (what == "pairing") {
     const uint16_t mode = value == "off" ? 0 : value == "wifi" ? 1 : value == "remote" ? 2 : 0xFFFF;
     if (mode == 0xFFFF) throw Failure{kUsage, "pairing: off, wifi or remote"};
     Session s(a);
     s.check(s.jet.set_pairing(mode), "set pairing");
-    fmt::print("pairing {}\n", profile::format_value(ij::kMap.row(ij::reg::pairing), mode));
+    done(a, s, "config pairing",
+         fmt::format("pairing {}", profile::format_value(ij::kMap.row(ij::reg::pairing), mode)),
+         {{"pairing", profile::entry_json(ij::kMap.row(ij::reg::pairing), mode)}});
   } else {
     throw Failure{kUsage, fmt::format("config {}: expected show, address, baud, mask or pairing", what)};
   }
@@ -337,94 +416,101 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
   CLI::App* jet =
       app.add_subcommand("inverjet", "the Inverjet swimming machine (unit 21, 9600 8N1 by default)");
   jet->require_subcommand(1);
-
-  {
-    auto args = std::make_shared<JetArgs>();
-    CLI::App* cmd = jet->add_subcommand("status", "mode, state, speed, time, faults, temperatures, motor");
-    add_link(*cmd, *args, true);
-    cmd->callback([&action, args] { action = [args] { return run_status(*args); }; });
-  }
-  {
-    auto args = std::make_shared<JetArgs>();
-    auto w = std::make_shared<WatchOptions>(WatchOptions{500});
-    CLI::App* cmd = jet->add_subcommand("watch", "live status, refreshed until Ctrl-C");
-    add_link(*cmd, *args, true);
-    w->add_to(*cmd);
-    cmd->callback([&action, args, w] { action = [=] { return run_watch(*args, *w); }; });
-  }
-  {
-    auto args = std::make_shared<JetArgs>();
-    auto s = std::make_shared<StartArgs>();
-    CLI::App* cmd = jet->add_subcommand("start", "start free mode, a timer run or a training plan");
-    add_link(*cmd, *args, false);
-    cmd->add_flag("--free", s->free, "free mode (counts up)");
-    cmd->add_option("--timer", s->timer, "timer mode for DURATION (mm:ss or seconds, 1..5999 s)");
-    cmd->add_option("--plan", s->plan, "training plan 1..4");
-    cmd->add_option("--speed", s->speed, "speed 0..100 % (free: default from memory)");
-    cmd->add_option("--from", s->from, "with --plan: start this far into the plan (mm:ss)");
-    cmd->add_flag("--remember", s->remember,
-                  "start after the 3 s initial delay and save speed/time as the mode's memory");
-    cmd->callback([&action, args, s] { action = [=] { return run_start(*args, *s); }; });
-  }
+  const std::string port = "--port /dev/ttyUSB0";
+  add_command<JetArgs>(
+      *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
+      [&](CLI::App& cmd, JetArgs& a) {
+        add_link(cmd, a, true);
+        examples(cmd, {"rtukit inverjet status " + port, "rtukit inverjet status " + port + " --unit 12 --json"});
+      },
+      [](const JetArgs& a) { return run_status(a); });
+  add_command<JetArgs>(
+      *jet, action, "watch", "live status, refreshed until Ctrl-C",
+      [&](CLI::App& cmd, JetArgs& a) {
+        add_link(cmd, a, true);
+        a.watch.add_to(cmd);
+        examples(cmd, {"rtukit inverjet watch " + port,
+                       "rtukit inverjet watch " + port + " --json --interval 1000 > swim.jsonl"});
+      },
+      [](const JetArgs& a) { return run_watch(a); });
+  add_command<JetArgs>(
+      *jet, action, "start", "start free mode, a timer run or a training plan",
+      [&](CLI::App& cmd, JetArgs& a) {
+        StartArgs& s = a.start;
+        cmd.add_flag("--free", s.free, "free mode (counts up)");
+        cmd.add_option("--timer", s.timer, "timer mode for DURATION (mm:ss or seconds, 1..5999 s)");
+        cmd.add_option("--plan", s.plan, "training plan 1..4");
+        cmd.add_option("--speed", s.speed, "speed 0..100 % (free: default from memory)");
+        cmd.add_option("--from", s.from, "with --plan: start this far into the plan (mm:ss)");
+        cmd.add_flag("--remember", s.remember,
+                     "start after the 3 s initial delay and save speed/time as the mode's memory");
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit inverjet start " + port + " --free --speed 60",
+                       "rtukit inverjet start " + port + " --timer 30:00 --speed 80 --remember",
+                       "rtukit inverjet start " + port + " --plan 1 --from 12:00"});
+      },
+      [](const JetArgs& a) { return run_start(a, a.start); });
   for (const char* verb : {"pause", "resume", "stop"}) {
-    auto args = std::make_shared<JetArgs>();
     const std::string v = verb;
-    CLI::App* cmd = jet->add_subcommand(v, v == "pause"    ? "pause the run (motor stops, time freezes)"
-                                           : v == "resume" ? "resume a paused run"
-                                                           : "stop the motor, machine off");
-    add_link(*cmd, *args, false);
-    cmd->callback([&action, args, v] { action = [=] { return run_simple(*args, v); }; });
+    add_command<JetArgs>(
+        *jet, action, v,
+        v == "pause"    ? "pause the run (motor stops, time freezes)"
+        : v == "resume" ? "resume a paused run"
+                        : "stop the motor, machine off",
+        [&](CLI::App& cmd, JetArgs& a) {
+          add_link(cmd, a, false);
+          examples(cmd, {"rtukit inverjet " + v + " " + port});
+        },
+        [v](const JetArgs& a) { return run_simple(a, v); });
   }
-  {
-    auto args = std::make_shared<JetArgs>();
-    auto value = std::make_shared<std::string>();
-    CLI::App* cmd = jet->add_subcommand("speed", "set the running speed");
-    add_link(*cmd, *args, false);
-    cmd->add_option("SPEED", *value, "0..100 %")->required();
-    cmd->callback([&action, args, value] { action = [=] { return run_speed(*args, *value); }; });
-  }
-  {
-    CLI::App* plan = jet->add_subcommand("plan", "training plans P1..P4");
-    plan->require_subcommand(1);
-    auto show_args = std::make_shared<JetArgs>();
-    auto show_n = std::make_shared<std::string>();
-    CLI::App* show = plan->add_subcommand("show", "print a plan (CSV, or --json)");
-    add_link(*show, *show_args, true);
-    show->add_option("N", *show_n, "plan 1..4")->required();
-    show->callback(
-        [&action, show_args, show_n] { action = [=] { return run_plan_show(*show_args, *show_n); }; });
+  add_command<JetArgs>(
+      *jet, action, "speed", "set the running speed",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("SPEED", a.value, "0..100 %")->required();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit inverjet speed " + port + " 75"});
+      },
+      [](const JetArgs& a) { return run_speed(a, a.value); });
 
-    auto set_args = std::make_shared<JetArgs>();
-    auto set_n = std::make_shared<std::string>();
-    auto file = std::make_shared<std::string>();
-    CLI::App* set = plan->add_subcommand("set", "write a plan from a CSV (speed,end per line) or JSON file");
-    add_link(*set, *set_args, false);
-    set->add_option("N", *set_n, "plan 1..4")->required();
-    set->add_option("FILE", *file, "plan file")->required();
-    set->callback([&action, set_args, set_n, file] {
-      action = [=] { return run_plan_set(*set_args, *set_n, *file); };
-    });
-
-    auto clear_args = std::make_shared<JetArgs>();
-    auto clear_n = std::make_shared<std::string>();
-    CLI::App* clear = plan->add_subcommand("clear", "reset a plan to the factory plan (01:00 at 20 %)");
-    add_link(*clear, *clear_args, false);
-    clear->add_option("N", *clear_n, "plan 1..4")->required();
-    clear->callback(
-        [&action, clear_args, clear_n] { action = [=] { return run_plan_clear(*clear_args, *clear_n); }; });
-  }
-  {
-    auto args = std::make_shared<JetArgs>();
-    auto what = std::make_shared<std::string>("show");
-    auto value = std::make_shared<std::string>();
-    CLI::App* cmd = jet->add_subcommand("config", "show or set address, baud, mask, pairing");
-    add_link(*cmd, *args, true);
-    cmd->add_option("WHAT", *what, "show | address A | baud B | mask M | pairing off|wifi|remote")
-        ->capture_default_str();
-    cmd->add_option("VALUE", *value, "the new value");
-    cmd->callback(
-        [&action, args, what, value] { action = [=] { return run_config(*args, *what, *value); }; });
-  }
+  CLI::App* plan = jet->add_subcommand("plan", "training plans P1..P4");
+  plan->require_subcommand(1);
+  add_command<JetArgs>(
+      *plan, action, "show", "print a plan (CSV, or --json)",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("N", a.plan, "plan 1..4")->required();
+        add_link(cmd, a, true);
+        examples(cmd, {"rtukit inverjet plan show " + port + " 1 > p1.csv",
+                       "rtukit inverjet plan show " + port + " 1 --json > p1.json"});
+      },
+      [](const JetArgs& a) { return run_plan_show(a, a.plan); });
+  add_command<JetArgs>(
+      *plan, action, "set", "write a plan from a CSV (speed,end per line) or JSON file",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("N", a.plan, "plan 1..4")->required();
+        cmd.add_option("FILE", a.file, "plan file (what `plan show` prints, CSV or --json)")->required();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit inverjet plan set " + port + " 2 p1.csv"});
+      },
+      [](const JetArgs& a) { return run_plan_set(a, a.plan, a.file); });
+  add_command<JetArgs>(
+      *plan, action, "clear", "reset a plan to the factory plan (01:00 at 20 %)",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("N", a.plan, "plan 1..4")->required();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit inverjet plan clear " + port + " 4"});
+      },
+      [](const JetArgs& a) { return run_plan_clear(a, a.plan); });
+  add_command<JetArgs>(
+      *jet, action, "config", "show or set address, baud, mask, pairing",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("WHAT", a.what, "show | address A | baud B | mask M | pairing off|wifi|remote")
+            ->capture_default_str();
+        cmd.add_option("VALUE", a.value, "the new value");
+        add_link(cmd, a, true);
+        examples(cmd, {"rtukit inverjet config " + port, "rtukit inverjet config " + port + " baud 19200",
+                       "rtukit inverjet config " + port + " address 12"});
+      },
+      [](const JetArgs& a) { return run_config(a, a.what, a.value); });
 }
 
 }  // namespace rtukit::cli

@@ -59,10 +59,17 @@ int main(int argc, char** argv) {
     fmt::print(stderr, "rtukit: {} (see {} --help)\n", e.what(), where);
     return kUsage;
   }
+  // --json anywhere on the chosen command path: failures are JSON too.
+  for (const CLI::App* sub = &app; sub;) {
+    if (const CLI::Option* o = sub->get_option_no_throw("--json"); o && o->count() > 0) json_requested() = true;
+    const auto chosen = sub->get_subcommands();
+    sub = chosen.empty() ? nullptr : chosen.front();
+  }
   try {
     return action ? action() : kUsage;
   } catch (const Failure& f) {
     fmt::print(stderr, "rtukit: {}\n", f.message);
+    if (json_requested()) print_json(json_failure(f));
     return f.code;
   } catch (const std::exception& e) {
     fmt::print(stderr, "rtukit: {}\n", e.what());

@@ -113,17 +113,23 @@ std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<cons
   return values;
 }
 
-void print_values(std::span<const ReadValue> values, bool json) {
-  if (json) {
-    nlohmann::ordered_json out;
-    for (const ReadValue& v : values) {
-      if (v.error) {
-        out[entry_name(v.entry)] = {{"error", std::string(v.error.text())}};
-        continue;
-      }
-      out[entry_name(v.entry)] = profile::value_json(*v.entry.row, v.raw);
+Json values_document(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values) {
+  Json out = json_document(p.name, unit.value);
+  Json& entries = out["values"] = Json::object();
+  for (const ReadValue& v : values) {
+    if (v.error) {
+      out["ok"] = false;
+      entries[entry_name(v.entry)] = {{"error", std::string(v.error.text())}};
+    } else {
+      entries[entry_name(v.entry)] = profile::entry_json(*v.entry.row, v.raw);
     }
-    fmt::print("{}\n", out.dump());
+  }
+  return out;
+}
+
+void print_values(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values, bool json) {
+  if (json) {
+    print_json(values_document(p, unit, values));
     return;
   }
   size_t width = 0;
@@ -157,10 +163,13 @@ UnitId device_unit(const DeviceArgs& a, const profile::Profile& p) {
 int run_get(const DeviceArgs& a, const profile::Profile& p) {
   const std::vector<Selected> selected = select_rows(p, a.keys, false);
   auto master = a.link.make_master();
-  const std::vector<ReadValue> values = read_selected(*master, device_unit(a, p), selected);
-  print_values(values, a.json);
+  const UnitId unit = device_unit(a, p);
+  const std::vector<ReadValue> values = read_selected(*master, unit, selected);
+  print_values(p, unit, values, a.json);
   for (const ReadValue& v : values) {
-    if (v.error) fail(v.error, fmt::format("read {}", entry_name(v.entry)));
+    if (!v.error) continue;
+    json_requested() = false;  // the document above already says which entries failed
+    fail(v.error, fmt::format("read {}", entry_name(v.entry)));
   }
   return kOk;
 }
@@ -192,9 +201,11 @@ int run_set(const DeviceArgs& a, const profile::Profile& p) {
   else
     e = master->write_multiple_registers(unit, address, std::span<const uint16_t>(words.data(), 2));
   if (e) fail(e, fmt::format("write {}", entry_name(selected[0])));
-  if (a.json)
-    fmt::print("{}\n", nlohmann::json{{entry_name(selected[0]), profile::value_json(r, *raw)}}.dump());
-  else
+  if (a.json) {
+    Json out = json_document(p.name, unit.value);
+    out["values"][entry_name(selected[0])] = profile::entry_json(r, *raw);
+    print_json(out);
+  } else
     fmt::print("{} = {}\n", entry_name(selected[0]), profile::format_value(r, *raw));
   return kOk;
 }
@@ -205,7 +216,7 @@ int run_watch(const DeviceArgs& a, const profile::Profile& p) {
   const UnitId unit = device_unit(a, p);
   watch_loop(a.watch, [&](unsigned) {
     const std::vector<ReadValue> values = read_selected(*master, unit, selected);
-    print_values(values, a.json);
+    print_values(p, unit, values, a.json);
     if (!a.json) fmt::print("\n");
     std::fflush(stdout);
   });
@@ -234,10 +245,13 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
   if (!has("registers"))
     add_command<DeviceArgs>(
         dev, action, "registers", "the register reference (Markdown; --json or --yaml: the map file)",
-        [](CLI::App& cmd, DeviceArgs& a) {
+        [&entry](CLI::App& cmd, DeviceArgs& a) {
           cmd.add_flag("--json", a.json, "the profile as a JSON map file");
           cmd.add_flag("--yaml", a.yaml,
                        "the profile as a YAML map file (rtukit sim map / read --map take it)");
+          examples(cmd, {fmt::format("rtukit {} registers", entry.profile->name),
+                         fmt::format("rtukit {} registers --yaml > {}.yaml", entry.profile->name,
+                                     entry.profile->name)});
         },
         [&entry](const DeviceArgs& a) {
           print_registers(a, *entry.profile, entry.markdown);
@@ -249,8 +263,11 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
         [&p](CLI::App& cmd, DeviceArgs& a) {
           cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
           cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
-          cmd.add_flag("--json", a.json, "print JSON");
+          cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
           a.link.add_to(cmd, false, p.link.baud);
+          const Row& first = p.rows.front();
+          examples(cmd, {fmt::format("rtukit {} get --port /dev/ttyUSB0", p.name),
+                         fmt::format("rtukit {} get --port /dev/ttyUSB0 {} --json", p.name, first.key)});
         },
         [&p](const DeviceArgs& a) { return run_get(a, p); });
   if (!has("set"))
@@ -260,8 +277,10 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
           cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
           cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
           cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
-          cmd.add_flag("--json", a.json, "print JSON");
+          cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
           a.link.add_to(cmd, false, p.link.baud);
+          examples(cmd, {fmt::format("rtukit {} set --port /dev/ttyUSB0 KEY VALUE", p.name),
+                         "values as people write them: 80, 80%, outdoor, 30:00, 0x1F"});
         },
         [&p](const DeviceArgs& a) { return run_set(a, p); });
 }
@@ -282,10 +301,13 @@ void add_profile_commands(CLI::App& app, Action& action) {
   {
     add_command<DeviceArgs>(
         app, action, "devices", "the device profiles this rtukit knows",
-        [](CLI::App& cmd, DeviceArgs& a) { cmd.add_flag("--json", a.json, "print JSON"); },
+        [](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+          examples(cmd, {"rtukit devices", "rtukit devices --json"});
+        },
         [](const DeviceArgs& a) {
           const bool* json = &a.json;
-          nlohmann::ordered_json list = nlohmann::ordered_json::array();
+          Json list = Json::array();
           for (const DeviceEntry& e : builtin_devices()) {
             const profile::Profile& p = *e.profile;
             if (*json) {
@@ -300,9 +322,11 @@ void add_profile_commands(CLI::App& app, Action& action) {
                          p.link.parity, p.link.stop_bits);
             }
           }
-          if (*json)
-            fmt::print("{}\n", list.dump());
-          else
+          if (*json) {
+            Json out = json_document();
+            out["devices"] = std::move(list);
+            print_json(out);
+          } else
             fmt::print(
                 "any other device: a register-map file (rtukit map check FILE; docs/register-maps.md)\n");
           return int{kOk};
@@ -321,13 +345,25 @@ void add_profile_commands(CLI::App& app, Action& action) {
   map->require_subcommand(1);
   add_command<DeviceArgs>(
       *map, action, "check", "validate a map file (errors name the line)",
-      [](CLI::App& cmd, DeviceArgs& a) { cmd.add_option("file", a.map_file, "the map file")->required(); },
+      [](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("file", a.map_file, "the map file")->required();
+        cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
+        examples(cmd, {"rtukit map check examples/maps/energy-meter.yaml"});
+      },
       [](const DeviceArgs& a) {
         const profile::Profile& p = load_map_or_fail(a.map_file);
         size_t entries = 0;
         for (const Row& r : p.rows) entries += r.repeat;
-        fmt::print("{}: ok: device '{}', {} registers in {} rows\n", a.map_file, p.name, entries,
-                   p.rows.size());
+        if (a.json) {
+          Json out = json_document(p.name);
+          out["file"] = a.map_file;
+          out["registers"] = entries;
+          out["rows"] = p.rows.size();
+          print_json(out);
+        } else {
+          fmt::print("{}: ok: device '{}', {} registers in {} rows\n", a.map_file, p.name, entries,
+                     p.rows.size());
+        }
         return int{kOk};
       });
   add_command<DeviceArgs>(
@@ -336,6 +372,7 @@ void add_profile_commands(CLI::App& app, Action& action) {
         cmd.add_option("file", a.map_file, "the map file")->required();
         cmd.add_flag("--json", a.json, "as JSON");
         cmd.add_flag("--yaml", a.yaml, "as YAML");
+        examples(cmd, {"rtukit map registers examples/maps/energy-meter.yaml"});
       },
       [](const DeviceArgs& a) {
         print_registers(a, load_map_or_fail(a.map_file), {});
@@ -347,9 +384,10 @@ void add_profile_commands(CLI::App& app, Action& action) {
         cmd.add_option("--map", a.map_file, "the device's register-map file")->required();
         cmd.add_option("keys", a.keys, "register keys; none: every readable register");
         cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
-        cmd.add_flag("--json", a.json, "one JSON object per poll");
+        cmd.add_flag("--json", a.json, "one JSON document per poll (docs/json.md)");
         a.watch.add_to(cmd);
         a.link.add_to(cmd, false);
+        examples(cmd, {"rtukit watch --port /dev/ttyUSB0 --map meter.yaml voltage current --interval 2000"});
       },
       [](const DeviceArgs& a) { return run_watch(a, load_map_or_fail(a.map_file)); });
 }

@@ -29,8 +29,11 @@ struct ReadValue {
 };
 /// Reads the entries from a device, adjacent ones in one request.
 std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<const Selected> selected);
-/// "key = 80 %" lines, or one JSON object.
-void print_values(std::span<const ReadValue> values, bool json);
+/// The values as one JSON document (docs/json.md): {"time", "ok", "device",
+/// "unit", "values": {key: entry}}; an entry that failed is {"error": ...}.
+Json values_document(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values);
+/// "key = 80 %" lines, or values_document.
+void print_values(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values, bool json);
 
 /// Loads a map file or throws Failure (kUsage with the line-numbered reason,
 /// kIoError when unreadable). The profile lives until the process ends.

@@ -24,21 +24,24 @@ namespace {
 namespace rh = rtukit::rehand6600;
 using nlohmann::json;
 
+// Every rehand6600 command's options (each command uses the ones it declares).
 struct ChairArgs {
   LinkOptions link;
   std::string unit = "1";
   bool json = false;
   bool mph = false;
+  WatchOptions watch{250};
+  std::string key;              ///< hold/pulse command, set item
+  std::string value;            ///< its value
+  std::string duration = "1s";  ///< hold --for
 };
 
 void add_link(CLI::App& cmd, ChairArgs& a, bool reads) {
   a.link.timeout_ms = 200;
   a.link.add_to(cmd, false, rh::kDefaultBaud);
   cmd.add_option("--unit,-u", a.unit, "the controller's address")->capture_default_str();
-  if (reads) {
-    cmd.add_flag("--json", a.json, "print JSON");
-    cmd.add_flag("--mph", a.mph, "speed in mph (default km/h)");
-  }
+  cmd.add_flag("--json", a.json, reads ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
+  if (reads) cmd.add_flag("--mph", a.mph, "speed in mph (default km/h)");
 }
 
 UnitId unit_of(const ChairArgs& a) {
@@ -82,24 +85,28 @@ std::string speed_text(const rh::Snapshot& s, bool mph) {
 std::string panel(const rh::Snapshot& s, bool mph) {
   std::string out;
   if (s.error_code())
-    out += fmt::format("!!! {} : every function is disabled !!!\n", rh::error_text(s.error_code()));
+    out += LivePanel::alert(fmt::format("!!! {} : every function is disabled !!!", rh::error_text(s.error_code()))) +
+           "\n";
   out += fmt::format("battery   {} %{}   clutch {}\n", s.battery(), s.charging() ? " (charging)" : "",
                      v(s, "clutch"));
   out += fmt::format("motion    {}   speed {}\n", v(s, "motion"), speed_text(s, mph));
   out += fmt::format("lights    main {}, left {}, right {}\n", v(s, "main_light"), v(s, "left_signal"),
                      v(s, "right_signal"));
-  out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}, seat tilt {}, leg rest {}\n",
-                     v(s, "seat_lift_status"), v(s, "backrest_status"), v(s, "stand_status"),
-                     v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
+  out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}\n", v(s, "seat_lift_status"),
+                     v(s, "backrest_status"), v(s, "stand_status"));
+  out += fmt::format("          seat tilt {}, leg rest {}\n", v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
   out += "actuators";
-  for (unsigned i = 0; i < 6; ++i)
+  for (unsigned i = 0; i < 6; ++i) {
+    if (i == 3) out += "\n         ";  // three a line: 80 columns
     out += fmt::format(" {}:{} {}", i + 1, s[static_cast<uint16_t>(rh::reg::kActuatorPosition + i)],
                        v(s, fmt::format("actuator{}_state", i + 1)));
+  }
   out += fmt::format("\ndistances front {} mm, rear {} mm, left {} mm, right {} mm\n",
                      s[rh::reg::kDistanceFront], s[rh::reg::kDistanceFront + 1],
                      s[rh::reg::kDistanceFront + 2], s[rh::reg::kDistanceFront + 3]);
-  out += fmt::format("buttons   horn {}, 360 view {}   error {}\n", v(s, "horn_button"), v(s, "view_button"),
-                     s.error_code() ? rh::error_text(s.error_code()) : "none");
+  out += fmt::format("buttons   horn {}, 360 view {}\n", v(s, "horn_button"), v(s, "view_button"));
+  out += fmt::format("error     {}\n",
+                     s.error_code() ? LivePanel::alert(rh::error_text(s.error_code())) : std::string("none"));
   return out;
 }
 
@@ -111,16 +118,33 @@ std::string line(const rh::Snapshot& s, bool mph) {
       s[0x18], s[0x19], s[0x1A], s.error_code() ? rh::error_text(s.error_code()) : "none");
 }
 
-json snapshot_json(const rh::Snapshot& s, bool mph) {
-  json out;
+// Table 1 in rtukit's JSON shape (docs/json.md): each status register an
+// entry, plus the speed in the unit asked for and the error's UI text.
+Json snapshot_document(const rh::Snapshot& s, UnitId unit, bool mph) {
+  Json out = json_document("rehand6600", unit.value);
+  Json& values = out["values"] = Json::object();
   for (const rh::Register& r : rh::registers()) {
     if (rh::table_of(r) != rh::Table::status || r.key.starts_with("reserved")) continue;
-    out[std::string(r.key)] = r.is_signed() ? json(static_cast<int16_t>(s[r.address])) : json(s[r.address]);
+    const int64_t raw = r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
+    values[std::string(r.key)] = profile::entry_json(r, raw);
   }
-  if (mph) out["speed_mph"] = s.speed_mph();
-  out["motion_name"] = v(s, "motion");
-  out["error_text"] = s.error_code() ? rh::error_text(s.error_code()) : "";
+  if (mph) values["speed_mph"] = json_quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
+  values["error_text"] = json_quantity(s.error_code() ? rh::error_text(s.error_code()) : "", {},
+                                       s.error_code() ? rh::error_text(s.error_code()) : "none");
   return out;
+}
+
+// What a command did, as a line or as a JSON document.
+void done(const ChairArgs& a, std::string_view action, const std::string& text, Json values = Json::object()) {
+  if (!a.json) {
+    fmt::print("{}\n", text);
+    return;
+  }
+  Json out = json_document("rehand6600", unit_of(a).value);
+  out["action"] = action;
+  out["text"] = text;
+  if (!values.empty()) out["values"] = std::move(values);
+  print_json(out);
 }
 
 int run_status(const ChairArgs& a) {
@@ -132,7 +156,7 @@ int run_status(const ChairArgs& a) {
   if (Error e = master->read_holding_registers(unit, 0, s.regs)) fail(e, context);
   s.valid = true;
   if (a.json)
-    fmt::print("{}\n", snapshot_json(s, a.mph).dump());
+    print_json(snapshot_document(s, unit, a.mph));
   else
     fmt::print("{}", panel(s, a.mph));
   return kOk;
@@ -144,6 +168,7 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
   rh::HostOptions o;
   o.unit = unit_of(a);
   o.response_timeout = std::chrono::milliseconds(a.link.timeout_ms);
+  o.trace = a.link.tracer();
   auto host = std::make_unique<rh::Host>(io::make_link(a.link.spec(false)), o);
   *context = fmt::format("Rehand 6600 unit {} on {}", o.unit.value, host->describe());
   host->start();
@@ -158,25 +183,38 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
   return host;
 }
 
-int run_watch(const ChairArgs& a, const WatchOptions& w) {
+int run_watch(const ChairArgs& a) {
   std::string context;
   auto host = start_host(a, &context);
   const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
-  watch_loop(w, [&](unsigned) {
+  LivePanel live(context, a.watch.interval_ms);
+  std::string down_since;
+  watch_loop(a.watch, [&](unsigned) {
     const rh::Snapshot s = host->snapshot();
     const uint16_t err = host->active_error();
+    // 1010: the link is down; the last reading stays, marked stale.
+    const bool link_down = err == rh::kMasterCommunicationError;
+    const std::string why = link_down ? fmt::format("{}: {}", rh::error_text(err), host->last_failure().reason())
+                                      : std::string();
+    if (link_down && down_since.empty()) down_since = clock_hms();
+    if (!link_down) down_since.clear();
     if (a.json) {
-      json j = snapshot_json(s, a.mph);
-      j["active_error"] = err ? rh::error_text(err) : "";
-      fmt::print("{}\n", j.dump());
+      Json j = snapshot_document(s, unit_of(a), a.mph);
+      j["values"]["active_error"] = json_quantity(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
+      if (link_down) {
+        j["ok"] = false;
+        j["error"] = {{"kind", "no_response"}, {"message", why}, {"since", down_since}};
+      }
+      print_json(j);
     } else if (tty) {
-      fmt::print("\x1b[H\x1b[2J{} (every {} ms, Ctrl-C to stop)\n\n", context, w.interval_ms);
-      if (err == rh::kMasterCommunicationError)
-        fmt::print("!!! {}: {} !!!\n", rh::error_text(err), host->last_failure().reason());
-      fmt::print("{}", panel(s, a.mph));
+      if (link_down)
+        live.stale(why);
+      else
+        live.show(panel(s, a.mph));
+    } else if (link_down) {
+      fmt::print("{} stale since {}: {}\n", clock_hms(), down_since, why);
     } else {
-      fmt::print("{}{}\n", err == rh::kMasterCommunicationError ? "[1010 Master Error] " : "",
-                 line(s, a.mph));
+      fmt::print("{} {}\n", clock_hms(), line(s, a.mph));
     }
   });
   host->stop();
@@ -262,6 +300,12 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   const rh::Snapshot s = host->snapshot();
   host->stop();
   const auto held = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (a.json) {
+    done(a, "hold", fmt::format("held {} = {} for {:.1f} s, released", key, rh::format_value(r, value), held),
+         {{std::string(r.key), profile::entry_json(r, value)},
+          {"held", json_quantity(std::round(held * 10) / 10, "s", fmt::format("{:.1f} s", held))}});
+    return kOk;
+  }
   fmt::print("held {} = {} for {:.1f} s, released\n", key, rh::format_value(r, value), held);
   fmt::print("{}", panel(s, a.mph));
   return kOk;
@@ -276,8 +320,9 @@ int run_pulse(const ChairArgs& a, const std::string& key) {
   const rh::Snapshot s = host->snapshot();
   host->stop();
   if (e) refused_or_fail(e, context, key, "pulse");
-  fmt::print("pulsed {}: main light {}, left signal {}, right signal {}\n", key, v(s, "main_light"),
-             v(s, "left_signal"), v(s, "right_signal"));
+  done(a, "pulse",
+       fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key, v(s, "main_light"),
+                   v(s, "left_signal"), v(s, "right_signal")));
   return kOk;
 }
 
@@ -298,7 +343,7 @@ int run_set(const ChairArgs& a, const std::string& what, const std::string& valu
                                                                 : rtukit::Status(host->set_host_fault(raw));
   host->stop();
   if (e) refused_or_fail(e, context, what, "set");
-  fmt::print("{} = {}\n", what, value);
+  done(a, "set", fmt::format("{} = {}", what, value), {{std::string(r->key), profile::entry_json(*r, raw)}});
   return kOk;
 }
 
@@ -307,12 +352,13 @@ int run_errors(bool as_json) {
     fmt::print("{}", rh::errors_markdown());
     return kOk;
   }
-  json out = json::array();
+  Json out = json_document("rehand6600");
+  Json& list = out["errors"] = Json::array();
   for (uint16_t c : rh::error_codes())
-    out.push_back({{"code", fmt::format("{:04X}", c)},
-                   {"function", rh::error_function(c)},
-                   {"text", rh::error_text(c)}});
-  fmt::print("{}\n", out.dump());
+    list.push_back({{"code", fmt::format("{:04X}", c)},
+                    {"function", rh::error_function(c)},
+                    {"text", rh::error_text(c)}});
+  print_json(out);
   return kOk;
 }
 
@@ -322,66 +368,63 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
   CLI::App* chair = app.add_subcommand(
       "rehand6600", "the Rehand 6600 wheelchair controller (unit 1, 115200 8N1 by default)");
   chair->require_subcommand(1);
-  {
-    auto a = std::make_shared<ChairArgs>();
-    CLI::App* cmd =
-        chair->add_subcommand("status", "handshake, then table 1: battery, motion, lights, posture, error");
-    add_link(*cmd, *a, true);
-    cmd->callback([&action, a] { action = [a] { return run_status(*a); }; });
-  }
-  {
-    auto a = std::make_shared<ChairArgs>();
-    auto w = std::make_shared<WatchOptions>(WatchOptions{250});
-    CLI::App* cmd = chair->add_subcommand("watch", "live panel from the host controller until Ctrl-C");
-    add_link(*cmd, *a, true);
-    w->add_to(*cmd);
-    cmd->callback([&action, a, w] { action = [=] { return run_watch(*a, *w); }; });
-  }
-  {
-    auto a = std::make_shared<ChairArgs>();
-    auto key = std::make_shared<std::string>();
-    auto value = std::make_shared<std::string>();
-    auto duration = std::make_shared<std::string>("1s");
-    CLI::App* cmd = chair->add_subcommand(
-        "hold", "hold a command (posture, phone drive, anti-pinch...) for a while, then release");
-    add_link(*cmd, *a, false);
-    cmd->add_option("CMD", *key,
-                    "stand, seat_lift, backrest, seat_tilt, leg_rotate, leg_extend, plate_tilt, anti_pinch, "
-                    "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
-        ->required();
-    cmd->add_option("VALUE", *value,
-                    "up|down, stand|sit, forward|back, extend|retract, on, or the number (default 1)");
-    cmd->add_option("--for", *duration, "how long (2s, 500ms)")->capture_default_str();
-    cmd->callback([&action, a, key, value, duration] {
-      action = [=] { return run_hold(*a, *key, *value, *duration); };
-    });
-  }
-  {
-    auto a = std::make_shared<ChairArgs>();
-    auto key = std::make_shared<std::string>();
-    CLI::App* cmd = chair->add_subcommand(
-        "pulse", "a pulse command: light, phone_left_signal, phone_right_signal, phone_light");
-    add_link(*cmd, *a, false);
-    cmd->add_option("CMD", *key, "the command")->required();
-    cmd->callback([&action, a, key] { action = [=] { return run_pulse(*a, *key); }; });
-  }
-  {
-    auto a = std::make_shared<ChairArgs>();
-    auto what = std::make_shared<std::string>();
-    auto value = std::make_shared<std::string>();
-    CLI::App* cmd =
-        chair->add_subcommand("set", "drive-mode normal|indoor|outdoor, speed-level 1..5, host-fault CODE");
-    add_link(*cmd, *a, false);
-    cmd->add_option("WHAT", *what, "drive-mode | speed-level | host-fault")->required();
-    cmd->add_option("VALUE", *value, "the value")->required();
-    cmd->callback([&action, a, what, value] { action = [=] { return run_set(*a, *what, *value); }; });
-  }
-  {
-    auto as_json = std::make_shared<bool>(false);
-    CLI::App* cmd = chair->add_subcommand("errors", "table 3: error codes, functions and UI texts");
-    cmd->add_flag("--json", *as_json, "print JSON");
-    cmd->callback([&action, as_json] { action = [=] { return run_errors(*as_json); }; });
-  }
+  const std::string port = "--port /dev/ttyS3";
+  add_command<ChairArgs>(
+      *chair, action, "status", "handshake, then table 1: battery, motion, lights, posture, error",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        add_link(cmd, a, true);
+        examples(cmd, {"rtukit rehand6600 status " + port, "rtukit rehand6600 status " + port + " --json --mph"});
+      },
+      [](const ChairArgs& a) { return run_status(a); });
+  add_command<ChairArgs>(
+      *chair, action, "watch", "live panel from the host controller until Ctrl-C",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        add_link(cmd, a, true);
+        a.watch.add_to(cmd);
+        examples(cmd, {"rtukit rehand6600 watch " + port,
+                       "rtukit rehand6600 watch " + port + " --json --interval 1000 > chair.jsonl"});
+      },
+      [](const ChairArgs& a) { return run_watch(a); });
+  add_command<ChairArgs>(
+      *chair, action, "hold", "hold a command (posture, phone drive, anti-pinch...) for a while, then release",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        cmd.add_option("CMD", a.key,
+                       "stand, seat_lift, backrest, seat_tilt, leg_rotate, leg_extend, plate_tilt, anti_pinch, "
+                       "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
+            ->required();
+        cmd.add_option("VALUE", a.value,
+                       "up|down, stand|sit, forward|back, extend|retract, on, or the number (default 1)");
+        cmd.add_option("--for", a.duration, "how long (2s, 500ms)")->capture_default_str();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit rehand6600 hold " + port + " seat_lift up --for 2s",
+                       "rtukit rehand6600 hold " + port + " stand sit --for 500ms --json"});
+      },
+      [](const ChairArgs& a) { return run_hold(a, a.key, a.value, a.duration); });
+  add_command<ChairArgs>(
+      *chair, action, "pulse", "a pulse command: light, phone_left_signal, phone_right_signal, phone_light",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        cmd.add_option("CMD", a.key, "the command")->required();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit rehand6600 pulse " + port + " light"});
+      },
+      [](const ChairArgs& a) { return run_pulse(a, a.key); });
+  add_command<ChairArgs>(
+      *chair, action, "set", "drive-mode normal|indoor|outdoor, speed-level 1..5, host-fault CODE",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        cmd.add_option("WHAT", a.key, "drive-mode | speed-level | host-fault")->required();
+        cmd.add_option("VALUE", a.value, "the value")->required();
+        add_link(cmd, a, false);
+        examples(cmd, {"rtukit rehand6600 set " + port + " drive-mode outdoor",
+                       "rtukit rehand6600 set " + port + " speed-level 3 --json"});
+      },
+      [](const ChairArgs& a) { return run_set(a, a.key, a.value); });
+  add_command<ChairArgs>(
+      *chair, action, "errors", "table 3: error codes, functions and UI texts",
+      [](CLI::App& cmd, ChairArgs& a) {
+        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+        examples(cmd, {"rtukit rehand6600 errors", "rtukit rehand6600 errors --json"});
+      },
+      [](const ChairArgs& a) { return run_errors(a.json); });
 }
 
 }  // namespace rtukit::cli

@@ -195,32 +195,40 @@ void add_sim_commands(CLI::App& app, Action& action) {
   sim->require_subcommand(1);
   for (const DeviceEntry& entry : builtin_devices()) {
     const profile::Profile* profile = entry.profile;
-    auto args = std::make_shared<SimArgs>();
-    auto* cmd = sim->add_subcommand(std::string(profile->name), std::string(profile->title));
-    add_sim_options(*cmd, *args, profile);
-    if (entry.add_sim_options) entry.add_sim_options(*cmd);
-    cmd->callback([&action, args, cmd, &entry] {
-      args->baud_given = cmd->count("--baud") > 0;
-      action = [args, &entry] { return run_sim(*args, entry.make_sim()); };
-    });
+    add_command<SimArgs>(
+        *sim, action, std::string(profile->name), std::string(profile->title),
+        [&entry, profile](CLI::App& cmd, SimArgs& a) {
+          add_sim_options(cmd, a, profile);
+          if (entry.add_sim_options) entry.add_sim_options(cmd);
+          const std::string name(profile->name);
+          examples(cmd, {fmt::format("rtukit sim {} --listen pty:/tmp/{}", name, name),
+                         fmt::format("rtukit sim {} --listen tcp://127.0.0.1:1502 --state-file {}.json", name, name),
+                         fmt::format("rtukit sim {} --listen pty:/tmp/{} --console unix:/tmp/{}.sock &", name,
+                                     name, name)});
+        },
+        [&entry](SimArgs& a, const CLI::App& cmd) {
+          a.baud_given = cmd.count("--baud") > 0;
+          return run_sim(a, entry.make_sim());
+        });
   }
-  auto args = std::make_shared<SimArgs>();
-  auto* cmd = sim->add_subcommand("map", "serve a register-map file as a register-only device");
-  cmd->add_option("file", args->map_file, "the map (YAML or JSON; see docs/register-maps.md)")->required();
-  add_sim_options(*cmd, *args, nullptr);
-  cmd->callback([&action, args, cmd] {
-    args->baud_given = cmd->count("--baud") > 0;
-    action = [args] {
-      Outcome<std::unique_ptr<profile::MapProfile>> map = profile::load_map(args->map_file);
-      if (!map.ok()) throw Failure{exit_code(map.error().error()), std::string(map.error().reason())};
-      // The profile outlives the simulator: both live until the process ends.
-      static std::unique_ptr<profile::MapProfile> keep;
-      keep = std::move(*map);
-      if (!args->baud_given) args->link.baud = keep->profile().link.baud;
-      profile::SimDevice device{profile::make_register_device(keep->profile()), {}, {}};
-      return run_sim(*args, std::move(device));
-    };
-  });
+  add_command<SimArgs>(
+      *sim, action, "map", "serve a register-map file as a register-only device",
+      [](CLI::App& cmd, SimArgs& a) {
+        cmd.add_option("file", a.map_file, "the map (YAML or JSON; see docs/register-maps.md)")->required();
+        add_sim_options(cmd, a, nullptr);
+        examples(cmd, {"rtukit sim map examples/maps/energy-meter.yaml --listen pty:/tmp/meter"});
+      },
+      [](SimArgs& a, const CLI::App& cmd) {
+        a.baud_given = cmd.count("--baud") > 0;
+        Outcome<std::unique_ptr<profile::MapProfile>> map = profile::load_map(a.map_file);
+        if (!map.ok()) throw Failure{exit_code(map.error().error()), std::string(map.error().reason())};
+        // The profile outlives the simulator: both live until the process ends.
+        static std::unique_ptr<profile::MapProfile> keep;
+        keep = std::move(*map);
+        if (!a.baud_given) a.link.baud = keep->profile().link.baud;
+        profile::SimDevice device{profile::make_register_device(keep->profile()), {}, {}};
+        return run_sim(a, std::move(device));
+      });
 }
 
 }  // namespace rtukit::cli

@@ -41,10 +41,18 @@ class InverjetSim : public ::testing::Test {
   RunResult cli(std::vector<std::string> args, bool with_port = true) {
     return run_cli(kRtukit, std::move(args), with_port ? tty_ : std::string());
   }
+  // The status document's values, flattened: a register's raw value, a
+  // derived item's value (docs/json.md).
   json status(const std::string& unit = "21") {
     const RunResult r = cli({"inverjet", "status", "--json", "--unit", unit});
     EXPECT_EQ(r.code, 0) << r.output;
-    return r.code == 0 ? json::parse(r.output) : json{};
+    return r.code == 0 ? flat(json::parse(r.output)) : json{};
+  }
+  static json flat(const json& document) {
+    json out;
+    for (const auto& [key, entry] : document.at("values").items())
+      out[key] = entry.contains("raw") ? entry["raw"] : entry["value"];
+    return out;
   }
   std::unique_ptr<Master> master() {
     auto spec = io::parse_port(tty_, false);
@@ -197,16 +205,79 @@ TEST_F(InverjetSim, Cli_StartWatchStop) {
   EXPECT_NE(r.output.find("remaining"), std::string::npos) << r.output;
   r = cli({"inverjet", "watch", "--count", "2", "--interval", "100", "--json"});
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_EQ(json::parse(r.output.substr(0, r.output.find('\n')))["family"], "timer");
+  EXPECT_EQ(flat(json::parse(r.output.substr(0, r.output.find('\n'))))["family"], "timer");
   const json s = status();
   EXPECT_EQ(s["speed"], 70);
   EXPECT_EQ(s["family"], "timer");
   EXPECT_LE(s["run_time"].get<int>(), 600);
   r = cli({"inverjet", "stop"});
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_EQ(status()["state_name"], "off");
+  EXPECT_EQ(status()["phase"], "off");
   r = cli({"inverjet", "status"});
   EXPECT_NE(r.output.find("state     off (0)"), std::string::npos) << r.output;
+}
+
+// The live view as an installer leaves it running: in the fault screen of a
+// timer run the time stays "remaining"; when the link drops the view says
+// since when it is stale instead of scrolling bare errors, and keeps going.
+TEST_F(InverjetSim, Watch_FaultScreenKeepsRemaining_LinkLossIsStale) {
+  ASSERT_EQ(cli({"inverjet", "start", "--timer", "20:00", "--speed", "60"}).code, 0);
+  Process watch({kRtukit, "inverjet", "watch", "--port", tty_, "--interval", "100", "--count", "60",
+                 "--timeout", "150"});
+  ASSERT_TRUE(watch.wait_for_output("timer running")) << watch.output();
+  ASSERT_TRUE(sim_->send("fault motor-drive\n"));
+  ASSERT_TRUE(watch.wait_for_output("fault screen")) << watch.output();
+  const std::string out = watch.output();
+  const size_t line_start = out.rfind('\n', out.find("fault screen")) + 1;
+  const std::string fault_line = out.substr(line_start, out.find('\n', line_start) - line_start);
+  EXPECT_NE(fault_line.find("remaining"), std::string::npos) << fault_line;
+  EXPECT_EQ(fault_line.find("elapsed"), std::string::npos) << fault_line;
+  sim_.reset();  // the machine goes away
+  ASSERT_TRUE(watch.wait_for_output("stale since")) << watch.output();
+  EXPECT_TRUE(watch.running()) << watch.output();  // still watching, waiting for the link
+  watch.stop();
+}
+
+// --trace shows each frame both ways with a timestamp, --log appends the same to a file.
+TEST_F(InverjetSim, TraceAndLogShowEveryFrame) {
+  const std::string log = dir_ / "frames.log";
+  RunResult r = cli({"read", "--unit", "21", "0x21", "4", "--trace", "--log", log});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find(" > 15 03 00 21 00 04 17 17\n"), std::string::npos) << r.output;  // seed frame
+  EXPECT_NE(r.output.find(" < 15 03 08 "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(ok, "), std::string::npos) << r.output;
+  const std::string logged = read_file(log);
+  EXPECT_NE(logged.find(" > 15 03 00 21 00 04 17 17\n"), std::string::npos) << logged;
+  r = cli({"read", "--unit", "22", "0x21", "1", "--trace", "--timeout", "100", "--retries", "1"});
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("(attempt 2)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(" < nothing (timeout, "), std::string::npos) << r.output;
+  r = cli({"read", "--unit", "21", "0", "--log", dir_ / "no-such-dir/x.log"});
+  EXPECT_EQ(r.code, 4) << r.output;
+  EXPECT_NE(r.output.find("--log "), std::string::npos) << r.output;
+}
+
+// Every device command answers --json with one document (docs/json.md).
+TEST_F(InverjetSim, CommandsAnswerJson) {
+  RunResult r = cli({"inverjet", "start", "--free", "--speed", "40", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  json j = json::parse(r.output);
+  EXPECT_EQ(j["ok"], true);
+  EXPECT_EQ(j["action"], "start");
+  EXPECT_EQ(j["device"], "inverjet");
+  EXPECT_TRUE(j["time"].get<std::string>().ends_with("Z"));
+  j = json::parse(cli({"inverjet", "speed", "55", "--json"}).output);
+  EXPECT_EQ(j["values"]["speed"]["value"], 55);
+  EXPECT_EQ(j["values"]["speed"]["unit"], "%");
+  EXPECT_EQ(json::parse(cli({"inverjet", "stop", "--json"}).output)["action"], "stop");
+  // A failure is a document too (and still one line on stderr, and the exit code).
+  r = cli({"inverjet", "status", "--json", "--unit", "99", "--timeout", "100"});
+  EXPECT_EQ(r.code, 3);
+  const std::string last = r.output.substr(r.output.find('{'));
+  j = json::parse(last.substr(0, last.find('\n')));
+  EXPECT_EQ(j["ok"], false);
+  EXPECT_EQ(j["error"]["kind"], "no_response");
+  EXPECT_EQ(j["error"]["exit"], 3);
 }
 
 TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
@@ -217,9 +288,14 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   EXPECT_NE(r.output.find("3 segment(s) written, ends at 10:00"), std::string::npos) << r.output;
   r = cli({"inverjet", "plan", "show", "1", "--json"});
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_EQ(
-      json::parse(r.output),
-      json::parse(R"([{"speed":30,"end":"05:00"},{"speed":80,"end":"06:00"},{"speed":40,"end":"10:00"}])"));
+  EXPECT_EQ(json::parse(r.output)["segments"],
+            json::parse(R"([{"speed":30,"end":300,"end_text":"05:00"},{"speed":80,"end":360,"end_text":"06:00"},
+                            {"speed":40,"end":600,"end_text":"10:00"}])"));
+  // What `plan show --json` prints is a plan file too.
+  std::ofstream(dir_ / "shown.json") << r.output;
+  ASSERT_EQ(cli({"inverjet", "plan", "set", "2", dir_ / "shown.json"}).code, 0);
+  EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "2", "--json"}).output)["segments"],
+            json::parse(r.output)["segments"]);
   std::ofstream(dir_ / "plan.json") << R"([{"speed": 25, "end": "01:30"}, {"speed": 55, "end": 300}])";
   ASSERT_EQ(cli({"inverjet", "plan", "set", "4", dir_ / "plan.json"}).code, 0);
   r = cli({"inverjet", "plan", "show", "4"});
@@ -228,8 +304,8 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   std::ofstream(dir_ / "shown.csv") << r.output;
   EXPECT_EQ(cli({"inverjet", "plan", "set", "3", dir_ / "shown.csv"}).code, 0);
   EXPECT_EQ(cli({"inverjet", "plan", "clear", "4"}).code, 0);
-  EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "4", "--json"}).output),
-            json::parse(R"([{"speed":20,"end":"01:00"}])"));
+  EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "4", "--json"}).output)["segments"],
+            json::parse(R"([{"speed":20,"end":60,"end_text":"01:00"}])"));
 }
 
 TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
@@ -300,7 +376,11 @@ TEST_F(InverjetSim, Console_FaultShowsIn0008AndDrivesState17) {
   json s = status();
   EXPECT_EQ(s["faults"], 0x80);
   EXPECT_EQ(s["state"], 17);
-  EXPECT_EQ(s["fault_names"], json::array({"motor drive"}));
+  const json doc = json::parse(cli({"inverjet", "status", "--json"}).output);
+  EXPECT_EQ(doc["values"]["faults"]["value"], json::array({"motor drive"}));
+  EXPECT_EQ(doc["values"]["state"]["value"], "fault screen");
+  EXPECT_EQ(doc["device"], "inverjet");
+  EXPECT_EQ(doc["unit"], 21);
   const RunResult r = cli({"inverjet", "start", "--free", "--speed", "50"});
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_NE(r.output.find("exception 04"), std::string::npos) << r.output;
@@ -324,20 +404,21 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
   RunResult r = cli({"inverjet", "config", "address", "12"});  // seed 3.2.1: answered from 21
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(cli({"inverjet", "status", "--timeout", "200"}).code, 3);  // 21 is gone
-  EXPECT_EQ(status("12")["mode"], 0);
+  EXPECT_EQ(status("12")["work_mode"], 0);
 
   start();  // a new process on the same state file, no --unit: the saved address
   EXPECT_NE(sim_->output().find("unit 12, 19200 baud"), std::string::npos) << sim_->output();
   r = cli({"inverjet", "config", "show", "--json", "--unit", "12"});
   ASSERT_EQ(r.code, 0) << r.output;
-  const json c = json::parse(r.output);
+  const json c = flat(json::parse(r.output));
   EXPECT_EQ(c["address"], 12);
   EXPECT_EQ(c["control_mask"], 4);
   EXPECT_EQ(c["baud"], 4);
   EXPECT_EQ(c["timer_speed"], 65);
   EXPECT_EQ(c["timer_time"], 1500);
   r = cli({"inverjet", "plan", "show", "2", "--json", "--unit", "12"});
-  EXPECT_EQ(json::parse(r.output), json::parse(R"([{"speed":35,"end":"02:00"},{"speed":45,"end":"04:00"}])"));
+  EXPECT_EQ(json::parse(r.output)["segments"],
+            json::parse(R"([{"speed":35,"end":120,"end_text":"02:00"},{"speed":45,"end":240,"end_text":"04:00"}])"));
   EXPECT_EQ(status("12")["state"], 0);  // D-12: a restart is a power-on
 
   std::ofstream(dir_ / "state.json", std::ios::trunc) << "{\"format\": \"rtukit-inv";  // damaged

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "process.hpp"
 
@@ -82,7 +83,12 @@ TEST(MapSim, ReadAndWatchByName) {
 
   RunResult j = run({kBin, "read", "--port", sim.tty, "--map", kMap, "voltage", "baud", "--json"});
   ASSERT_EQ(j.code, 0) << j.output;
-  EXPECT_NE(j.output.find(R"({"voltage":230.0,"baud":"9600"})"), std::string::npos) << j.output;
+  const nlohmann::json doc = nlohmann::json::parse(j.output);
+  EXPECT_EQ(doc["device"], "energy_meter");
+  EXPECT_EQ(doc["values"]["voltage"]["value"], 230.0);
+  EXPECT_EQ(doc["values"]["voltage"]["unit"], "V");
+  EXPECT_EQ(doc["values"]["voltage"]["text"], "230.0 V");
+  EXPECT_EQ(doc["values"]["baud"]["value"], "9600");
 
   RunResult unknown = run({kBin, "read", "--port", sim.tty, "--map", kMap, "volts"});
   EXPECT_EQ(unknown.code, 2);

@@ -245,17 +245,24 @@ TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
   RunResult r = cli({"rehand6600", "status", "--json"});
   ASSERT_EQ(r.code, 0) << r.output;
   const json s = json::parse(r.output);
-  EXPECT_EQ(s["device_id"], 0x68);
-  EXPECT_EQ(s["motion_name"], "static");
+  EXPECT_EQ(s["device"], "rehand6600");
+  EXPECT_EQ(s["unit"], 1);
+  EXPECT_EQ(s["values"]["device_id"]["raw"], 0x68);
+  EXPECT_EQ(s["values"]["motion"]["value"], "static");
+  EXPECT_EQ(s["values"]["battery"]["unit"], "%");
   r = cli({"rehand6600", "hold", "seat_lift", "up", "--for", "1s"});
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("held seat_lift = up (1)"), std::string::npos) << r.output;
-  EXPECT_EQ(json::parse(cli({"rehand6600", "status", "--json"}).output)["seat_lift_status"], 0);  // released
-  EXPECT_GE(json::parse(cli({"rehand6600", "status", "--json"}).output)["actuator1_position"].get<int>(), 80);
+  const json after = json::parse(cli({"rehand6600", "status", "--json"}).output)["values"];
+  EXPECT_EQ(after["seat_lift_status"]["raw"], 0);  // released
+  EXPECT_GE(after["actuator1_position"]["raw"].get<int>(), 80);
   r = cli({"rehand6600", "pulse", "light"});
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("main light on"), std::string::npos) << r.output;
-  EXPECT_EQ(cli({"rehand6600", "set", "drive-mode", "outdoor"}).code, 0);
+  r = cli({"rehand6600", "set", "drive-mode", "outdoor", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(json::parse(r.output)["values"]["drive_mode"]["value"], "outdoor");
+  EXPECT_EQ(json::parse(r.output)["action"], "set");
   EXPECT_EQ(cli({"rehand6600", "set", "speed-level", "4"}).code, 0);
   r = cli({"rehand6600", "watch", "--count", "2", "--interval", "100", "--mph"});
   ASSERT_EQ(r.code, 0) << r.output;

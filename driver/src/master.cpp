@@ -72,6 +72,10 @@ Error Master::transact_locked(UnitId unit, const Request& request,
     if (attempt > 0) ++stats_.retries;
     link_->discard_input();  // a late answer to an earlier request must not match this one
     const auto deadline = clock_.now() + options_.response_timeout;
+    if (options_.trace) {
+      const std::string note = attempt > 0 ? "attempt " + std::to_string(attempt + 1) : std::string();
+      options_.trace(TraceEvent{TraceEvent::Direction::sent, tx.request_bytes(), note});
+    }
     if (Error e = link_->write(tx.request_bytes(), deadline)) {
       ++stats_.io_errors;
       return e;
@@ -81,8 +85,11 @@ Error Master::transact_locked(UnitId unit, const Request& request,
       clock_.sleep_for(options_.turnaround_delay);
       return {};
     }
+    const auto sent_at = clock_.now();
+    traced_rx_.clear();
     Result<Response> r =
         link_->framing() == Framing::rtu ? receive_rtu(tx, deadline) : receive_tcp(tx, deadline);
+    if (options_.trace) trace_received(r, sent_at);
     if (r.ok()) {
       ++stats_.responses;
       if (on_response) on_response(*r);
@@ -109,6 +116,20 @@ Error Master::transact_locked(UnitId unit, const Request& request,
   return last;
 }
 
+void Master::trace_received(const Result<Response>& r, io::Clock::time_point sent_at) {
+  std::string outcome = "ok";
+  if (!r.ok()) {
+    const Error e = r.error();
+    if (e.is_exception())
+      outcome = "exception " + std::string(1, "0123456789ABCDEF"[e.exception_code() >> 4]) +
+                "0123456789ABCDEF"[e.exception_code() & 0xF];
+    else
+      outcome = std::string(e.name());
+  }
+  options_.trace(TraceEvent{TraceEvent::Direction::received, traced_rx_, outcome,
+                            std::chrono::duration_cast<std::chrono::microseconds>(clock_.now() - sent_at)});
+}
+
 Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline) {
   tx.prepare(framer_, options_.discard_echo);
   const uint32_t crc_before = framer_.counters().crc_errors;
@@ -116,6 +137,7 @@ Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_poin
   for (;;) {
     const Result<size_t> n = link_->read_some(chunk, deadline);
     if (!n.ok()) return n.error();
+    if (options_.trace) traced_rx_.insert(traced_rx_.end(), chunk.data(), chunk.data() + *n);
     const uint64_t now = static_cast<uint64_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(clock_.now().time_since_epoch()).count());
     if (*n == 0 && clock_.now() >= deadline) {
@@ -157,6 +179,7 @@ Result<Response> Master::receive_tcp(MasterTransaction& tx, io::Clock::time_poin
     const Result<size_t> n = link_->read_some({rx_.data() + rx_len_, rx_.size() - rx_len_}, deadline);
     if (!n.ok()) return n.error();
     if (*n == 0) return Errc::timeout;
+    if (options_.trace) traced_rx_.insert(traced_rx_.end(), rx_.data() + rx_len_, rx_.data() + rx_len_ + *n);
     rx_len_ += *n;
   }
 }

@@ -75,10 +75,12 @@ Outcome<std::vector<Segment>> parse_plan(std::string_view text) {
   std::vector<std::string> where;
   const std::string_view body = trim(text);
   const size_t first = text.find_first_not_of(" \t\r\n");
-  if (first != std::string_view::npos && text[first] == '[') {
-    const nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
+  if (first != std::string_view::npos && (text[first] == '[' || text[first] == '{')) {
+    nlohmann::json j = nlohmann::json::parse(body, nullptr, false);
+    // `plan show --json` prints a document with the segments in it; it reads back too.
+    if (j.is_object() && j.contains("segments")) j = nlohmann::json(j["segments"]);
     if (j.is_discarded() || !j.is_array()) {
-      reason = "not a valid JSON array of {\"speed\": .., \"end\": \"mm:ss\"}";
+      reason = "not a valid JSON array of {\"speed\": .., \"end\": \"mm:ss\"} (or a document with \"segments\")";
     } else {
       for (size_t i = 0; i < j.size() && reason.empty(); ++i) {
         const std::string at = fmt::format("entry {}", i + 1);

@@ -292,6 +292,18 @@ nlohmann::json value_json(const Row& row, int64_t raw) {
   }
 }
 
+nlohmann::ordered_json entry_json(const Row& row, int64_t raw) {
+  nlohmann::ordered_json out;
+  out["value"] = value_json(row, raw);
+  if (row.encoding == Encoding::duration)
+    out["unit"] = "s";
+  else if (!row.unit.empty() && row.encoding != Encoding::choice && row.encoding != Encoding::bits)
+    out["unit"] = row.unit;
+  out["text"] = format_value(row, raw);
+  out["raw"] = raw;
+  return out;
+}
+
 std::string_view space_name(Space s) noexcept {
   switch (s) {
     case Space::holding:

@@ -19,6 +19,7 @@
 #include <mutex>
 #include <span>
 #include <string>
+#include <vector>
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/master.hpp"
@@ -28,6 +29,21 @@
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {
+
+/// What a master put on the wire and what came back, for `--trace` and logs.
+/// `bytes` is valid only during the call.
+struct TraceEvent {
+  enum class Direction { sent, received };
+  Direction direction;
+  /// Sent: the whole request ADU. Received: every byte read during the
+  /// attempt (a response, an echo, noise), empty when nothing came.
+  std::span<const uint8_t> bytes;
+  /// Received: "ok", "exception 02", "timeout", "unexpected response",
+  /// "io error"; sent: "attempt 2" on a retry, else empty.
+  std::string_view outcome;
+  /// Received: time from the end of sending to this event.
+  std::chrono::microseconds elapsed{0};
+};
 
 struct MasterOptions {
   std::chrono::milliseconds response_timeout{1000};
@@ -47,6 +63,9 @@ struct MasterOptions {
   /// The clock deadlines and delays run on; nullptr: the steady clock. Must
   /// outlive the master. Tests pass a ManualClock (driver/clock.hpp).
   DriverClock* clock = nullptr;
+  /// Called (under the master's lock) for each request sent and each
+  /// attempt's received bytes. Empty: no tracing, no cost.
+  std::function<void(const TraceEvent&)> trace;
 };
 
 /// Counters since construction. Readable from any thread.
@@ -107,6 +126,7 @@ class Master {
  private:
   Error transact_locked(UnitId unit, const Request& request,
                         const std::function<void(const Response&)>& on_response);
+  void trace_received(const Result<Response>& r, io::Clock::time_point sent_at);
   Result<Response> receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline);
   Result<Response> receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline);
 
@@ -118,6 +138,7 @@ class Master {
   std::array<uint8_t, kMaxMbapAduSize * 2> rx_{};
   size_t rx_len_ = 0;
   uint16_t transaction_id_ = 0;
+  std::vector<uint8_t> traced_rx_;  ///< bytes of the current attempt, kept only when tracing
   DriverClock& clock_;
   io::Clock::time_point last_end_{};
 };

@@ -15,7 +15,9 @@
 
 namespace rtukit::inverjet {
 
-/// Parses and validates (validate_plan) a plan. Errors: invalid_argument,
+/// Parses and validates (validate_plan) a plan: CSV (speed,end per line), a
+/// JSON array of {"speed", "end"} (end as "mm:ss" or seconds), or the
+/// document `rtukit inverjet plan show --json` prints (its "segments"). Errors: invalid_argument,
 /// the reason naming the line (CSV) or entry (JSON): "line 3: end 00:50 is not after 01:00".
 Outcome<std::vector<Segment>> parse_plan(std::string_view text);
 

@@ -44,6 +44,11 @@ std::string_view name_of(const Row& row, int64_t value) noexcept;
 /// an array of bit names, "mm:ss" stays a number of seconds, a version "1.2".
 nlohmann::json value_json(const Row& row, int64_t raw);
 
+/// One register value in rtukit's JSON shape (docs/json.md):
+/// {"value": value_json, "unit": the row's unit (absent when none; "s" for
+/// mm:ss durations), "text": format_value, "raw": the register value}.
+nlohmann::ordered_json entry_json(const Row& row, int64_t raw);
+
 /// mm:ss for a number of seconds ("30:00", "99:59").
 std::string format_mm_ss(unsigned seconds);
 /// "mm:ss", "m:ss" or plain seconds. Errors: invalid_argument.

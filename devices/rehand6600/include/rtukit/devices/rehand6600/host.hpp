@@ -56,6 +56,8 @@ struct HostOptions {
   std::chrono::milliseconds lease{300};
   std::chrono::milliseconds handshake_retry{1000};
   std::chrono::milliseconds response_timeout{100};
+  /// Each frame on the wire (MasterOptions::trace); empty: none.
+  std::function<void(const TraceEvent&)> trace;
 };
 
 /// Table 1 as one consistent reading.
