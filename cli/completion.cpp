@@ -69,7 +69,7 @@ void add_completion_command(CLI::App& app, Action& action) {
       app, action, "completion", "print shell completion: eval \"$(rtukit completion bash)\"",
       [](CLI::App& cmd, Args& a) {
         cmd.add_option("shell", a.shell, "bash or zsh")->required()->check(CLI::IsMember({"bash", "zsh"}));
-        examples(cmd, {"eval \"$(rtukit completion bash)\"      (in ~/.bashrc)",
+        examples(cmd, {"rtukit completion bash > /etc/bash_completion.d/rtukit   (or eval it in ~/.bashrc)",
                        "rtukit completion zsh > ~/.zfunc/_rtukit"});
       },
       [&app](const Args& a) {

@@ -548,7 +548,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
         a.link.add_to(cmd, false);
         examples(cmd, {"rtukit read --port /dev/ttyUSB0 --unit 21 0x21 4",
                        "rtukit read --port tcp://127.0.0.1:1502 --input 0 2 --type f32 --json",
-                       "rtukit read --port /dev/ttyUSB0 --one-based 40034      (mbpoll -r 34)",
+                       "rtukit read --port /dev/ttyUSB0 --one-based 34      (mbpoll -r 34)",
+                       "rtukit read --port /dev/ttyUSB0 40034               (reference notation, the same)",
                        "rtukit read --port /dev/ttyUSB0 --map meter.yaml voltage current"});
       },
       [](ReadArgs& a, const CLI::App& cmd) {

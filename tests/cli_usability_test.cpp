@@ -161,6 +161,31 @@ TEST(CliUsability, PollPrintsTimestampedLinesInEachFormat) {
   EXPECT_NE(f.output.find("Z  error: illegal data address"), std::string::npos) << f.output;
 }
 
+// Every command's --help ends with examples, and its own options come
+// before the link options.
+TEST(CliUsability, EveryCommandHelpHasExamples) {
+  const std::vector<std::vector<std::string>> commands = {
+      {"read"}, {"poll"}, {"write"}, {"scan"}, {"slave"}, {"devices"}, {"watch"}, {"completion"},
+      {"map", "check"}, {"map", "registers"}, {"sim", "inverjet"}, {"sim", "rehand6600"}, {"sim", "map"},
+      {"inverjet", "status"}, {"inverjet", "watch"}, {"inverjet", "start"}, {"inverjet", "pause"},
+      {"inverjet", "resume"}, {"inverjet", "stop"}, {"inverjet", "speed"}, {"inverjet", "plan", "show"},
+      {"inverjet", "plan", "set"}, {"inverjet", "plan", "clear"}, {"inverjet", "config"},
+      {"inverjet", "registers"}, {"inverjet", "get"}, {"inverjet", "set"}, {"rehand6600", "status"},
+      {"rehand6600", "watch"}, {"rehand6600", "hold"}, {"rehand6600", "pulse"}, {"rehand6600", "set"},
+      {"rehand6600", "errors"}, {"rehand6600", "registers"}, {"rehand6600", "get"}};
+  for (std::vector<std::string> c : commands) {
+    c.push_back("--help");
+    const RunResult r = rtukit(c);
+    EXPECT_EQ(r.code, 0) << c[0];
+    EXPECT_NE(r.output.find("\nExamples:\n  rtukit "), std::string::npos) << c[0] << " " << c[1] << r.output;
+    const size_t link = r.output.find("[Option Group: Link options]");
+    if (link != std::string::npos) {
+      EXPECT_LT(r.output.find("-h,--help"), link);
+      EXPECT_GT(r.output.find("--port"), link) << c[0];
+    }
+  }
+}
+
 TEST(CliUsability, VersionAndCompletion) {
   RunResult v = rtukit({"--version"});
   EXPECT_EQ(v.code, 0);

@@ -273,6 +273,18 @@ TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
       << r.output;
 }
 
+// The same live-view behaviour as every device: when the controller goes
+// away the view says 1010 and since when it is stale, and keeps watching.
+TEST_F(RehandSim, Watch_LinkLossIsStaleNotScrolling) {
+  Process watch({kRtukit, "rehand6600", "watch", "--port", tty_, "--interval", "100", "--count", "80"});
+  ASSERT_TRUE(watch.wait_for_output("battery")) << watch.output();
+  sim_.reset();
+  ASSERT_TRUE(watch.wait_for_output("stale since")) << watch.output();
+  EXPECT_NE(watch.output().find("1010"), std::string::npos) << watch.output();
+  EXPECT_TRUE(watch.running());
+  watch.stop();
+}
+
 TEST_F(RehandSim, Cli_FailuresExitCodes) {
   struct Case {
     std::vector<std::string> args;
