@@ -327,25 +327,32 @@ int run_write(const WriteArgs& a) {
                               table_name(*where.table), a.coils ? "" : " (holding registers are 4xxxx)")};
   const uint16_t address = where.address;
   auto master = a.link.make_master();
-  const std::string context =
-      fmt::format("write {} {} at {} (0x{:04X}) to unit {} on {}", a.values.size(),
-                  a.coils ? "coil(s)" : "value(s)", address, address, unit.value, master->describe());
+  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2 (0x0002) x3".
+  const auto context_of = [&](uint8_t function, size_t count) {
+    return fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} to unit {} on {}", function, function_name(function),
+                       address, address, count, unit.value, master->describe());
+  };
+  std::string context;
   Error e;
   if (a.coils) {
     std::vector<uint8_t> bits;
     for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
     if (bits.size() > kMaxWriteBits)
       throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
-    e = bits.size() == 1 && !a.multiple ? master->write_single_coil(unit, address, bits[0] != 0)
-                                        : master->write_multiple_coils(unit, address, bits);
+    const bool single = bits.size() == 1 && !a.multiple;
+    context = context_of(single ? 0x05 : 0x0F, bits.size());
+    e = single ? master->write_single_coil(unit, address, bits[0] != 0)
+               : master->write_multiple_coils(unit, address, bits);
   } else {
     std::vector<uint16_t> regs;
     for (const auto& v : a.values) encode_value(a.type, v, a.order == "low-first", regs);
     if (regs.size() > kMaxWriteRegisters)
       throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
     if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
-    e = regs.size() == 1 && !a.multiple ? master->write_single_register(unit, address, regs[0])
-                                        : master->write_multiple_registers(unit, address, regs);
+    const bool single = regs.size() == 1 && !a.multiple;
+    context = context_of(single ? 0x06 : 0x10, regs.size());
+    e = single ? master->write_single_register(unit, address, regs[0])
+               : master->write_multiple_registers(unit, address, regs);
   }
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
