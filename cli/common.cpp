@@ -1,16 +1,16 @@
 #include "common.hpp"
 
 #include <fmt/core.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cctype>
 #include <charconv>
 #include <csignal>
+#include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <thread>
-#include <unistd.h>
-#include <cstdlib>
 
 namespace rtukit::cli {
 
@@ -120,8 +120,8 @@ std::function<void(const TraceEvent&)> LinkOptions::tracer() const {
       if (f) std::fclose(f);
     });
     if (!log)
-      throw Failure{kIoError, fmt::format("--log {}: cannot open for appending: {}", log_file,
-                                          std::strerror(errno))};
+      throw Failure{kIoError,
+                    fmt::format("--log {}: cannot open for appending: {}", log_file, std::strerror(errno))};
   }
   const bool to_stderr = trace;
   return [log, to_stderr](const TraceEvent& e) {

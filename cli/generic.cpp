@@ -327,7 +327,8 @@ int run_write(const WriteArgs& a) {
                               table_name(*where.table), a.coils ? "" : " (holding registers are 4xxxx)")};
   const uint16_t address = where.address;
   auto master = a.link.make_master();
-  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2 (0x0002) x3".
+  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2
+  // (0x0002) x3".
   const auto context_of = [&](uint8_t function, size_t count) {
     return fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} to unit {} on {}", function, function_name(function),
                        address, address, count, unit.value, master->describe());
@@ -551,7 +552,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
             ->check(CLI::IsMember({"dec", "hex"}))
             ->capture_default_str();
         cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-        cmd.add_flag("--one-based", a.one_based, "addresses count from 1, as mbpoll and Modbus Poll show them");
+        cmd.add_flag("--one-based", a.one_based,
+                     "addresses count from 1, as mbpoll and Modbus Poll show them");
         a.link.add_to(cmd, false);
         examples(cmd, {"rtukit read --port /dev/ttyUSB0 --unit 21 0x21 4",
                        "rtukit read --port tcp://127.0.0.1:1502 --input 0 2 --type f32 --json",
@@ -580,8 +582,9 @@ void add_generic_commands(CLI::App& app, Action& action) {
                      "addresses count from 1, as mbpoll and Modbus Poll show them");
         a.watch.add_to(cmd);
         a.read.link.add_to(cmd, false);
-        examples(cmd, {"rtukit poll --port /dev/ttyUSB0 --unit 21 0x21 4 --interval 500",
-                       "rtukit poll --port tcp://127.0.0.1:1502 --input 0 2 --output csv --count 60 > log.csv"});
+        examples(cmd,
+                 {"rtukit poll --port /dev/ttyUSB0 --unit 21 0x21 4 --interval 500",
+                  "rtukit poll --port tcp://127.0.0.1:1502 --input 0 2 --output csv --count 60 > log.csv"});
       },
       [](const PollArgs& a) { return run_poll(a); });
   add_command<WriteArgs>(
@@ -592,7 +595,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
         cmd.add_option("values", a.values, "values to write")->required();
         cmd.add_flag("--multiple", a.multiple, "use FC10 / FC0F even for one value");
         cmd.add_flag("--coils", a.coils, "write coils (values 0 or 1)");
-        cmd.add_flag("--one-based", a.one_based, "addresses count from 1, as mbpoll and Modbus Poll show them");
+        cmd.add_flag("--one-based", a.one_based,
+                     "addresses count from 1, as mbpoll and Modbus Poll show them");
         cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
         add_type_options(cmd, a.type, a.order);
         a.link.add_to(cmd, false);
@@ -614,7 +618,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
   add_command<SlaveArgs>(
       app, action, "slave", "a generic in-memory slave (holding, input, coils, discrete)",
       [](CLI::App& cmd, SlaveArgs& a) {
-        cmd.add_option("--unit,-u", a.units, "unit address(es) to answer (repeatable)")->capture_default_str();
+        cmd.add_option("--unit,-u", a.units, "unit address(es) to answer (repeatable)")
+            ->capture_default_str();
         cmd.add_option("--registers", a.registers, "entries per table")->capture_default_str();
         cmd.add_option("--init", a.init, "JSON file with initial values");
         cmd.add_flag("-v,--verbose", a.verbose, "log each request and response");

@@ -47,7 +47,8 @@ struct JetArgs {
 void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
   a.link.add_to(cmd, false, ij::kDefaultBaud);
   cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
-  cmd.add_flag("--json", a.json, json_flag ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
+  cmd.add_flag("--json", a.json,
+               json_flag ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
 }
 
 // A master and the typed client on the command's link.
@@ -190,7 +191,8 @@ std::string status_panel(const ij::MachineStatus& s, ij::Family remembered) {
 
 std::string status_line(const ij::MachineStatus& s, ij::Family remembered) {
   return fmt::format(
-      "{} {:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  faults "
+      "{} {:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  "
+      "faults "
       "{}",
       clock_hms(), s.state_name(), s.speed, time_text(s, remembered), s.rpm, s.current_a, s.mosfet_c,
       s.motor_c, faults_text(s));
@@ -287,7 +289,8 @@ int run_start(const JetArgs& a, const StartArgs& s) {
                                         session.context, plan, profile::format_mm_ss(from), plan)};
   }
   session.check(e, "start " + what);
-  done(a, session, "start", fmt::format("started {}{}", what, s.remember ? " (after 3 s; saved as memory)" : ""));
+  done(a, session, "start",
+       fmt::format("started {}{}", what, s.remember ? " (after 3 s; saved as memory)" : ""));
   return kOk;
 }
 
@@ -421,7 +424,8 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
       [&](CLI::App& cmd, JetArgs& a) {
         add_link(cmd, a, true);
-        examples(cmd, {"rtukit inverjet status " + port, "rtukit inverjet status " + port + " --unit 12 --json"});
+        examples(cmd,
+                 {"rtukit inverjet status " + port, "rtukit inverjet status " + port + " --unit 12 --json"});
       },
       [](const JetArgs& a) { return run_status(a); });
   add_command<JetArgs>(

@@ -61,7 +61,8 @@ int main(int argc, char** argv) {
   }
   // --json anywhere on the chosen command path: failures are JSON too.
   for (const CLI::App* sub = &app; sub;) {
-    if (const CLI::Option* o = sub->get_option_no_throw("--json"); o && o->count() > 0) json_requested() = true;
+    if (const CLI::Option* o = sub->get_option_no_throw("--json"); o && o->count() > 0)
+      json_requested() = true;
     const auto chosen = sub->get_subcommands();
     sub = chosen.empty() ? nullptr : chosen.front();
   }

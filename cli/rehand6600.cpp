@@ -40,7 +40,8 @@ void add_link(CLI::App& cmd, ChairArgs& a, bool reads) {
   a.link.timeout_ms = 200;
   a.link.add_to(cmd, false, rh::kDefaultBaud);
   cmd.add_option("--unit,-u", a.unit, "the controller's address")->capture_default_str();
-  cmd.add_flag("--json", a.json, reads ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
+  cmd.add_flag("--json", a.json,
+               reads ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
   if (reads) cmd.add_flag("--mph", a.mph, "speed in mph (default km/h)");
 }
 
@@ -85,7 +86,8 @@ std::string speed_text(const rh::Snapshot& s, bool mph) {
 std::string panel(const rh::Snapshot& s, bool mph) {
   std::string out;
   if (s.error_code())
-    out += LivePanel::alert(fmt::format("!!! {} : every function is disabled !!!", rh::error_text(s.error_code()))) +
+    out += LivePanel::alert(
+               fmt::format("!!! {} : every function is disabled !!!", rh::error_text(s.error_code()))) +
            "\n";
   out += fmt::format("battery   {} %{}   clutch {}\n", s.battery(), s.charging() ? " (charging)" : "",
                      v(s, "clutch"));
@@ -94,7 +96,8 @@ std::string panel(const rh::Snapshot& s, bool mph) {
                      v(s, "right_signal"));
   out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}\n", v(s, "seat_lift_status"),
                      v(s, "backrest_status"), v(s, "stand_status"));
-  out += fmt::format("          seat tilt {}, leg rest {}\n", v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
+  out +=
+      fmt::format("          seat tilt {}, leg rest {}\n", v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
   out += "actuators";
   for (unsigned i = 0; i < 6; ++i) {
     if (i == 3) out += "\n         ";  // three a line: 80 columns
@@ -128,14 +131,16 @@ Json snapshot_document(const rh::Snapshot& s, UnitId unit, bool mph) {
     const int64_t raw = r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
     values[std::string(r.key)] = profile::entry_json(r, raw);
   }
-  if (mph) values["speed_mph"] = json_quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
+  if (mph)
+    values["speed_mph"] = json_quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
   values["error_text"] = json_quantity(s.error_code() ? rh::error_text(s.error_code()) : "", {},
                                        s.error_code() ? rh::error_text(s.error_code()) : "none");
   return out;
 }
 
 // What a command did, as a line or as a JSON document.
-void done(const ChairArgs& a, std::string_view action, const std::string& text, Json values = Json::object()) {
+void done(const ChairArgs& a, std::string_view action, const std::string& text,
+          Json values = Json::object()) {
   if (!a.json) {
     fmt::print("{}\n", text);
     return;
@@ -194,13 +199,14 @@ int run_watch(const ChairArgs& a) {
     const uint16_t err = host->active_error();
     // 1010: the link is down; the last reading stays, marked stale.
     const bool link_down = err == rh::kMasterCommunicationError;
-    const std::string why = link_down ? fmt::format("{}: {}", rh::error_text(err), host->last_failure().reason())
-                                      : std::string();
+    const std::string why =
+        link_down ? fmt::format("{}: {}", rh::error_text(err), host->last_failure().reason()) : std::string();
     if (link_down && down_since.empty()) down_since = clock_hms();
     if (!link_down) down_since.clear();
     if (a.json) {
       Json j = snapshot_document(s, unit_of(a), a.mph);
-      j["values"]["active_error"] = json_quantity(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
+      j["values"]["active_error"] =
+          json_quantity(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
       if (link_down) {
         j["ok"] = false;
         j["error"] = {{"kind", "no_response"}, {"message", why}, {"since", down_since}};
@@ -373,7 +379,8 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
       *chair, action, "status", "handshake, then table 1: battery, motion, lights, posture, error",
       [&](CLI::App& cmd, ChairArgs& a) {
         add_link(cmd, a, true);
-        examples(cmd, {"rtukit rehand6600 status " + port, "rtukit rehand6600 status " + port + " --json --mph"});
+        examples(cmd,
+                 {"rtukit rehand6600 status " + port, "rtukit rehand6600 status " + port + " --json --mph"});
       },
       [](const ChairArgs& a) { return run_status(a); });
   add_command<ChairArgs>(
@@ -386,11 +393,13 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
       },
       [](const ChairArgs& a) { return run_watch(a); });
   add_command<ChairArgs>(
-      *chair, action, "hold", "hold a command (posture, phone drive, anti-pinch...) for a while, then release",
+      *chair, action, "hold",
+      "hold a command (posture, phone drive, anti-pinch...) for a while, then release",
       [&](CLI::App& cmd, ChairArgs& a) {
-        cmd.add_option("CMD", a.key,
-                       "stand, seat_lift, backrest, seat_tilt, leg_rotate, leg_extend, plate_tilt, anti_pinch, "
-                       "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
+        cmd.add_option(
+               "CMD", a.key,
+               "stand, seat_lift, backrest, seat_tilt, leg_rotate, leg_extend, plate_tilt, anti_pinch, "
+               "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
             ->required();
         cmd.add_option("VALUE", a.value,
                        "up|down, stand|sit, forward|back, extend|retract, on, or the number (default 1)");

@@ -202,7 +202,8 @@ void add_sim_commands(CLI::App& app, Action& action) {
           if (entry.add_sim_options) entry.add_sim_options(cmd);
           const std::string name(profile->name);
           examples(cmd, {fmt::format("rtukit sim {} --listen pty:/tmp/{}", name, name),
-                         fmt::format("rtukit sim {} --listen tcp://127.0.0.1:1502 --state-file {}.json", name, name),
+                         fmt::format("rtukit sim {} --listen tcp://127.0.0.1:1502 --state-file {}.json", name,
+                                     name),
                          fmt::format("rtukit sim {} --listen pty:/tmp/{} --console unix:/tmp/{}.sock &", name,
                                      name, name)});
         },

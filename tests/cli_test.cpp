@@ -47,8 +47,9 @@ TEST_F(Cli, Read_Json_Hex_Signed_Float_WordOrder) {
   ASSERT_EQ(r.code, 0) << r.output;
   // {"time": "...Z", "ok": true, ...} (docs/json.md)
   EXPECT_TRUE(r.output.starts_with(R"({"time":")")) << r.output;
-  EXPECT_NE(r.output.find(R"(Z","ok":true,"unit":5,"table":"holding","address":16,"type":"u16","values":[1,2,65535]})"
-                          "\n"),
+  EXPECT_NE(r.output.find(
+                R"(Z","ok":true,"unit":5,"table":"holding","address":16,"type":"u16","values":[1,2,65535]})"
+                "\n"),
             std::string::npos)
       << r.output;
   r = rtukit({"read", "--port", port_, "--unit", "5", "18", "--type", "i16"});
@@ -79,12 +80,14 @@ TEST_F(Cli, Write_SingleMultipleAndCoils) {
   ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "33", "-2", "--type", "i16", "--multiple"}).code,
             0);
   ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "--coils", "7", "1", "1"}).code, 0);
-  EXPECT_NE(rtukit({"read", "--port", port_, "--unit", "5", "30", "4", "--json"})
-                .output.find(R"("unit":5,"table":"holding","address":30,"type":"u16","values":[42,5,6,65534]})"),
-            std::string::npos);
+  EXPECT_NE(
+      rtukit({"read", "--port", port_, "--unit", "5", "30", "4", "--json"})
+          .output.find(R"("unit":5,"table":"holding","address":30,"type":"u16","values":[42,5,6,65534]})"),
+      std::string::npos);
   const RunResult w = rtukit({"write", "--port", port_, "--unit", "5", "40", "7", "--json"});
   EXPECT_EQ(w.code, 0) << w.output;
-  EXPECT_NE(w.output.find(R"("ok":true,"unit":5,"table":"holding","address":40,"written":1})"), std::string::npos)
+  EXPECT_NE(w.output.find(R"("ok":true,"unit":5,"table":"holding","address":40,"written":1})"),
+            std::string::npos)
       << w.output;
   EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "--coils", "7", "2"}).output,
             "7 (0x0007): 1\n8 (0x0008): 1\n");

@@ -152,8 +152,9 @@ TEST(CliUsability, PollPrintsTimestampedLinesInEachFormat) {
   EXPECT_NE(c.output.find("Z,11,22,\n"), std::string::npos) << c.output;
   RunResult j =
       rtukit({"poll", "--port", slave.tty, "5", "2", "--interval", "50", "--count", "1", "-o", "jsonl"});
-  EXPECT_NE(j.output.find(R"("ok":true,"unit":1,"table":"holding","address":5,"type":"u16","values":[11,22]})"),
-            std::string::npos)
+  EXPECT_NE(
+      j.output.find(R"("ok":true,"unit":1,"table":"holding","address":5,"type":"u16","values":[11,22]})"),
+      std::string::npos)
       << j.output;
   // Every poll failed: the error, as for read, and its exit code.
   RunResult f = rtukit({"poll", "--port", slave.tty, "500", "--interval", "50", "--count", "2"});
@@ -164,15 +165,41 @@ TEST(CliUsability, PollPrintsTimestampedLinesInEachFormat) {
 // Every command's --help ends with examples, and its own options come
 // before the link options.
 TEST(CliUsability, EveryCommandHelpHasExamples) {
-  const std::vector<std::vector<std::string>> commands = {
-      {"read"}, {"poll"}, {"write"}, {"scan"}, {"slave"}, {"devices"}, {"watch"}, {"completion"},
-      {"map", "check"}, {"map", "registers"}, {"sim", "inverjet"}, {"sim", "rehand6600"}, {"sim", "map"},
-      {"inverjet", "status"}, {"inverjet", "watch"}, {"inverjet", "start"}, {"inverjet", "pause"},
-      {"inverjet", "resume"}, {"inverjet", "stop"}, {"inverjet", "speed"}, {"inverjet", "plan", "show"},
-      {"inverjet", "plan", "set"}, {"inverjet", "plan", "clear"}, {"inverjet", "config"},
-      {"inverjet", "registers"}, {"inverjet", "get"}, {"inverjet", "set"}, {"rehand6600", "status"},
-      {"rehand6600", "watch"}, {"rehand6600", "hold"}, {"rehand6600", "pulse"}, {"rehand6600", "set"},
-      {"rehand6600", "errors"}, {"rehand6600", "registers"}, {"rehand6600", "get"}};
+  const std::vector<std::vector<std::string>> commands = {{"read"},
+                                                          {"poll"},
+                                                          {"write"},
+                                                          {"scan"},
+                                                          {"slave"},
+                                                          {"devices"},
+                                                          {"watch"},
+                                                          {"completion"},
+                                                          {"map", "check"},
+                                                          {"map", "registers"},
+                                                          {"sim", "inverjet"},
+                                                          {"sim", "rehand6600"},
+                                                          {"sim", "map"},
+                                                          {"inverjet", "status"},
+                                                          {"inverjet", "watch"},
+                                                          {"inverjet", "start"},
+                                                          {"inverjet", "pause"},
+                                                          {"inverjet", "resume"},
+                                                          {"inverjet", "stop"},
+                                                          {"inverjet", "speed"},
+                                                          {"inverjet", "plan", "show"},
+                                                          {"inverjet", "plan", "set"},
+                                                          {"inverjet", "plan", "clear"},
+                                                          {"inverjet", "config"},
+                                                          {"inverjet", "registers"},
+                                                          {"inverjet", "get"},
+                                                          {"inverjet", "set"},
+                                                          {"rehand6600", "status"},
+                                                          {"rehand6600", "watch"},
+                                                          {"rehand6600", "hold"},
+                                                          {"rehand6600", "pulse"},
+                                                          {"rehand6600", "set"},
+                                                          {"rehand6600", "errors"},
+                                                          {"rehand6600", "registers"},
+                                                          {"rehand6600", "get"}};
   for (std::vector<std::string> c : commands) {
     c.push_back("--help");
     const RunResult r = rtukit(c);

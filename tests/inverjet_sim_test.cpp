@@ -7,6 +7,7 @@
 
 #include <fstream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "process.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
@@ -238,6 +239,29 @@ TEST_F(InverjetSim, Watch_FaultScreenKeepsRemaining_LinkLossIsStale) {
   watch.stop();
 }
 
+// On a terminal (a pty from `script`): the panel redraws in place, fits 80
+// columns, the fault is red, and NO_COLOR turns colour off.
+TEST_F(InverjetSim, WatchPanelOnATerminal_80Columns_FaultInRed_NoColor) {
+  ASSERT_EQ(cli({"inverjet", "start", "--free", "--speed", "50"}).code, 0);
+  ASSERT_TRUE(sim_->send("fault motor-drive\n"));
+  ASSERT_TRUE(sim_->wait_for_output("state fault screen (17)")) << sim_->output();
+  const std::string watch = kRtukit + " inverjet watch --port " + tty_ + " --count 1";
+  const RunResult coloured = run({"script", "-qec", "env -u NO_COLOR " + watch, "/dev/null"});
+  ASSERT_EQ(coloured.code, 0) << coloured.output;
+  EXPECT_NE(coloured.output.find("\x1b[H\x1b[2J"), std::string::npos);  // redraw in place
+  EXPECT_NE(coloured.output.find("\x1b[1;31mmotor drive (0x0080)"), std::string::npos) << coloured.output;
+  const RunResult plain = run({"script", "-qec", "env NO_COLOR=1 " + watch, "/dev/null"});
+  ASSERT_EQ(plain.code, 0) << plain.output;
+  EXPECT_NE(plain.output.find("motor drive (0x0080)"), std::string::npos) << plain.output;
+  EXPECT_EQ(plain.output.find("\x1b[1;31m"), std::string::npos) << plain.output;
+  std::string line;
+  for (std::istringstream in(plain.output.substr(plain.output.find("\x1b[2J") + 7));
+       std::getline(in, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    EXPECT_LE(line.size(), 80u) << line;
+  }
+}
+
 // --trace shows each frame both ways with a timestamp, --log appends the same to a file.
 TEST_F(InverjetSim, TraceAndLogShowEveryFrame) {
   const std::string log = dir_ / "frames.log";
@@ -288,8 +312,9 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   EXPECT_NE(r.output.find("3 segment(s) written, ends at 10:00"), std::string::npos) << r.output;
   r = cli({"inverjet", "plan", "show", "1", "--json"});
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_EQ(json::parse(r.output)["segments"],
-            json::parse(R"([{"speed":30,"end":300,"end_text":"05:00"},{"speed":80,"end":360,"end_text":"06:00"},
+  EXPECT_EQ(
+      json::parse(r.output)["segments"],
+      json::parse(R"([{"speed":30,"end":300,"end_text":"05:00"},{"speed":80,"end":360,"end_text":"06:00"},
                             {"speed":40,"end":600,"end_text":"10:00"}])"));
   // What `plan show --json` prints is a plan file too.
   std::ofstream(dir_ / "shown.json") << r.output;
@@ -418,7 +443,8 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
   EXPECT_EQ(c["timer_time"], 1500);
   r = cli({"inverjet", "plan", "show", "2", "--json", "--unit", "12"});
   EXPECT_EQ(json::parse(r.output)["segments"],
-            json::parse(R"([{"speed":35,"end":120,"end_text":"02:00"},{"speed":45,"end":240,"end_text":"04:00"}])"));
+            json::parse(
+                R"([{"speed":35,"end":120,"end_text":"02:00"},{"speed":45,"end":240,"end_text":"04:00"}])"));
   EXPECT_EQ(status("12")["state"], 0);  // D-12: a restart is a power-on
 
   std::ofstream(dir_ / "state.json", std::ios::trunc) << "{\"format\": \"rtukit-inv";  // damaged

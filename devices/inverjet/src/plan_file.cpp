@@ -80,7 +80,8 @@ Outcome<std::vector<Segment>> parse_plan(std::string_view text) {
     // `plan show --json` prints a document with the segments in it; it reads back too.
     if (j.is_object() && j.contains("segments")) j = nlohmann::json(j["segments"]);
     if (j.is_discarded() || !j.is_array()) {
-      reason = "not a valid JSON array of {\"speed\": .., \"end\": \"mm:ss\"} (or a document with \"segments\")";
+      reason =
+          "not a valid JSON array of {\"speed\": .., \"end\": \"mm:ss\"} (or a document with \"segments\")";
     } else {
       for (size_t i = 0; i < j.size() && reason.empty(); ++i) {
         const std::string at = fmt::format("entry {}", i + 1);

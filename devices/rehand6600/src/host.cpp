@@ -27,10 +27,9 @@ bool is_phone_drive(uint16_t a) {
 
 Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
     : options_(options),
-      master_(std::move(link),
-              MasterOptions{.response_timeout = options.response_timeout,
-                            .quirks = kProfile.quirks,
-                            .trace = options.trace}),
+      master_(std::move(link), MasterOptions{.response_timeout = options.response_timeout,
+                                             .quirks = kProfile.quirks,
+                                             .trace = options.trace}),
       logic_(options) {}
 
 Host::~Host() {
