@@ -21,6 +21,9 @@ void add_inverjet_commands(CLI::App& app, Action& action);
 /// rehand6600 status|watch|hold|pulse|set|errors|registers.
 void add_rehand6600_commands(CLI::App& app, Action& action);
 
+/// gateway: one process owns the serial bus, Modbus TCP clients share it.
+void add_gateway_command(CLI::App& app, Action& action);
+
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
 

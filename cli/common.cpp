@@ -47,6 +47,28 @@ void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_bau
   cmd.add_option("--rs485-delay-after", rs485_after_us, "RS-485: us between the last bit and RTS release");
 }
 
+void ServerArgs::add_to(CLI::App& cmd_app) {
+  CLI::Option_group& cmd = *cmd_app.add_option_group("Server options");
+  cmd.add_option("--max-connections", max_connections, "TCP: clients served at once; more are refused")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 10000));
+  cmd.add_option("--idle-timeout", idle_timeout_s,
+                 "TCP: close a connection silent for this many s (0: never)")
+      ->capture_default_str();
+  cmd.add_option("--turnaround-ms", turnaround_ms,
+                 "serial: silence before each answer (default: t3.5 on serial ports, 0 on ptys)")
+      ->check(CLI::Range(0.0, 1000.0));
+}
+
+ServerOptions ServerArgs::options() const {
+  ServerOptions o;
+  o.max_connections = max_connections;
+  o.idle_timeout = std::chrono::seconds(idle_timeout_s);
+  if (turnaround_ms >= 0)
+    o.turnaround = std::chrono::microseconds(static_cast<int64_t>(turnaround_ms * 1000.0));
+  return o;
+}
+
 char parity_letter(std::string_view text) {
   std::string t;
   for (char c : text) t += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
@@ -263,6 +285,27 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
   if (v < min || v > max)
     throw Failure{kUsage, fmt::format("{} {} is out of range {}..{}", what, text, min, max)};
   return v;
+}
+
+// "1-247", "21", "1,5,21-30" -> the units in order, each once.
+std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
+  std::vector<unsigned> units;
+  std::vector<bool> seen(max + 1);
+  size_t start = 0;
+  while (start <= text.size()) {
+    size_t end = text.find(',', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string item = text.substr(start, end - start);
+    const size_t dash = item.find('-');
+    const auto lo = parse_number(item.substr(0, dash), "unit", 1, max);
+    const auto hi = dash == std::string::npos ? lo : parse_number(item.substr(dash + 1), "unit", lo, max);
+    for (auto u = lo; u <= hi; ++u) {
+      if (!seen[u]) units.push_back(static_cast<unsigned>(u));
+      seen[u] = true;
+    }
+    start = end + 1;
+  }
+  return units;
 }
 
 UnitId parse_unit(const std::string& text, bool tcp) {

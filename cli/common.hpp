@@ -17,6 +17,7 @@
 
 #include "commands.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::cli {
@@ -71,6 +72,16 @@ struct LinkOptions {
   std::unique_ptr<Master> make_master() const;
 };
 
+/// The protections of a listening command (slave, sim): connection limit,
+/// idle timeout, the answer's turnaround on serial lines.
+struct ServerArgs {
+  unsigned max_connections = 64;
+  unsigned idle_timeout_s = 60;
+  double turnaround_ms = -1;  ///< < 0: the default (t3.5 on serial ports, none on ptys)
+  void add_to(CLI::App& cmd);
+  ServerOptions options() const;
+};
+
 /// "none", "even", "odd" or N/E/O in any case -> 'N', 'E', 'O'. Throws Failure{kUsage}.
 char parity_letter(std::string_view text);
 
@@ -82,6 +93,10 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
 /// broadcast, modbus-rtu.md); Modbus TCP takes 0..255 (0xFF addresses a TCP
 /// device directly). Throws Failure{kUsage} outside the range.
 UnitId parse_unit(const std::string& text, bool tcp = false);
+
+/// "1-247", "21", "1,5,21-30" -> the units in order, each once (1..max).
+/// Throws Failure{kUsage} naming the bad item.
+std::vector<unsigned> parse_units(const std::string& text, unsigned max);
 
 /// Maps an Error to its exit code.
 int exit_code(Error e);
@@ -122,13 +137,11 @@ CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name,
   auto args = std::make_shared<Args>();
   CLI::App* cmd = parent.add_subcommand(name, description);
   setup(*cmd, *args);
-  cmd->callback([&action, args, run, cmd] {
-    // `run(args, cmd)` when it wants to ask what was given on the command line.
-    if constexpr (std::is_invocable_v<Run, Args&, const CLI::App&>)
-      action = [args, run, cmd] { return run(*args, *cmd); };
-    else
-      action = [args, run] { return run(*args); };
-  });
+  // `run(args, cmd)` when it wants to ask what was given on the command line.
+  if constexpr (std::is_invocable_v<Run, Args&, const CLI::App&>)
+    cmd->callback([&action, args, run, cmd] { action = [args, run, cmd] { return run(*args, *cmd); }; });
+  else
+    cmd->callback([&action, args, run] { action = [args, run] { return run(*args); }; });
   return cmd;
 }
 

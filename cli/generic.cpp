@@ -374,27 +374,6 @@ struct ScanArgs {
   bool timeout_given = false;
 };
 
-// "1-247", "21", "1,5,21-30" -> the units in order, each once.
-std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
-  std::vector<unsigned> units;
-  std::vector<bool> seen(max + 1);
-  size_t start = 0;
-  while (start <= text.size()) {
-    size_t end = text.find(',', start);
-    if (end == std::string::npos) end = text.size();
-    const std::string item = text.substr(start, end - start);
-    const size_t dash = item.find('-');
-    const auto lo = parse_number(item.substr(0, dash), "unit", 1, max);
-    const auto hi = dash == std::string::npos ? lo : parse_number(item.substr(dash + 1), "unit", lo, max);
-    for (auto u = lo; u <= hi; ++u) {
-      if (!seen[u]) units.push_back(static_cast<unsigned>(u));
-      seen[u] = true;
-    }
-    start = end + 1;
-  }
-  return units;
-}
-
 int run_scan(ScanArgs a, const CLI::App& cmd) {
   a.timeout_given = cmd.count("--timeout") > 0;
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
@@ -439,6 +418,7 @@ struct SlaveArgs {
   std::string registers = "10000";
   std::string init;
   bool verbose = false;
+  ServerArgs server;
 };
 
 // {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...}}
@@ -510,7 +490,7 @@ int run_slave(const SlaveArgs& a) {
       std::fflush(stdout);
     };
   }
-  auto listener = SlaveListener::start(ctx, engine, spec, log);
+  auto listener = SlaveListener::start(ctx, engine, spec, log, a.server.options());
   if (!listener.ok())
     throw Failure{exit_code(listener.error().error()), std::string(listener.error().reason())};
   fmt::print("listening on {} (units", (*listener)->where());
@@ -624,6 +604,7 @@ void add_generic_commands(CLI::App& app, Action& action) {
         cmd.add_option("--init", a.init, "JSON file with initial values");
         cmd.add_flag("-v,--verbose", a.verbose, "log each request and response");
         a.link.add_to(cmd, true);
+        a.server.add_to(cmd);
         examples(cmd, {"rtukit slave --listen pty:/tmp/ttyV0 --unit 5 -v",
                        "rtukit slave --listen tcp://127.0.0.1:1502 --unit 1 --unit 2 --init values.json"});
       },

@@ -116,10 +116,12 @@ struct SimArgs {
   bool no_console = false;
   std::string console;
   std::string map_file;
+  ServerArgs server;
 };
 
 void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile) {
   a.link.add_to(cmd, /*listening=*/true, profile ? profile->link.baud : 9600);
+  a.server.add_to(cmd);
   cmd.add_option("--unit,-u", a.unit, "unit address (default: the device's own)");
   cmd.add_option("--state-file", a.state_file,
                  "where persisted registers live (default: ~/.local/state/rtukit/DEVICE.json)");
@@ -147,6 +149,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
     std::fflush(stdout);
   };
   if (a.verbose) o.log = request_logger();
+  o.server = a.server.options();
   std::string console_path;
   if (!a.console.empty()) {
     if (!a.console.starts_with("unix:") || a.console.size() <= 5)

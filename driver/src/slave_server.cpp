@@ -1,5 +1,6 @@
 #include "rtukit/driver/slave_server.hpp"
 
+#include <termios.h>
 #include <unistd.h>
 
 #include <array>
@@ -10,6 +11,7 @@
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/pty.hpp"
 #include "rtukit/io/serial_config.hpp"
+#include "tcp_sessions.hpp"
 
 namespace rtukit {
 namespace {
@@ -52,13 +54,20 @@ class RtuResponder {
 };
 
 // RTU on a serial port or a pty master.
+//
+// Answers are queued and written asynchronously, each not before its
+// turnaround has passed: a master that stops reading (a pty nobody reads)
+// fills the queue and further answers are dropped, while the loop keeps
+// serving timers and signals.
 class RtuStreamServer final : public SlaveListener {
  public:
   RtuStreamServer(asio::io_context& ctx, SlaveEngine& engine, int fd, const io::PortSpec& spec,
-                  std::string where, RequestLog log, io::Pty pty)
+                  std::string where, RequestLog log, io::Pty pty, ServerOptions options)
       : spec_(spec),
+        options_(std::move(options)),
         stream_(ctx, fd),
         timer_(ctx),
+        turnaround_timer_(ctx),
         log_(std::move(log)),
         responder_(engine, io::link_timing(spec), log_),
         where_(std::move(where)),
@@ -69,11 +78,35 @@ class RtuStreamServer final : public SlaveListener {
     std::error_code ec;
     stream_.close(ec);
     timer_.cancel();
+    turnaround_timer_.cancel();
   }
 
   std::string where() const override { return where_; }
   void set_timing(RtuTiming t) override { responder_.framer().set_timing(t); }
   Error set_baud(uint32_t baud) override {
+    if (writing_ || !queue_.empty()) {
+      pending_baud_ = baud;  // after the answer has left, at the old rate
+      return {};
+    }
+    return apply_baud(baud);
+  }
+  ServerStats stats() const override { return stats_; }
+
+ private:
+  struct Answer {
+    std::vector<uint8_t> bytes;
+    std::chrono::steady_clock::time_point not_before;
+  };
+
+  // The silence before an answer: t3.5 at the line's rate on a serial port.
+  std::chrono::microseconds turnaround() const {
+    if (options_.turnaround) return *options_.turnaround;
+    if (spec_.kind != io::PortSpec::Kind::serial) return std::chrono::microseconds(0);
+    return std::chrono::microseconds(
+        RtuTiming::for_serial(spec_.serial.baud, spec_.serial.bits_per_char()).t35_us);
+  }
+
+  Error apply_baud(uint32_t baud) {
     spec_.serial.baud = baud;
     if (spec_.kind == io::PortSpec::Kind::serial) {
       Result<io::SerialCapabilities> r = io::configure_serial(stream_.native_handle(), spec_.serial);
@@ -83,7 +116,6 @@ class RtuStreamServer final : public SlaveListener {
     return {};
   }
 
- private:
   void read() {
     stream_.async_read_some(asio::buffer(rx_), [this](const std::error_code& ec, size_t n) {
       if (ec == asio::error::operation_aborted) return;
@@ -103,8 +135,51 @@ class RtuStreamServer final : public SlaveListener {
   }
 
   void send(std::span<const uint8_t> out) {
-    std::error_code ec;
-    asio::write(stream_, asio::buffer(out.data(), out.size()), ec);
+    if (queued_bytes_ + out.size() > options_.max_pending_output) {
+      ++stats_.answers_dropped;  // nobody reads the line: the bus would drop it too
+      return;
+    }
+    queued_bytes_ += out.size();
+    queue_.push_back(Answer{{out.begin(), out.end()}, std::chrono::steady_clock::now() + turnaround()});
+    write_next();
+  }
+
+  void write_next() {
+    if (writing_ || waiting_turnaround_) return;
+    if (queue_.empty()) {
+      if (pending_baud_) change_baud_now();
+      return;
+    }
+    const auto now = std::chrono::steady_clock::now();
+    if (queue_.front().not_before > now) {
+      waiting_turnaround_ = true;
+      turnaround_timer_.expires_at(queue_.front().not_before);
+      turnaround_timer_.async_wait([this](const std::error_code& ec) {
+        if (ec) return;
+        waiting_turnaround_ = false;
+        write_next();
+      });
+      return;
+    }
+    writing_ = true;
+    in_flight_ = std::move(queue_.front().bytes);
+    queue_.pop_front();
+    asio::async_write(stream_, asio::buffer(in_flight_), [this](const std::error_code& ec, size_t) {
+      if (ec == asio::error::operation_aborted) return;
+      writing_ = false;
+      queued_bytes_ -= in_flight_.size();
+      write_next();
+    });
+  }
+
+  // Every answer is in the kernel; wait until the last bit is on the wire,
+  // then switch (an answer reconfigured away mid-frame is an answer lost).
+  void change_baud_now() {
+    const uint32_t baud = *pending_baud_;
+    pending_baud_.reset();
+    if (spec_.kind == io::PortSpec::Kind::serial) ::tcdrain(stream_.native_handle());
+    if (Error e = apply_baud(baud); e && options_.notice)
+      options_.notice("cannot switch to " + std::to_string(baud) + " baud: " + std::string(e.text()));
   }
 
   // Frames of unknown length end at silence: look again when it has lasted.
@@ -121,142 +196,87 @@ class RtuStreamServer final : public SlaveListener {
   }
 
   io::PortSpec spec_;
+  ServerOptions options_;
   asio::posix::stream_descriptor stream_;
   asio::steady_timer timer_;
+  asio::steady_timer turnaround_timer_;
   RequestLog log_;
   RtuResponder responder_;
   std::string where_;
   io::Pty pty_;
   std::array<uint8_t, 512> rx_{};
+  std::deque<Answer> queue_;
+  size_t queued_bytes_ = 0;
+  std::vector<uint8_t> in_flight_;
+  bool writing_ = false;
+  bool waiting_turnaround_ = false;
+  std::optional<uint32_t> pending_baud_;
+  ServerStats stats_;
 };
 
-// One TCP connection.
-class TcpSession : public std::enable_shared_from_this<TcpSession> {
+// A connection served by the slave engine: Modbus TCP (MBAP) or RTU frames.
+class EngineSession final : public TcpSession {
  public:
-  TcpSession(asio::ip::tcp::socket socket, SlaveEngine& engine, Framing framing, RtuTiming timing,
-             const RequestLog& log)
-      : socket_(std::move(socket)),
+  EngineSession(asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared, SlaveEngine& engine,
+                Framing framing, RtuTiming timing, const RequestLog& log)
+      : TcpSession(std::move(socket), std::move(shared)),
         engine_(engine),
         framing_(framing),
         log_(log),
         rtu_(engine, timing, log_) {}  // the session's own copy: it may outlive the server
 
-  void start() { read(); }
-
  private:
-  void read() {
-    auto self = shared_from_this();
-    socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_), [this, self](
-                                                                                          const std::
-                                                                                              error_code& ec,
-                                                                                          size_t n) {
-      if (ec) return;  // closed: the session ends with its last reference
-      if (framing_ == Framing::rtu) {
-        rtu_.on_bytes({rx_.data(), n}, io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
-      } else if (!on_mbap(n)) {
-        std::error_code ignored;
-        socket_.close(ignored);
-        return;
-      }
-      flush();
-      read();
-    });
-  }
-
-  // Handles every complete MBAP ADU buffered. False: the stream is out of step.
-  bool on_mbap(size_t n) {
-    rx_len_ += n;
-    size_t pos = 0;
-    for (;;) {
-      const Result<size_t> size = mbap_adu_size({rx_.data() + pos, rx_len_ - pos});
-      if (!size.ok()) return false;
-      if (*size == 0 || *size > rx_len_ - pos) break;
-      const std::span<const uint8_t> adu(rx_.data() + pos, *size);
+  bool on_received(size_t n) override {
+    if (framing_ == Framing::rtu) {
+      rtu_.on_bytes({rx_.data(), n}, io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
+      return true;
+    }
+    return each_mbap_adu(n, [this](std::span<const uint8_t> adu) {
       std::array<uint8_t, kMaxMbapAduSize> tx{};
       const auto [out, bank] = engine_.handle_tcp(adu, tx);
       if (log_) log_(adu, {tx.data(), out});
       if (out) queue({tx.data(), out});
       if (bank) bank->after_response();
-      pos += *size;
-    }
-    std::memmove(rx_.data(), rx_.data() + pos, rx_len_ - pos);
-    rx_len_ -= pos;
-    return true;
+    });
   }
 
-  void queue(std::span<const uint8_t> out) { pending_.insert(pending_.end(), out.begin(), out.end()); }
-
-  // Responses go out synchronously: they are small and the socket buffer is
-  // empty in request/response traffic; a slow reader only delays its own session.
-  void flush() {
-    if (pending_.empty()) return;
-    std::error_code ec;
-    asio::write(socket_, asio::buffer(pending_.data(), pending_.size()), ec);
-    pending_.clear();
-  }
-
-  asio::ip::tcp::socket socket_;
   SlaveEngine& engine_;
   Framing framing_;
   RequestLog log_;
   RtuResponder rtu_;
-  std::array<uint8_t, 2 * kMaxMbapAduSize> rx_{};
-  size_t rx_len_ = 0;
-  std::vector<uint8_t> pending_;
 };
 
 class TcpServer final : public SlaveListener {
  public:
-  TcpServer(asio::io_context& ctx, SlaveEngine& engine, Framing framing, RtuTiming timing, RequestLog log)
-      : acceptor_(ctx), engine_(engine), framing_(framing), timing_(timing), log_(std::move(log)) {}
+  TcpServer(asio::io_context& ctx, SlaveEngine& engine, Framing framing, RtuTiming timing, RequestLog log,
+            ServerOptions options)
+      : framing_(framing),
+        log_(std::move(log)),
+        acceptor_(ctx, std::move(options),
+                  [this, &engine, timing](asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared) {
+                    return std::make_shared<EngineSession>(std::move(socket), std::move(shared), engine,
+                                                           framing_, timing, log_);
+                  }) {}
 
-  Status listen(const std::string& host, uint16_t port) {
-    std::error_code ec;
-    const auto address = asio::ip::make_address(host.empty() ? "127.0.0.1" : host, ec);
-    if (ec) return Status(Errc::invalid_argument, "not an IP address: " + host);
-    const asio::ip::tcp::endpoint endpoint(address, port);
-    acceptor_.open(endpoint.protocol(), ec);
-    if (!ec) acceptor_.set_option(asio::socket_base::reuse_address(true), ec);
-    if (!ec) acceptor_.bind(endpoint, ec);
-    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec)
-      return Status(Error(Errc::io_error, ec.value()),
-                    "cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message());
-    accept();
-    return {};
-  }
-
+  Status listen(const std::string& host, uint16_t port) { return acceptor_.listen(host, port); }
   std::string where() const override {
-    const auto ep = acceptor_.local_endpoint();
-    return std::string(framing_ == Framing::tcp ? "tcp://" : "rtu+tcp://") + ep.address().to_string() + ":" +
-           std::to_string(ep.port());
+    return std::string(framing_ == Framing::tcp ? "tcp://" : "rtu+tcp://") + acceptor_.endpoint_text();
   }
-  uint16_t tcp_port() const override { return acceptor_.local_endpoint().port(); }
+  uint16_t tcp_port() const override { return acceptor_.port(); }
+  ServerStats stats() const override { return acceptor_.stats(); }
+  unsigned connections() const override { return acceptor_.connections(); }
 
  private:
-  void accept() {
-    acceptor_.async_accept([this](const std::error_code& ec, asio::ip::tcp::socket socket) {
-      if (ec == asio::error::operation_aborted) return;
-      if (!ec) {
-        std::error_code ignored;
-        socket.set_option(asio::ip::tcp::no_delay(true), ignored);
-        std::make_shared<TcpSession>(std::move(socket), engine_, framing_, timing_, log_)->start();
-      }
-      accept();
-    });
-  }
-
-  asio::ip::tcp::acceptor acceptor_;
-  SlaveEngine& engine_;
   Framing framing_;
-  RtuTiming timing_;
   RequestLog log_;
+  TcpAcceptor acceptor_;
 };
 
 }  // namespace
 
 Outcome<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& ctx, SlaveEngine& engine,
-                                                             const io::PortSpec& spec, RequestLog log) {
+                                                             const io::PortSpec& spec, RequestLog log,
+                                                             ServerOptions options) {
   const RtuTiming timing = io::link_timing(spec);
   switch (spec.kind) {
     case io::PortSpec::Kind::pty: {
@@ -265,21 +285,21 @@ Outcome<std::unique_ptr<SlaveListener>> SlaveListener::start(asio::io_context& c
       const int fd = ::dup(pty->master_fd());
       if (fd < 0) return Status(Error(Errc::io_error, errno), std::string("dup: ") + std::strerror(errno));
       std::string where = pty->name();
-      return std::unique_ptr<SlaveListener>(
-          new RtuStreamServer(ctx, engine, fd, spec, std::move(where), std::move(log), std::move(*pty)));
+      return std::unique_ptr<SlaveListener>(new RtuStreamServer(
+          ctx, engine, fd, spec, std::move(where), std::move(log), std::move(*pty), std::move(options)));
     }
     case io::PortSpec::Kind::serial: {
       Result<int> fd = io::open_serial_port(spec.path, spec.serial);
       if (!fd.ok())
         return Status(fd.error(), "cannot open " + spec.path + ": " + std::strerror(fd.error().os_error()));
-      return std::unique_ptr<SlaveListener>(
-          new RtuStreamServer(ctx, engine, *fd, spec, spec.path, std::move(log), io::Pty{}));
+      return std::unique_ptr<SlaveListener>(new RtuStreamServer(
+          ctx, engine, *fd, spec, spec.path, std::move(log), io::Pty{}, std::move(options)));
     }
     case io::PortSpec::Kind::tcp:
     case io::PortSpec::Kind::rtu_tcp: {
       auto server = std::make_unique<TcpServer>(
           ctx, engine, spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu, timing,
-          std::move(log));
+          std::move(log), std::move(options));
       if (Status e = server->listen(spec.host, spec.port)) return e;
       return std::unique_ptr<SlaveListener>(std::move(server));
     }

@@ -119,7 +119,9 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   host->bank_ = std::make_unique<Bank>(*host);
   if (const Error e = host->engine_.add_unit(UnitId{host->unit_}, *host->bank_))
     return Status(e, "cannot host that unit address");
-  auto listener = SlaveListener::start(ctx, host->engine_, o.listen, o.log);
+  ServerOptions server = o.server;
+  if (!server.notice && o.notice) server.notice = o.notice;
+  auto listener = SlaveListener::start(ctx, host->engine_, o.listen, o.log, std::move(server));
   if (!listener.ok()) return listener.error();
   host->listener_ = std::move(*listener);
   // Advance the model regularly, so a timer ends (and a watchdog trips) even

@@ -56,6 +56,7 @@ struct SimOptions {
   double time_scale = 1.0;       ///< device seconds per real second, (0, 100000]
   std::chrono::milliseconds tick{20};
   RequestLog log;                                ///< every request/response, for -v
+  ServerOptions server;                          ///< connection limits, turnaround (slave_server.hpp)
   std::function<void(std::string_view)> notice;  ///< one-line notices (warnings, link changes)
 };
 

@@ -1,0 +1,93 @@
+// `rtukit gateway`: the one process that owns a serial bus; Modbus TCP
+// clients (watch windows, scripts, SCADA, the HMI) share it.
+#include "rtukit/driver/gateway.hpp"
+
+#include <fmt/core.h>
+
+#include <asio.hpp>
+#include <csignal>
+
+#include "commands.hpp"
+#include "common.hpp"
+
+namespace rtukit::cli {
+namespace {
+
+struct GatewayArgs {
+  LinkOptions link;
+  std::vector<std::string> listen{"tcp://127.0.0.1:1502"};
+  bool read_only = false;
+  std::string allow_units;
+  unsigned cache_ms = 0;
+  unsigned max_queued = 32;
+  ServerArgs server;
+};
+
+int run_gateway(const GatewayArgs& a) {
+  std::vector<io::PortSpec> listen;
+  for (const std::string& l : a.listen) {
+    Result<io::PortSpec> spec = io::parse_port(l, true);
+    if (!spec.ok() || spec->kind != io::PortSpec::Kind::tcp)
+      throw Failure{kUsage, fmt::format("--listen '{}': the gateway listens on tcp://HOST:PORT", l)};
+    listen.push_back(*spec);
+  }
+  GatewayOptions o;
+  o.read_only = a.read_only;
+  if (!a.allow_units.empty())
+    for (unsigned u : parse_units(a.allow_units, 247)) o.allowed_units.push_back(static_cast<uint8_t>(u));
+  o.cache = std::chrono::milliseconds(a.cache_ms);
+  o.max_queued_per_client = a.max_queued;
+  o.server = a.server.options();
+  std::unique_ptr<Master> bus = a.link.make_master();
+  asio::io_context ctx;
+  Outcome<std::unique_ptr<Gateway>> gw = Gateway::start(ctx, *bus, listen, o);
+  if (!gw.ok()) throw Failure{exit_code(gw.error().error()), std::string(gw.error().reason())};
+  std::string where;
+  for (const std::string& w : (*gw)->where()) where += (where.empty() ? "" : ", ") + w;
+  fmt::print("gateway: {} shared on {}{}{}\n", bus->describe(), where, a.read_only ? " (read-only)" : "",
+             a.cache_ms ? fmt::format(" (reads cached {} ms)", a.cache_ms) : std::string());
+  fmt::print("listening on {}\n", (*gw)->where().front());
+  std::fflush(stdout);
+  asio::signal_set signals(ctx, SIGINT, SIGTERM);
+  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  ctx.run();
+  const GatewayStats s = (*gw)->stats();
+  gw->reset();
+  fmt::print(
+      stderr,
+      "gateway: {} requests, {} bus transactions, {} from the cache, {} refused, {} unanswered (0B), {} "
+      "with the bus down (0A)\n",
+      s.requests, s.bus_transactions, s.cache_hits, s.refused, s.no_answer, s.bus_down);
+  if (a.link.stats) print_stats(*bus);
+  return kOk;
+}
+
+}  // namespace
+
+void add_gateway_command(CLI::App& app, Action& action) {
+  add_command<GatewayArgs>(
+      app, action, "gateway", "own a serial bus and share it with Modbus TCP clients",
+      [](CLI::App& cmd, GatewayArgs& a) {
+        cmd.add_option("--listen,-l", a.listen,
+                       "where TCP clients connect (repeatable; loopback unless told)")
+            ->capture_default_str();
+        cmd.add_flag("--read-only", a.read_only, "refuse every write with exception 01");
+        cmd.add_option("--allow-units", a.allow_units,
+                       "units relayed: 1,21 or 1-10 (default 1-247); others get 0A");
+        cmd.add_option("--cache-ms", a.cache_ms,
+                       "identical reads within this many ms share one bus transaction")
+            ->capture_default_str();
+        cmd.add_option("--max-queued", a.max_queued, "requests one client may have waiting (more get 06)")
+            ->capture_default_str();
+        a.link.add_to(cmd, false);
+        a.server.add_to(cmd);
+        examples(
+            cmd,
+            {"rtukit gateway --port /dev/ttyUSB0 --baud 9600 --listen tcp://127.0.0.1:1502",
+             "rtukit inverjet watch --port tcp://127.0.0.1:1502      (as many as you like)",
+             "rtukit gateway --port /dev/ttyS3 --baud 115200 --read-only --allow-units 1 --cache-ms 200"});
+      },
+      [](const GatewayArgs& a) { return run_gateway(a); });
+}
+
+}  // namespace rtukit::cli

@@ -1,0 +1,91 @@
+// rtukit driver: a Modbus TCP gateway, the one process that owns a serial
+// bus. Many TCP clients (watch windows, scripts, SCADA, the HMI, the MQTT
+// bridge) share one RTU line through it:
+//
+//   rtukit::Master bus(rtukit::io::make_link(serial_spec));
+//   auto gw = rtukit::Gateway::start(ctx, bus, {tcp_spec}, {});
+//   ctx.run();
+//
+// Each request is checked on arrival (unit allowed, read-only, a function
+// the gateway relays), then queued; one bus thread runs the queues round
+// robin, one transaction at a time, and answers each client on its own
+// connection. Answers: the device's own response or exception; 0x0B when the
+// device does not answer (or answers garbage), 0x0A when the bus is down or
+// the unit is not allowed, 0x01 for writes on a read-only gateway or a
+// function not relayed, 0x06 when a client already has too many requests
+// waiting.
+//
+// Read coalescing (`cache`): identical reads within that time share one bus
+// transaction. Any write through the gateway invalidates the cached reads
+// it may change, whatever its outcome, so a write between two reads is never
+// hidden. Changes made by the device itself can be up to `cache` old.
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rtukit/driver/master.hpp"
+#include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/port.hpp"
+#include "rtukit/io/status.hpp"
+
+namespace asio {
+class io_context;
+}
+
+namespace rtukit {
+
+struct GatewayOptions {
+  /// Refuse every write (FC05, FC06, FC0F, FC10) with exception 01.
+  bool read_only = false;
+  /// Units relayed; empty: 1..247. Others get exception 0x0A.
+  std::vector<uint8_t> allowed_units;
+  /// Serve identical reads from the last answer for this long (0: never).
+  std::chrono::milliseconds cache{0};
+  /// Requests one client may have waiting; more get exception 06.
+  unsigned max_queued_per_client = 32;
+  /// Connection limit, idle timeout, output bound of the TCP side.
+  ServerOptions server;
+};
+
+struct GatewayStats {
+  uint64_t requests = 0;          ///< requests from clients
+  uint64_t bus_transactions = 0;  ///< requests sent on the bus
+  uint64_t cache_hits = 0;        ///< reads answered from the cache
+  uint64_t refused = 0;           ///< answered by the gateway itself (01, 06, 0A for a unit)
+  uint64_t no_answer = 0;         ///< 0x0B: the device did not answer
+  uint64_t bus_down = 0;          ///< 0x0A: the bus failed
+};
+
+class Gateway {
+ public:
+  /// Listens on every spec of `listen` (tcp:// only) and relays to `bus`,
+  /// which must outlive the gateway. Starts the bus thread. Errors as
+  /// SlaveListener::start (address in use, not an IP address); invalid_argument
+  /// for a listen spec that is not tcp://.
+  static Outcome<std::unique_ptr<Gateway>> start(asio::io_context& ctx, Master& bus,
+                                                 std::span<const io::PortSpec> listen,
+                                                 GatewayOptions options);
+  /// Stops the bus thread (a transaction under way finishes first).
+  ~Gateway();
+  Gateway(const Gateway&) = delete;
+  Gateway& operator=(const Gateway&) = delete;
+
+  /// Where clients connect: "tcp://127.0.0.1:1502", one per listener.
+  std::vector<std::string> where() const;
+  /// The first listener's TCP port (useful with port 0).
+  uint16_t tcp_port() const;
+  GatewayStats stats() const;
+
+  struct Impl;
+
+ private:
+  explicit Gateway(std::shared_ptr<Impl> impl);
+  std::shared_ptr<Impl> impl_;  // shared with the client sessions, which may outlive the gateway
+};
+
+}  // namespace rtukit

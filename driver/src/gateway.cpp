@@ -1,0 +1,306 @@
+#include "rtukit/driver/gateway.hpp"
+
+#include <algorithm>
+#include <asio.hpp>
+#include <condition_variable>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <tuple>
+
+#include "rtukit/core/mbap.hpp"
+#include "rtukit/core/pdu.hpp"
+#include "tcp_sessions.hpp"
+
+namespace rtukit {
+namespace {
+
+bool is_write(uint8_t function) {
+  return function == fc(Function::write_single_coil) || function == fc(Function::write_single_register) ||
+         function == fc(Function::write_multiple_coils) || function == fc(Function::write_multiple_registers);
+}
+
+bool is_read(uint8_t function) {
+  return function >= fc(Function::read_coils) && function <= fc(Function::read_input_registers);
+}
+
+// The read that a write may change: coils for FC05/0F, holding registers for FC06/10.
+uint8_t read_function_changed_by(uint8_t write_function) {
+  return write_function == fc(Function::write_single_coil) ||
+                 write_function == fc(Function::write_multiple_coils)
+             ? fc(Function::read_coils)
+             : fc(Function::read_holding_registers);
+}
+
+std::vector<uint8_t> exception_pdu(uint8_t function, Errc e) {
+  return {static_cast<uint8_t>(function | 0x80), static_cast<uint8_t>(e)};
+}
+
+// The response PDU in its standard form (a device quirk on the serial side,
+// like the Rehand's 2-byte byte count, does not travel to TCP clients).
+std::vector<uint8_t> response_pdu(const Request& req, const Response& r) {
+  std::vector<uint8_t> out{r.function};
+  if (is_read(r.function)) {
+    out.push_back(static_cast<uint8_t>(r.data.size()));
+    out.insert(out.end(), r.data.begin(), r.data.end());
+  } else {
+    const uint16_t second =
+        r.function == fc(Function::write_single_coil) || r.function == fc(Function::write_single_register)
+            ? r.value
+            : req.quantity;
+    out.insert(out.end(), {static_cast<uint8_t>(r.address >> 8), static_cast<uint8_t>(r.address),
+                           static_cast<uint8_t>(second >> 8), static_cast<uint8_t>(second)});
+  }
+  return out;
+}
+
+}  // namespace
+
+class GatewaySession;
+
+struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
+  struct Job {
+    std::weak_ptr<GatewaySession> session;
+    uint16_t transaction;
+    uint8_t unit;
+    std::vector<uint8_t> pdu;
+  };
+  // A cached read: (unit, function, address, quantity).
+  using CacheKey = std::tuple<uint8_t, uint8_t, uint16_t, uint16_t>;
+  struct Cached {
+    std::vector<uint8_t> pdu;
+    std::chrono::steady_clock::time_point at;
+  };
+
+  Impl(Master& m, GatewayOptions o) : bus(m), options(std::move(o)) {}
+
+  bool allowed(uint8_t unit) const {
+    if (options.allowed_units.empty()) return unit >= 1 && unit <= 247;
+    return std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
+           options.allowed_units.end();
+  }
+
+  // On the io thread: check, answer from the cache, or queue.
+  void on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client,
+                  std::span<const uint8_t> adu);
+  void forget(uint64_t client) {
+    std::lock_guard lock(mutex);
+    queues.erase(client);
+  }
+  void run_bus();
+  void invalidate(uint8_t unit, const Request& write);
+
+  Master& bus;
+  GatewayOptions options;
+  std::vector<std::unique_ptr<TcpAcceptor>> acceptors;
+  std::thread thread;
+
+  std::mutex mutex;  // everything below
+  std::condition_variable wake;
+  bool stopping = false;
+  std::map<uint64_t, std::deque<Job>> queues;  // per client, served round robin
+  uint64_t last_served = 0;
+  uint64_t next_client = 1;
+  std::map<CacheKey, Cached> cache;
+  GatewayStats stats;
+};
+
+// One client connection: MBAP in, answers whenever the bus has them.
+class GatewaySession final : public TcpSession {
+ public:
+  GatewaySession(asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared,
+                 std::shared_ptr<Gateway::Impl> gateway, uint64_t client)
+      : TcpSession(std::move(socket), std::move(shared)), gateway_(std::move(gateway)), client_(client) {}
+
+  // Called with the answer's PDU for the request `transaction` to `unit`.
+  void answer(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu, bool from_bus_thread) {
+    std::vector<uint8_t> adu(kMbapHeaderSize + pdu.size());
+    const Result<size_t> n = mbap_encode(transaction, unit, pdu, adu);
+    if (!n.ok()) return;
+    adu.resize(*n);
+    if (from_bus_thread)
+      reply_from_any_thread(std::move(adu));
+    else
+      queue(adu);
+  }
+
+ private:
+  bool on_received(size_t n) override {
+    auto self = std::static_pointer_cast<GatewaySession>(shared_from_this());
+    return each_mbap_adu(n, [&](std::span<const uint8_t> adu) { gateway_->on_request(self, client_, adu); });
+  }
+  void on_closed() override { gateway_->forget(client_); }
+
+  std::shared_ptr<Gateway::Impl> gateway_;
+  uint64_t client_;
+};
+
+void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client,
+                               std::span<const uint8_t> adu) {
+  const MbapHeader h = mbap_header(adu);
+  const std::span<const uint8_t> pdu = mbap_pdu(adu);
+  const uint8_t function = pdu[0];
+  const auto refuse = [&](Errc e) {
+    {
+      std::lock_guard lock(mutex);
+      ++stats.refused;
+    }
+    session->answer(h.transaction, h.unit, exception_pdu(function, e), false);
+  };
+  {
+    std::lock_guard lock(mutex);
+    ++stats.requests;
+  }
+  const Result<Request> req = decode_request(pdu);
+  if (!req.ok()) {
+    // A function the gateway does not relay, or a request no device could
+    // take: the same exception a slave gives. A PDU too short: dropped.
+    if (req.error().is_exception()) refuse(req.error().code());
+    return;
+  }
+  if (!allowed(h.unit)) return refuse(Errc::gateway_path_unavailable);
+  if (options.read_only && is_write(function)) return refuse(Errc::illegal_function);
+  std::lock_guard lock(mutex);
+  if (options.cache.count() > 0 && is_read(function)) {
+    const auto hit = cache.find(CacheKey{h.unit, function, req->address, req->quantity});
+    if (hit != cache.end() && std::chrono::steady_clock::now() - hit->second.at < options.cache) {
+      ++stats.cache_hits;
+      session->answer(h.transaction, h.unit, hit->second.pdu, false);
+      return;
+    }
+  }
+  std::deque<Job>& q = queues[client];
+  if (q.size() >= options.max_queued_per_client) {
+    ++stats.refused;
+    session->answer(h.transaction, h.unit, exception_pdu(function, Errc::server_device_busy), false);
+    return;
+  }
+  q.push_back(Job{session, h.transaction, h.unit, {pdu.begin(), pdu.end()}});
+  wake.notify_one();
+}
+
+// Cached reads of `unit` that `write` may change. Called with the lock held.
+void Gateway::Impl::invalidate(uint8_t unit, const Request& write) {
+  const uint8_t changed = read_function_changed_by(write.function);
+  const uint32_t first = write.address, end = uint32_t{write.address} + write.quantity;
+  for (auto it = cache.begin(); it != cache.end();) {
+    const auto& [u, f, address, quantity] = it->first;
+    const bool overlaps = address < end && first < uint32_t{address} + quantity;
+    it = (u == unit || unit == 0) && f == changed && overlaps ? cache.erase(it) : std::next(it);
+  }
+}
+
+void Gateway::Impl::run_bus() {
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex);
+      wake.wait(lock, [this] {
+        return stopping ||
+               std::any_of(queues.begin(), queues.end(), [](const auto& q) { return !q.second.empty(); });
+      });
+      if (stopping) return;
+      // Round robin: the next client after the one served last that has work.
+      auto it = queues.upper_bound(last_served);
+      while (it != queues.end() && it->second.empty()) ++it;
+      if (it == queues.end()) {
+        it = queues.begin();
+        while (it->second.empty()) ++it;
+      }
+      last_served = it->first;
+      job = std::move(it->second.front());
+      it->second.pop_front();
+    }
+    const std::shared_ptr<GatewaySession> session = job.session.lock();
+    if (!session) continue;                               // the client left; its request needs no answer
+    const Result<Request> req = decode_request(job.pdu);  // checked on arrival
+    if (!req.ok()) continue;
+    const bool write = is_write(req->function);
+    if (write) {
+      std::lock_guard lock(mutex);
+      invalidate(job.unit, *req);
+    }
+    std::vector<uint8_t> answer;
+    const Error e =
+        bus.transact(UnitId{job.unit}, *req, [&](const Response& r) { answer = response_pdu(*req, r); });
+    {
+      std::lock_guard lock(mutex);
+      ++stats.bus_transactions;
+      // A write that timed out may still have been applied: invalidate again.
+      if (write) invalidate(job.unit, *req);
+      if (e.ok() && answer.empty() && write) {
+        // A broadcast write: nobody answers on the bus; the client gets the echo.
+        answer.assign(job.pdu.begin(), job.pdu.begin() + (job.pdu.size() < 5 ? job.pdu.size() : 5));
+      } else if (e.is_exception()) {
+        answer = exception_pdu(req->function, e.code());
+      } else if (e.code() == Errc::timeout || e.code() == Errc::unexpected_response ||
+                 e.code() == Errc::malformed || e.code() == Errc::bad_crc) {
+        ++stats.no_answer;
+        answer = exception_pdu(req->function, Errc::gateway_target_failed);
+      } else if (!e.ok()) {
+        ++stats.bus_down;
+        answer = exception_pdu(req->function, Errc::gateway_path_unavailable);
+      } else if (options.cache.count() > 0 && is_read(req->function)) {
+        cache[CacheKey{job.unit, req->function, req->address, req->quantity}] =
+            Cached{answer, std::chrono::steady_clock::now()};
+      }
+    }
+    session->answer(job.transaction, job.unit, answer, true);
+  }
+}
+
+Gateway::Gateway(std::shared_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+Gateway::~Gateway() {
+  {
+    std::lock_guard lock(impl_->mutex);
+    impl_->stopping = true;
+  }
+  impl_->wake.notify_all();
+  if (impl_->thread.joinable()) impl_->thread.join();
+  impl_->acceptors.clear();
+}
+
+Outcome<std::unique_ptr<Gateway>> Gateway::start(asio::io_context& ctx, Master& bus,
+                                                 std::span<const io::PortSpec> listen,
+                                                 GatewayOptions options) {
+  if (listen.empty()) return Status(Errc::invalid_argument, "the gateway needs a --listen tcp://HOST:PORT");
+  auto impl = std::make_shared<Impl>(bus, std::move(options));
+  for (const io::PortSpec& spec : listen) {
+    if (spec.kind != io::PortSpec::Kind::tcp)
+      return Status(Errc::invalid_argument, "the gateway listens on tcp://HOST:PORT (Modbus TCP)");
+    std::weak_ptr<Impl> weak = impl;
+    auto acceptor = std::make_unique<TcpAcceptor>(
+        ctx, impl->options.server, [weak](asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared) {
+          std::shared_ptr<Impl> gw = weak.lock();
+          uint64_t client = 0;
+          {
+            std::lock_guard lock(gw->mutex);
+            client = gw->next_client++;
+          }
+          return std::make_shared<GatewaySession>(std::move(socket), std::move(shared), gw, client);
+        });
+    if (Status s = acceptor->listen(spec.host, spec.port)) return s;
+    impl->acceptors.push_back(std::move(acceptor));
+  }
+  impl->thread = std::thread([raw = impl.get()] { raw->run_bus(); });
+  return std::unique_ptr<Gateway>(new Gateway(std::move(impl)));
+}
+
+std::vector<std::string> Gateway::where() const {
+  std::vector<std::string> out;
+  for (const auto& a : impl_->acceptors) out.push_back("tcp://" + a->endpoint_text());
+  return out;
+}
+
+uint16_t Gateway::tcp_port() const {
+  return impl_->acceptors.front()->port();
+}
+
+GatewayStats Gateway::stats() const {
+  std::lock_guard lock(impl_->mutex);
+  return impl_->stats;
+}
+
+}  // namespace rtukit

@@ -1,0 +1,199 @@
+// `rtukit gateway` as installers run it: a generic slave on a pty stands for
+// the serial bus (units 1 and 21), the gateway owns that pty, and clients
+// come over Modbus TCP: our Master, the rtukit CLI, mbpoll and pymodbus.
+#include <arpa/inet.h>
+#include <gtest/gtest.h>
+#include <netinet/in.h>
+#include <signal.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <thread>
+
+#include "process.hpp"
+#include "rtukit/driver/master.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+
+class GatewayTest : public ::testing::Test {
+ protected:
+  void start(std::vector<std::string> gateway_options = {}, bool with_bus = true) {
+    if (with_bus) {
+      bus_ = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", "pty:" + tty_,
+                                                                "--unit", "1", "--unit", "21", "-v"});
+      ASSERT_TRUE(bus_->wait_for_output("listening on")) << bus_->output();
+    }
+    port_ = free_tcp_port();
+    std::vector<std::string> argv{kRtukit,    "gateway", "--port",    with_bus ? tty_ : dir_ / "no-such-tty",
+                                  "--listen", where(),   "--timeout", "200"};
+    argv.insert(argv.end(), gateway_options.begin(), gateway_options.end());
+    gateway_ = std::make_unique<Process>(argv);
+    ASSERT_TRUE(gateway_->wait_for_output("listening on")) << gateway_->output();
+  }
+  std::string where() const { return "tcp://127.0.0.1:" + std::to_string(port_); }
+  std::unique_ptr<Master> client() {
+    return std::make_unique<Master>(io::make_link(*io::parse_port(where(), false)),
+                                    MasterOptions{.response_timeout = 2000ms});
+  }
+  // Requests the bus saw (the slave's -v log: one "rx" line each).
+  size_t bus_requests() const {
+    const std::string out = bus_->output();
+    size_t n = 0;
+    for (size_t at = 0; (at = out.find("rx ", at)) != std::string::npos; ++at) ++n;
+    return n;
+  }
+
+  TempDir dir_;
+  std::string tty_ = dir_ / "tty";
+  uint16_t port_ = 0;
+  std::unique_ptr<Process> bus_;
+  std::unique_ptr<Process> gateway_;
+};
+
+}  // namespace
+
+TEST_F(GatewayTest, RelaysReadsWritesAndTheDevicesOwnExceptions) {
+  start();
+  auto m = client();
+  const uint16_t values[] = {11, 22, 33};
+  ASSERT_TRUE(m->write_multiple_registers(UnitId{21}, 0x21, values).ok());
+  std::array<uint16_t, 3> regs{};
+  ASSERT_TRUE(m->read_holding_registers(UnitId{21}, 0x21, regs).ok());
+  EXPECT_EQ(regs, (std::array<uint16_t, 3>{11, 22, 33}));
+  ASSERT_TRUE(m->write_single_coil(UnitId{1}, 3, true).ok());
+  std::array<uint8_t, 2> bits{};
+  ASSERT_TRUE(m->read_coils(UnitId{1}, 3, bits).ok());
+  EXPECT_EQ(bits, (std::array<uint8_t, 2>{1, 0}));
+  // The device's exception travels unchanged.
+  std::array<uint16_t, 2> past{};
+  EXPECT_EQ(m->read_holding_registers(UnitId{1}, 9999, past).code(), Errc::illegal_data_address);
+  // The CLI works through it unchanged.
+  const RunResult r = run({kRtukit, "read", "--port", where(), "--unit", "21", "0x21", "3"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("33 (0x0021): 11"), std::string::npos) << r.output;
+}
+
+TEST_F(GatewayTest, SilentUnitIs0B_NotAllowedIs0A_ReadOnlyIs01) {
+  start({"--allow-units", "1,9", "--read-only"});
+  auto m = client();
+  uint16_t v = 0;
+  EXPECT_TRUE(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).ok());
+  EXPECT_EQ(m->read_holding_registers(UnitId{9}, 0, {&v, 1}).code(), Errc::gateway_target_failed);
+  EXPECT_EQ(m->read_holding_registers(UnitId{21}, 0, {&v, 1}).code(), Errc::gateway_path_unavailable);
+  EXPECT_EQ(m->write_single_register(UnitId{1}, 0, 5).code(), Errc::illegal_function);
+  ASSERT_TRUE(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).ok());
+  EXPECT_EQ(v, 0);  // nothing was written
+  const RunResult r = run({kRtukit, "read", "--port", where(), "--unit", "9", "0"});
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("exception 0B"), std::string::npos) << r.output;
+}
+
+TEST_F(GatewayTest, BusDownIs0A) {
+  start({}, /*with_bus=*/false);
+  auto m = client();
+  uint16_t v = 0;
+  EXPECT_EQ(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).code(), Errc::gateway_path_unavailable);
+}
+
+TEST_F(GatewayTest, ManyClientsAtOnce_EachGetsItsOwnAnswers) {
+  start();
+  std::atomic<int> failures{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t) {
+    threads.emplace_back([&, t] {
+      auto m = client();
+      for (int i = 0; i < 20; ++i) {
+        const auto value = static_cast<uint16_t>(t * 100 + i);
+        if (m->write_single_register(UnitId{1}, static_cast<uint16_t>(t), value)) ++failures;
+        uint16_t back = 0;
+        if (m->read_holding_registers(UnitId{1}, static_cast<uint16_t>(t), {&back, 1}) || back != value)
+          ++failures;
+      }
+    });
+  }
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(failures.load(), 0);
+}
+
+// A client that pipelines 30 requests does not starve one that sends one:
+// the queues are served round robin, so the lone request is answered after
+// at most one of the greedy client's requests per turn.
+TEST_F(GatewayTest, FairBetweenClients) {
+  start({"--max-queued", "64", "--delay", "20"});  // a slow bus: 30 requests take 0.6 s
+  const int greedy = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port_);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(greedy, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  std::vector<uint8_t> burst;
+  for (uint16_t i = 0; i < 30; ++i) {
+    const uint8_t req[] = {
+        static_cast<uint8_t>(i >> 8), static_cast<uint8_t>(i), 0, 0, 0, 6, 1, 3, 0, 0, 0, 125};
+    burst.insert(burst.end(), std::begin(req), std::end(req));
+  }
+  ASSERT_EQ(::send(greedy, burst.data(), burst.size(), 0), static_cast<ssize_t>(burst.size()));
+  ASSERT_TRUE(eventually([&] { return bus_requests() >= 1; }));
+  auto m = client();
+  uint16_t v = 0;
+  ASSERT_TRUE(m->read_holding_registers(UnitId{21}, 0, {&v, 1}).ok());
+  // The lone request went out long before the last of the burst.
+  const std::string log = bus_->output();
+  const size_t lone = log.find("rx 15 03");
+  ASSERT_NE(lone, std::string::npos) << log;
+  size_t before = 0;
+  for (size_t at = 0; (at = log.find("rx 01 03", at)) != std::string::npos && at < lone; ++at) ++before;
+  EXPECT_LT(before, 10u) << "the lone request waited for the burst";
+  ::close(greedy);
+}
+
+TEST_F(GatewayTest, CoalescedReadsShareTheBus_AWriteIsNeverHidden) {
+  start({"--cache-ms", "5000"});
+  auto a = client();
+  auto b = client();
+  uint16_t v = 0;
+  ASSERT_TRUE(a->read_holding_registers(UnitId{1}, 7, {&v, 1}).ok());
+  const size_t after_first = bus_requests();
+  for (int i = 0; i < 10; ++i) ASSERT_TRUE(b->read_holding_registers(UnitId{1}, 7, {&v, 1}).ok());
+  EXPECT_EQ(bus_requests(), after_first);  // ten reads, no bus transaction
+  ASSERT_TRUE(b->write_single_register(UnitId{1}, 7, 4321).ok());
+  ASSERT_TRUE(a->read_holding_registers(UnitId{1}, 7, {&v, 1}).ok());
+  EXPECT_EQ(v, 4321);  // the cache did not hide the write
+  // A write to another register leaves this read cached.
+  ASSERT_TRUE(b->write_single_register(UnitId{1}, 8, 1).ok());
+  const size_t before = bus_requests();
+  ASSERT_TRUE(a->read_holding_registers(UnitId{1}, 7, {&v, 1}).ok());
+  EXPECT_EQ(bus_requests(), before);
+  ::kill(gateway_->pid(), SIGTERM);
+  EXPECT_EQ(gateway_->wait(3000ms), 0);
+  EXPECT_NE(gateway_->output().find("from the cache"), std::string::npos) << gateway_->output();
+}
+
+TEST_F(GatewayTest, MbpollAndPymodbusThroughTheGateway) {
+  start();
+  auto m = client();
+  const uint16_t values[] = {7, 8};
+  ASSERT_TRUE(m->write_multiple_registers(UnitId{1}, 0, values).ok());
+  const RunResult mb = run({"mbpoll", "-m", "tcp", "-p", std::to_string(port_), "-a", "1", "-r", "1", "-c",
+                            "2", "-1", "127.0.0.1"});
+  EXPECT_EQ(mb.code, 0) << mb.output;
+  EXPECT_NE(mb.output.find("[1]: \t7"), std::string::npos) << mb.output;
+  const std::string py =
+      "from pymodbus.client import ModbusTcpClient\n"
+      "c = ModbusTcpClient('127.0.0.1', port=" +
+      std::to_string(port_) +
+      ")\n"
+      "c.connect()\n"
+      "r = c.read_holding_registers(0, 2, slave=1)\n"
+      "print('values', r.registers)\n";
+  const RunResult p = run({"/usr/bin/python3", "-c", py});
+  EXPECT_EQ(p.code, 0) << p.output;
+  EXPECT_NE(p.output.find("values [7, 8]"), std::string::npos) << p.output;
+}
