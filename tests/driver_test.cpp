@@ -4,6 +4,7 @@
 
 #include <asio.hpp>
 #include <atomic>
+#include <future>
 #include <thread>
 
 #include "process.hpp"
@@ -39,6 +40,15 @@ class SlaveOnThread {
     ctx_.stop();
     thread_.join();
     listener.reset();
+  }
+  /// Runs `f` on the server's thread (the bank is the server's: touching it
+  /// from the test thread while the server runs is a data race).
+  template <class F>
+  auto on_server(F f) {
+    std::packaged_task<decltype(f())()> task(std::move(f));
+    auto result = task.get_future();
+    asio::post(ctx_, [&task] { task(); });
+    return result.get();
   }
   /// A port string a master can use to reach this slave.
   std::string client_port() const {
@@ -93,7 +103,7 @@ TEST_P(EveryTransport, ReadWriteAndExceptions) {
   ASSERT_TRUE(master->read_coils(unit, 5, got).ok());
   EXPECT_EQ(got, (std::array<uint8_t, 4>{1, 0, 1, 1}));
 
-  slave.bank.input[3] = 4242;
+  slave.on_server([&] { slave.bank.input[3] = 4242; });
   uint16_t in = 0;
   ASSERT_TRUE(master->read_input_registers(unit, 3, {&in, 1}).ok());
   EXPECT_EQ(in, 4242);
@@ -158,7 +168,7 @@ TEST(MasterDriver, BroadcastWrite_IsExecutedWithoutAnAnswer) {
   o.turnaround_delay = 20ms;
   auto master = master_for(slave.client_port(), o);
   ASSERT_TRUE(master->write_single_register(kBroadcast, 4, 77).ok());
-  EXPECT_TRUE(test::eventually([&] { return slave.bank.holding[4] == 77; }));
+  EXPECT_TRUE(test::eventually([&] { return slave.on_server([&] { return slave.bank.holding[4] == 77; }); }));
   EXPECT_EQ(master->stats().responses, 0U);
   uint16_t r = 0;
   EXPECT_EQ(master->read_holding_registers(kBroadcast, 0, {&r, 1}).code(), Errc::invalid_argument);
@@ -180,7 +190,7 @@ TEST(MasterDriver, DeviceThatDisappearsAndComesBack_IsReopened) {
   EXPECT_EQ(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).code(), Errc::io_error);  // no device
 
   slave = std::make_unique<SlaveOnThread>("pty:" + link);  // plugged back in
-  slave->bank.holding[0] = 99;
+  slave->on_server([&] { slave->bank.holding[0] = 99; });
   ASSERT_TRUE(master->read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
   EXPECT_EQ(r, 99);
   EXPECT_GE(master->stats().reopens, 2U);
