@@ -24,6 +24,9 @@ void add_rehand6600_commands(CLI::App& app, Action& action);
 /// gateway: one process owns the serial bus, Modbus TCP clients share it.
 void add_gateway_command(CLI::App& app, Action& action);
 
+/// bus: a virtual RS-485 line on ptys.
+void add_bus_command(CLI::App& app, Action& action);
+
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
 

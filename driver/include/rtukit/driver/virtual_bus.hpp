@@ -1,0 +1,55 @@
+// rtukit driver: a virtual multi-drop RS-485 bus on ptys. N pseudo-terminals
+// joined as one half-duplex line (BusLine): every byte written on one port
+// reaches all the others at the line's baud rate, with collisions and the
+// configured faults. Simulators, our master and foreign tools (mbpoll,
+// libmodbus, pymodbus) open the ports as if they were serial ports.
+//
+//   asio::io_context ctx;
+//   auto bus = rtukit::VirtualBus::start(ctx, {.ports = 3, .links = {"/tmp/bus0", ...}, .line = {...}});
+//   ctx.run();
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "rtukit/driver/bus_line.hpp"
+#include "rtukit/io/status.hpp"
+
+namespace asio {
+class io_context;
+}
+
+namespace rtukit {
+
+struct VirtualBusOptions {
+  unsigned ports = 2;
+  /// Symlinks to the ports, in order (fewer than `ports`: the rest have only /dev/pts/N).
+  std::vector<std::string> links;
+  BusConfig line;
+  /// Every character as it was on the line, once finished (a tap for a sniffer).
+  std::function<void(const BusCharacter&)> tap;
+};
+
+class VirtualBus {
+ public:
+  /// Creates the ptys and starts moving bytes on `ctx`. Errors: io_error
+  /// (a pty or a link could not be made), invalid_argument (no ports).
+  static Outcome<std::unique_ptr<VirtualBus>> start(asio::io_context& ctx, VirtualBusOptions options);
+  ~VirtualBus();
+  VirtualBus(const VirtualBus&) = delete;
+  VirtualBus& operator=(const VirtualBus&) = delete;
+
+  /// What clients open: the link if one was given, else /dev/pts/N.
+  std::vector<std::string> ports() const;
+  BusLineStats stats() const;
+
+  struct Impl;
+
+ private:
+  explicit VirtualBus(std::unique_ptr<Impl> impl);
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace rtukit

@@ -1,0 +1,141 @@
+#include "rtukit/driver/virtual_bus.hpp"
+
+#include <unistd.h>
+
+#include <array>
+#include <asio.hpp>
+#include <cerrno>
+#include <cstring>
+
+#include "rtukit/io/link.hpp"
+#include "rtukit/io/pty.hpp"
+
+namespace rtukit {
+
+struct VirtualBus::Impl {
+  // What a reader that stopped reading may have waiting; more is dropped (a
+  // real line does not wait for a deaf listener either).
+  static constexpr size_t kMaxPending = 64 * 1024;
+
+  struct Port {
+    Port(asio::io_context& ctx, io::Pty p, int fd) : pty(std::move(p)), stream(ctx, fd), retry(ctx) {}
+    io::Pty pty;
+    asio::posix::stream_descriptor stream;
+    asio::steady_timer retry;
+    std::array<uint8_t, 512> rx{};
+    std::vector<uint8_t> pending, in_flight;
+    bool writing = false;
+  };
+
+  Impl(asio::io_context& c, VirtualBusOptions o)
+      : ctx(c), options(std::move(o)), line(options.ports, options.line), timer(c), t0(io::Clock::now()) {}
+
+  uint64_t now() const {
+    return static_cast<uint64_t>(
+        std::chrono::duration_cast<std::chrono::microseconds>(io::Clock::now() - t0).count());
+  }
+
+  void read(size_t i) {
+    Port& p = *ports[i];
+    p.stream.async_read_some(asio::buffer(p.rx), [this, i](const std::error_code& ec, size_t n) {
+      if (ec == asio::error::operation_aborted) return;
+      Port& port = *ports[i];
+      if (ec) {
+        // EIO until a client opens the port again (we keep the slave side
+        // open, so rarely): look again a little later.
+        port.retry.expires_after(std::chrono::milliseconds(20));
+        port.retry.async_wait([this, i](const std::error_code& e) {
+          if (!e) read(i);
+        });
+        return;
+      }
+      line.write(static_cast<unsigned>(i), std::span<const uint8_t>(port.rx.data(), n), now());
+      schedule();
+      read(i);
+    });
+  }
+
+  void schedule() {
+    const std::optional<uint64_t> due = line.next_due();
+    if (!due) return;
+    timer.expires_at(t0 + std::chrono::microseconds(*due));
+    timer.async_wait([this](const std::error_code& ec) {
+      if (!ec) pump();
+    });
+  }
+
+  void pump() {
+    deliveries.clear();
+    tapped.clear();
+    line.advance(now(), deliveries, options.tap ? &tapped : nullptr);
+    for (const BusCharacter& c : tapped) options.tap(c);
+    for (const BusDelivery& d : deliveries) {
+      Port& p = *ports[d.port];
+      if (p.pending.size() < kMaxPending) p.pending.push_back(d.byte);
+    }
+    for (size_t i = 0; i < ports.size(); ++i) flush(i);
+    schedule();
+  }
+
+  void flush(size_t i) {
+    Port& p = *ports[i];
+    if (p.writing || p.pending.empty()) return;
+    p.writing = true;
+    p.in_flight.swap(p.pending);
+    p.pending.clear();
+    asio::async_write(p.stream, asio::buffer(p.in_flight), [this, i](const std::error_code& ec, size_t) {
+      if (ec == asio::error::operation_aborted) return;
+      Port& port = *ports[i];
+      port.writing = false;
+      port.in_flight.clear();
+      flush(i);
+    });
+  }
+
+  asio::io_context& ctx;
+  VirtualBusOptions options;
+  BusLine line;
+  asio::steady_timer timer;
+  io::Clock::time_point t0;
+  std::vector<std::unique_ptr<Port>> ports;
+  std::vector<BusDelivery> deliveries;
+  std::vector<BusCharacter> tapped;
+};
+
+VirtualBus::VirtualBus(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+VirtualBus::~VirtualBus() {
+  impl_->timer.cancel();
+  for (auto& p : impl_->ports) {
+    std::error_code ignored;
+    p->stream.close(ignored);
+    p->retry.cancel();
+  }
+}
+
+Outcome<std::unique_ptr<VirtualBus>> VirtualBus::start(asio::io_context& ctx, VirtualBusOptions options) {
+  if (options.ports == 0) return Status(Errc::invalid_argument, "a bus needs at least one port");
+  auto impl = std::make_unique<Impl>(ctx, std::move(options));
+  for (unsigned i = 0; i < impl->options.ports; ++i) {
+    const std::string link = i < impl->options.links.size() ? impl->options.links[i] : std::string();
+    Outcome<io::Pty> pty = io::Pty::create(link);
+    if (!pty.ok()) return pty.error();
+    const int fd = ::dup(pty->master_fd());
+    if (fd < 0) return Status(Error(Errc::io_error, errno), std::string("dup: ") + std::strerror(errno));
+    impl->ports.push_back(std::make_unique<Impl::Port>(ctx, std::move(*pty), fd));
+  }
+  for (size_t i = 0; i < impl->ports.size(); ++i) impl->read(i);
+  return std::unique_ptr<VirtualBus>(new VirtualBus(std::move(impl)));
+}
+
+std::vector<std::string> VirtualBus::ports() const {
+  std::vector<std::string> out;
+  for (const auto& p : impl_->ports) out.push_back(p->pty.name());
+  return out;
+}
+
+BusLineStats VirtualBus::stats() const {
+  return impl_->line.stats();
+}
+
+}  // namespace rtukit

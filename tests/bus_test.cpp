@@ -1,0 +1,188 @@
+// The virtual RS-485 bus: the line model on virtual time (pacing,
+// collisions, every fault, seeded), the ptys paced for real, and two
+// simulated devices plus foreign masters sharing one line.
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <asio.hpp>
+#include <thread>
+
+#include "process.hpp"
+#include "rtukit/driver/bus_line.hpp"
+#include "rtukit/driver/master.hpp"
+#include "rtukit/driver/virtual_bus.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+
+// Runs the line until nothing is pending; returns every delivery.
+std::vector<BusDelivery> drain(BusLine& line, std::vector<BusCharacter>* tap = nullptr) {
+  std::vector<BusDelivery> out;
+  while (auto due = line.next_due()) line.advance(*due, out, tap);
+  return out;
+}
+
+std::vector<uint8_t> bytes_for(const std::vector<BusDelivery>& d, unsigned port) {
+  std::vector<uint8_t> out;
+  for (const auto& x : d)
+    if (x.port == port) out.push_back(x.byte);
+  return out;
+}
+
+}  // namespace
+
+TEST(BusLine, PacedAtTheBaudRate_100BytesAt9600_8N1Take104ms) {
+  BusLine line(2, {.baud = 9600, .bits_per_char = 10});
+  const std::vector<uint8_t> frame(100, 0x55);
+  line.write(0, frame, 0);
+  const std::vector<BusDelivery> d = drain(line);
+  ASSERT_EQ(d.size(), 100u);
+  EXPECT_EQ(d.front().at_us, 1042u);              // one character: 10 bits at 9600 baud
+  EXPECT_EQ(d.back().at_us, 104167u);             // 100 characters
+  for (const auto& x : d) EXPECT_EQ(x.port, 1u);  // not back to the sender
+  // 8E1 is 11 bits a character.
+  BusLine even(2, {.baud = 9600, .bits_per_char = 11});
+  even.write(0, frame, 0);
+  EXPECT_EQ(drain(even).back().at_us, 114584u);
+}
+
+TEST(BusLine, EveryOtherPortHearsIt_EchoAlsoTheSender) {
+  BusLine line(3, {.baud = 19200});
+  const uint8_t req[] = {0x15, 0x03, 0x00, 0x21};
+  line.write(1, req, 0);
+  const auto d = drain(line);
+  EXPECT_EQ(bytes_for(d, 0), std::vector<uint8_t>(std::begin(req), std::end(req)));
+  EXPECT_EQ(bytes_for(d, 2), std::vector<uint8_t>(std::begin(req), std::end(req)));
+  EXPECT_TRUE(bytes_for(d, 1).empty());
+  BusLine echo(2, {.baud = 19200, .echo = true});
+  echo.write(0, req, 0);
+  EXPECT_EQ(bytes_for(drain(echo), 0).size(), 4u);
+}
+
+TEST(BusLine, TwoSendersAtOnceCollide_OneAfterTheOtherDoNot) {
+  BusLine line(3, {.baud = 9600});
+  const uint8_t a[] = {0x01, 0x02}, b[] = {0x11, 0x12};
+  line.write(0, a, 0);
+  line.write(1, b, 500);  // half a character later: both are on the line together
+  std::vector<BusCharacter> tap;
+  const auto d = drain(line, &tap);
+  const std::vector<uint8_t> heard = bytes_for(d, 2);
+  ASSERT_EQ(heard.size(), 4u);
+  EXPECT_NE(heard, (std::vector<uint8_t>{0x01, 0x11, 0x02, 0x12}));
+  for (const auto& c : tap) EXPECT_TRUE(c.collided);
+  EXPECT_EQ(line.stats().collisions, 4u);
+
+  BusLine clean(3, {.baud = 9600});
+  clean.write(0, a, 0);
+  clean.write(1, b, 2084);  // after the last bit of a
+  EXPECT_EQ(bytes_for(drain(clean), 2), (std::vector<uint8_t>{0x01, 0x02, 0x11, 0x12}));
+  EXPECT_EQ(clean.stats().collisions, 0u);
+}
+
+TEST(BusLine, Faults_BitErrorsDropsStrayLatency_AllSeeded) {
+  const std::vector<uint8_t> frame(200, 0x00);
+  // Every bit flipped: every byte arrives as 0xFF.
+  BusLine all(2, {.bit_error_rate = 1.0});
+  all.write(0, frame, 0);
+  for (uint8_t b : bytes_for(drain(all), 1)) EXPECT_EQ(b, 0xFF);
+  // Some bits, seeded: the same seed gives the same damage; another seed, other damage.
+  const auto damaged = [&](uint64_t seed) {
+    BusLine l(2, {.bit_error_rate = 0.01, .seed = seed});
+    l.write(0, frame, 0);
+    return bytes_for(drain(l), 1);
+  };
+  EXPECT_EQ(damaged(7), damaged(7));
+  EXPECT_NE(damaged(7), damaged(8));
+  EXPECT_NE(damaged(7), frame);
+  // Dropped characters: nobody receives them.
+  BusLine drop(2, {.drop_rate = 1.0});
+  drop.write(0, frame, 0);
+  EXPECT_TRUE(drain(drop).empty());
+  EXPECT_EQ(drop.stats().dropped, 200u);
+  // A stray byte in the silence after a transmission, heard by everyone.
+  BusLine stray(2, {.baud = 9600, .stray_rate = 1.0});
+  const uint8_t one[] = {0x42};
+  stray.write(0, one, 0);
+  const auto s = drain(stray);
+  ASSERT_EQ(bytes_for(s, 1).size(), 2u);
+  EXPECT_EQ(bytes_for(s, 0).size(), 1u);  // the sender hears the stray byte too
+  EXPECT_EQ(s.back().at_us, 6250u);       // 4 characters of silence, then one character
+  // A USB adapter's 16 ms latency timer: bytes reach the reader in 16 ms ticks.
+  BusLine late(2, {.baud = 9600, .latency_us = 16000});
+  late.write(0, frame, 0);
+  for (const auto& x : drain(late)) EXPECT_EQ(x.at_us % 16000, 0u);
+}
+
+// The ptys for real: 100 bytes written on one port arrive on another 104 ms
+// (+- 2 %) later, as on a 9600 8N1 line.
+TEST(VirtualBus, PtysArePacedForReal) {
+  TempDir dir;
+  asio::io_context ctx;
+  auto bus = VirtualBus::start(ctx, {.ports = 2, .links = {dir / "a", dir / "b"}, .line = {.baud = 9600}});
+  ASSERT_TRUE(bus.ok()) << bus.error().reason();
+  std::thread runner([&] { ctx.run(); });
+  const int a = ::open((dir / "a").c_str(), O_RDWR | O_NOCTTY);
+  const int b = ::open((dir / "b").c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(a, 0);
+  ASSERT_GE(b, 0);
+  for (int fd : {a, b}) {
+    termios t{};
+    ::tcgetattr(fd, &t);
+    ::cfmakeraw(&t);
+    ::tcsetattr(fd, TCSANOW, &t);
+  }
+  const std::vector<uint8_t> frame(100, 0x5A);
+  const auto t0 = std::chrono::steady_clock::now();
+  ASSERT_EQ(::write(a, frame.data(), frame.size()), 100);
+  size_t got = 0;
+  uint8_t buf[256];
+  while (got < 100 && std::chrono::steady_clock::now() - t0 < 2s) {
+    const ssize_t n = ::read(b, buf, sizeof buf);
+    if (n > 0) got += static_cast<size_t>(n);
+  }
+  const double ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  EXPECT_EQ(got, 100u);
+  EXPECT_NEAR(ms, 104.2, 104.2 * 0.02);
+  ::close(a);
+  ::close(b);
+  asio::post(ctx, [&] {
+    bus->reset();
+    ctx.stop();
+  });
+  runner.join();
+}
+
+// Two devices on one line, each answering only its own address, and masters
+// we did not write on the same line.
+TEST(VirtualBus, InverjetAndRehandShareOneLine_MbpollToo) {
+  TempDir dir;
+  Process bus({kRtukit, "bus", "--ports", "3", "--links",
+               (dir / "jet") + "," + (dir / "chair") + "," + (dir / "host"), "--baud", "9600"});
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet({kRtukit, "sim", "inverjet", "--listen", dir / "jet", "--no-state", "--no-console"});
+  Process chair({kRtukit, "sim", "rehand6600", "--listen", dir / "chair", "--baud", "9600", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  ASSERT_TRUE(chair.wait_for_output("listening on")) << chair.output();
+  {
+    Master m(io::make_link(*io::parse_port(dir / "host", false)), MasterOptions{.response_timeout = 500ms});
+    for (int i = 0; i < 5; ++i) {
+      std::array<uint16_t, 4> state{};
+      ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, state).ok()) << i;
+      std::array<uint16_t, 1> id{};
+      ASSERT_TRUE(m.read_holding_registers(UnitId{1}, 0, id).ok()) << i;
+      EXPECT_EQ(id[0], 0x68);
+    }
+    EXPECT_EQ(m.stats().timeouts, 0u);
+  }
+  const RunResult mb = run({"mbpoll", "-m", "rtu", "-b", "9600", "-P", "none", "-a", "21", "-r", "1", "-c",
+                            "1", "-1", dir / "host"});
+  EXPECT_EQ(mb.code, 0) << mb.output;
+  EXPECT_NE(mb.output.find("[1]: \t21"), std::string::npos) << mb.output;  // the Inverjet's address register
+}
