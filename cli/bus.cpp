@@ -49,9 +49,9 @@ int run_bus(const BusArgs& a) {
         tap.get(),
         "# rtukit bus tap: start_us end_us sender(-1 stray) sent heard flags(c collision, d dropped)\n");
     o.tap = [tap](const BusCharacter& c) {
-      std::fprintf(tap.get(), "%llu %llu %d %02X %02X %s%s\n", static_cast<unsigned long long>(c.start_us),
+      std::fprintf(tap.get(), "%llu %llu %d %02X %02X%s%s%s\n", static_cast<unsigned long long>(c.start_us),
                    static_cast<unsigned long long>(c.end_us), c.sender, c.sent, c.heard,
-                   c.collided ? "c" : "", c.dropped ? "d" : "");
+                   c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");
     };
   }
   asio::io_context ctx;

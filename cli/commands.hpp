@@ -27,6 +27,9 @@ void add_gateway_command(CLI::App& app, Action& action);
 /// bus: a virtual RS-485 line on ptys.
 void add_bus_command(CLI::App& app, Action& action);
 
+/// sniff: listen to a line, transactions in device terms.
+void add_sniff_command(CLI::App& app, Action& action);
+
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
 

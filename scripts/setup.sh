@@ -17,6 +17,8 @@ PACKAGES=(
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi
   # interop peers we did not write, and the pty pair maker
   libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
+  # the sniffer's pcap files, decoded by Wireshark's dissector
+  tshark
 )
 
 missing=()

@@ -1,0 +1,389 @@
+// `rtukit sniff`: listen to a line (a port, or a bus tap file), print each
+// transaction in device terms with its timing, write a pcap for Wireshark,
+// and sum up at the end. Listen-only: nothing is ever sent.
+#include <fcntl.h>
+#include <fmt/core.h>
+#include <fmt/format.h>
+#include <poll.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <csignal>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+#include "commands.hpp"
+#include "common.hpp"
+#include "profiles.hpp"
+#include "registry.hpp"
+#include "rtukit/core/pdu.hpp"
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/driver/sniffer.hpp"
+#include "rtukit/io/serial_config.hpp"
+
+namespace rtukit::cli {
+namespace {
+
+struct SniffArgs {
+  LinkOptions link;
+  std::string tap;
+  std::vector<std::string> devices;  ///< inverjet@21
+  std::vector<std::string> maps;     ///< FILE@U
+  bool json = false;
+  std::string pcap;
+  unsigned seconds = 0;
+};
+
+// Microseconds as milliseconds (and seconds) for printing.
+double ms(uint64_t us) {
+  return static_cast<double>(us) / 1000.0;
+}
+double seconds(uint64_t us) {
+  return static_cast<double>(us) / 1e6;
+}
+
+// Which profile speaks for which unit.
+using UnitProfiles = std::map<uint8_t, const profile::Profile*>;
+
+UnitProfiles unit_profiles(const SniffArgs& a) {
+  UnitProfiles out;
+  const auto split = [](const std::string& s, const char* what) {
+    const size_t at = s.rfind('@');
+    if (at == std::string::npos || at == 0)
+      throw Failure{kUsage, fmt::format("{} '{}': write NAME@UNIT (inverjet@21)", what, s)};
+    return std::pair{s.substr(0, at), static_cast<uint8_t>(parse_number(s.substr(at + 1), "unit", 1, 247))};
+  };
+  for (const std::string& d : a.devices) {
+    const auto [name, unit] = split(d, "--device");
+    const DeviceEntry* entry = nullptr;
+    std::string known;
+    for (const DeviceEntry& e : builtin_devices()) {
+      if (e.profile->name == name) entry = &e;
+      known += (known.empty() ? "" : ", ") + std::string(e.profile->name);
+    }
+    if (!entry)
+      throw Failure{kUsage, fmt::format("--device {}: no such device ({}; or --map FILE@UNIT)", name, known)};
+    out[unit] = entry->profile;
+  }
+  for (const std::string& m : a.maps) {
+    const auto [file, unit] = split(m, "--map");
+    out[unit] = &load_map_or_fail(file);
+  }
+  return out;
+}
+
+profile::Space space_of(uint8_t function) {
+  switch (function) {
+    case 0x01:
+    case 0x05:
+    case 0x0F:
+      return profile::Space::coil;
+    case 0x02:
+      return profile::Space::discrete;
+    case 0x04:
+      return profile::Space::input;
+    default:
+      return profile::Space::holding;
+  }
+}
+
+// "speed = 80 %, run_time = 30:00" for registers from `address` on.
+std::string named_values(const profile::Profile& p, profile::Space space, uint16_t address,
+                         std::span<const uint16_t> words) {
+  const profile::RegisterMap map(p.rows);
+  std::string out;
+  for (size_t i = 0; i < words.size();) {
+    const profile::Slot s = map.at(space, static_cast<uint16_t>(address + i));
+    if (!s || s.word != 0 || i + s.row->words() > words.size()) {
+      out += fmt::format("{}0x{:04X} = {}", out.empty() ? "" : ", ", address + i, words[i]);
+      ++i;
+      continue;
+    }
+    const int64_t raw = profile::RegisterMap::decode(*s.row, words.subspan(i, s.row->words()));
+    const std::string key =
+        s.row->repeat > 1 ? fmt::format("{}[{}]", s.row->key, s.index) : std::string(s.row->key);
+    out += fmt::format("{}{} = {}", out.empty() ? "" : ", ", key, profile::format_value(*s.row, raw));
+    i += s.row->words();
+  }
+  return out;
+}
+
+std::vector<uint16_t> be_words(std::span<const uint8_t> bytes) {
+  std::vector<uint16_t> w;
+  for (size_t i = 0; i + 1 < bytes.size(); i += 2)
+    w.push_back(static_cast<uint16_t>(bytes[i] << 8 | bytes[i + 1]));
+  return w;
+}
+
+// One transaction in words a user of the device reads.
+std::string describe(const SniffedTransaction& t, const UnitProfiles& profiles) {
+  if (!t.request)
+    return fmt::format("garbage ({} bytes: {})", t.response->bytes.size(), hex(t.response->bytes));
+  const SniffedFrame& q = *t.request;
+  const uint8_t unit = q.unit(), function = q.function();
+  const auto found = profiles.find(unit);
+  const profile::Profile* p = found == profiles.end() ? nullptr : found->second;
+  const Result<Request> req = decode_request(q.pdu(), FrameQuirks{.fc10_without_byte_count = true});
+  std::string what;
+  if (!req.ok()) {
+    what = fmt::format("FC{:02X} {}", function, hex(q.pdu()));
+  } else if (function == 0x05 || function == 0x06 || function == 0x0F || function == 0x10) {
+    std::vector<uint16_t> values;
+    if (function == 0x06) values = {req->value};
+    if (function == 0x10) values = be_words(req->data);
+    if (p && (function == 0x06 || function == 0x10))
+      what = "write " + named_values(*p, profile::Space::holding, req->address, values);
+    else if (function == 0x05)
+      what = fmt::format("write coil {} = {}", req->address, req->value ? "on" : "off");
+    else if (function == 0x0F)
+      what = fmt::format("write {} coils at {}", req->quantity, req->address);
+    else
+      what = fmt::format("write 0x{:04X} = {}", req->address, fmt::join(values, " "));
+  } else {
+    what = fmt::format("read {} 0x{:04X} x{}", profile::space_name(space_of(function)), req->address,
+                       req->quantity);
+  }
+  std::string line = fmt::format("{:>3} {}", unit == 0 ? std::string("all") : std::to_string(unit), what);
+  if (t.broadcast()) return line + " (broadcast)";
+  if (!t.response) return line + " -> no response";
+  const SniffedFrame& r = *t.response;
+  if (!r.crc_ok) return line + fmt::format(" -> CRC error ({})", hex(r.bytes));
+  if (r.function() & 0x80) {
+    const uint8_t code = r.pdu().size() >= 2 ? r.pdu()[1] : 0;
+    return line + fmt::format(" -> exception {:02X} ({})", code, Error::exception(code).name());
+  }
+  if (req.ok() && function >= 0x01 && function <= 0x04 && r.pdu().size() >= 2) {
+    std::span<const uint8_t> data = r.pdu().subspan(2);
+    if (function == 0x03 || function == 0x04) {
+      if (data.size() == static_cast<size_t>(req->quantity) * 2 + 1)
+        data = data.subspan(1);  // 2-byte count form
+      const std::vector<uint16_t> words = be_words(data);
+      return line + ": " +
+             (p ? named_values(*p, space_of(function), req->address, words)
+                : fmt::format("{}", fmt::join(words, " ")));
+    }
+    std::string bits;
+    for (unsigned i = 0; i < req->quantity; ++i) bits += (data[i / 8] >> (i % 8)) & 1 ? '1' : '0';
+    return line + ": " + bits;
+  }
+  return line + ": ok";
+}
+
+std::vector<std::string> flags_of(const SniffedTransaction& t, const Sniffer& s) {
+  std::vector<std::string> out;
+  for (const auto* f : {t.request ? &*t.request : nullptr, t.response ? &*t.response : nullptr}) {
+    if (!f) continue;
+    const char* side = f == &*t.request ? "request" : "response";
+    if (f->glued && f->gap_before_us == 0)
+      out.push_back(fmt::format("{} glued to the frame before", side));
+    else if (f->glued)
+      out.push_back(fmt::format("{} after {:.2f} ms of silence (< t3.5 {:.2f} ms)", side,
+                                ms(f->gap_before_us), ms(s.t35_us())));
+    if (f->split) out.push_back(fmt::format("{} split by a silence > t3.5", side));
+    if (f->t15_violation)
+      out.push_back(fmt::format("{} gap {:.2f} ms inside (> t1.5 {:.2f} ms)", side, ms(f->max_char_gap_us),
+                                ms(s.t15_us())));
+  }
+  return out;
+}
+
+// pcap (LINKTYPE_RAW: IPv4), each frame a UDP datagram to or from port 502,
+// so `tshark -d udp.port==502,mbrtu` decodes it as Modbus RTU.
+class PcapWriter {
+ public:
+  explicit PcapWriter(const std::string& path) : out_(path, std::ios::binary) {
+    if (!out_) throw Failure{kIoError, fmt::format("--pcap {}: cannot write", path)};
+    const uint32_t header[] = {0xA1B2C3D4, 0x00040002, 0,
+                               0,          65535,      101};  // magic, v2.4, tz, sigfigs, snaplen, raw IP
+    out_.write(reinterpret_cast<const char*>(header), sizeof header);
+  }
+  void frame(const SniffedFrame& f, bool from_master) {
+    const size_t udp_len = 8 + f.bytes.size(), ip_len = 20 + udp_len;
+    std::vector<uint8_t> p{
+        0x45, 0, static_cast<uint8_t>(ip_len >> 8), static_cast<uint8_t>(ip_len), 0, 0, 0x40, 0, 64, 17,
+        0,    0};
+    const uint8_t master[] = {10, 0, 0, 1}, slave[] = {10, 0, 0, 2};
+    p.insert(p.end(), from_master ? master : slave, (from_master ? master : slave) + 4);
+    p.insert(p.end(), from_master ? slave : master, (from_master ? slave : master) + 4);
+    uint32_t sum = 0;
+    for (size_t i = 0; i < 20; i += 2) sum += static_cast<uint32_t>(p[i] << 8 | p[i + 1]);
+    while (sum >> 16) sum = (sum & 0xFFFF) + (sum >> 16);
+    p[10] = static_cast<uint8_t>(~sum >> 8);
+    p[11] = static_cast<uint8_t>(~sum);
+    const uint16_t sport = from_master ? 40000 : 502, dport = from_master ? 502 : 40000;
+    p.insert(p.end(), {static_cast<uint8_t>(sport >> 8), static_cast<uint8_t>(sport),
+                       static_cast<uint8_t>(dport >> 8), static_cast<uint8_t>(dport),
+                       static_cast<uint8_t>(udp_len >> 8), static_cast<uint8_t>(udp_len), 0, 0});
+    p.insert(p.end(), f.bytes.begin(), f.bytes.end());
+    const uint32_t record[] = {static_cast<uint32_t>(f.start_us / 1000000),
+                               static_cast<uint32_t>(f.start_us % 1000000), static_cast<uint32_t>(p.size()),
+                               static_cast<uint32_t>(p.size())};
+    out_.write(reinterpret_cast<const char*>(record), sizeof record);
+    out_.write(reinterpret_cast<const char*>(p.data()), static_cast<std::streamsize>(p.size()));
+    out_.flush();
+  }
+
+ private:
+  std::ofstream out_;
+};
+
+// Times are printed from `origin` (when sniffing started; 0 for a tap, whose times start with the bus).
+void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, PcapWriter* pcap,
+            uint64_t origin = 0) {
+  for (const SniffedTransaction& t : s.take()) {
+    const SniffedFrame& first = t.request ? *t.request : *t.response;
+    if (pcap) {
+      if (t.request) pcap->frame(*t.request, true);
+      if (t.response) pcap->frame(*t.response, !t.request);
+    }
+    const std::string text = describe(t, profiles);
+    const std::vector<std::string> flags = flags_of(t, s);
+    if (a.json) {
+      Json j = json_document();
+      j["t_us"] = first.start_us - std::min(origin, first.start_us);
+      if (t.request) {
+        j["unit"] = t.request->unit();
+        j["function"] = t.request->function();
+        j["request"] = hex(t.request->bytes);
+      }
+      if (t.response) j["response"] = hex(t.response->bytes);
+      if (t.turnaround_us) j["turnaround_us"] = *t.turnaround_us;
+      j["text"] = text;
+      j["flags"] = flags;
+      print_json(j);
+    } else {
+      std::string line =
+          fmt::format("{:10.3f} {}", seconds(first.start_us - std::min(origin, first.start_us)), text);
+      if (t.turnaround_us) line += fmt::format("  [turnaround {:.2f} ms]", ms(*t.turnaround_us));
+      for (const std::string& f : flags) line += "  [" + f + "]";
+      fmt::print("{}\n", line);
+    }
+  }
+  std::fflush(stdout);
+}
+
+void print_summary(const Sniffer& s, bool json) {
+  const SnifferSummary& m = s.summary();
+  if (json) {
+    Json j = json_document();
+    j["summary"] = {{"transactions", m.transactions},
+                    {"answered", m.answered},
+                    {"exceptions", m.exceptions},
+                    {"no_response", m.no_response},
+                    {"crc_errors", m.crc_errors},
+                    {"glued", m.glued},
+                    {"split", m.split},
+                    {"t15_violations", m.t15_violations},
+                    {"short_gaps", m.short_gaps},
+                    {"turnaround_p50_us", m.turnaround_percentile(50)},
+                    {"turnaround_p99_us", m.turnaround_percentile(99)},
+                    {"utilisation", m.utilisation()}};
+    print_json(j);
+    return;
+  }
+  fmt::print(
+      stderr,
+      "sniff: {} transactions, {} answered, {} exceptions, {} without response, {} CRC errors, {} glued, {} "
+      "split, {} t1.5 gaps, {} short silences; turnaround p50 {:.2f} ms, p99 {:.2f} ms; line busy {:.1f} %\n",
+      m.transactions, m.answered, m.exceptions, m.no_response, m.crc_errors, m.glued, m.split,
+      m.t15_violations, m.short_gaps, ms(m.turnaround_percentile(50)), ms(m.turnaround_percentile(99)),
+      100.0 * m.utilisation());
+}
+
+volatile std::sig_atomic_t g_stop = 0;
+
+int run_sniff(const SniffArgs& a) {
+  if (a.tap.empty() == a.link.port.empty()) throw Failure{kUsage, "sniff takes --port P or --tap FILE"};
+  const UnitProfiles profiles = unit_profiles(a);
+  const uint32_t bits =
+      1 + a.link.data_bits + (parity_letter(a.link.parity) == 'N' ? 0 : 1) + a.link.stop_bits;
+  Sniffer s(SnifferConfig{.baud = a.link.baud,
+                          .bits_per_char = bits,
+                          .response_timeout_us = static_cast<uint32_t>(a.link.timeout_ms) * 1000});
+  std::unique_ptr<PcapWriter> pcap = a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap);
+  if (!a.tap.empty()) {
+    // The bus tap: "start_us end_us sender sent heard flags" a character.
+    std::ifstream in(a.tap);
+    if (!in) throw Failure{kIoError, fmt::format("--tap {}: cannot read", a.tap)};
+    std::string line;
+    uint64_t last = 0;
+    while (std::getline(in, line)) {
+      if (line.empty() || line[0] == '#') continue;
+      std::istringstream f(line);
+      uint64_t start = 0, end = 0;
+      int sender = 0;
+      std::string sent, heard, flags;
+      if (!(f >> start >> end >> sender >> sent >> heard)) continue;
+      f >> flags;
+      last = end;
+      s.flush(end);
+      if (flags.find('d') == std::string::npos)
+        s.feed(static_cast<uint8_t>(std::stoul(heard, nullptr, 16)), end);
+      report(a, s, profiles, pcap.get());
+    }
+    s.flush(last + 10'000'000);
+    report(a, s, profiles, pcap.get());
+    print_summary(s, a.json);
+    return kOk;
+  }
+  // A port, listen-only: opened, configured, never written.
+  const io::PortSpec spec = a.link.spec(false);
+  if (spec.kind != io::PortSpec::Kind::serial)
+    throw Failure{kUsage, "sniff listens on a serial port or a bus port (/dev/ttyUSB0, /tmp/bus2)"};
+  Result<int> fd = io::open_serial_port(spec.path, spec.serial);
+  if (!fd.ok()) fail(fd.error(), "sniff " + spec.path);
+  std::signal(SIGINT, [](int) { g_stop = 1; });
+  std::signal(SIGTERM, [](int) { g_stop = 1; });
+  fmt::print(stderr,
+             "sniff: listening on {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n",
+             spec.path, a.link.baud, ms(s.t15_us()), ms(s.t35_us()));
+  const uint64_t char_us = uint64_t{bits} * 1'000'000 / a.link.baud;
+  const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
+  const uint64_t origin = io::now_us();
+  uint8_t buf[512];
+  while (!g_stop && (!until || io::now_us() < until)) {
+    pollfd p{*fd, POLLIN, 0};
+    const int ready = ::poll(&p, 1, 5);
+    const uint64_t now = io::now_us();
+    if (ready > 0) {
+      const ssize_t n = ::read(*fd, buf, sizeof buf);
+      // A chunk arrives at once; its bytes ended one character apart.
+      for (ssize_t i = 0; i < n; ++i) s.feed(buf[i], now - static_cast<uint64_t>(n - 1 - i) * char_us);
+    }
+    s.flush(now);
+    report(a, s, profiles, pcap.get(), origin);
+  }
+  ::close(*fd);
+  s.flush(io::now_us() + 10'000'000);
+  report(a, s, profiles, pcap.get(), origin);
+  print_summary(s, a.json);
+  return kOk;
+}
+
+}  // namespace
+
+void add_sniff_command(CLI::App& app, Action& action) {
+  add_command<SniffArgs>(
+      app, action, "sniff", "listen to a line: transactions in device terms, timing, pcap (sends nothing)",
+      [](CLI::App& cmd, SniffArgs& a) {
+        cmd.add_option("--tap", a.tap, "read a bus tap file (rtukit bus --tap) instead of a port");
+        cmd.add_option("--device", a.devices, "decode a unit as a built-in device: inverjet@21 (repeatable)");
+        cmd.add_option("--map", a.maps, "decode a unit with a register-map file: meter.yaml@3 (repeatable)");
+        cmd.add_flag("--json", a.json, "one JSON document per transaction (docs/json.md)");
+        cmd.add_option("--pcap", a.pcap,
+                       "also write the frames to a pcap file (tshark -d udp.port==502,mbrtu)");
+        cmd.add_option("--seconds", a.seconds, "stop after this many seconds (0: at Ctrl-C)");
+        a.link.add_to(cmd, false);
+        // Listen-only: the port is optional (a tap file works too).
+        cmd.get_option_group("Link options")->get_option("--port")->required(false);
+        examples(cmd, {"rtukit sniff --port /tmp/bus2 --baud 9600 --device inverjet@21 --device rehand6600@1",
+                       "rtukit sniff --port /dev/ttyUSB0 --baud 19200 --parity even --pcap line.pcap",
+                       "rtukit sniff --tap bus.tap --baud 9600 --json"});
+      },
+      [](const SniffArgs& a) { return run_sniff(a); });
+}
+
+}  // namespace rtukit::cli

@@ -1,0 +1,162 @@
+// The sniffer: frames, pairing and timing forensics on byte streams with
+// known times (no I/O), a recorded two-device session decoded in device
+// terms (golden files), its pcap decoded by tshark, and a live sniff of a
+// virtual bus port.
+#include "rtukit/driver/sniffer.hpp"
+
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "process.hpp"
+#include "rtukit/core/crc.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+using namespace std::chrono_literals;
+
+namespace {
+
+const std::string kRtukit = RTUKIT_BIN;
+constexpr uint64_t kChar = 1041;  // us, one character at 9600 8N1
+
+std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
+  const uint16_t crc = crc16(b);
+  b.push_back(static_cast<uint8_t>(crc & 0xFF));
+  b.push_back(static_cast<uint8_t>(crc >> 8));
+  return b;
+}
+
+// The Inverjet seed's read of mode/state/speed/time and an answer.
+const std::vector<uint8_t> kRequest = {0x15, 0x03, 0x00, 0x21, 0x00, 0x04, 0x17, 0x17};
+const std::vector<uint8_t> kResponse = with_crc({0x15, 0x03, 0x08, 0, 0, 0, 8, 0, 80, 0x07, 0x08});
+
+// Feeds `bytes` back to back from `t` (each byte's end time); returns the end of the last.
+uint64_t send(Sniffer& s, const std::vector<uint8_t>& bytes, uint64_t t, size_t gap_after = 0,
+              uint64_t gap_us = 0) {
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    t += kChar;
+    if (gap_after && i == gap_after) t += gap_us;
+    s.feed(bytes[i], t);
+  }
+  return t;
+}
+
+}  // namespace
+
+TEST(Sniffer, PairsRequestAndResponse_MeasuresTurnaround) {
+  Sniffer s({.baud = 9600, .bits_per_char = 10});
+  uint64_t t = send(s, kRequest, 0);
+  t = send(s, kResponse, t + 4000);
+  s.flush(t + 100000);
+  const auto got = s.take();
+  ASSERT_EQ(got.size(), 1u);
+  ASSERT_TRUE(got[0].request && got[0].response);
+  EXPECT_EQ(got[0].request->bytes, kRequest);
+  EXPECT_EQ(got[0].response->bytes, kResponse);
+  EXPECT_EQ(*got[0].turnaround_us, 4000u);
+  EXPECT_FALSE(got[0].response->glued);
+  EXPECT_EQ(s.summary().answered, 1u);
+  EXPECT_EQ(s.summary().turnaround_percentile(50), 4000u);
+}
+
+TEST(Sniffer, GluedSplitT15AndCrcErrorsAreReported) {
+  Sniffer s({.baud = 9600, .bits_per_char = 10});
+  // Glued: the answer follows the request with no silence at all.
+  uint64_t t = send(s, kRequest, 0);
+  t = send(s, kResponse, t);
+  // Split: 6 ms of silence (> t3.5 = 3.6 ms) in the middle of a request.
+  t = send(s, kRequest, t + 20000, 4, 6000);
+  t = send(s, kResponse, t + 4000);
+  // A 2-ms silence inside a frame (> t1.5 = 1.56 ms, < t3.5).
+  t = send(s, kRequest, t + 20000, 3, 2000);
+  t = send(s, kResponse, t + 4000);
+  // A damaged answer.
+  std::vector<uint8_t> bad = kResponse;
+  bad[4] ^= 0x10;
+  t = send(s, kRequest, t + 20000);
+  t = send(s, bad, t + 4000);
+  // A request nobody answers.
+  t = send(s, kRequest, t + 20000);
+  s.flush(t + 2'000'000);
+  const auto got = s.take();
+  ASSERT_EQ(got.size(), 5u);
+  EXPECT_TRUE(got[0].response->glued);
+  EXPECT_EQ(got[0].response->gap_before_us, 0u);
+  EXPECT_TRUE(got[1].request->split);
+  EXPECT_TRUE(got[1].response);
+  EXPECT_TRUE(got[2].request->t15_violation);
+  EXPECT_EQ(got[2].request->max_char_gap_us, 2000u);
+  EXPECT_FALSE(got[3].response->crc_ok);
+  EXPECT_FALSE(got[4].response);
+  const SnifferSummary& m = s.summary();
+  EXPECT_EQ(m.glued, 1u);
+  EXPECT_EQ(m.split, 1u);
+  EXPECT_EQ(m.t15_violations, 1u);
+  EXPECT_EQ(m.crc_errors, 1u);
+  EXPECT_EQ(m.no_response, 1u);
+  EXPECT_EQ(m.answered, 3u);
+}
+
+TEST(Sniffer, ExceptionsAndBroadcasts) {
+  Sniffer s({.baud = 9600, .bits_per_char = 10});
+  uint64_t t = send(s, kRequest, 0);
+  t = send(s, with_crc({0x15, 0x83, 0x02}), t + 4000);
+  t = send(s, with_crc({0x00, 0x06, 0x00, 0x10, 0x00, 0x01}), t + 20000);  // broadcast write
+  s.flush(t + 2'000'000);
+  const auto got = s.take();
+  ASSERT_EQ(got.size(), 2u);
+  EXPECT_EQ(got[0].response->function(), 0x83);
+  EXPECT_TRUE(got[1].broadcast());
+  EXPECT_EQ(s.summary().exceptions, 1u);
+  EXPECT_EQ(s.summary().no_response, 0u);  // nobody answers a broadcast: not a failure
+}
+
+// A session recorded on the virtual bus (an Inverjet at 21, a Rehand 6600 at
+// 1, our master) decoded in device terms, byte for byte as recorded.
+TEST(SniffGolden, TwoDeviceSessionInDeviceTerms_AndTsharkReadsThePcap) {
+  TempDir dir;
+  const std::string golden = std::string(GOLDEN_DIR);
+  const RunResult r = run({kRtukit, "sniff", "--tap", golden + "/two-devices.tap", "--baud", "9600",
+                           "--device", "inverjet@21", "--device", "rehand6600@1", "--pcap", dir / "s.pcap"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, read_file(golden + "/two-devices.sniff"));
+  // Wireshark's own dissector agrees on every frame, CRCs checked (1 = good).
+  const RunResult t = run({"tshark", "-r", dir / "s.pcap", "-o", "mbrtu.crc_verification:TRUE", "-d",
+                           "udp.port==502,mbrtu", "-T", "fields", "-e", "mbrtu.unit_id", "-e",
+                           "modbus.func_code", "-e", "mbrtu.crc16.status", "-e", "modbus.exception_code"});
+  ASSERT_EQ(t.code, 0) << t.output;
+  const std::string expected =
+      "21\t3\t1\t\n21\t3\t1\t\n21\t16\t1\t\n21\t16\t1\t\n1\t3\t1\t\n1\t3\t1\t\n9\t3\t1\t\n"
+      "21\t3\t1\t\n21\t3\t1\t2\n21\t4\t1\t\n21\t4\t1\t\n";
+  EXPECT_NE(t.output.find(expected), std::string::npos) << t.output;
+}
+
+// Live: a sniffer on its own port of the bus sees what a master and two
+// devices say to each other, without sending a byte.
+TEST(SniffLive, OnABusPort) {
+  TempDir dir;
+  Process bus({kRtukit, "bus", "--ports", "4", "--links",
+               (dir / "jet") + "," + (dir / "chair") + "," + (dir / "host") + "," + (dir / "spy"), "--baud",
+               "19200"});
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet(
+      {kRtukit, "sim", "inverjet", "--listen", dir / "jet", "--baud", "19200", "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  Process sniff(
+      {kRtukit, "sniff", "--port", dir / "spy", "--baud", "19200", "--device", "inverjet@21", "--json"});
+  ASSERT_TRUE(sniff.wait_for_output("listening on")) << sniff.output();
+  for (int i = 0; i < 3; ++i)
+    ASSERT_EQ(
+        run({kRtukit, "read", "--port", dir / "host", "--baud", "19200", "--unit", "21", "0x21", "4"}).code,
+        0);
+  EXPECT_TRUE(eventually([&] {
+    const std::string out = sniff.output();
+    size_t n = 0;
+    for (size_t at = 0;
+         (at = out.find("\"text\":\" 21 read holding 0x0021 x4: work_mode", at)) != std::string::npos; ++at)
+      ++n;
+    return n == 3;
+  })) << sniff.output();
+  sniff.stop();
+}
