@@ -30,6 +30,9 @@ void add_bus_command(CLI::App& app, Action& action);
 /// sniff: listen to a line, transactions in device terms.
 void add_sniff_command(CLI::App& app, Action& action);
 
+/// doctor: measure the line to a device and say what to set.
+void add_doctor_command(CLI::App& app, Action& action);
+
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
 

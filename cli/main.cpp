@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   add_gateway_command(app, action);
   add_bus_command(app, action);
   add_sniff_command(app, action);
+  add_doctor_command(app, action);
   add_completion_command(app, action);
   // `rtukit help [COMMAND...]`: the help of that command.
   std::vector<std::string> args(argv + 1, argv + argc);

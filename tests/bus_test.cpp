@@ -186,3 +186,42 @@ TEST(VirtualBus, InverjetAndRehandShareOneLine_MbpollToo) {
   EXPECT_EQ(mb.code, 0) << mb.output;
   EXPECT_NE(mb.output.find("[1]: \t21"), std::string::npos) << mb.output;  // the Inverjet's address register
 }
+
+// The link doctor on the bus, with each fault injected: it must find what
+// was injected and recommend the matching option.
+struct DoctorCase {
+  std::vector<std::string> bus_options;
+  std::string says;
+  std::string recommends;
+};
+
+class Doctor : public ::testing::TestWithParam<DoctorCase> {};
+
+TEST_P(Doctor, FindsWhatWasInjected) {
+  TempDir dir;
+  std::vector<std::string> argv{
+      kRtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud", "9600"};
+  argv.insert(argv.end(), GetParam().bus_options.begin(), GetParam().bus_options.end());
+  Process bus(argv);
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet({kRtukit, "sim", "inverjet", "--listen", dir / "dev", "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  const RunResult r = run(
+      {kRtukit, "doctor", "--port", dir / "host", "--baud", "9600", "--unit", "21", "--rounds", "10"}, 60s);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find(GetParam().says), std::string::npos) << r.output;
+  const std::string recommended = r.output.substr(r.output.find("recommended: "));
+  EXPECT_NE(recommended.find(GetParam().recommends), std::string::npos) << r.output;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    VirtualBus, Doctor,
+    ::testing::Values(DoctorCase{{}, "echo of our request    no", "--timeout"},
+                      DoctorCase{{"--echo"}, "echo of our request    yes", "--echo"},
+                      DoctorCase{
+                          {"--latency-ms", "16"}, "the adapter or driver holds bytes back", "--timeout"},
+                      DoctorCase{{"--ber", "1e-2", "--seed", "3"}, "the line has errors", "--retries 2"}),
+    [](const ::testing::TestParamInfo<DoctorCase>& info) {
+      static const char* const names[] = {"Clean", "Echo", "AdapterLatency", "BitErrors"};
+      return std::string(names[info.index]);
+    });
