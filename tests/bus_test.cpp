@@ -214,6 +214,11 @@ TEST_P(Doctor, FindsWhatWasInjected) {
   EXPECT_NE(recommended.find(GetParam().recommends), std::string::npos) << r.output;
 }
 
+std::string doctor_case_name(const ::testing::TestParamInfo<DoctorCase>& info) {
+  static const char* const names[] = {"Clean", "Echo", "AdapterLatency", "BitErrors"};
+  return names[info.index];
+}
+
 INSTANTIATE_TEST_SUITE_P(
     VirtualBus, Doctor,
     ::testing::Values(DoctorCase{{}, "echo of our request    no", "--timeout"},
@@ -221,7 +226,4 @@ INSTANTIATE_TEST_SUITE_P(
                       DoctorCase{
                           {"--latency-ms", "16"}, "the adapter or driver holds bytes back", "--timeout"},
                       DoctorCase{{"--ber", "1e-2", "--seed", "3"}, "the line has errors", "--retries 2"}),
-    [](const ::testing::TestParamInfo<DoctorCase>& info) {
-      static const char* const names[] = {"Clean", "Echo", "AdapterLatency", "BitErrors"};
-      return std::string(names[info.index]);
-    });
+    doctor_case_name);

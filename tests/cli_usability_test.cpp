@@ -37,7 +37,7 @@ TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
   EXPECT_EQ(
       r.output,
       "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, scan, slave, "
-      "inverjet, rehand6600, devices, map, watch, sim, gateway, completion)\n");
+      "inverjet, rehand6600, devices, map, watch, sim, gateway, bus, sniff, doctor, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
@@ -177,7 +177,7 @@ TEST(CliUsability, EveryCommandHelpHasExamples) {
                                                           {"map", "registers"},
                                                           {"sim", "inverjet"},
                                                           {"sim", "rehand6600"},
-                                                          {"sim", "map"}, {"gateway"},
+                                                          {"sim", "map"}, {"gateway"}, {"bus"}, {"sniff"}, {"doctor"},
                                                           {"inverjet", "status"},
                                                           {"inverjet", "watch"},
                                                           {"inverjet", "start"},
