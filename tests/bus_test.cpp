@@ -202,6 +202,34 @@ TEST(VirtualBus, PymodbusThroughTheBus) {
   EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
 }
 
+// The Modbus serial line rule, measured on the line itself: our slave waits
+// t3.5 before answering, our master t3.5 before its next request, so a
+// burst of back-to-back reads has no frame closer than t3.5 to the one before.
+TEST(VirtualBus, FramesAreSeparatedByT35BothWays) {
+  TempDir dir;
+  Process bus({kRtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
+               "9600", "--tap", dir / "line.tap"});
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet({kRtukit, "sim", "inverjet", "--listen", dir / "dev", "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  {
+    // (a retry, should the simulator still be settling on its port, is a transaction of its own)
+    Master m(io::make_link(*io::parse_port(dir / "host", false)),
+             MasterOptions{.response_timeout = 500ms, .retries = 2});
+    for (int i = 0; i < 20; ++i) {
+      std::array<uint16_t, 4> regs{};
+      ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, regs).ok()) << i;
+    }
+  }
+  bus.stop();  // flushes the tap
+  const RunResult r = run({kRtukit, "sniff", "--tap", dir / "line.tap", "--baud", "9600", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  const std::string summary = r.output.substr(r.output.find("\"summary\""));
+  EXPECT_NE(summary.find("\"answered\":20"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"short_gaps\":0"), std::string::npos) << summary;
+  EXPECT_NE(summary.find("\"glued\":0"), std::string::npos) << summary;
+}
+
 // The link doctor on the bus, with each fault injected: it must find what
 // was injected and recommend the matching option.
 struct DoctorCase {

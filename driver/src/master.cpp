@@ -48,8 +48,11 @@ Error Master::transact_locked(UnitId unit, const Request& request,
   if (req.function == fc(Function::write_multiple_registers))
     req.without_byte_count = options_.fc10_without_byte_count;
 
-  if (options_.inter_request_delay.count() > 0) {
-    const auto ready = last_end_ + options_.inter_request_delay;
+  // At least t3.5 of silence on a serial line after the last frame (the
+  // Modbus serial line rule), or the inter-request delay when longer.
+  const auto gap = std::max<std::chrono::microseconds>(options_.inter_request_delay, link_->frame_gap());
+  if (gap.count() > 0 && last_end_ != io::Clock::time_point{}) {
+    const auto ready = last_end_ + gap;
     if (clock_.now() < ready) clock_.sleep_until(ready);
   }
   struct EndMark {

@@ -154,6 +154,10 @@ class SerialLink final : public Link {
   }
   Framing framing() const noexcept override { return Framing::rtu; }
   RtuTiming timing() const noexcept override { return link_timing(spec_); }
+  std::chrono::microseconds frame_gap() const noexcept override {
+    return std::chrono::microseconds(
+        RtuTiming::for_serial(spec_.serial.baud, spec_.serial.bits_per_char()).t35_us);
+  }
   std::string describe() const override { return spec_.describe(); }
 
  private:

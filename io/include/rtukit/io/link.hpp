@@ -49,6 +49,9 @@ class Link {
   virtual Framing framing() const noexcept = 0;
   /// Framer timing for RTU links.
   virtual RtuTiming timing() const noexcept = 0;
+  /// The silence the line needs between two frames: t3.5 at the line's rate
+  /// on a serial port (3.6 ms at 9600 8N1), 0 where there is no line (TCP).
+  virtual std::chrono::microseconds frame_gap() const noexcept { return std::chrono::microseconds(0); }
   virtual std::string describe() const = 0;
 };
 
