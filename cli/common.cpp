@@ -121,15 +121,28 @@ MasterOptions LinkOptions::master_options() const {
 
 namespace {
 
-// "14:02:07.123" in local time.
-std::string clock_text() {
+// The wall clock now, broken down (local time or UTC), with its milliseconds.
+struct WallTime {
+  std::tm tm{};
+  long ms = 0;
+};
+WallTime wall_time(bool utc) {
   const auto now = std::chrono::system_clock::now();
   const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  std::tm tm{};
-  ::localtime_r(&t, &tm);
-  const auto ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
-  return fmt::format("{:02}:{:02}:{:02}.{:03}", tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+  WallTime w;
+  if (utc)
+    ::gmtime_r(&t, &w.tm);
+  else
+    ::localtime_r(&t, &w.tm);
+  w.ms = static_cast<long>(
+      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000);
+  return w;
+}
+
+// "14:02:07.123" in local time.
+std::string clock_text() {
+  const WallTime w = wall_time(false);
+  return fmt::format("{:02}:{:02}:{:02}.{:03}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
 }
 
 }  // namespace
@@ -179,10 +192,8 @@ void examples(CLI::App& cmd, std::initializer_list<std::string_view> lines) {
 }
 
 std::string clock_hms() {
-  const std::time_t t = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
-  std::tm tm{};
-  ::localtime_r(&t, &tm);
-  return fmt::format("{:02}:{:02}:{:02}", tm.tm_hour, tm.tm_min, tm.tm_sec);
+  const WallTime w = wall_time(false);
+  return fmt::format("{:02}:{:02}:{:02}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec);
 }
 
 LivePanel::LivePanel(std::string title, unsigned interval_ms)
@@ -220,15 +231,10 @@ void LivePanel::draw(std::string_view banner) {
 }
 
 Json json_document(std::string_view device, int unit) {
-  const auto now = std::chrono::system_clock::now();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  std::tm tm{};
-  ::gmtime_r(&t, &tm);
-  const auto ms =
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000;
+  const WallTime w = wall_time(true);
   Json j;
-  j["time"] = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", tm.tm_year + 1900, tm.tm_mon + 1,
-                          tm.tm_mday, tm.tm_hour, tm.tm_min, tm.tm_sec, ms);
+  j["time"] = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", w.tm.tm_year + 1900, w.tm.tm_mon + 1,
+                          w.tm.tm_mday, w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
   j["ok"] = true;
   if (!device.empty()) j["device"] = device;
   if (unit >= 0) j["unit"] = unit;
