@@ -47,7 +47,7 @@ void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_bau
   cmd.add_option("--rs485-delay-after", rs485_after_us, "RS-485: us between the last bit and RTS release");
 }
 
-void ServerArgs::add_to(CLI::App& cmd_app) {
+void ServerArgs::add_to(CLI::App& cmd_app, bool serial) {
   CLI::Option_group& cmd = *cmd_app.add_option_group("Server options");
   cmd.add_option("--max-connections", max_connections, "TCP: clients served at once; more are refused")
       ->capture_default_str()
@@ -55,6 +55,7 @@ void ServerArgs::add_to(CLI::App& cmd_app) {
   cmd.add_option("--idle-timeout", idle_timeout_s,
                  "TCP: close a connection silent for this many s (0: never)")
       ->capture_default_str();
+  if (!serial) return;
   cmd.add_option("--turnaround-ms", turnaround_ms,
                  "serial: silence before each answer (default: t3.5 on serial ports, 0 on ptys)")
       ->check(CLI::Range(0.0, 1000.0));

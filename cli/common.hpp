@@ -78,7 +78,8 @@ struct ServerArgs {
   unsigned max_connections = 64;
   unsigned idle_timeout_s = 60;
   double turnaround_ms = -1;  ///< < 0: the default (t3.5 on serial ports, none on ptys)
-  void add_to(CLI::App& cmd);
+  /// `serial`: the command may listen on a serial line (--turnaround-ms means something).
+  void add_to(CLI::App& cmd, bool serial = true);
   ServerOptions options() const;
 };
 

@@ -80,7 +80,7 @@ void add_gateway_command(CLI::App& app, Action& action) {
         cmd.add_option("--max-queued", a.max_queued, "requests one client may have waiting (more get 06)")
             ->capture_default_str();
         a.link.add_to(cmd, false);
-        a.server.add_to(cmd);
+        a.server.add_to(cmd, /*serial=*/false);  // its listeners are TCP
         examples(
             cmd,
             {"rtukit gateway --port /dev/ttyUSB0 --baud 9600 --listen tcp://127.0.0.1:1502",
