@@ -8,13 +8,24 @@
 // Modbus serial line rule requires (before the answer, before the next
 // request); the figure is transactions/s as a fraction of 1 / that time.
 //
-//   build/default/bench/wire_bench [--seconds S] [--markdown]
+// Second table: the gateway. A Rehand 6600 simulator on the bus at 115200
+// baud, `rtukit gateway` owning the bus, and 1, 16 or 64 TCP clients (our
+// Master, one thread each) polling the same read as fast as they can,
+// without and with `--cache-ms`: requests served per second and the bus's
+// own transactions, both as a fraction of the bus limit, with per-client
+// latency.
+//
+//   build/default/bench/wire_bench [--seconds S] [--markdown] [--only wire|gateway]
 #include <modbus/modbus.h>
+#include <signal.h>
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "../tests/process.hpp"
@@ -101,14 +112,97 @@ double run_pymodbus(const std::string& port, uint32_t baud, const Workload& w, d
   return at == std::string::npos ? 0 : std::stod(r.output.substr(at + 5));
 }
 
+struct GatewayRow {
+  unsigned clients;
+  unsigned cache_ms;
+  double limit, served, on_bus;  // per second
+  double p50_ms, p99_ms;         // the median client's p50, the worst client's p99
+  unsigned failed;
+};
+
+double percentile(std::vector<double> v, double p) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v[std::min(v.size() - 1, static_cast<size_t>(p / 100 * static_cast<double>(v.size())))];
+}
+
+std::string fmt_number(double a, double b, const char* format) {
+  char text[64];
+  std::snprintf(text, sizeof text, format, a, b);
+  return text;
+}
+
+GatewayRow run_gateway(unsigned clients, unsigned cache_ms, double seconds) {
+  const std::string rtukit = RTUKIT_BIN;
+  const uint32_t baud = 115200;
+  const uint16_t count = 48;  // the Rehand 6600's table 1
+  GatewayRow row{clients, cache_ms, 0, 0, 0, 0, 0, 0};
+  row.limit = 1e6 / ((8 + 5 + 2.0 * count) * 10e6 / baud + 2 * RtuTiming::for_serial(baud, 10).t35_us);
+  TempDir dir;
+  Process bus({rtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
+               std::to_string(baud)});
+  if (!bus.wait_for_output("listening on")) return row;
+  Process sim({rtukit, "sim", "rehand6600", "--listen", dir / "dev", "--baud", std::to_string(baud),
+               "--no-state", "--no-console"});
+  if (!sim.wait_for_output("listening on")) return row;
+  const std::string where = "tcp://127.0.0.1:" + std::to_string(free_tcp_port());
+  std::vector<std::string> argv{
+      rtukit, "gateway",   "--port", dir / "host",        "--baud", std::to_string(baud), "--listen",
+      where,  "--timeout", "1000",   "--max-connections", "200"};
+  if (cache_ms) argv.insert(argv.end(), {"--cache-ms", std::to_string(cache_ms)});
+  Process gateway(argv);
+  if (!gateway.wait_for_output("listening on")) return row;
+
+  std::vector<std::vector<double>> latencies(clients);
+  std::atomic<unsigned> failed{0};
+  std::vector<std::thread> threads;
+  const auto t0 = Clock::now();
+  const auto until = t0 + std::chrono::duration<double>(seconds);
+  for (unsigned c = 0; c < clients; ++c)
+    threads.emplace_back([&, c] {
+      Master m(io::make_link(*io::parse_port(where, false)), MasterOptions{.response_timeout = 10000ms});
+      std::vector<uint16_t> regs(count);
+      while (Clock::now() < until) {
+        const auto start = Clock::now();
+        if (m.read_holding_registers(UnitId{1}, 0, regs).ok())
+          latencies[c].push_back(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
+        else
+          ++failed;
+      }
+    });
+  for (auto& t : threads) t.join();
+  const double elapsed = std::chrono::duration<double>(Clock::now() - t0).count();
+  ::kill(gateway.pid(), SIGTERM);
+  gateway.wait();
+  // "gateway: N requests, M bus transactions, ..."
+  const std::string out = gateway.output();
+  const size_t at = out.rfind(" requests, ");
+  const double on_bus = at == std::string::npos ? 0 : std::stod(out.substr(at + 11));
+  size_t served = 0;
+  std::vector<double> p50s, p99s;
+  for (const auto& l : latencies) {
+    served += l.size();
+    p50s.push_back(percentile(l, 50));
+    p99s.push_back(percentile(l, 99));
+  }
+  row.served = static_cast<double>(served) / elapsed;
+  row.on_bus = on_bus / elapsed;
+  row.p50_ms = percentile(p50s, 50);
+  row.p99_ms = *std::max_element(p99s.begin(), p99s.end());
+  row.failed = failed;
+  return row;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   double seconds = 5;
   bool markdown = false;
+  std::string only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) seconds = std::stod(argv[++i]);
     if (!std::strcmp(argv[i], "--markdown")) markdown = true;
+    if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
   }
   const std::string rtukit = RTUKIT_BIN;
   const Workload workloads[] = {{"Inverjet state registers (FC03 0x0021 x4)", "inverjet", 21, 0x21, 4},
@@ -118,6 +212,7 @@ int main(int argc, char** argv) {
   const std::pair<const Workload*, uint32_t> runs[] = {
       {&workloads[0], 9600}, {&workloads[1], 9600}, {&workloads[0], 19200}, {&workloads[1], 115200}};
   for (const auto& [wp, baud] : runs) {
+    if (only == "gateway") break;
     const Workload& w = *wp;
     {
       TempDir dir;
@@ -140,11 +235,12 @@ int main(int argc, char** argv) {
                    limit, r.ours, r.libmodbus, r.pymodbus);
     }
   }
-  std::printf(
-      markdown
-          ? "| workload | baud | limit tx/s | rtukit | libmodbus | pymodbus |\n|---|---|---|---|---|---|\n"
-          : "%-44s %7s %10s %16s %16s %16s\n",
-      "workload", "baud", "limit tx/s", "rtukit", "libmodbus", "pymodbus");
+  if (only != "gateway")
+    std::printf(
+        markdown
+            ? "| workload | baud | limit tx/s | rtukit | libmodbus | pymodbus |\n|---|---|---|---|---|---|\n"
+            : "%-44s %7s %10s %16s %16s %16s\n",
+        "workload", "baud", "limit tx/s", "rtukit", "libmodbus", "pymodbus");
   for (const Row& r : rows) {
     if (markdown)
       std::printf("| %s | %u | %.1f | %.1f (%.1f %%) | %.1f (%.1f %%) | %.1f (%.1f %%) |\n",
@@ -154,6 +250,31 @@ int main(int argc, char** argv) {
       std::printf("%-44s %7u %10.1f %9.1f %5.1f%% %9.1f %5.1f%% %9.1f %5.1f%%\n", r.workload.c_str(), r.baud,
                   r.limit, r.ours, 100 * r.ours / r.limit, r.libmodbus, 100 * r.libmodbus / r.limit,
                   r.pymodbus, 100 * r.pymodbus / r.limit);
+  }
+  if (only == "wire") return 0;
+
+  std::vector<GatewayRow> gateway_rows;
+  for (const unsigned cache_ms : {0u, 100u})
+    for (const unsigned clients : {1u, 16u, 64u}) {
+      gateway_rows.push_back(run_gateway(clients, cache_ms, seconds));
+      const GatewayRow& g = gateway_rows.back();
+      std::fprintf(stderr,
+                   "gateway, %u clients, cache %u ms: %.1f/s served, %.1f/s on the bus (limit %.1f)\n",
+                   g.clients, g.cache_ms, g.served, g.on_bus, g.limit);
+    }
+  std::printf(markdown ? "\n| clients | --cache-ms | served req/s | bus tx/s | p50 ms | p99 ms | failed "
+                         "|\n|---|---|---|---|---|---|---|\n"
+                       : "\n%7s %10s %22s %22s %8s %8s %6s\n",
+              "clients", "--cache-ms", "served req/s", "bus tx/s", "p50 ms", "p99 ms", "failed");
+  for (const GatewayRow& g : gateway_rows) {
+    // Served: a share of the bus limit, or a multiple of it once coalescing serves more.
+    const double share = g.served / g.limit;
+    const std::string served = share < 2 ? fmt_number(g.served, 100 * share, "%.1f (%.1f %%)")
+                                         : fmt_number(g.served, share, "%.0f (%.0fx the limit)");
+    std::printf(markdown ? "| %u | %u | %s | %.1f (%.1f %%) | %.2f | %.2f | %u |\n"
+                         : "%7u %10u %22s %12.1f (%5.1f %%) %8.2f %8.2f %6u\n",
+                g.clients, g.cache_ms, served.c_str(), g.on_bus, 100 * g.on_bus / g.limit, g.p50_ms, g.p99_ms,
+                g.failed);
   }
   return 0;
 }

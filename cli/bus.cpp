@@ -1,10 +1,15 @@
 // `rtukit bus`: a virtual multi-drop RS-485 line on ptys, paced at its baud
 // rate, with collisions and fault injection.
 #include <fmt/core.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
+#include <algorithm>
 #include <asio.hpp>
+#include <cerrno>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -12,6 +17,108 @@
 
 namespace rtukit::cli {
 namespace {
+
+using Local = asio::local::stream_protocol;
+
+// Offers the tap on a Unix socket to `rtukit sniff --bus NAME`: the header,
+// then every character as a tap line, to every connected sniffer. The bus
+// never waits for a listener: one that falls 1 MB behind is disconnected.
+class TapServer {
+ public:
+  TapServer(asio::io_context& ctx, std::string path, std::function<std::string()> header)
+      : acceptor_(ctx), path_(std::move(path)), header_(std::move(header)) {}
+  ~TapServer() {
+    if (listening_) ::unlink(path_.c_str());
+  }
+
+  /// Throws Failure when the socket cannot be made, or another bus has the name.
+  void listen(const std::string& name) {
+    const std::string dir = path_.substr(0, path_.rfind('/'));
+    if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST)
+      throw Failure{kIoError, fmt::format("--name {}: cannot make {}: {}", name, dir, std::strerror(errno))};
+    struct stat st {};
+    if (::lstat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::getuid())
+      throw Failure{kIoError, fmt::format("--name {}: {} is not a directory of ours", name, dir)};
+    if (::lstat(path_.c_str(), &st) == 0) {
+      if (!S_ISSOCK(st.st_mode))
+        throw Failure{kIoError, fmt::format("--name {}: {} exists and is not a socket", name, path_)};
+      Local::socket probe(acceptor_.get_executor());
+      std::error_code ec;
+      probe.connect(Local::endpoint(path_), ec);
+      if (!ec)
+        throw Failure{kUsage, fmt::format("--name {}: a bus of that name is running ({})", name, path_)};
+      ::unlink(path_.c_str());  // left by a bus that was killed
+    }
+    std::error_code ec;
+    acceptor_.open(Local(), ec);
+    if (!ec) acceptor_.bind(Local::endpoint(path_), ec);
+    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
+    if (ec) throw Failure{kIoError, fmt::format("--name {}: {}: {}", name, path_, ec.message())};
+    listening_ = true;
+    accept();
+  }
+
+  void publish(const std::string& line) {
+    for (auto it = clients_.begin(); it != clients_.end();) {
+      Client& c = **it;
+      if (c.pending.size() + line.size() > kMaxBehind) {
+        std::error_code ignored;
+        c.socket.close(ignored);
+        it = clients_.erase(it);
+        continue;
+      }
+      c.pending += line;
+      flush(*it);
+      ++it;
+    }
+  }
+
+ private:
+  static constexpr size_t kMaxBehind = 1 << 20;
+  struct Client {
+    explicit Client(Local::socket s) : socket(std::move(s)) {}
+    Local::socket socket;
+    std::string pending, in_flight;
+    bool writing = false;
+  };
+
+  void accept() {
+    acceptor_.async_accept([this](const std::error_code& ec, Local::socket socket) {
+      if (ec == asio::error::operation_aborted) return;
+      if (!ec) {
+        auto c = std::make_shared<Client>(std::move(socket));
+        c->pending = header_();
+        clients_.push_back(c);
+        flush(c);
+      }
+      accept();
+    });
+  }
+
+  void flush(const std::shared_ptr<Client>& c) {
+    if (c->writing || c->pending.empty() || !c->socket.is_open()) return;
+    c->writing = true;
+    c->in_flight.swap(c->pending);
+    c->pending.clear();
+    asio::async_write(c->socket, asio::buffer(c->in_flight), [this, c](const std::error_code& ec, size_t) {
+      c->writing = false;
+      c->in_flight.clear();
+      if (ec) {
+        std::error_code ignored;
+        c->socket.close(ignored);
+        clients_.erase(std::remove(clients_.begin(), clients_.end(), c), clients_.end());
+        return;
+      }
+      flush(c);
+    });
+  }
+
+  Local::acceptor acceptor_;
+  std::string path_;
+  std::function<std::string()> header_;
+  std::vector<std::shared_ptr<Client>> clients_;
+  bool listening_ = false;
+};
 
 struct BusArgs {
   unsigned ports = 2;
@@ -23,6 +130,7 @@ struct BusArgs {
   bool echo = false;
   uint64_t seed = 1;
   std::string tap;
+  std::string name;
 };
 
 int run_bus(const BusArgs& a) {
@@ -45,22 +153,30 @@ int run_bus(const BusArgs& a) {
       if (f) std::fclose(f);
     });
     if (!tap) throw Failure{kIoError, fmt::format("--tap {}: cannot write", a.tap)};
-    std::fprintf(
-        tap.get(),
-        "# rtukit bus tap: start_us end_us sender(-1 stray) sent heard flags(c collision, d dropped)\n");
-    o.tap = [tap](const BusCharacter& c) {
-      std::fprintf(tap.get(), "%llu %llu %d %02X %02X%s%s%s\n", static_cast<unsigned long long>(c.start_us),
-                   static_cast<unsigned long long>(c.end_us), c.sender, c.sent, c.heard,
-                   c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");
-    };
+    std::fputs(tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
   }
   asio::io_context ctx;
+  std::unique_ptr<TapServer> tap_server;
+  const VirtualBus* started = nullptr;
+  if (!a.name.empty())
+    tap_server = std::make_unique<TapServer>(ctx, bus_tap_socket(a.name), [&] {
+      return tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
+    });
+  if (tap || tap_server)
+    o.tap = [&tap, &tap_server](const BusCharacter& c) {
+      const std::string line = tap_line(c);
+      if (tap) std::fputs(line.c_str(), tap.get());
+      if (tap_server) tap_server->publish(line);
+    };
   Outcome<std::unique_ptr<VirtualBus>> bus = VirtualBus::start(ctx, o);
   if (!bus.ok()) throw Failure{exit_code(bus.error().error()), std::string(bus.error().reason())};
+  started = bus->get();
+  if (tap_server) tap_server->listen(a.name);
   fmt::print("bus: {} ports at {} baud, {} bits a character ({:.0f} us){}\n", a.ports, a.baud,
              o.line.bits_per_char, 1e6 * o.line.bits_per_char / a.baud, a.echo ? ", echo" : "");
   const std::vector<std::string> ports = (*bus)->ports();
   for (size_t i = 0; i < ports.size(); ++i) fmt::print("port {}: {}\n", i, ports[i]);
+  if (tap_server) fmt::print("tap: rtukit sniff --bus {} ({})\n", a.name, bus_tap_socket(a.name));
   fmt::print("listening on {}\n", ports.front());
   std::fflush(stdout);
   asio::signal_set signals(ctx, SIGINT, SIGTERM);
@@ -100,11 +216,13 @@ void add_bus_command(CLI::App& app, Action& action) {
         f->add_flag("--echo", a.echo, "a sender hears its own bytes (half-duplex adapters)");
         f->add_option("--seed", a.seed, "seed of the fault generator")->capture_default_str();
         cmd.add_option("--tap", a.tap, "write every character on the line, with its times, to this file");
+        cmd.add_option("--name", a.name, "offer the tap live to `rtukit sniff --bus NAME`");
         examples(cmd, {"rtukit bus --ports 3 --links /tmp/bus0,/tmp/bus1,/tmp/bus2 --baud 9600 &",
                        "rtukit sim inverjet --listen /tmp/bus0 & rtukit sim rehand6600 --listen /tmp/bus1 "
                        "--baud 9600 &",
                        "rtukit read --port /tmp/bus2 --unit 21 0x21 4",
-                       "rtukit bus --ports 2 --links /tmp/a,/tmp/b --ber 1e-4 --latency-ms 16 --seed 7"});
+                       "rtukit bus --ports 2 --links /tmp/a,/tmp/b --ber 1e-4 --latency-ms 16 --seed 7",
+                       "rtukit bus --ports 2 --links /tmp/a,/tmp/b --name lab & rtukit sniff --bus lab"});
       },
       [](const BusArgs& a) { return run_bus(a); });
 }

@@ -3,10 +3,12 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cctype>
 #include <charconv>
 #include <csignal>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
@@ -366,6 +368,50 @@ std::string hex(std::span<const uint8_t> bytes) {
   std::string s;
   for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
   return s;
+}
+
+std::string tap_line(const BusCharacter& c) {
+  return fmt::format("{} {} {} {:02X} {:02X}{}{}{}\n", c.start_us, c.end_us, c.sender, c.sent, c.heard,
+                     c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");
+}
+
+std::optional<BusCharacter> parse_tap_line(const std::string& line) {
+  if (line.empty() || line[0] == '#') return std::nullopt;
+  unsigned long long start = 0, end = 0;
+  int sender = 0;
+  unsigned sent = 0, heard = 0;
+  char flags[8] = {};
+  const int n =
+      std::sscanf(line.c_str(), "%llu %llu %d %x %x %7s", &start, &end, &sender, &sent, &heard, flags);
+  if (n < 5 || sent > 0xFF || heard > 0xFF) return std::nullopt;
+  BusCharacter c;
+  c.start_us = start;
+  c.end_us = end;
+  c.sender = sender;
+  c.sent = static_cast<uint8_t>(sent);
+  c.heard = static_cast<uint8_t>(heard);
+  c.collided = std::strchr(flags, 'c') != nullptr;
+  c.dropped = std::strchr(flags, 'd') != nullptr;
+  return c;
+}
+
+std::string tap_header(uint32_t baud, uint32_t bits_per_char, uint64_t now_us) {
+  return fmt::format(
+      "# rtukit bus tap: start_us end_us sender(-1 stray) sent heard flags(c collision, d dropped); baud={} "
+      "bits={} now_us={}\n",
+      baud, bits_per_char, now_us);
+}
+
+std::string bus_tap_socket(const std::string& name) {
+  const bool good = !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+  });
+  if (!good)
+    throw Failure{kUsage, fmt::format("bus name '{}': use 1 to 64 letters, digits, '-' or '_'", name)};
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string dir =
+      runtime && *runtime ? std::string(runtime) + "/rtukit" : fmt::format("/tmp/rtukit-{}", ::getuid());
+  return dir + "/bus-" + name + ".sock";
 }
 
 int exit_code(Error e) {

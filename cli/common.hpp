@@ -9,6 +9,7 @@
 #include <initializer_list>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -16,6 +17,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/port.hpp"
@@ -196,6 +198,20 @@ std::string clock_hms();
 
 /// Bytes as "15 03 00 21" (request logs).
 std::string hex(std::span<const uint8_t> bytes);
+
+/// The bus tap format (docs/bus-tools.md), one character a line:
+/// "start_us end_us sender sent heard [flags]", sender -1 for a stray byte,
+/// flags c (collision) and d (dropped). Lines starting with '#' are comments.
+std::string tap_line(const BusCharacter& c);
+/// One tap line read back; nullopt for a comment or a line that is not one.
+std::optional<BusCharacter> parse_tap_line(const std::string& line);
+/// The header line a tap starts with; `now_us`: the bus's clock when it was written.
+std::string tap_header(uint32_t baud, uint32_t bits_per_char, uint64_t now_us);
+
+/// Where `rtukit bus --name NAME` offers its tap to `rtukit sniff --bus NAME`:
+/// $XDG_RUNTIME_DIR/rtukit/bus-NAME.sock, else /tmp/rtukit-UID/bus-NAME.sock.
+/// Throws Failure{kUsage} unless the name is 1..64 letters, digits, '-', '_'.
+std::string bus_tap_socket(const std::string& name);
 
 /// Prints the master's counters to stderr (for --stats).
 void print_stats(const Master& master);

@@ -5,12 +5,15 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 #include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <csignal>
 #include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -30,6 +33,7 @@ namespace {
 struct SniffArgs {
   LinkOptions link;
   std::string tap;
+  std::string bus;                   ///< a running `rtukit bus --name NAME`
   std::vector<std::string> devices;  ///< inverjet@21
   std::vector<std::string> maps;     ///< FILE@U
   bool json = false;
@@ -295,9 +299,93 @@ void print_summary(const Sniffer& s, bool json) {
 
 volatile std::sig_atomic_t g_stop = 0;
 
+void stop_on_signals() {
+  std::signal(SIGINT, [](int) { g_stop = 1; });
+  std::signal(SIGTERM, [](int) { g_stop = 1; });
+}
+
+// One character of a bus tap: exact times from the bus itself.
+void feed_tap(Sniffer& s, const BusCharacter& c) {
+  s.flush(c.end_us);
+  if (!c.dropped) s.feed(c.heard, c.end_us);
+}
+
+// "key=value" from a tap header; 0 when absent.
+uint64_t header_value(const std::string& header, const std::string& key) {
+  const size_t at = header.find(" " + key + "=");
+  return at == std::string::npos ? 0 : std::strtoull(header.c_str() + at + key.size() + 2, nullptr, 10);
+}
+
+// `--bus NAME`: the live tap of a running `rtukit bus --name NAME`, with the
+// bus's own rate and its exact character times.
+int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
+  const std::string path = bus_tap_socket(a.bus);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_un addr{};
+  addr.sun_family = AF_UNIX;
+  if (fd < 0 || path.size() >= sizeof addr.sun_path)
+    throw Failure{kIoError, fmt::format("--bus {}: cannot use {}", a.bus, path)};
+  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
+    const int e = errno;
+    ::close(fd);
+    throw Failure{kIoError, fmt::format("--bus {}: no bus of that name is running ({}: {}); start one with "
+                                        "`rtukit bus --name {}`",
+                                        a.bus, path, std::strerror(e), a.bus)};
+  }
+  stop_on_signals();
+  std::string buffer, header;
+  std::unique_ptr<Sniffer> s;
+  std::unique_ptr<PcapWriter> pcap = a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap);
+  int64_t offset = 0;  // our clock minus the bus's
+  const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
+  bool ended = false;
+  char chunk[4096];
+  while (!g_stop && !ended && (!until || io::now_us() < until)) {
+    pollfd p{fd, POLLIN, 0};
+    if (::poll(&p, 1, 5) > 0) {
+      const ssize_t n = ::read(fd, chunk, sizeof chunk);
+      if (n <= 0) ended = true;
+      if (n > 0) buffer.append(chunk, static_cast<size_t>(n));
+    }
+    for (size_t nl; (nl = buffer.find('\n')) != std::string::npos;) {
+      const std::string line = buffer.substr(0, nl);
+      buffer.erase(0, nl + 1);
+      if (!s) {
+        // The first line is the header: the bus's rate and clock.
+        header = line;
+        const uint64_t baud = header_value(header, "baud"), bits = header_value(header, "bits");
+        if (baud == 0 || bits == 0) throw Failure{kIoError, fmt::format("--bus {}: not a bus tap", a.bus)};
+        offset = static_cast<int64_t>(io::now_us()) - static_cast<int64_t>(header_value(header, "now_us"));
+        s = std::make_unique<Sniffer>(SnifferConfig{.baud = static_cast<uint32_t>(baud),
+                                                    .bits_per_char = static_cast<uint32_t>(bits),
+                                                    .response_timeout_us = a.link.timeout_ms * 1000u});
+        fmt::print(stderr,
+                   "sniff: bus {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n", a.bus,
+                   baud, ms(s->t15_us()), ms(s->t35_us()));
+        continue;
+      }
+      if (const std::optional<BusCharacter> c = parse_tap_line(line)) feed_tap(*s, *c);
+    }
+    if (s) {
+      s->flush(static_cast<uint64_t>(std::max<int64_t>(0, static_cast<int64_t>(io::now_us()) - offset)));
+      report(a, *s, profiles, pcap.get());
+    }
+  }
+  ::close(fd);
+  if (!s) throw Failure{kIoError, fmt::format("--bus {}: the bus closed before its tap began", a.bus)};
+  if (ended) fmt::print(stderr, "sniff: the bus {} has stopped\n", a.bus);
+  s->flush(io::now_us() - static_cast<uint64_t>(offset) + 10'000'000);
+  report(a, *s, profiles, pcap.get());
+  print_summary(*s, a.json);
+  return kOk;
+}
+
 int run_sniff(const SniffArgs& a) {
-  if (a.tap.empty() == a.link.port.empty()) throw Failure{kUsage, "sniff takes --port P or --tap FILE"};
+  if ((a.tap.empty() ? 0 : 1) + (a.link.port.empty() ? 0 : 1) + (a.bus.empty() ? 0 : 1) != 1)
+    throw Failure{kUsage, "sniff takes one of --port P, --bus NAME or --tap FILE"};
   const UnitProfiles profiles = unit_profiles(a);
+  if (!a.bus.empty()) return sniff_bus(a, profiles);
   const uint32_t bits =
       1 + a.link.data_bits + (parity_letter(a.link.parity) == 'N' ? 0 : 1) + a.link.stop_bits;
   Sniffer s(SnifferConfig{.baud = a.link.baud,
@@ -305,23 +393,15 @@ int run_sniff(const SniffArgs& a) {
                           .response_timeout_us = static_cast<uint32_t>(a.link.timeout_ms) * 1000});
   std::unique_ptr<PcapWriter> pcap = a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap);
   if (!a.tap.empty()) {
-    // The bus tap: "start_us end_us sender sent heard flags" a character.
     std::ifstream in(a.tap);
     if (!in) throw Failure{kIoError, fmt::format("--tap {}: cannot read", a.tap)};
     std::string line;
     uint64_t last = 0;
     while (std::getline(in, line)) {
-      if (line.empty() || line[0] == '#') continue;
-      std::istringstream f(line);
-      uint64_t start = 0, end = 0;
-      int sender = 0;
-      std::string sent, heard, flags;
-      if (!(f >> start >> end >> sender >> sent >> heard)) continue;
-      f >> flags;
-      last = end;
-      s.flush(end);
-      if (flags.find('d') == std::string::npos)
-        s.feed(static_cast<uint8_t>(std::stoul(heard, nullptr, 16)), end);
+      const std::optional<BusCharacter> c = parse_tap_line(line);
+      if (!c) continue;
+      last = c->end_us;
+      feed_tap(s, *c);
       report(a, s, profiles, pcap.get());
     }
     s.flush(last + 10'000'000);
@@ -335,8 +415,7 @@ int run_sniff(const SniffArgs& a) {
     throw Failure{kUsage, "sniff listens on a serial port or a bus port (/dev/ttyUSB0, /tmp/bus2)"};
   Result<int> fd = io::open_serial_port(spec.path, spec.serial);
   if (!fd.ok()) fail(fd.error(), "sniff " + spec.path);
-  std::signal(SIGINT, [](int) { g_stop = 1; });
-  std::signal(SIGTERM, [](int) { g_stop = 1; });
+  stop_on_signals();
   fmt::print(stderr,
              "sniff: listening on {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n",
              spec.path, a.link.baud, ms(s.t15_us()), ms(s.t35_us()));
@@ -369,6 +448,7 @@ void add_sniff_command(CLI::App& app, Action& action) {
   add_command<SniffArgs>(
       app, action, "sniff", "listen to a line: transactions in device terms, timing, pcap (sends nothing)",
       [](CLI::App& cmd, SniffArgs& a) {
+        cmd.add_option("--bus", a.bus, "listen to a running `rtukit bus --name NAME` (its exact timing)");
         cmd.add_option("--tap", a.tap, "read a bus tap file (rtukit bus --tap) instead of a port");
         cmd.add_option("--device", a.devices, "decode a unit as a built-in device: inverjet@21 (repeatable)");
         cmd.add_option("--map", a.maps, "decode a unit with a register-map file: meter.yaml@3 (repeatable)");
@@ -381,6 +461,7 @@ void add_sniff_command(CLI::App& app, Action& action) {
         cmd.get_option_group("Link options")->get_option("--port")->required(false);
         examples(cmd, {"rtukit sniff --port /tmp/bus2 --baud 9600 --device inverjet@21 --device rehand6600@1",
                        "rtukit sniff --port /dev/ttyUSB0 --baud 19200 --parity even --pcap line.pcap",
+                       "rtukit sniff --bus lab --device inverjet@21",
                        "rtukit sniff --tap bus.tap --baud 9600 --json"});
       },
       [](const SniffArgs& a) { return run_sniff(a); });

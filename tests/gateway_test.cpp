@@ -176,6 +176,25 @@ TEST_F(GatewayTest, CoalescedReadsShareTheBus_AWriteIsNeverHidden) {
   EXPECT_NE(gateway_->output().find("from the cache"), std::string::npos) << gateway_->output();
 }
 
+// Pollers that ask at the same moment queue behind one another; with a cache
+// the first answer serves the reads waiting behind it (a 9600-baud line
+// shared by many windows).
+TEST_F(GatewayTest, QueuedIdenticalReadsShareOneTransaction) {
+  start({"--cache-ms", "5000", "--delay", "20"});
+  const size_t before = bus_requests();
+  std::atomic<int> ok{0};
+  std::vector<std::thread> threads;
+  for (int t = 0; t < 8; ++t)
+    threads.emplace_back([&] {
+      auto m = client();
+      uint16_t v = 0;
+      if (m->read_holding_registers(UnitId{21}, 3, {&v, 1}).ok()) ++ok;
+    });
+  for (auto& th : threads) th.join();
+  EXPECT_EQ(ok.load(), 8);
+  EXPECT_LE(bus_requests() - before, 2u) << "8 identical reads should share the bus";
+}
+
 TEST_F(GatewayTest, MbpollAndPymodbusThroughTheGateway) {
   start();
   auto m = client();

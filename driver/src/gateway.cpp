@@ -217,6 +217,22 @@ void Gateway::Impl::run_bus() {
     const Result<Request> req = decode_request(job.pdu);  // checked on arrival
     if (!req.ok()) continue;
     const bool write = is_write(req->function);
+    if (!write && options.cache.count() > 0) {
+      // Queued behind an identical read that has just been answered: share it.
+      std::vector<uint8_t> cached;
+      {
+        std::lock_guard lock(mutex);
+        const auto hit = cache.find(CacheKey{job.unit, req->function, req->address, req->quantity});
+        if (hit != cache.end() && std::chrono::steady_clock::now() - hit->second.at < options.cache) {
+          ++stats.cache_hits;
+          cached = hit->second.pdu;
+        }
+      }
+      if (!cached.empty()) {
+        session->answer(job.transaction, job.unit, cached, true);
+        continue;
+      }
+    }
     if (write) {
       std::lock_guard lock(mutex);
       invalidate(job.unit, *req);

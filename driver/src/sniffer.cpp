@@ -59,9 +59,11 @@ void Sniffer::feed(uint8_t byte, uint64_t t_us) {
 }
 
 void Sniffer::flush(uint64_t now_us) {
-  if (!piece_.bytes.empty() && now_us - piece_.times.back() > uint64_t{t35_us_} + char_us_) close_piece();
+  // A clock a little behind the last byte (a live tap's estimate) is no silence.
+  const auto since = [now_us](uint64_t t) { return now_us > t ? now_us - t : 0; };
+  if (!piece_.bytes.empty() && since(piece_.times.back()) > uint64_t{t35_us_} + char_us_) close_piece();
   // A piece held for a second half that never came is what it is: garbage.
-  if (held_ && piece_.bytes.empty() && now_us - held_->times.back() > 10ULL * t35_us_ + char_us_) {
+  if (held_ && piece_.bytes.empty() && since(held_->times.back()) > 10ULL * t35_us_ + char_us_) {
     Piece p = std::move(*held_);
     held_.reset();
     SniffedFrame f;
@@ -70,7 +72,7 @@ void Sniffer::flush(uint64_t now_us) {
     f.end_us = p.times.back();
     on_frame(std::move(f));
   }
-  if (pending_request_ && now_us - pending_request_->end_us > config_.response_timeout_us)
+  if (pending_request_ && since(pending_request_->end_us) > config_.response_timeout_us)
     finish_pending(std::nullopt);
 }
 

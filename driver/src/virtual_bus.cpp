@@ -138,4 +138,8 @@ BusLineStats VirtualBus::stats() const {
   return impl_->line.stats();
 }
 
+uint64_t VirtualBus::now_us() const {
+  return impl_->now();
+}
+
 }  // namespace rtukit

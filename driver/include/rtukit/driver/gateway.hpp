@@ -16,7 +16,7 @@
 // waiting.
 //
 // Read coalescing (`cache`): identical reads within that time share one bus
-// transaction. Any write through the gateway invalidates the cached reads
+// transaction, reads already queued behind it included. Any write through the gateway invalidates the cached reads
 // it may change, whatever its outcome, so a write between two reads is never
 // hidden. Changes made by the device itself can be up to `cache` old.
 #pragma once

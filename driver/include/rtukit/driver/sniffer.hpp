@@ -86,7 +86,8 @@ class Sniffer {
   /// A byte received at `t_us` (the end of its character). Times never go back.
   void feed(uint8_t byte, uint64_t t_us);
   /// Time passes with no byte: closes a frame after t3.5 and a transaction
-  /// whose response did not come in time.
+  /// whose response did not come in time. A time before the last byte (a
+  /// clock estimated from another process) counts as no silence.
   void flush(uint64_t now_us);
   /// Transactions completed since the last call.
   std::vector<SniffedTransaction> take();

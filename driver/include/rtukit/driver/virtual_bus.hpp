@@ -44,6 +44,8 @@ class VirtualBus {
   /// What clients open: the link if one was given, else /dev/pts/N.
   std::vector<std::string> ports() const;
   BusLineStats stats() const;
+  /// The bus's clock: microseconds since it started (the time base of the tap).
+  uint64_t now_us() const;
 
   struct Impl;
 
