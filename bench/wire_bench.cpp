@@ -50,11 +50,12 @@ struct Row {
   std::string workload;
   uint32_t baud;
   double limit, ours, libmodbus, pymodbus;
+  unsigned ours_failed, libmodbus_failed, pymodbus_failed;  // transactions that failed (each costs a timeout)
 };
 
 using Clock = std::chrono::steady_clock;
 
-double run_ours(const std::string& port, uint32_t baud, const Workload& w, double seconds) {
+double run_ours(const std::string& port, uint32_t baud, const Workload& w, double seconds, unsigned& failed) {
   io::PortSpec spec = *io::parse_port(port, false);
   spec.serial.baud = baud;
   Master m(io::make_link(spec), MasterOptions{.response_timeout = 1000ms});
@@ -62,12 +63,20 @@ double run_ours(const std::string& port, uint32_t baud, const Workload& w, doubl
   unsigned ok = 0;
   const auto until = Clock::now() + std::chrono::duration<double>(seconds);
   const auto t0 = Clock::now();
-  while (Clock::now() < until)
-    if (m.read_holding_registers(UnitId{w.unit}, w.address, regs).ok()) ++ok;
+  while (Clock::now() < until) {
+    const Error e = m.read_holding_registers(UnitId{w.unit}, w.address, regs);
+    if (e.ok()) {
+      ++ok;
+    } else {
+      ++failed;
+      std::fprintf(stderr, "ours: transaction %u failed: %s\n", ok + failed, std::string(e.name()).c_str());
+    }
+  }
   return ok / std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-double run_libmodbus(const std::string& port, uint32_t baud, const Workload& w, double seconds) {
+double run_libmodbus(const std::string& port, uint32_t baud, const Workload& w, double seconds,
+                     unsigned& failed) {
   modbus_t* ctx = modbus_new_rtu(port.c_str(), static_cast<int>(baud), 'N', 8, 1);
   if (!ctx) return 0;
   modbus_set_slave(ctx, w.unit);
@@ -81,14 +90,18 @@ double run_libmodbus(const std::string& port, uint32_t baud, const Workload& w, 
   const auto until = Clock::now() + std::chrono::duration<double>(seconds);
   const auto t0 = Clock::now();
   while (Clock::now() < until)
-    if (modbus_read_registers(ctx, w.address, w.count, regs.data()) == w.count) ++ok;
+    if (modbus_read_registers(ctx, w.address, w.count, regs.data()) == w.count)
+      ++ok;
+    else
+      ++failed;
   const double rate = ok / std::chrono::duration<double>(Clock::now() - t0).count();
   modbus_close(ctx);
   modbus_free(ctx);
   return rate;
 }
 
-double run_pymodbus(const std::string& port, uint32_t baud, const Workload& w, double seconds) {
+double run_pymodbus(const std::string& port, uint32_t baud, const Workload& w, double seconds,
+                    unsigned& failed) {
   const std::string script =
       "import time\n"
       "from pymodbus.client import ModbusSerialClient\n"
@@ -96,7 +109,7 @@ double run_pymodbus(const std::string& port, uint32_t baud, const Workload& w, d
       port + "', baudrate=" + std::to_string(baud) +
       ", timeout=1)\n"
       "c.connect()\n"
-      "ok = 0\n"
+      "ok = bad = 0\n"
       "t0 = time.monotonic()\n"
       "while time.monotonic() - t0 < " +
       std::to_string(seconds) +
@@ -104,11 +117,14 @@ double run_pymodbus(const std::string& port, uint32_t baud, const Workload& w, d
       "    r = c.read_holding_registers(" +
       std::to_string(w.address) + ", " + std::to_string(w.count) + ", slave=" + std::to_string(w.unit) +
       ")\n"
-      "    if not r.isError(): ok += 1\n"
-      "print('rate', ok / (time.monotonic() - t0))\n";
+      "    if r.isError(): bad += 1\n"
+      "    else: ok += 1\n"
+      "print('rate', ok / (time.monotonic() - t0), 'failed', bad)\n";
   const RunResult r = run({"/usr/bin/python3", "-c", script},
                           std::chrono::milliseconds(static_cast<long>(seconds * 1000) + 20000));
   const size_t at = r.output.find("rate ");
+  const size_t bad = r.output.find("failed ");
+  if (bad != std::string::npos) failed = static_cast<unsigned>(std::stoul(r.output.substr(bad + 7)));
   return at == std::string::npos ? 0 : std::stod(r.output.substr(at + 5));
 }
 
@@ -226,10 +242,10 @@ int main(int argc, char** argv) {
       const double t35 = RtuTiming::for_serial(baud, 10).t35_us;
       const double chars = 8 + 5 + 2.0 * w.count;
       const double limit = 1e6 / (chars * char_us + 2 * t35);
-      Row r{w.name, baud, limit, 0, 0, 0};
-      r.ours = run_ours(dir / "host", baud, w, seconds);
-      r.libmodbus = run_libmodbus(dir / "host", baud, w, seconds);
-      r.pymodbus = run_pymodbus(dir / "host", baud, w, seconds);
+      Row r{w.name, baud, limit, 0, 0, 0, 0, 0, 0};
+      r.ours = run_ours(dir / "host", baud, w, seconds, r.ours_failed);
+      r.libmodbus = run_libmodbus(dir / "host", baud, w, seconds, r.libmodbus_failed);
+      r.pymodbus = run_pymodbus(dir / "host", baud, w, seconds, r.pymodbus_failed);
       rows.push_back(r);
       std::fprintf(stderr, "%s at %u: limit %.1f/s, ours %.1f, libmodbus %.1f, pymodbus %.1f\n", w.name, baud,
                    limit, r.ours, r.libmodbus, r.pymodbus);
@@ -241,16 +257,18 @@ int main(int argc, char** argv) {
             ? "| workload | baud | limit tx/s | rtukit | libmodbus | pymodbus |\n|---|---|---|---|---|---|\n"
             : "%-44s %7s %10s %16s %16s %16s\n",
         "workload", "baud", "limit tx/s", "rtukit", "libmodbus", "pymodbus");
-  for (const Row& r : rows) {
-    if (markdown)
-      std::printf("| %s | %u | %.1f | %.1f (%.1f %%) | %.1f (%.1f %%) | %.1f (%.1f %%) |\n",
-                  r.workload.c_str(), r.baud, r.limit, r.ours, 100 * r.ours / r.limit, r.libmodbus,
-                  100 * r.libmodbus / r.limit, r.pymodbus, 100 * r.pymodbus / r.limit);
-    else
-      std::printf("%-44s %7u %10.1f %9.1f %5.1f%% %9.1f %5.1f%% %9.1f %5.1f%%\n", r.workload.c_str(), r.baud,
-                  r.limit, r.ours, 100 * r.ours / r.limit, r.libmodbus, 100 * r.libmodbus / r.limit,
-                  r.pymodbus, 100 * r.pymodbus / r.limit);
-  }
+  // "33.6 (97.9 %)", with the failed transactions when there were any.
+  const auto cell = [](double rate, double limit, unsigned failed) {
+    char text[64];
+    std::snprintf(text, sizeof text, failed ? "%.1f (%.1f %%, %u failed)" : "%.1f (%.1f %%)", rate,
+                  100 * rate / limit, failed);
+    return std::string(text);
+  };
+  for (const Row& r : rows)
+    std::printf(markdown ? "| %s | %u | %.1f | %s | %s | %s |\n" : "%-44s %7u %10.1f %16s %16s %16s\n",
+                r.workload.c_str(), r.baud, r.limit, cell(r.ours, r.limit, r.ours_failed).c_str(),
+                cell(r.libmodbus, r.limit, r.libmodbus_failed).c_str(),
+                cell(r.pymodbus, r.limit, r.pymodbus_failed).c_str());
   if (only == "wire") return 0;
 
   std::vector<GatewayRow> gateway_rows;
