@@ -222,3 +222,55 @@ TEST(RtuFramer, UnknownFunctionFrame_WithoutTiming_IsFoundByItsCrcOnceTheBufferF
   ASSERT_FALSE(got.empty());
   EXPECT_EQ(got[0], "15 2B 0E 01 00 40 74");
 }
+
+namespace {
+std::vector<uint8_t> with_crc(std::vector<uint8_t> frame) {
+  const uint16_t crc = crc16(frame);
+  frame.push_back(static_cast<uint8_t>(crc));
+  frame.push_back(static_cast<uint8_t>(crc >> 8));
+  return frame;
+}
+}  // namespace
+
+// Issue 14, the last RTU framing gap: the byte count says one length, the
+// frame has another, and its CRC holds over all its bytes. Once silence
+// closes it, the framer hands it over whole (the slave answers 03, as over
+// Modbus TCP); before silence it waits rather than dropping bytes.
+TEST(RtuFramer, ByteCountDisagreeingWithTheLength_IsTakenWholeAtSilence) {
+  const std::vector<std::vector<uint8_t>> cases = {
+      with_crc({0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x03, 0x00, 0x07, 0x00, 0x08}),  // count 3, 4 bytes
+      with_crc({0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x06, 0x00, 0x07, 0x00, 0x08}),  // count 6, 4 bytes
+      with_crc({0x01, 0x0F, 0x00, 0x00, 0x00, 0x0A, 0x01, 0xFF, 0x03}),              // 10 coils, count 1
+  };
+  for (const auto& frame : cases) {
+    RtuFramer f(FrameShape::request, RtuTiming::for_serial(9600));
+    EXPECT_TRUE(frames_of(f, frame, 0).empty()) << hex(frame);
+    auto got = f.next(100'000);
+    ASSERT_TRUE(got) << hex(frame);
+    EXPECT_EQ(hex(got->adu), hex(frame));
+    // And the slave engine answers 03.
+    SlaveEngine engine;
+    struct Bank : RegisterBank {
+      Errc write_holding_registers(uint16_t, std::span<const uint16_t>) override { return Errc::ok; }
+      Errc write_coils(uint16_t, uint16_t, std::span<const uint8_t>) override { return Errc::ok; }
+    } bank;
+    ASSERT_TRUE(engine.add_unit(UnitId{1}, bank).ok());
+    std::array<uint8_t, kMaxRtuAduSize> out{};
+    const auto h = engine.handle_rtu(got->adu, out);
+    ASSERT_EQ(h.length, 5u) << hex(frame);
+    EXPECT_EQ(out[1], frame[1] | 0x80);
+    EXPECT_EQ(out[2], 0x03);
+  }
+}
+
+// A frame whose CRC fails everywhere stays silent, and no suffix of it is
+// taken for a frame.
+TEST(RtuFramer, ByteCountDisagreeing_WithABadCrc_StaysSilent) {
+  auto frame = with_crc({0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x03, 0x00, 0x07, 0x00, 0x08});
+  frame.back() ^= 0x01;
+  RtuFramer f(FrameShape::request, RtuTiming::for_serial(9600));
+  EXPECT_TRUE(frames_of(f, frame, 0).empty());
+  EXPECT_FALSE(f.next(100'000));
+  EXPECT_EQ(f.buffered(), 0U);
+  EXPECT_EQ(frames_of(f, bytes(kRead), 200'000), std::vector<std::string>{kRead});
+}

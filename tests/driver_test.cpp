@@ -8,6 +8,8 @@
 #include <thread>
 
 #include "process.hpp"
+#include "rtukit/core/crc.hpp"
+#include "rtukit/core/rtu.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
@@ -344,6 +346,37 @@ TEST(SlaveServer, UnknownFunction_IsAnsweredAfterSilence_OnAPty) {
       2000ms);
   ::close(fd);
   EXPECT_EQ(got, (std::vector<uint8_t>{0x01, 0xAB, 0x01, 0x9E, 0xF0}));  // exception 01
+}
+
+// The last RTU framing gap (issue 14): a write-multiple request whose byte
+// count disagrees with its length, CRC-valid over all its bytes, is answered
+// 03 on a serial link as over Modbus TCP, not left unanswered.
+TEST(SlaveServer, ByteCountDisagreeingWithTheLength_Is03OnAPty) {
+  TempDir dir;
+  SlaveOnThread slave("pty:" + (dir / "tty"));
+  const int fd = ::open(slave.client_port().c_str(), O_RDWR | O_NOCTTY);
+  ASSERT_GE(fd, 0);
+  ASSERT_TRUE(io::make_raw(fd).ok());
+  // FC10, 2 registers, byte count 3 (should be 4), 4 data bytes.
+  std::vector<uint8_t> request = {0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x03, 0x00, 0x07, 0x00, 0x08};
+  const uint16_t crc = crc16(request);
+  request.push_back(static_cast<uint8_t>(crc));
+  request.push_back(static_cast<uint8_t>(crc >> 8));
+  ASSERT_EQ(::write(fd, request.data(), request.size()), static_cast<ssize_t>(request.size()));
+  std::vector<uint8_t> got;
+  test::eventually(
+      [&] {
+        uint8_t buf[16];
+        const ssize_t n = ::read(fd, buf, sizeof buf);
+        if (n > 0) got.insert(got.end(), buf, buf + n);
+        return got.size() >= 5;
+      },
+      2000ms);
+  ::close(fd);
+  ASSERT_EQ(got.size(), 5u);
+  EXPECT_EQ(got[1], 0x90);
+  EXPECT_EQ(got[2], 0x03);  // illegal data value
+  EXPECT_TRUE(rtu_crc_ok(got));
 }
 
 TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {

@@ -204,7 +204,8 @@ TEST(SniffLive, OnANamedBus) {
   EXPECT_TRUE(eventually([&] {
     const std::string out = sniff.output();
     size_t n = 0;
-    for (size_t at = 0; (at = out.find("21 read holding 0x0021 x4: work_mode", at)) != std::string::npos; ++at)
+    for (size_t at = 0; (at = out.find("21 read holding 0x0021 x4: work_mode", at)) != std::string::npos;
+         ++at)
       ++n;
     return n == 3;
   })) << sniff.output();

@@ -56,6 +56,7 @@ void RtuFramer::expect_echo(std::span<const uint8_t> sent) noexcept {
 
 void RtuFramer::reset() noexcept {
   head_ = tail_ = pending_ = boundary_ = 0;
+  sliding_ = false;
   expected_function_ = 0;
   expected_quantity_ = 0;
   echo_len_ = 0;
@@ -72,7 +73,10 @@ void RtuFramer::drop(size_t n) noexcept {
   head_ += n;
   counters_.discarded_bytes += static_cast<uint32_t>(n);
   if (boundary_ <= head_) boundary_ = 0;
-  if (head_ == tail_) head_ = tail_ = 0;
+  if (head_ == tail_) {
+    head_ = tail_ = 0;
+    sliding_ = false;  // nothing left: the next byte starts afresh
+  }
 }
 
 // Length of the shortest prefix of p[0..max) (at least 4 bytes) that ends in
@@ -255,11 +259,33 @@ std::optional<RtuFrame> RtuFramer::next(uint64_t now_us) noexcept {
       if (lookahead_resync(avail)) continue;
       return std::nullopt;
     }
+    // The predicted lengths failed (or are not all here). A frame whose own
+    // fields disagree with its length (a write-multiple request whose byte
+    // count is not its quantity's) is still a frame when its CRC holds over
+    // all its bytes: once silence closes it, take it whole, so that the
+    // slave answers 03 as it would over Modbus TCP. A CRC that fails
+    // everywhere stays silent. Only where the closed bytes begin: a suffix
+    // of a corrupted frame is not tried (each would be a 1-in-65536 chance
+    // of taking noise for a frame).
+    if (closed && !sliding_ && avail >= 4 && rtu_crc_ok({buf_.data() + head_, avail})) {
+      sliding_ = false;
+      pending_ = avail;
+      ++counters_.frames;
+      return RtuFrame{{buf_.data() + head_, avail}, last_time_us_};
+    }
     if (v == Verdict::need_more) {
       if (closed) {
+        sliding_ = true;
         drop(1);  // truncated at silence: slide, a frame may start later in it
         continue;
       }
+      if (lookahead_resync(avail)) continue;
+      return std::nullopt;
+    }
+    if (timing_.t35_us && have_time_ && !closed && avail < kMaxRtuAduSize) {
+      // With timing, wait for the silence that ends this frame before giving
+      // up on it, unless a whole frame ends at the newest byte (then the
+      // head was garbage).
       if (lookahead_resync(avail)) continue;
       return std::nullopt;
     }
