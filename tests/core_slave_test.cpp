@@ -284,3 +284,147 @@ TEST(MasterTransaction, TcpMatchesTheTransactionId) {
   ASSERT_TRUE(outcome.has_value());
   EXPECT_TRUE(outcome->ok());
 }
+
+// ---- FC16 mask write and FC17 read/write multiple (issue 14) ----
+
+namespace {
+
+// A bank that declares the combined register functions.
+class CombinedBank : public TestBank {
+ public:
+  FunctionSet functions() const noexcept override { return kDataFunctions | kRegisterCombinedFunctions; }
+};
+
+// The frame with its CRC, as hex.
+std::string framed(const std::string& frame_without_crc) {
+  const auto body = bytes(frame_without_crc);
+  std::array<uint8_t, kMaxRtuAduSize> adu{};
+  return hex({adu.data(), *rtu_encode(body[0], std::span(body).subspan(1), adu)});
+}
+
+class CombinedTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(engine.add_unit(UnitId{1}, bank).ok()); }
+  CombinedBank bank;
+  SlaveEngine engine;
+};
+
+}  // namespace
+
+// The specification's example (MODBUS Application Protocol 1.1b3, 6.16):
+// register 4 holds 0x12; AND 0xF2, OR 0x25 gives 0x17; the answer echoes.
+TEST_F(CombinedTest, MaskWrite_SpecificationExample) {
+  bank.holding[4] = 0x12;
+  EXPECT_EQ(answer(engine, "01 16 00 04 00 F2 00 25"), framed("01 16 00 04 00 F2 00 25"));
+  EXPECT_EQ(bank.holding[4], 0x17);
+  EXPECT_EQ(answer(engine, "01 16 00 C8 00 F2 00 25"), exception(1, 0x16, 0x02));  // no register 200
+  EXPECT_EQ(answer(engine, "01 16 00 04 00 F2"), "");                              // too short: silence
+  EXPECT_EQ(answer(engine, "01 16 00 04 00 F2 00 25 00"), exception(1, 0x16, 0x03));
+}
+
+// The specification's example (6.17): write 3 registers at 0x0E, read 6 from 3.
+TEST_F(CombinedTest, ReadWriteMultiple_SpecificationExample) {
+  const uint16_t before[] = {0x00FE, 0x0ACD, 0x0001, 0x0003, 0x000D, 0x00FF};
+  std::copy(std::begin(before), std::end(before), bank.holding.begin() + 3);
+  EXPECT_EQ(answer(engine, "01 17 00 03 00 06 00 0E 00 03 06 00 FF 00 FF 00 FF"),
+            framed("01 17 0C 00 FE 0A CD 00 01 00 03 00 0D 00 FF"));
+  EXPECT_EQ(bank.holding[14], 0xFF);
+  EXPECT_EQ(bank.holding[16], 0xFF);
+}
+
+TEST_F(CombinedTest, ReadWriteMultiple_TheWriteComesFirst) {
+  EXPECT_EQ(answer(engine, "01 17 00 05 00 02 00 05 00 01 02 01 F4"), framed("01 17 04 01 F4 00 00"));
+}
+
+// All or nothing: a read that must fail answers 02 without the write applied;
+// a value the bank refuses writes nothing either.
+TEST_F(CombinedTest, ReadWriteMultiple_IsAllOrNothing) {
+  EXPECT_EQ(answer(engine, "01 17 00 62 00 05 00 00 00 01 02 00 07"), exception(1, 0x17, 0x02));
+  EXPECT_EQ(bank.writes, 0);
+  EXPECT_EQ(bank.holding[0], 0);
+  EXPECT_EQ(answer(engine, "01 17 00 00 00 01 00 00 00 02 04 00 07 13 88"), exception(1, 0x17, 0x03));
+  EXPECT_EQ(bank.writes, 0);
+}
+
+TEST_F(CombinedTest, ReadWriteMultiple_ExceptionMatrix) {
+  const std::pair<const char*, uint8_t> cases[] = {
+      {"01 17 00 00 00 00 00 00 00 01 02 00 07", 0x03},        // read quantity 0
+      {"01 17 00 00 00 7E 00 00 00 01 02 00 07", 0x03},        // read quantity 126
+      {"01 17 00 00 00 01 00 00 00 00 00", 0x03},              // write quantity 0
+      {"01 17 00 00 00 01 00 00 00 02 03 00 07 00", 0x03},     // byte count 3 for 2 registers
+      {"01 17 FF FF 00 02 00 00 00 01 02 00 07", 0x02},        // read past 0xFFFF
+      {"01 17 00 00 00 01 FF FF 00 02 04 00 07 00 07", 0x02},  // write past 0xFFFF
+  };
+  for (const auto& [frame, code] : cases) EXPECT_EQ(answer(engine, frame), exception(1, 0x17, code)) << frame;
+  // Write quantity 122 (121 is the most; 122 would not fit a frame): 03.
+  EXPECT_EQ(answer(engine, "01 17 00 00 00 01 00 00 00 7A 02 00 01"), exception(1, 0x17, 0x03));
+  EXPECT_EQ(bank.writes, 0);
+}
+
+TEST_F(CombinedTest, Broadcast_MaskWriteRuns_ReadWriteDoesNot) {
+  bank.holding[4] = 0x12;
+  EXPECT_EQ(answer(engine, "00 16 00 04 00 F2 00 25"), "");
+  EXPECT_EQ(bank.holding[4], 0x17);
+  EXPECT_EQ(answer(engine, "00 17 00 00 00 01 00 07 00 01 02 00 07"), "");
+  EXPECT_EQ(bank.holding[7], 0);
+}
+
+// A device that does not declare them answers 01 (the built-in profiles).
+TEST_F(SlaveEngineTest, MaskWriteAndReadWrite_Are01UnlessTheBankDeclaresThem) {
+  EXPECT_EQ(answer(engine, "01 16 00 04 00 F2 00 25"), exception(1, 0x16, 0x01));
+  EXPECT_EQ(answer(engine, "01 17 00 03 00 06 00 0E 00 03 06 00 FF 00 FF 00 FF"), exception(1, 0x17, 0x01));
+}
+
+// The framer knows both lengths, in both directions, byte by byte.
+TEST(RtuFramerCombined, PredictsMaskWriteAndReadWriteLengths) {
+  for (const auto& [shape, text] : std::vector<std::pair<FrameShape, std::string>>{
+           {FrameShape::request, framed("01 16 00 04 00 F2 00 25")},
+           {FrameShape::request, framed("01 17 00 03 00 06 00 0E 00 03 06 00 FF 00 FF 00 FF")},
+           {FrameShape::response, framed("01 16 00 04 00 F2 00 25")},
+           {FrameShape::response, framed("01 17 0C 00 FE 0A CD 00 01 00 03 00 0D 00 FF")}}) {
+    RtuFramer f(shape);  // no timing: the length must be predicted
+    const auto in = bytes(text);
+    for (size_t i = 0; i + 1 < in.size(); ++i) {
+      f.feed({&in[i], 1}, 0);
+      EXPECT_FALSE(f.next(0)) << text << " early at " << i;
+    }
+    f.feed({&in.back(), 1}, 0);
+    const auto frame = f.next(0);
+    ASSERT_TRUE(frame) << text;
+    EXPECT_EQ(hex(frame->adu), text);
+  }
+}
+
+// The codec: the specification's request bytes, and the master's checks.
+TEST(CombinedCodec, EncodeAndDecode) {
+  std::array<uint8_t, kMaxPduSize> out{};
+  auto n = encode_mask_write_register(4, 0x00F2, 0x0025, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(hex({out.data(), *n}), "16 00 04 00 F2 00 25");
+  const auto values = bytes("00 FF 00 FF 00 FF");
+  n = encode_read_write_multiple_registers(3, 6, 0x0E, values, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(hex({out.data(), *n}), "17 00 03 00 06 00 0E 00 03 06 00 FF 00 FF 00 FF");
+  EXPECT_FALSE(encode_read_write_multiple_registers(3, 126, 0, values, out).ok());  // read 126
+
+  const Result<Request> rw = decode_request({out.data(), *n});
+  ASSERT_TRUE(rw.ok());
+  EXPECT_EQ(rw->address, 3);
+  EXPECT_EQ(rw->quantity, 6);
+  EXPECT_EQ(rw->write_address, 0x0E);
+  EXPECT_EQ(rw->write_quantity, 3);
+  const auto answer_pdu = bytes("17 0C 00 FE 0A CD 00 01 00 03 00 0D 00 FF");
+  const Result<Response> r = decode_response(*rw, answer_pdu);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->data.size(), 12u);
+  EXPECT_EQ(decode_response(*rw, bytes("17 02 00 FE")).error().code(), Errc::unexpected_response);
+
+  Request mask;
+  mask.function = 0x16;
+  mask.address = 4;
+  mask.and_mask = 0xF2;
+  mask.or_mask = 0x25;
+  EXPECT_TRUE(decode_response(mask, bytes("16 00 04 00 F2 00 25")).ok());
+  EXPECT_EQ(decode_response(mask, bytes("16 00 04 00 F2 00 26")).error().code(), Errc::unexpected_response);
+  EXPECT_EQ(decode_response(mask, bytes("96 02")).error().code(), Errc::illegal_data_address);
+}

@@ -9,7 +9,9 @@ Error MasterTransaction::begin(Framing framing, UnitId unit, const Request& requ
   transaction_id_ = transaction_id;
   broadcast_ = framing == Framing::rtu && unit == kBroadcast;
   tx_len_ = 0;
-  if (broadcast_ && is_read_function(request.function)) return Errc::invalid_argument;
+  if (broadcast_ &&
+      (is_read_function(request.function) || request.function == fc(Function::read_write_multiple_registers)))
+    return Errc::invalid_argument;
   std::array<uint8_t, kMaxPduSize> pdu{};
   const Result<size_t> n = encode_request(request, pdu);
   if (!n.ok()) return n.error();

@@ -14,6 +14,8 @@ bool is_supported_function(uint8_t function) noexcept {
     case fc(Function::write_single_register):
     case fc(Function::write_multiple_coils):
     case fc(Function::write_multiple_registers):
+    case fc(Function::mask_write_register):
+    case fc(Function::read_write_multiple_registers):
       return true;
     default:
       return false;
@@ -42,6 +44,10 @@ const char* function_name(uint8_t function) noexcept {
       return "write multiple coils";
     case fc(Function::write_multiple_registers):
       return "write multiple registers";
+    case fc(Function::mask_write_register):
+      return "mask write register";
+    case fc(Function::read_write_multiple_registers):
+      return "read/write multiple registers";
     default:
       return "unknown function";
   }
@@ -76,6 +82,17 @@ uint16_t max_quantity(uint8_t function) noexcept {
 Errc check_range(uint8_t function, uint16_t address, uint16_t quantity) noexcept {
   if (quantity < 1 || quantity > max_quantity(function)) return Errc::illegal_data_value;
   if (static_cast<uint32_t>(address) + quantity > 0x10000U) return Errc::illegal_data_address;
+  return Errc::ok;
+}
+
+// FC17: both quantities first (03), then both ranges (02).
+Errc check_read_write(const Request& r) noexcept {
+  if (r.quantity < 1 || r.quantity > kMaxReadRegisters || r.write_quantity < 1 ||
+      r.write_quantity > kMaxReadWriteWriteRegisters)
+    return Errc::illegal_data_value;
+  if (static_cast<uint32_t>(r.address) + r.quantity > 0x10000U ||
+      static_cast<uint32_t>(r.write_address) + r.write_quantity > 0x10000U)
+    return Errc::illegal_data_address;
   return Errc::ok;
 }
 
@@ -131,6 +148,24 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
       return r;
     }
+    case fc(Function::mask_write_register): {
+      if (pdu.size() != 7) return pdu.size() < 7 ? Errc::malformed : Errc::illegal_data_value;
+      r.quantity = 1;
+      r.and_mask = load_be16(&pdu[3]);
+      r.or_mask = load_be16(&pdu[5]);
+      return r;
+    }
+    case fc(Function::read_write_multiple_registers): {
+      if (pdu.size() < 10) return Errc::malformed;
+      r.quantity = load_be16(&pdu[3]);
+      r.write_address = load_be16(&pdu[5]);
+      r.write_quantity = load_be16(&pdu[7]);
+      if (Errc e = check_read_write(r); e != Errc::ok) return e;
+      if (pdu[9] != 2 * size_t{r.write_quantity} || pdu.size() != 10 + size_t{pdu[9]})
+        return Errc::illegal_data_value;
+      r.data = pdu.subspan(10);
+      return r;
+    }
     default:
       return Errc::illegal_function;
   }
@@ -170,6 +205,25 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       store_be16(&out[3], r.quantity);
       if (!short_form) out[5] = static_cast<uint8_t>(bytes);
       std::memcpy(&out[header], r.data.data(), bytes);
+      break;
+    }
+    case fc(Function::mask_write_register):
+      n = 7;
+      if (out.size() < n) return Errc::buffer_too_small;
+      store_be16(&out[3], r.and_mask);
+      store_be16(&out[5], r.or_mask);
+      break;
+    case fc(Function::read_write_multiple_registers): {
+      if (check_read_write(r) != Errc::ok) return Errc::invalid_argument;
+      const size_t bytes = size_t{2} * r.write_quantity;
+      if (r.data.size() != bytes) return Errc::invalid_argument;
+      n = 10 + bytes;
+      if (out.size() < n) return Errc::buffer_too_small;
+      store_be16(&out[3], r.quantity);
+      store_be16(&out[5], r.write_address);
+      store_be16(&out[7], r.write_quantity);
+      out[9] = static_cast<uint8_t>(bytes);
+      std::memcpy(&out[10], r.data.data(), bytes);
       break;
     }
     default:
@@ -238,6 +292,32 @@ Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uin
   return 6 + bytes;
 }
 
+Result<size_t> encode_mask_write_register(uint16_t address, uint16_t and_mask, uint16_t or_mask,
+                                          std::span<uint8_t> out) noexcept {
+  Request r;
+  r.function = fc(Function::mask_write_register);
+  r.address = address;
+  r.quantity = 1;
+  r.and_mask = and_mask;
+  r.or_mask = or_mask;
+  return encode_request(r, out);
+}
+
+Result<size_t> encode_read_write_multiple_registers(uint16_t read_address, uint16_t read_quantity,
+                                                    uint16_t write_address,
+                                                    std::span<const uint8_t> write_data,
+                                                    std::span<uint8_t> out) noexcept {
+  Request r;
+  r.function = fc(Function::read_write_multiple_registers);
+  r.address = read_address;
+  r.quantity = read_quantity;
+  r.write_address = write_address;
+  r.write_quantity = static_cast<uint16_t>(write_data.size() / 2);
+  r.data = write_data;
+  if (write_data.size() % 2 != 0) return Errc::invalid_argument;
+  return encode_request(r, out);
+}
+
 Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu,
                                  FrameQuirks quirks) noexcept {
   if (pdu.empty()) return Errc::malformed;
@@ -250,6 +330,22 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
   Response r;
   r.function = pdu[0];
   switch (request.function) {
+    case fc(Function::mask_write_register): {
+      // The answer echoes the request.
+      if (pdu.size() != 7) return Errc::malformed;
+      r.address = load_be16(&pdu[1]);
+      if (r.address != request.address || load_be16(&pdu[3]) != request.and_mask ||
+          load_be16(&pdu[5]) != request.or_mask)
+        return Errc::unexpected_response;
+      return r;
+    }
+    case fc(Function::read_write_multiple_registers): {
+      const size_t expected = size_t{2} * request.quantity;
+      if (pdu.size() < 2) return Errc::malformed;
+      if (pdu[1] != expected || pdu.size() != 2 + expected) return Errc::unexpected_response;
+      r.data = pdu.subspan(2);
+      return r;
+    }
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
     case fc(Function::read_holding_registers):

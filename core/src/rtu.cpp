@@ -112,6 +112,16 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       c.predictable = false;
       return c;
     }
+    if (function == fc(Function::mask_write_register)) {
+      add(10);  // address, function, address, AND mask, OR mask, CRC
+      return c;
+    }
+    if (function == fc(Function::read_write_multiple_registers)) {
+      c.need = 11;
+      if (avail < 11) return c;
+      add(13 + size_t{p[10]});  // 9 bytes of fields, the byte count, the data, CRC
+      return c;
+    }
     if (function != fc(Function::write_multiple_coils) &&
         function != fc(Function::write_multiple_registers)) {
       add(8);  // reads and single writes: address, function, 4 bytes, CRC
@@ -155,6 +165,13 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     case fc(Function::write_multiple_registers):
       add(8);
       return c;
+    case fc(Function::mask_write_register):
+      add(10);  // the request echoed
+      return c;
+    case fc(Function::read_write_multiple_registers):
+      if (avail < 3) return c;
+      add(5 + size_t{p[2]});
+      return c;
     default:
       c.predictable = false;
       return c;
@@ -166,7 +183,7 @@ RtuFramer::Verdict RtuFramer::check_at(size_t pos, size_t avail, size_t* frame_l
   const uint8_t* p = buf_.data() + pos;
   const Candidates c = predict(p, avail);
   if (!c.predictable) return Verdict::not_a_frame;
-  if (c.count == 0) return avail >= 7 ? Verdict::not_a_frame : Verdict::need_more;
+  if (c.count == 0) return avail >= c.need ? Verdict::not_a_frame : Verdict::need_more;
   bool waiting = false;
   for (size_t i = 0; i < c.count; ++i) {
     if (c.len[i] > avail) {

@@ -107,6 +107,36 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       if (e != Errc::ok) return e;
       break;
     }
+    case fc(Function::mask_write_register): {
+      // Read, modify, write: one register, so the bank's write is the commit.
+      uint16_t current = 0;
+      if (Errc e = bank.read_holding_registers(r.address, {&current, 1}); e != Errc::ok) return e;
+      const auto value = static_cast<uint16_t>((current & r.and_mask) | (r.or_mask & ~r.and_mask));
+      if (Errc e = bank.write_holding_registers(r.address, {&value, 1}); e != Errc::ok) return e;
+      store_be16(&out[1], r.address);
+      store_be16(&out[3], r.and_mask);
+      store_be16(&out[5], r.or_mask);
+      *length = 7;
+      return Errc::ok;
+    }
+    case fc(Function::read_write_multiple_registers): {
+      // The write comes first (the specification's order), all or nothing.
+      // The read range is tried before it, so that a read that must fail
+      // (02) answers without the write having been applied.
+      std::array<uint16_t, kMaxReadRegisters> regs{};
+      const std::span<uint16_t> view(regs.data(), r.quantity);
+      if (Errc e = bank.read_holding_registers(r.address, view); e != Errc::ok) return e;
+      std::array<uint16_t, kMaxReadWriteWriteRegisters> values{};
+      load_registers(r.data, {values.data(), r.write_quantity});
+      if (Errc e = bank.write_holding_registers(r.write_address, {values.data(), r.write_quantity});
+          e != Errc::ok)
+        return e;
+      if (Errc e = bank.read_holding_registers(r.address, view); e != Errc::ok) return e;
+      out[1] = static_cast<uint8_t>(2 * r.quantity);
+      for (size_t i = 0; i < r.quantity; ++i) store_be16(&out[2 + 2 * i], regs[i]);
+      *length = 2 + 2 * size_t{r.quantity};
+      return Errc::ok;
+    }
     default:
       return Errc::illegal_function;
   }
@@ -146,7 +176,10 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
   if (broadcast) {
     // Only writes are executed; nobody answers, whatever the outcome.
     ++counters_.broadcasts;
-    if (!request.ok() || is_read_function(request->function)) return {};
+    // FC17 reads too: a broadcast cannot carry its answer, so it is not run.
+    if (!request.ok() || is_read_function(request->function) ||
+        request->function == fc(Function::read_write_multiple_registers))
+      return {};
     std::array<uint8_t, kMaxPduSize> scratch{};
     size_t len = 0;
     for (size_t i = 0; i < count_; ++i) {

@@ -18,7 +18,10 @@ namespace {
 
 bool is_write(uint8_t function) {
   return function == fc(Function::write_single_coil) || function == fc(Function::write_single_register) ||
-         function == fc(Function::write_multiple_coils) || function == fc(Function::write_multiple_registers);
+         function == fc(Function::write_multiple_coils) ||
+         function == fc(Function::write_multiple_registers) ||
+         function == fc(Function::mask_write_register) ||
+         function == fc(Function::read_write_multiple_registers);  // it writes before it reads
 }
 
 bool is_read(uint8_t function) {
@@ -41,7 +44,10 @@ std::vector<uint8_t> exception_pdu(uint8_t function, Errc e) {
 // like the Rehand's 2-byte byte count, does not travel to TCP clients).
 std::vector<uint8_t> response_pdu(const Request& req, const Response& r) {
   std::vector<uint8_t> out{r.function};
-  if (is_read(r.function)) {
+  if (r.function == fc(Function::mask_write_register)) {
+    for (const uint16_t v : {req.address, req.and_mask, req.or_mask})
+      out.insert(out.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v)});
+  } else if (is_read(r.function) || r.function == fc(Function::read_write_multiple_registers)) {
     out.push_back(static_cast<uint8_t>(r.data.size()));
     out.insert(out.end(), r.data.begin(), r.data.end());
   } else {
@@ -183,7 +189,9 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
 // Cached reads of `unit` that `write` may change. Called with the lock held.
 void Gateway::Impl::invalidate(uint8_t unit, const Request& write) {
   const uint8_t changed = read_function_changed_by(write.function);
-  const uint32_t first = write.address, end = uint32_t{write.address} + write.quantity;
+  const bool fc17 = write.function == fc(Function::read_write_multiple_registers);
+  const uint32_t first = fc17 ? write.write_address : write.address;
+  const uint32_t end = first + (fc17 ? write.write_quantity : write.quantity);
   for (auto it = cache.begin(); it != cache.end();) {
     const auto& [u, f, address, quantity] = it->first;
     const bool overlaps = address < end && first < uint32_t{address} + quantity;
@@ -247,7 +255,9 @@ void Gateway::Impl::run_bus() {
       if (write) invalidate(job.unit, *req);
       if (e.ok() && answer.empty() && write) {
         // A broadcast write: nobody answers on the bus; the client gets the echo.
-        answer.assign(job.pdu.begin(), job.pdu.begin() + (job.pdu.size() < 5 ? job.pdu.size() : 5));
+        const size_t echo = req->function == fc(Function::mask_write_register) ? 7 : 5;
+        answer.assign(job.pdu.begin(),
+                      job.pdu.begin() + static_cast<std::ptrdiff_t>(std::min(job.pdu.size(), echo)));
       } else if (e.is_exception()) {
         answer = exception_pdu(req->function, e.code());
       } else if (e.code() == Errc::timeout || e.code() == Errc::unexpected_response ||

@@ -260,4 +260,26 @@ Error Master::write_multiple_coils(UnitId unit, uint16_t address, std::span<cons
   return transact(unit, r);
 }
 
+Error Master::mask_write_register(UnitId unit, uint16_t address, uint16_t and_mask, uint16_t or_mask) {
+  Request r = make_request(Function::mask_write_register, address, 1);
+  r.and_mask = and_mask;
+  r.or_mask = or_mask;
+  return transact(unit, r);
+}
+
+Error Master::read_write_multiple_registers(UnitId unit, uint16_t read_address, std::span<uint16_t> out,
+                                            uint16_t write_address, std::span<const uint16_t> values) {
+  if (out.empty() || out.size() > kMaxReadRegisters || values.empty() ||
+      values.size() > kMaxReadWriteWriteRegisters)
+    return Errc::invalid_argument;
+  std::array<uint8_t, 2 * kMaxReadWriteWriteRegisters> data{};
+  for (size_t i = 0; i < values.size(); ++i) store_be16(&data[2 * i], values[i]);
+  Request r =
+      make_request(Function::read_write_multiple_registers, read_address, static_cast<uint16_t>(out.size()));
+  r.write_address = write_address;
+  r.write_quantity = static_cast<uint16_t>(values.size());
+  r.data = {data.data(), 2 * values.size()};
+  return transact(unit, r, [&](const Response& resp) { load_registers(resp.data, out); });
+}
+
 }  // namespace rtukit

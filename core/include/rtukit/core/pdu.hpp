@@ -7,9 +7,11 @@
 //
 // Function codes: 01 read coils, 02 read discrete inputs, 03 read holding
 // registers, 04 read input registers, 05 write single coil, 06 write single
-// register, 0F write multiple coils, 10 write multiple registers.
+// register, 0F write multiple coils, 10 write multiple registers, 16 mask
+// write register, 17 read/write multiple registers.
 // Limits (Modbus Application Protocol v1.1b3): reads 1..125 registers or
-// 1..2000 bits; multiple writes 1..123 registers or 1..1968 bits.
+// 1..2000 bits; multiple writes 1..123 registers or 1..1968 bits; FC17 reads
+// 1..125 and writes 1..121 registers.
 #pragma once
 
 #include <cstddef>
@@ -26,6 +28,7 @@ inline constexpr uint16_t kMaxReadRegisters = 125;
 inline constexpr uint16_t kMaxWriteRegisters = 123;
 inline constexpr uint16_t kMaxReadBits = 2000;
 inline constexpr uint16_t kMaxWriteBits = 1968;
+inline constexpr uint16_t kMaxReadWriteWriteRegisters = 121;  ///< FC17's write part
 inline constexpr uint8_t kExceptionBit = 0x80;
 
 /// A slave's unit address. A distinct type so it cannot be swapped with a
@@ -47,6 +50,8 @@ enum class Function : uint8_t {
   write_single_register = 0x06,
   write_multiple_coils = 0x0F,
   write_multiple_registers = 0x10,
+  mask_write_register = 0x16,
+  read_write_multiple_registers = 0x17,
 };
 
 constexpr uint8_t fc(Function f) noexcept {
@@ -81,7 +86,12 @@ inline constexpr FunctionSet kDataFunctions =
     function_bit(Function::read_holding_registers) | function_bit(Function::read_input_registers) |
     function_bit(Function::write_single_coil) | function_bit(Function::write_single_register) |
     function_bit(Function::write_multiple_coils) | function_bit(Function::write_multiple_registers);
-/// True for the eight function codes above.
+/// Mask write (16) and read/write multiple (17): what a bank of holding
+/// registers can serve through its read and write methods. Not in a bank's
+/// functions() unless it declares them (a device that does not know them answers 01).
+inline constexpr FunctionSet kRegisterCombinedFunctions =
+    function_bit(Function::mask_write_register) | function_bit(Function::read_write_multiple_registers);
+/// True for the function codes of `Function`.
 bool is_supported_function(uint8_t function) noexcept;
 /// True for 01..04.
 bool is_read_function(uint8_t function) noexcept;
@@ -119,8 +129,13 @@ struct Request {
   uint16_t address = 0;
   uint16_t quantity = 0;  ///< registers or bits; 1 for single writes
   uint16_t value = 0;     ///< FC05 (0xFF00 on / 0x0000 off) and FC06
-  /// FC0F: packed bits; FC10: big-endian register values. Empty otherwise.
+  /// FC0F: packed bits; FC10 and FC17: big-endian register values. Empty otherwise.
   std::span<const uint8_t> data{};
+  /// FC16: the register becomes (current AND and_mask) OR (or_mask AND NOT and_mask).
+  uint16_t and_mask = 0, or_mask = 0;
+  /// FC17: the write part (`address` and `quantity` are the read part; the
+  /// write happens first).
+  uint16_t write_address = 0, write_quantity = 0;
   /// FC10 sent without its byte-count byte (the Inverjet document's form).
   bool without_byte_count = false;
 };
@@ -150,12 +165,22 @@ Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const
 Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uint8_t> bits,
                                            std::span<uint8_t> out) noexcept;
 
+/// FC16: the register at `address` becomes (current AND and_mask) OR (or_mask AND NOT and_mask).
+Result<size_t> encode_mask_write_register(uint16_t address, uint16_t and_mask, uint16_t or_mask,
+                                          std::span<uint8_t> out) noexcept;
+/// FC17: writes `write_data` (big-endian registers, 1..121) at `write_address`,
+/// then reads `read_quantity` (1..125) registers from `read_address`.
+Result<size_t> encode_read_write_multiple_registers(uint16_t read_address, uint16_t read_quantity,
+                                                    uint16_t write_address,
+                                                    std::span<const uint8_t> write_data,
+                                                    std::span<uint8_t> out) noexcept;
+
 /// A response PDU, decoded and checked against the request it answers.
 struct Response {
   uint8_t function = 0;
   uint16_t address = 0;  ///< writes: the echoed address
   uint16_t value = 0;    ///< FC05/06: echoed value; FC0F/10: echoed quantity
-  /// Reads: big-endian register bytes (FC03/04) or packed bits (FC01/02).
+  /// Reads: big-endian register bytes (FC03/04/17) or packed bits (FC01/02).
   std::span<const uint8_t> data{};
   /// FC03/04 answered with a 2-byte byte count (the Rehand 6600 document's form).
   bool long_byte_count = false;

@@ -126,6 +126,7 @@ class RtuFramer {
   struct Candidates {
     size_t len[2] = {0, 0};
     size_t count = 0;  // 0 = length cannot be predicted (yet or at all)
+    size_t need = 7;   // bytes it takes to predict (FC0F/10: the byte count is the 7th)
     bool predictable = true;
   };
 

@@ -16,9 +16,9 @@
 // waiting.
 //
 // Read coalescing (`cache`): identical reads within that time share one bus
-// transaction, reads already queued behind it included. Any write through the gateway invalidates the cached reads
-// it may change, whatever its outcome, so a write between two reads is never
-// hidden. Changes made by the device itself can be up to `cache` old.
+// transaction, reads already queued behind it included. Any write through the gateway invalidates the cached
+// reads it may change, whatever its outcome, so a write between two reads is never hidden. Changes made by
+// the device itself can be up to `cache` old.
 #pragma once
 
 #include <chrono>

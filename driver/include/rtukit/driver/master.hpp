@@ -113,6 +113,14 @@ class Master {
   Error write_single_coil(UnitId unit, uint16_t address, bool on);
   /// FC0F. One element per coil: 0 = off, anything else = on.
   Error write_multiple_coils(UnitId unit, uint16_t address, std::span<const uint8_t> bits);
+  /// FC16: the register becomes (current AND and_mask) OR (or_mask AND NOT and_mask),
+  /// in one request (no read-modify-write race with another master).
+  Error mask_write_register(UnitId unit, uint16_t address, uint16_t and_mask, uint16_t or_mask);
+  /// FC17: writes `values` (1..121) at `write_address`, then reads out.size()
+  /// (1..125) registers from `read_address`, in one request; the slave applies
+  /// the write first. Not for broadcast.
+  Error read_write_multiple_registers(UnitId unit, uint16_t read_address, std::span<uint16_t> out,
+                                      uint16_t write_address, std::span<const uint16_t> values);
 
   /// Any request. `on_response` runs (under the lock) with the decoded
   /// response while its data is valid; not called for broadcasts.

@@ -21,6 +21,8 @@ class MemoryBank final : public RegisterBank {
   /// The documented frame forms this slave accepts (`rtukit slave --quirk`).
   FrameQuirks accepted_quirks{};
   FrameQuirks quirks() const noexcept override { return accepted_quirks; }
+  /// The data functions plus mask write (16) and read/write multiple (17).
+  FunctionSet functions() const noexcept override { return kDataFunctions | kRegisterCombinedFunctions; }
 
   std::vector<uint16_t> holding;
   std::vector<uint16_t> input;
