@@ -63,6 +63,16 @@ void exercise_server(Master& m) {
   std::array<uint16_t, 10> past{};
   const Error e = m.read_holding_registers(unit, 195, past);
   EXPECT_EQ(e.code(), Errc::illegal_data_address) << e.name();
+
+  // FC16 and FC17 (issue 14): holding[60] = 600 on both servers.
+  uint16_t v = 0;
+  ASSERT_TRUE(m.mask_write_register(unit, 60, 0x00F2, 0x0025).ok());
+  ASSERT_TRUE(m.read_holding_registers(unit, 60, {&v, 1}).ok());
+  EXPECT_EQ(v, (600 & 0x00F2) | (0x0025 & ~0x00F2));
+  const uint16_t rw[] = {7, 8};
+  std::array<uint16_t, 3> after{};
+  ASSERT_TRUE(m.read_write_multiple_registers(unit, 69, after, 70, rw).ok());
+  EXPECT_EQ(after, (std::array<uint16_t, 3>{690, 7, 8}));  // the write came first
 }
 
 }  // namespace

@@ -38,6 +38,16 @@ def main():
     check(not r.isError() and len(r.registers) == 2, "read_input_registers: %s" % r)
     r = client.read_holding_registers(65000, 10, slave=1)
     check(r.isError() and getattr(r, "exception_code", None) == 2, "exception 02 expected: %s" % r)
+    # FC16 mask write and FC17 read/write multiple (issue 14). Debian's
+    # pymodbus 3.0 builds these two requests with `unit=`, not `slave=`
+    # (with slave= they go to unit 0: a broadcast on RTU, rightly unanswered).
+    check(not client.write_register(50, 0x12, slave=1).isError(), "write 50")
+    r = client.mask_write_register(address=50, and_mask=0x00F2, or_mask=0x0025, unit=1)
+    check(not r.isError(), "mask_write_register: %s" % r)
+    r = client.read_holding_registers(50, 1, slave=1)
+    check(not r.isError() and r.registers == [0x17], "mask result 0x17: %s" % r)
+    r = client.readwrite_registers(read_address=59, read_count=3, write_address=60, write_registers=[7, 8], unit=1)
+    check(not r.isError() and r.registers == [0, 7, 8], "readwrite_registers, the write first: %s" % r)
     client.close()
     print("OK")
 
