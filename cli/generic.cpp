@@ -316,9 +316,13 @@ struct WriteArgs {
   std::string order = "high-first";
   bool one_based = false;
   bool json = false;
+  std::vector<std::string> mask;  ///< FC16: AND OR
 };
 
 int run_write(const WriteArgs& a) {
+  if (!a.mask.empty() && (a.coils || a.multiple || !a.values.empty()))
+    throw Failure{kUsage, "--mask AND OR writes one register: no values, --coils or --multiple with it"};
+  if (a.mask.empty() && a.values.empty()) throw Failure{kUsage, "write needs values (or --mask AND OR)"};
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   const Address where = parse_address(a.address, a.one_based);
   if (where.table && *where.table != (a.coils ? Table::coils : Table::holding))
@@ -335,7 +339,12 @@ int run_write(const WriteArgs& a) {
   };
   std::string context;
   Error e;
-  if (a.coils) {
+  if (!a.mask.empty()) {
+    const auto and_mask = static_cast<uint16_t>(parse_number(a.mask[0], "AND mask", 0, 0xFFFF));
+    const auto or_mask = static_cast<uint16_t>(parse_number(a.mask[1], "OR mask", 0, 0xFFFF));
+    context = context_of(0x16, 1);
+    e = master->mask_write_register(unit, address, and_mask, or_mask);
+  } else if (a.coils) {
     std::vector<uint8_t> bits;
     for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
     if (bits.size() > kMaxWriteBits)
@@ -364,6 +373,50 @@ int run_write(const WriteArgs& a) {
     out["written"] = a.values.size();
     print_json(out);
   }
+  return kOk;
+}
+
+struct ReadWriteArgs {
+  LinkOptions link;
+  std::string unit = "1";
+  std::string read_address, write_address;
+  unsigned count = 1;
+  std::vector<std::string> values;
+  bool json = false;
+};
+
+int run_readwrite(const ReadWriteArgs& a) {
+  const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
+  if (unit == kBroadcast) throw Failure{kUsage, "FC17 reads: it cannot be broadcast (unit 0)"};
+  const uint16_t read_at = static_cast<uint16_t>(parse_number(a.read_address, "read address", 0, 0xFFFF));
+  const uint16_t write_at = static_cast<uint16_t>(parse_number(a.write_address, "write address", 0, 0xFFFF));
+  std::vector<uint16_t> values;
+  for (const auto& v : a.values) values.push_back(static_cast<uint16_t>(parse_number(v, "value", 0, 0xFFFF)));
+  if (values.size() > kMaxReadWriteWriteRegisters)
+    throw Failure{kUsage,
+                  fmt::format("at most {} registers to write with FC17", kMaxReadWriteWriteRegisters)};
+  if (size_t{read_at} + a.count > 0x10000 || size_t{write_at} + values.size() > 0x10000)
+    throw Failure{kUsage, "address + count passes 0xFFFF"};
+  auto master = a.link.make_master();
+  std::vector<uint16_t> out(a.count);
+  const Error e = master->read_write_multiple_registers(unit, read_at, out, write_at, values);
+  if (a.link.stats) print_stats(*master);
+  if (e)
+    fail(e,
+         fmt::format(
+             "FC17 read/write multiple registers: write {} at {} (0x{:04X}), read {} at {} (0x{:04X}) "
+             "from unit {} on {}",
+             values.size(), write_at, write_at, a.count, read_at, read_at, unit.value, master->describe()));
+  if (a.json) {
+    Json doc = json_document({}, unit.value);
+    doc["table"] = "holding";
+    doc["written"] = {{"address", write_at}, {"count", values.size()}};
+    doc["address"] = read_at;
+    doc["values"] = out;
+    print_json(doc);
+    return kOk;
+  }
+  for (size_t i = 0; i < out.size(); ++i) fmt::print("{} (0x{:04X}): {}\n", read_at + i, read_at + i, out[i]);
   return kOk;
 }
 
@@ -572,7 +625,11 @@ void add_generic_commands(CLI::App& app, Action& action) {
       [](CLI::App& cmd, WriteArgs& a) {
         cmd.add_option("--unit,-u", a.unit, "slave unit address (0 = broadcast)")->capture_default_str();
         cmd.add_option("address", a.address, "first address, 0-based")->required();
-        cmd.add_option("values", a.values, "values to write")->required();
+        cmd.add_option("values", a.values, "values to write");
+        cmd.add_option("--mask", a.mask,
+                       "FC16: the register becomes (value AND A) OR (O AND NOT A), in one request")
+            ->expected(2)
+            ->type_name("A O");
         cmd.add_flag("--multiple", a.multiple, "use FC10 / FC0F even for one value");
         cmd.add_flag("--coils", a.coils, "write coils (values 0 or 1)");
         cmd.add_flag("--one-based", a.one_based,
@@ -580,11 +637,29 @@ void add_generic_commands(CLI::App& app, Action& action) {
         cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
         add_type_options(cmd, a.type, a.order);
         a.link.add_to(cmd, false);
-        examples(cmd, {"rtukit write --port /dev/ttyUSB0 --unit 21 0x23 80",
-                       "rtukit write --port tcp://127.0.0.1:1502 --unit 5 30 1 2 3      (FC10)",
-                       "rtukit write --port /dev/ttyUSB0 --coils 7 1"});
+        examples(cmd,
+                 {"rtukit write --port /dev/ttyUSB0 --unit 21 0x23 80",
+                  "rtukit write --port tcp://127.0.0.1:1502 --unit 5 30 1 2 3      (FC10)",
+                  "rtukit write --port /dev/ttyUSB0 --coils 7 1",
+                  "rtukit write --port /dev/ttyUSB0 --unit 5 --mask 0xFFF7 0x0000 40   (FC16: clear bit 3)"});
       },
       [](const WriteArgs& a) { return run_write(a); });
+  add_command<ReadWriteArgs>(
+      app, action, "readwrite", "write registers, then read registers, in one request (FC17)",
+      [](CLI::App& cmd, ReadWriteArgs& a) {
+        cmd.add_option("--unit,-u", a.unit, "slave unit address")->capture_default_str();
+        cmd.add_option("read_address", a.read_address, "first register to read, 0-based")->required();
+        cmd.add_option("count", a.count, "registers to read (1..125)")->required()->check(CLI::Range(1, 125));
+        cmd.add_option("write_address", a.write_address, "first register to write, 0-based")->required();
+        cmd.add_option("values", a.values, "values to write (1..121), written before the read")->required();
+        cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
+        a.link.add_to(cmd, false);
+        examples(
+            cmd,
+            {"rtukit readwrite --port tcp://127.0.0.1:1502 --unit 1 3 6 14 255 255 255",
+             "rtukit readwrite --port /dev/ttyUSB0 --unit 5 100 2 100 7 8   (write 7 8, read them back)"});
+      },
+      [](const ReadWriteArgs& a) { return run_readwrite(a); });
   add_command<ScanArgs>(
       app, action, "scan", "find which unit addresses answer",
       [](CLI::App& cmd, ScanArgs& a) {

@@ -95,6 +95,32 @@ TEST_F(Cli, Write_SingleMultipleAndCoils) {
   EXPECT_TRUE(eventually([&] { return !slave_->output().empty(); }));
 }
 
+// FC16 and FC17 (issue 14) from the command line.
+TEST_F(Cli, MaskWriteAndReadWrite) {
+  ASSERT_EQ(rtukit({"write", "--port", port_, "--unit", "5", "50", "0x12"}).code, 0);
+  RunResult r = rtukit({"write", "--port", port_, "--unit", "5", "--mask", "0x00F2", "0x0025", "50"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "50"}).output, "50 (0x0032): 23\n");  // 0x17
+  r = rtukit({"readwrite", "--port", port_, "--unit", "5", "59", "3", "60", "7", "8"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "59 (0x003B): 0\n60 (0x003C): 7\n61 (0x003D): 8\n");  // the write came first
+  r = rtukit({"readwrite", "--port", port_, "--unit", "5", "--json", "60", "1", "60", "9"});
+  EXPECT_NE(r.output.find(R"("written":{"address":60,"count":1},"address":60,"values":[9]})"),
+            std::string::npos)
+      << r.output;
+  // The slave's exception, named with the request; usage errors in one line.
+  r = rtukit({"readwrite", "--port", port_, "--unit", "5", "98", "5", "0", "1"});
+  EXPECT_EQ(r.code, 1) << r.output;
+  EXPECT_NE(r.output.find("FC17 read/write multiple registers"), std::string::npos) << r.output;
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "0"}).output,
+            "0 (0x0000): 0\n");  // nothing written
+  r = rtukit({"write", "--port", port_, "--unit", "5", "--mask", "1", "2", "50", "7"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  r = rtukit({"readwrite", "--port", port_, "--unit", "0", "1", "1", "1", "1"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("cannot be broadcast"), std::string::npos) << r.output;
+}
+
 TEST_F(Cli, ModbusException_Exit1_NamesTheException) {
   const RunResult r = rtukit({"read", "--port", port_, "--unit", "5", "99", "2"});
   EXPECT_EQ(r.code, 1);
