@@ -8,6 +8,7 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -474,7 +475,8 @@ struct SlaveArgs {
   ServerArgs server;
 };
 
-// {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...}}
+// {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...},
+//  "identification": {"vendor": "ACME", "product_code": "M-3", "revision": "2.1", "0x80": "..."}}
 void load_init(const std::string& path, MemoryBank& bank) {
   std::ifstream in(path);
   if (!in) throw Failure{kIoError, fmt::format("cannot read {}: {}", path, std::strerror(errno))};
@@ -488,6 +490,24 @@ void load_init(const std::string& path, MemoryBank& bank) {
   for (const auto& item : j.items()) {
     const std::string table = item.key();
     const nlohmann::json& entries = item.value();
+    if (table == "identification") {
+      // {"vendor": "...", "product_code": "...", "revision": "...", "0x80": "..."} (FC11, FC2B/0E)
+      if (!entries.is_object())
+        throw Failure{kUsage, fmt::format("{}: 'identification' must map objects to text", path)};
+      const std::map<std::string, uint8_t> names{{"vendor", 0},     {"product_code", 1}, {"revision", 2},
+                                                 {"vendor_url", 3}, {"product_name", 4}, {"model_name", 5},
+                                                 {"application", 6}};
+      for (const auto& [key, value] : entries.items()) {
+        const auto named = names.find(key);
+        const auto id = named != names.end() ? named->second
+                                             : static_cast<uint8_t>(parse_number(key, "object id", 0, 255));
+        if (!value.is_string() || value.get<std::string>().empty() || value.get<std::string>().size() > 244)
+          throw Failure{kUsage,
+                        fmt::format("{}: identification '{}' must be text of 1..244 characters", path, key)};
+        bank.objects[id] = value.get<std::string>();
+      }
+      continue;
+    }
     if (!entries.is_object())
       throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
     for (const auto& [key, value] : entries.items()) {
@@ -531,6 +551,7 @@ int run_slave(const SlaveArgs& a) {
     if (unit.value == 0) throw Failure{kUsage, "unit 0 is the broadcast address"};
     banks.push_back(std::make_unique<MemoryBank>(size));
     banks.back()->accepted_quirks = a.link.frame_quirks();
+    banks.back()->objects[2] = RTUKIT_VERSION;  // the revision, unless --init names one
     if (!a.init.empty()) load_init(a.init, *banks.back());
     if (engine.add_unit(unit, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};

@@ -162,9 +162,17 @@ TEST(Codec, QuantityLimitsGiveException03) {
       {"10 FF FF 00 02 04 00 01 00 02", Errc::illegal_data_address},
       {"0F 00 00 00 09 02 FF 01", Errc::ok},
       {"0F 00 00 00 09 01 FF", Errc::illegal_data_value},  // 9 coils need 2 bytes
-      {"2B 0E 01 00", Errc::illegal_function},
-      {"07", Errc::illegal_function},
-      {"03 00 00", Errc::malformed},  // too short: dropped silently
+      {"2B 0E 01 00", Errc::ok},                           // read device identification, basic
+      {"2B 0E 05 00", Errc::illegal_data_value},           // read device id code 5
+      {"2B 0D 01 00", Errc::illegal_function},             // MEI type 0D (CANopen): not implemented
+      {"2B 0E 01", Errc::malformed},
+      {"07", Errc::ok},
+      {"07 00", Errc::illegal_data_value},
+      {"08 00 01 00 00", Errc::ok},  // restart communications
+      {"08 00 0B 00 00 00", Errc::illegal_data_value},
+      {"08 00 00 01 02 03", Errc::ok},  // return query data: any data
+      {"41", Errc::illegal_function},   // a user-defined function
+      {"03 00 00", Errc::malformed},    // too short: dropped silently
   };
   for (const Case& c : cases) {
     const auto pdu = bytes(c.pdu);

@@ -24,6 +24,13 @@ std::vector<std::string> frames_of(RtuFramer& f, const std::vector<uint8_t>& in,
 const char* const kRead = "15 03 00 21 00 04 17 17";
 const char* const kWrite = "15 06 00 22 00 03 6A D5";
 
+std::vector<uint8_t> with_crc(std::vector<uint8_t> frame) {
+  const uint16_t crc = crc16(frame);
+  frame.push_back(static_cast<uint8_t>(crc));
+  frame.push_back(static_cast<uint8_t>(crc >> 8));
+  return frame;
+}
+
 }  // namespace
 
 TEST(RtuFramer, WholeFrame_IsReturnedOnce) {
@@ -127,7 +134,7 @@ TEST(RtuFramer, MaximumSizeFrames_BothDirections) {
 
 TEST(RtuFramer, UnknownFunction_EndsAtSilence) {
   RtuFramer f(FrameShape::request, RtuTiming::for_serial(9600));
-  const auto in = bytes("15 2B 0E 01 00 40 74");  // FC 2B: length not predictable
+  const auto in = with_crc({0x15, 0x41, 0x0E, 0x01, 0x00});  // FC 41 (user-defined): length not predictable
   ASSERT_TRUE(rtu_crc_ok(in));
   EXPECT_TRUE(frames_of(f, in, 1000).empty());
   ASSERT_TRUE(f.silence_deadline().has_value());
@@ -222,15 +229,6 @@ TEST(RtuFramer, UnknownFunctionFrame_WithoutTiming_IsFoundByItsCrcOnceTheBufferF
   ASSERT_FALSE(got.empty());
   EXPECT_EQ(got[0], "15 2B 0E 01 00 40 74");
 }
-
-namespace {
-std::vector<uint8_t> with_crc(std::vector<uint8_t> frame) {
-  const uint16_t crc = crc16(frame);
-  frame.push_back(static_cast<uint8_t>(crc));
-  frame.push_back(static_cast<uint8_t>(crc >> 8));
-  return frame;
-}
-}  // namespace
 
 // Issue 14, the last RTU framing gap: the byte count says one length, the
 // frame has another, and its CRC holds over all its bytes. Once silence

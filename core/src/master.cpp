@@ -9,9 +9,8 @@ Error MasterTransaction::begin(Framing framing, UnitId unit, const Request& requ
   transaction_id_ = transaction_id;
   broadcast_ = framing == Framing::rtu && unit == kBroadcast;
   tx_len_ = 0;
-  if (broadcast_ &&
-      (is_read_function(request.function) || request.function == fc(Function::read_write_multiple_registers)))
-    return Errc::invalid_argument;
+  // Only writes can be broadcast: nothing else runs without its answer.
+  if (broadcast_ && !is_broadcastable(request.function)) return Errc::invalid_argument;
   std::array<uint8_t, kMaxPduSize> pdu{};
   const Result<size_t> n = encode_request(request, pdu);
   if (!n.ok()) return n.error();
@@ -21,6 +20,9 @@ Error MasterTransaction::begin(Framing framing, UnitId unit, const Request& requ
   if (!adu.ok()) return adu.error();
   tx_len_ = *adu;
   request_ = request;
+  // FC08: the framer predicts an echo from the data's length.
+  if (request.function == fc(Function::diagnostics))
+    request_.quantity = static_cast<uint16_t>(request.data.empty() ? 2 : request.data.size());
   request_.data = {};  // the caller's data need not outlive begin()
   return {};
 }

@@ -16,6 +16,12 @@ bool is_supported_function(uint8_t function) noexcept {
     case fc(Function::write_multiple_registers):
     case fc(Function::mask_write_register):
     case fc(Function::read_write_multiple_registers):
+    case fc(Function::read_exception_status):
+    case fc(Function::diagnostics):
+    case fc(Function::get_comm_event_counter):
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+    case fc(Function::encapsulated_interface):
       return true;
     default:
       return false;
@@ -24,6 +30,19 @@ bool is_supported_function(uint8_t function) noexcept {
 
 bool is_read_function(uint8_t function) noexcept {
   return function >= fc(Function::read_coils) && function <= fc(Function::read_input_registers);
+}
+
+bool is_broadcastable(uint8_t function) noexcept {
+  switch (function) {
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers):
+    case fc(Function::mask_write_register):
+      return true;
+    default:
+      return false;
+  }
 }
 
 const char* function_name(uint8_t function) noexcept {
@@ -48,6 +67,18 @@ const char* function_name(uint8_t function) noexcept {
       return "mask write register";
     case fc(Function::read_write_multiple_registers):
       return "read/write multiple registers";
+    case fc(Function::read_exception_status):
+      return "read exception status";
+    case fc(Function::diagnostics):
+      return "diagnostics";
+    case fc(Function::get_comm_event_counter):
+      return "get comm event counter";
+    case fc(Function::get_comm_event_log):
+      return "get comm event log";
+    case fc(Function::report_server_id):
+      return "report server id";
+    case fc(Function::encapsulated_interface):
+      return "read device identification";
     default:
       return "unknown function";
   }
@@ -103,6 +134,34 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
   Request r;
   r.function = pdu[0];
   if (!is_supported_function(r.function)) return Errc::illegal_function;
+  switch (r.function) {
+    case fc(Function::read_exception_status):
+    case fc(Function::get_comm_event_counter):
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+      // The function code alone.
+      if (pdu.size() != 1) return Errc::illegal_data_value;
+      return r;
+    case fc(Function::diagnostics):
+      if (pdu.size() < 3) return Errc::malformed;
+      r.sub_function = load_be16(&pdu[1]);
+      r.data = pdu.subspan(3);
+      if (r.sub_function == static_cast<uint16_t>(Diagnostic::return_query_data)) return r;  // any data
+      if (pdu.size() != 5) return Errc::illegal_data_value;
+      r.value = load_be16(&pdu[3]);
+      return r;
+    case fc(Function::encapsulated_interface):
+      if (pdu.size() < 2) return Errc::malformed;
+      r.mei_type = pdu[1];
+      if (r.mei_type != kMeiDeviceIdentification) return Errc::illegal_function;  // other MEI types
+      if (pdu.size() != 4) return pdu.size() < 4 ? Errc::malformed : Errc::illegal_data_value;
+      r.read_code = pdu[2];
+      r.object_id = pdu[3];
+      if (r.read_code < 1 || r.read_code > 4) return Errc::illegal_data_value;
+      return r;
+    default:
+      break;
+  }
   if (pdu.size() < 5) return Errc::malformed;
   r.address = load_be16(&pdu[1]);
   switch (r.function) {
@@ -173,6 +232,38 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
 
 Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept {
   if (!is_supported_function(r.function)) return Errc::invalid_argument;
+  if (out.empty()) return Errc::buffer_too_small;
+  switch (r.function) {
+    case fc(Function::read_exception_status):
+    case fc(Function::get_comm_event_counter):
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+      out[0] = r.function;
+      return size_t{1};
+    case fc(Function::diagnostics): {
+      // The data field: `data` when given (return query data), else `value`.
+      const size_t bytes = r.data.empty() ? 2 : r.data.size();
+      if (3 + bytes > kMaxPduSize) return Errc::invalid_argument;
+      if (out.size() < 3 + bytes) return Errc::buffer_too_small;
+      out[0] = r.function;
+      store_be16(&out[1], r.sub_function);
+      if (r.data.empty())
+        store_be16(&out[3], r.value);
+      else
+        std::memcpy(&out[3], r.data.data(), bytes);
+      return 3 + bytes;
+    }
+    case fc(Function::encapsulated_interface):
+      if (r.read_code < 1 || r.read_code > 4) return Errc::invalid_argument;
+      if (out.size() < 4) return Errc::buffer_too_small;
+      out[0] = r.function;
+      out[1] = kMeiDeviceIdentification;
+      out[2] = r.read_code;
+      out[3] = r.object_id;
+      return size_t{4};
+    default:
+      break;
+  }
   size_t n = 0;
   switch (r.function) {
     case fc(Function::read_coils):
@@ -330,6 +421,43 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
   Response r;
   r.function = pdu[0];
   switch (request.function) {
+    case fc(Function::read_exception_status):
+      if (pdu.size() != 2) return Errc::malformed;
+      r.body = pdu.subspan(1);
+      return r;
+    case fc(Function::get_comm_event_counter):
+      if (pdu.size() != 5) return Errc::malformed;
+      r.body = pdu.subspan(1);
+      return r;
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+      // A byte count, then that many bytes (FC0C: at least status, event
+      // count and message count).
+      if (pdu.size() < 2 || pdu[1] != pdu.size() - 2) return Errc::malformed;
+      if (request.function == fc(Function::get_comm_event_log) && pdu[1] < 6) return Errc::malformed;
+      r.body = pdu.subspan(1);
+      return r;
+    case fc(Function::diagnostics):
+      if (pdu.size() < 3) return Errc::malformed;
+      if (load_be16(&pdu[1]) != request.sub_function) return Errc::unexpected_response;
+      if (request.sub_function != static_cast<uint16_t>(Diagnostic::return_query_data) && pdu.size() != 5)
+        return Errc::malformed;
+      r.body = pdu.subspan(1);
+      return r;
+    case fc(Function::encapsulated_interface): {
+      // 2B 0E code conformity more-follows next-id count, then count objects
+      // of id, length, value.
+      if (pdu.size() < 7) return Errc::malformed;
+      if (pdu[1] != kMeiDeviceIdentification || pdu[2] != request.read_code) return Errc::unexpected_response;
+      size_t at = 7;
+      for (unsigned i = 0; i < pdu[6]; ++i) {
+        if (at + 2 > pdu.size() || at + 2 + pdu[at + 1] > pdu.size()) return Errc::malformed;
+        at += 2 + size_t{pdu[at + 1]};
+      }
+      if (at != pdu.size()) return Errc::malformed;
+      r.body = pdu.subspan(1);
+      return r;
+    }
     case fc(Function::mask_write_register): {
       // The answer echoes the request.
       if (pdu.size() != 7) return Errc::malformed;

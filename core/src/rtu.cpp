@@ -112,6 +112,33 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       c.predictable = false;
       return c;
     }
+    switch (function) {
+      case fc(Function::read_exception_status):
+      case fc(Function::get_comm_event_counter):
+      case fc(Function::get_comm_event_log):
+      case fc(Function::report_server_id):
+        add(4);  // address, function, CRC
+        return c;
+      case fc(Function::diagnostics):
+        // Return query data (sub-function 0) echoes any data: its end is silence.
+        c.need = 4;
+        if (avail < 4) return c;
+        if (load_be16(p + 2) == static_cast<uint16_t>(Diagnostic::return_query_data))
+          c.predictable = false;
+        else
+          add(8);
+        return c;
+      case fc(Function::encapsulated_interface):
+        c.need = 3;
+        if (avail < 3) return c;
+        if (p[2] == kMeiDeviceIdentification)
+          add(7);
+        else
+          c.predictable = false;  // another MEI type: 01 once silence ends it
+        return c;
+      default:
+        break;
+    }
     if (function == fc(Function::mask_write_register)) {
       add(10);  // address, function, address, AND mask, OR mask, CRC
       return c;
@@ -168,6 +195,50 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     case fc(Function::mask_write_register):
       add(10);  // the request echoed
       return c;
+    case fc(Function::read_exception_status):
+      add(5);
+      return c;
+    case fc(Function::get_comm_event_counter):
+      add(8);  // status and event count
+      return c;
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+      if (avail < 3) return c;
+      add(5 + size_t{p[2]});  // byte count
+      return c;
+    case fc(Function::diagnostics):
+      c.need = 4;
+      if (avail < 4) return c;
+      if (load_be16(p + 2) != static_cast<uint16_t>(Diagnostic::return_query_data))
+        add(8);
+      else if (expected_function_ == function && expected_quantity_ > 0)
+        add(6 + size_t{expected_quantity_});  // the echo of what we sent
+      else
+        c.predictable = false;
+      return c;
+    case fc(Function::encapsulated_interface): {
+      // No byte count: walk the objects (id, length, value) as they arrive.
+      if (avail >= 3 && p[2] != kMeiDeviceIdentification) {
+        c.predictable = false;
+        return c;
+      }
+      size_t at = 8;  // address, 2B, 0E, code, conformity, more follows, next id, count
+      c.need = at;
+      if (avail < at) return c;
+      for (unsigned i = 0; i < p[7]; ++i) {
+        if (avail < at + 2) {
+          c.need = at + 2;
+          return c;
+        }
+        at += 2 + size_t{p[at + 1]};
+        if (at + 2 > kMaxRtuAduSize) {
+          c.predictable = false;
+          return c;
+        }
+      }
+      add(at + 2);
+      return c;
+    }
     case fc(Function::read_write_multiple_registers):
       if (avail < 3) return c;
       add(5 + size_t{p[2]});

@@ -37,16 +37,25 @@ class RtuResponder {
   template <class Send>
   void drain(uint64_t now, Send&& send) {
     while (auto frame = framer_.next(now)) {
+      note_crc_errors();  // those before this frame first, as on the line
       const auto [n, bank] = engine_.handle_rtu(frame->adu, tx_);
       if (log_) log_(frame->adu, {tx_.data(), n});
       if (n) send(std::span<const uint8_t>(tx_.data(), n));
       if (bank) bank->after_response();
     }
+    note_crc_errors();
   }
 
   RtuFramer& framer() { return framer_; }
 
  private:
+  // The framer's CRC errors are the line's (FC08 0x0C): hand new ones to the engine.
+  void note_crc_errors() {
+    const uint32_t now_seen = framer_.counters().crc_errors;
+    if (now_seen != crc_errors_seen_) engine_.note_crc_errors(now_seen - crc_errors_seen_);
+    crc_errors_seen_ = now_seen;
+  }
+  uint32_t crc_errors_seen_ = 0;
   SlaveEngine& engine_;
   RtuFramer framer_;
   const RequestLog& log_;

@@ -457,3 +457,43 @@ void Machine::set_mains_voltage(double volts) noexcept {
 }
 
 }  // namespace rtukit::inverjet
+
+namespace rtukit::inverjet {
+
+std::string_view Machine::device_object(uint8_t id) {
+  const auto version = [this](profile::Handle h) {
+    // "V1.2" from the version register pair (major in the high word).
+    const auto raw = static_cast<uint32_t>(image().get(h));
+    const auto put = [](char* p, uint32_t v) {
+      char digits[10];
+      size_t n = 0;
+      do {
+        digits[n++] = static_cast<char>('0' + v % 10);
+        v /= 10;
+      } while (v);
+      for (size_t i = 0; i < n; ++i) p[i] = digits[n - 1 - i];
+      return n;
+    };
+    size_t at = 0;
+    object_text_[at++] = 'V';
+    at += put(&object_text_[at], raw >> 16);
+    object_text_[at++] = '.';
+    at += put(&object_text_[at], raw & 0xFFFF);
+    return std::string_view(object_text_.data(), at);
+  };
+  switch (id) {
+    case 2:
+    case 0x80:
+      return version(reg::display_software);
+    case 0x81:
+      return version(reg::display_hardware);
+    case 0x82:
+      return version(reg::driver_software);
+    case 0x83:
+      return version(reg::driver_hardware);
+    default:
+      return Model::device_object(id);
+  }
+}
+
+}  // namespace rtukit::inverjet

@@ -35,8 +35,30 @@ FunctionSet functions_for(std::span<const Row> rows) noexcept {
   return set;
 }
 
+FunctionSet functions_for(const Profile& profile) noexcept {
+  return functions_for(profile.rows) | kDiagnosticFunctions |
+         (profile.vendor.empty() ? FunctionSet{0} : kIdentificationFunctions);
+}
+
+std::string_view Model::device_object(uint8_t id) {
+  switch (id) {
+    case 0:
+      return profile_->vendor;
+    case 1:
+      return profile_->product_code.empty() ? profile_->name : profile_->product_code;
+    case 2:
+      return profile_->revision.empty() ? std::string_view("1.0") : profile_->revision;
+    case 4:
+      return profile_->title;
+    case 5:
+      return profile_->name;
+    default:
+      return {};
+  }
+}
+
 Model::Model(const Profile& profile, std::span<uint16_t> storage) noexcept
-    : profile_(&profile), map_(profile.rows), image_(map_, storage), functions_(functions_for(profile.rows)) {
+    : profile_(&profile), map_(profile.rows), image_(map_, storage), functions_(functions_for(profile)) {
   image_.reset();
 }
 

@@ -8,7 +8,9 @@
 // Function codes: 01 read coils, 02 read discrete inputs, 03 read holding
 // registers, 04 read input registers, 05 write single coil, 06 write single
 // register, 0F write multiple coils, 10 write multiple registers, 16 mask
-// write register, 17 read/write multiple registers.
+// write register, 17 read/write multiple registers; serial line diagnostics
+// 07 read exception status, 08 diagnostics, 0B get comm event counter, 0C
+// get comm event log; 11 report server ID, 2B/0E read device identification.
 // Limits (Modbus Application Protocol v1.1b3): reads 1..125 registers or
 // 1..2000 bits; multiple writes 1..123 registers or 1..1968 bits; FC17 reads
 // 1..125 and writes 1..121 registers.
@@ -52,7 +54,34 @@ enum class Function : uint8_t {
   write_multiple_registers = 0x10,
   mask_write_register = 0x16,
   read_write_multiple_registers = 0x17,
+  read_exception_status = 0x07,
+  diagnostics = 0x08,
+  get_comm_event_counter = 0x0B,
+  get_comm_event_log = 0x0C,
+  report_server_id = 0x11,
+  encapsulated_interface = 0x2B,  ///< MEI type 0x0E: read device identification
 };
+
+/// FC08 sub-functions (Modbus over serial line, 6.8).
+enum class Diagnostic : uint16_t {
+  return_query_data = 0x00,
+  restart_communications = 0x01,
+  return_diagnostic_register = 0x02,
+  force_listen_only = 0x04,
+  clear_counters = 0x0A,
+  bus_message_count = 0x0B,
+  bus_communication_error_count = 0x0C,
+  bus_exception_error_count = 0x0D,
+  server_message_count = 0x0E,
+  server_no_response_count = 0x0F,
+  server_nak_count = 0x10,
+  server_busy_count = 0x11,
+  bus_character_overrun_count = 0x12,
+  clear_overrun_counter = 0x14,
+};
+inline constexpr uint8_t kMeiDeviceIdentification = 0x0E;
+/// FC2B/0E read device id codes.
+enum class DeviceIdAccess : uint8_t { basic = 1, regular = 2, extended = 3, individual = 4 };
 
 constexpr uint8_t fc(Function f) noexcept {
   return static_cast<uint8_t>(f);
@@ -91,10 +120,20 @@ inline constexpr FunctionSet kDataFunctions =
 /// functions() unless it declares them (a device that does not know them answers 01).
 inline constexpr FunctionSet kRegisterCombinedFunctions =
     function_bit(Function::mask_write_register) | function_bit(Function::read_write_multiple_registers);
+/// 07, 08, 0B, 0C: the serial line diagnostics the slave engine keeps.
+inline constexpr FunctionSet kDiagnosticFunctions =
+    function_bit(Function::read_exception_status) | function_bit(Function::diagnostics) |
+    function_bit(Function::get_comm_event_counter) | function_bit(Function::get_comm_event_log);
+/// 11 and 2B/0E: who the device is (RegisterBank::device_object).
+inline constexpr FunctionSet kIdentificationFunctions =
+    function_bit(Function::report_server_id) | function_bit(Function::encapsulated_interface);
 /// True for the function codes of `Function`.
 bool is_supported_function(uint8_t function) noexcept;
 /// True for 01..04.
 bool is_read_function(uint8_t function) noexcept;
+/// True for the writes a broadcast may carry: 05, 06, 0F, 10, 16 (the
+/// Modbus serial line rule: a broadcast is a write nobody answers).
+bool is_broadcastable(uint8_t function) noexcept;
 /// "read holding registers", ..., or "unknown function".
 const char* function_name(uint8_t function) noexcept;
 
@@ -136,6 +175,11 @@ struct Request {
   /// FC17: the write part (`address` and `quantity` are the read part; the
   /// write happens first).
   uint16_t write_address = 0, write_quantity = 0;
+  /// FC08: the sub-function (`value` is its 2-byte data field when it has
+  /// one; `data` holds the whole data field).
+  uint16_t sub_function = 0;
+  /// FC2B: MEI type (0x0E), read device id code (1..4) and object id.
+  uint8_t mei_type = 0, read_code = 0, object_id = 0;
   /// FC10 sent without its byte-count byte (the Inverjet document's form).
   bool without_byte_count = false;
 };
@@ -182,6 +226,10 @@ struct Response {
   uint16_t value = 0;    ///< FC05/06: echoed value; FC0F/10: echoed quantity
   /// Reads: big-endian register bytes (FC03/04/17) or packed bits (FC01/02).
   std::span<const uint8_t> data{};
+  /// FC07, 08, 0B, 0C, 11, 2B: the response's data after the function code,
+  /// checked for its length and echoes (FC08's sub-function, FC2B's MEI type
+  /// and code); the driver's Master reads the fields.
+  std::span<const uint8_t> body{};
   /// FC03/04 answered with a 2-byte byte count (the Rehand 6600 document's form).
   bool long_byte_count = false;
 };

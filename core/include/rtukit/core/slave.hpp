@@ -15,6 +15,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string_view>
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/pdu.hpp"
@@ -69,6 +70,14 @@ class RegisterBank {
   /// without byte count). Off by default; the engine applies them on RTU
   /// links only (an MBAP frame carries its length).
   virtual FrameQuirks quirks() const noexcept { return {}; }
+  /// FC07: the device's eight exception status outputs. Default 0.
+  virtual uint8_t exception_status() { return 0; }
+  /// FC11 and FC2B/0E: identification object `id` (0 vendor name, 1 product
+  /// code, 2 major.minor revision; 3 vendor URL, 4 product name, 5 model
+  /// name, 6 user application name; 0x80..0xFF the device's own), or empty
+  /// when the device has no such object. The view must stay valid until the
+  /// next call. A bank that declares kIdentificationFunctions has 0, 1 and 2.
+  virtual std::string_view device_object(uint8_t /*id*/) { return {}; }
   /// Called by the driver once the response to the last request of this unit
   /// has been sent (or would have been: broadcast). A device applies changes
   /// that must not affect that response here, such as a new address or baud rate.
@@ -78,6 +87,21 @@ class RegisterBank {
 class SlaveEngine {
  public:
   static constexpr size_t kMaxUnits = 16;
+
+  /// The serial line diagnostics (Modbus over serial line 6.8; FC08 0x0B..0x12
+  /// return them), since start, restart or clear. 16 bits, wrapping, as on the wire.
+  struct LineCounters {
+    uint16_t bus_messages = 0;        ///< every frame seen on the line, any unit
+    uint16_t bus_crc_errors = 0;      ///< frames dropped for their CRC (note_crc_errors)
+    uint16_t bus_exceptions = 0;      ///< exception responses sent
+    uint16_t server_messages = 0;     ///< requests addressed to us, broadcasts included
+    uint16_t server_no_response = 0;  ///< of those, left unanswered (broadcast, listen-only, malformed)
+    uint16_t server_nak = 0;          ///< always 0: we never answer NAK
+    uint16_t server_busy = 0;         ///< exception 06 sent
+    uint16_t bus_overruns = 0;        ///< characters lost to a full buffer (note_overrun)
+  };
+  /// FC0C: the last 64 events, the newest first.
+  static constexpr size_t kEventLogSize = 64;
 
   struct Counters {
     uint32_t requests = 0;    ///< requests addressed to us (incl. broadcast)
@@ -122,6 +146,16 @@ class SlaveEngine {
   Handled handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
 
   const Counters& counters() const noexcept { return counters_; }
+  const LineCounters& line_counters() const noexcept { return line_; }
+  /// True after FC08 "force listen only mode": every request is watched
+  /// (counted) but nothing runs and nothing is answered, until FC08
+  /// "restart communications".
+  bool listen_only() const noexcept { return listen_only_; }
+  /// The driver saw `n` frames fail their CRC (the framer's count): bus
+  /// communication errors (FC08 0x0C) and a receive event with its error bit.
+  void note_crc_errors(uint32_t n) noexcept;
+  /// The driver lost characters to a full buffer (FC08 0x12).
+  void note_overrun() noexcept;
   /// The quirks of every hosted unit together: what an RTU framer serving
   /// this engine must recognise.
   FrameQuirks quirks() const noexcept;
@@ -132,10 +166,20 @@ class SlaveEngine {
     RegisterBank* bank = nullptr;
   };
   Errc execute(RegisterBank& bank, const Request& request, std::span<uint8_t> out, size_t* length) noexcept;
+  Errc diagnose(const Request& request, std::span<uint8_t> out, size_t* length, bool* silent) noexcept;
+  Errc identify(RegisterBank& bank, UnitId unit, const Request& request, std::span<uint8_t> out,
+                size_t* length) noexcept;
+  void log_event(uint8_t event) noexcept;
 
   std::array<Unit, kMaxUnits> units_{};
   size_t count_ = 0;
   Counters counters_{};
+  LineCounters line_{};
+  uint16_t diagnostic_register_ = 0;
+  uint16_t event_count_ = 0;  // FC0B: successful completions
+  bool listen_only_ = false;
+  std::array<uint8_t, kEventLogSize> events_{};  // ring, events_[event_head_ - 1] newest
+  size_t event_head_ = 0, event_len_ = 0;
 };
 
 }  // namespace rtukit

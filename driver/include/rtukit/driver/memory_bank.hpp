@@ -5,7 +5,10 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "rtukit/core/slave.hpp"
@@ -21,8 +24,17 @@ class MemoryBank final : public RegisterBank {
   /// The documented frame forms this slave accepts (`rtukit slave --quirk`).
   FrameQuirks accepted_quirks{};
   FrameQuirks quirks() const noexcept override { return accepted_quirks; }
-  /// The data functions plus mask write (16) and read/write multiple (17).
-  FunctionSet functions() const noexcept override { return kDataFunctions | kRegisterCombinedFunctions; }
+  /// Every function rtukit implements: the data functions, mask write (16),
+  /// read/write multiple (17), the serial line diagnostics and identification.
+  FunctionSet functions() const noexcept override {
+    return kDataFunctions | kRegisterCombinedFunctions | kDiagnosticFunctions | kIdentificationFunctions;
+  }
+  /// Identification objects (FC11, FC2B/0E) by id; 0, 1 and 2 must be present.
+  std::map<uint8_t, std::string> objects{{0, "rtukit"}, {1, "rtukit-slave"}, {2, "1.0"}};
+  std::string_view device_object(uint8_t id) override {
+    const auto it = objects.find(id);
+    return it == objects.end() ? std::string_view() : std::string_view(it->second);
+  }
 
   std::vector<uint16_t> holding;
   std::vector<uint16_t> input;

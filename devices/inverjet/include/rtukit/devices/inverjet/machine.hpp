@@ -138,8 +138,15 @@ class Machine final : private profile::ImageStorage<kMap.image_size()>, public p
   void refresh(Space space) noexcept override;
   Error apply_write(Space space, uint16_t address, std::span<const uint16_t> values) noexcept override;
 
+  /// Identification (FC2B/0E) from the profile, plus the board versions of
+  /// the input registers: 0x80 display software, 0x81 display hardware, 0x82
+  /// driver software, 0x83 driver hardware ("V1.2"); object 2, the revision,
+  /// is the display software's (the board that speaks Modbus).
+  std::string_view device_object(uint8_t id) override;
+
  private:
   struct Control;  // a decoded write to 0x0021..0x0024
+  std::array<char, 16> object_text_{};
   Errc plan_control(const Control& c, Control* resolved) const noexcept;
   void apply_control(const Control& c) noexcept;
   void start(Family family, Phase phase, const Control& c) noexcept;

@@ -33,6 +33,9 @@ namespace rtukit::profile {
 /// The functions a register table needs: reads of every space it has, and
 /// FC06/FC10 (FC05/FC0F) where it has writable holding registers (coils).
 FunctionSet functions_for(std::span<const Row> rows) noexcept;
+/// A profile's functions: its table's, the serial line diagnostics (07, 08,
+/// 0B, 0C) and, when it names a vendor, identification (11, 2B/0E).
+FunctionSet functions_for(const Profile& profile) noexcept;
 
 /// A new unit address or baud rate a write asked for; the simulator host
 /// applies it after the response to that write has gone out.
@@ -97,6 +100,10 @@ class Model : public RegisterBank {
     return read_bits(Space::discrete, address, count, packed_out);
   }
   Errc write_coils(uint16_t address, uint16_t count, std::span<const uint8_t> packed) override;
+  /// Identification from the profile: 0 vendor, 1 product code, 2 revision,
+  /// 4 product name (the title), 5 model name (the name). A device adds its
+  /// own (0x80..) by overriding and calling this for the rest.
+  std::string_view device_object(uint8_t id) override;
 
   /// A read as the bus sees it: check, refresh, copy. Errors: 02.
   Errc read(Space space, uint16_t address, std::span<uint16_t> out);

@@ -174,9 +174,11 @@ struct LinkDefaults {
 /// A device profile: the table and everything a generic program needs to
 /// talk to, serve, print and document the device.
 struct Profile {
-  std::string_view name;    ///< CLI name: "inverjet", "rehand6600"
-  std::string_view title;   ///< "Inverjet counter-current swimming machine"
-  std::string_view vendor;  ///< for device identification
+  std::string_view name;               ///< CLI name: "inverjet", "rehand6600"
+  std::string_view title;              ///< "Inverjet counter-current swimming machine"
+  std::string_view vendor;             ///< device identification object 0 (FC11, FC2B/0E); empty: none
+  std::string_view product_code = {};  ///< object 1; empty: the name
+  std::string_view revision = {};      ///< object 2 ("1.0"); empty: "1.0"
   std::span<const Row> rows;
   std::span<const FlagName> flag_names;  ///< names of the device's own flags (bit 0 is "persisted")
   LinkDefaults link;
