@@ -22,6 +22,9 @@ void add_inverjet_commands(CLI::App& app, Action& action);
 void add_rehand6600_commands(CLI::App& app, Action& action);
 
 /// gateway: one process owns the serial bus, Modbus TCP clients share it.
+/// `rtukit diag` (FC07/08/0B/0C) and `rtukit ident` (FC2B/0E, FC11).
+void add_diag_commands(CLI::App& app, Action& action);
+
 void add_gateway_command(CLI::App& app, Action& action);
 
 /// bus: a virtual RS-485 line on ptys.

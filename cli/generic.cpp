@@ -472,6 +472,7 @@ struct SlaveArgs {
   std::string registers = "10000";
   std::string init;
   bool verbose = false;
+  bool any_unit = false;
   ServerArgs server;
 };
 
@@ -556,6 +557,10 @@ int run_slave(const SlaveArgs& a) {
     if (engine.add_unit(unit, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
   }
+  if (a.any_unit && spec.kind != io::PortSpec::Kind::tcp)
+    throw Failure{kUsage,
+                  "--any-unit is for Modbus TCP (tcp://): on a serial line the unit address is the device's"};
+  engine.set_answer_any_unit_over_tcp(a.any_unit);
   asio::io_context ctx;
   RequestLog log;
   if (a.verbose) {
@@ -699,6 +704,7 @@ void add_generic_commands(CLI::App& app, Action& action) {
         cmd.add_option("--registers", a.registers, "entries per table")->capture_default_str();
         cmd.add_option("--init", a.init, "JSON file with initial values");
         cmd.add_flag("-v,--verbose", a.verbose, "log each request and response");
+        cmd.add_flag("--any-unit", a.any_unit, "Modbus TCP: answer every unit id (with the first --unit)");
         a.link.add_to(cmd, true);
         a.server.add_to(cmd);
         examples(cmd, {"rtukit slave --listen pty:/tmp/ttyV0 --unit 5 -v",

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "rtukit " RTUKIT_VERSION " (" RTUKIT_GIT_REVISION ")");
   Action action;
   add_generic_commands(app, action);
+  add_diag_commands(app, action);
   add_inverjet_commands(app, action);
   add_rehand6600_commands(app, action);
   add_profile_commands(app, action);

@@ -8,6 +8,8 @@ Error MasterTransaction::begin(Framing framing, UnitId unit, const Request& requ
   unit_ = unit.value;
   transaction_id_ = transaction_id;
   broadcast_ = framing == Framing::rtu && unit == kBroadcast;
+  unanswered_ = request.function == fc(Function::diagnostics) &&
+                request.sub_function == static_cast<uint16_t>(Diagnostic::force_listen_only);
   tx_len_ = 0;
   // Only writes can be broadcast: nothing else runs without its answer.
   if (broadcast_ && !is_broadcastable(request.function)) return Errc::invalid_argument;

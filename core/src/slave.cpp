@@ -337,8 +337,8 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
   UnitId self = unit;
   if (!broadcast) {
     bank = find(unit);
-    if (bank == nullptr && framing == Framing::tcp && (unit == kBroadcast || unit == UnitId{0xFF}) &&
-        count_ > 0) {
+    if (bank == nullptr && framing == Framing::tcp &&
+        (any_unit_ || unit == kBroadcast || unit == UnitId{0xFF}) && count_ > 0) {
       bank = units_[0].bank;
       self = UnitId{units_[0].address};
     }

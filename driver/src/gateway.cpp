@@ -44,7 +44,10 @@ std::vector<uint8_t> exception_pdu(uint8_t function, Errc e) {
 // like the Rehand's 2-byte byte count, does not travel to TCP clients).
 std::vector<uint8_t> response_pdu(const Request& req, const Response& r) {
   std::vector<uint8_t> out{r.function};
-  if (r.function == fc(Function::mask_write_register)) {
+  if (!r.body.empty()) {
+    // Diagnostics and identification: the response's fields as they came.
+    out.insert(out.end(), r.body.begin(), r.body.end());
+  } else if (r.function == fc(Function::mask_write_register)) {
     for (const uint16_t v : {req.address, req.and_mask, req.or_mask})
       out.insert(out.end(), {static_cast<uint8_t>(v >> 8), static_cast<uint8_t>(v)});
   } else if (is_read(r.function) || r.function == fc(Function::read_write_multiple_registers)) {
@@ -272,6 +275,7 @@ void Gateway::Impl::run_bus() {
             Cached{answer, std::chrono::steady_clock::now()};
       }
     }
+    if (answer.empty()) continue;  // FC08 force listen only: nobody answers it
     session->answer(job.transaction, job.unit, answer, true);
   }
 }

@@ -282,4 +282,88 @@ Error Master::read_write_multiple_registers(UnitId unit, uint16_t read_address, 
   return transact(unit, r, [&](const Response& resp) { load_registers(resp.data, out); });
 }
 
+Error Master::read_exception_status(UnitId unit, uint8_t& status) {
+  Request r;
+  r.function = fc(Function::read_exception_status);
+  return transact(unit, r, [&](const Response& resp) { status = resp.body[0]; });
+}
+
+Error Master::diagnostics(UnitId unit, Diagnostic sub_function, std::span<const uint8_t> data,
+                          std::vector<uint8_t>& answer) {
+  Request r;
+  r.function = fc(Function::diagnostics);
+  r.sub_function = static_cast<uint16_t>(sub_function);
+  if (sub_function != Diagnostic::return_query_data && data.size() != 2) return Errc::invalid_argument;
+  if (data.size() > kMaxPduSize - 3) return Errc::invalid_argument;
+  if (data.size() == 2) r.value = load_be16(data.data());
+  r.data = data;
+  answer.clear();
+  return transact(unit, r,
+                  [&](const Response& resp) { answer.assign(resp.body.begin() + 2, resp.body.end()); });
+}
+
+Error Master::diagnostic_value(UnitId unit, Diagnostic sub_function, uint16_t& value) {
+  const uint8_t zero[2] = {0, 0};
+  std::vector<uint8_t> answer;
+  if (Error e = diagnostics(unit, sub_function, zero, answer)) return e;
+  if (answer.size() != 2) return Errc::unexpected_response;
+  value = load_be16(answer.data());
+  return {};
+}
+
+Error Master::comm_events(UnitId unit, bool log, CommEvents& out) {
+  Request r;
+  r.function = log ? fc(Function::get_comm_event_log) : fc(Function::get_comm_event_counter);
+  return transact(unit, r, [&](const Response& resp) {
+    // FC0B: status, count. FC0C: byte count, status, count, messages, events.
+    const std::span<const uint8_t> b = log ? resp.body.subspan(1) : resp.body;
+    out.status = load_be16(&b[0]);
+    out.event_count = load_be16(&b[2]);
+    if (log) {
+      out.message_count = load_be16(&b[4]);
+      out.events.assign(b.begin() + 6, b.end());
+    }
+  });
+}
+
+Error Master::report_server_id(UnitId unit, std::vector<uint8_t>& data) {
+  Request r;
+  r.function = fc(Function::report_server_id);
+  return transact(unit, r,
+                  [&](const Response& resp) { data.assign(resp.body.begin() + 1, resp.body.end()); });
+}
+
+Error Master::read_device_identification(UnitId unit, DeviceIdAccess access, DeviceIdentification& out,
+                                         uint8_t object_id) {
+  Request r;
+  r.function = fc(Function::encapsulated_interface);
+  r.mei_type = kMeiDeviceIdentification;
+  r.read_code = static_cast<uint8_t>(access);
+  r.object_id = object_id;
+  out = {};
+  // "More follows": ask again from the next object, at most 256 times (a
+  // device whose next id does not move on would loop forever).
+  for (int round = 0; round < 256; ++round) {
+    bool more = false;
+    uint8_t next = 0;
+    const Error e = transact(unit, r, [&](const Response& resp) {
+      // 0E code conformity more next count, then objects.
+      const std::span<const uint8_t> b = resp.body;
+      out.conformity = b[2];
+      more = b[3] == 0xFF;
+      next = b[4];
+      size_t at = 6;
+      for (unsigned i = 0; i < b[5]; ++i) {
+        out.objects[b[at]] = std::string(reinterpret_cast<const char*>(&b[at + 2]), b[at + 1]);
+        at += 2 + size_t{b[at + 1]};
+      }
+    });
+    if (e) return e;
+    if (!more || access == DeviceIdAccess::individual) return {};
+    if (next <= r.object_id && round > 0) return Errc::unexpected_response;
+    r.object_id = next;
+  }
+  return Errc::unexpected_response;
+}
+
 }  // namespace rtukit

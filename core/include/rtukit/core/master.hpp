@@ -32,7 +32,9 @@ class MasterTransaction {
 
   /// The ADU to send. Valid until the next begin().
   std::span<const uint8_t> request_bytes() const noexcept { return {tx_.data(), tx_len_}; }
-  bool expects_response() const noexcept { return !broadcast_; }
+  /// False for a broadcast and for FC08 "force listen only mode", which the
+  /// slave never answers.
+  bool expects_response() const noexcept { return !broadcast_ && !unanswered_; }
   const Request& request() const noexcept { return request_; }
   uint8_t unit() const noexcept { return unit_; }
 
@@ -59,6 +61,7 @@ class MasterTransaction {
   uint8_t unit_ = 0;
   uint16_t transaction_id_ = 0;
   bool broadcast_ = false;
+  bool unanswered_ = false;
 };
 
 }  // namespace rtukit

@@ -145,6 +145,11 @@ class SlaveEngine {
   /// `out` (>= 260 bytes).
   Handled handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
 
+  /// Modbus TCP only: answer requests for any unit id with the first hosted
+  /// unit (a gateway-less TCP device that ignores the id). Off by default:
+  /// units 0 and 0xFF reach the first unit, others are ignored.
+  void set_answer_any_unit_over_tcp(bool on) noexcept { any_unit_ = on; }
+
   const Counters& counters() const noexcept { return counters_; }
   const LineCounters& line_counters() const noexcept { return line_; }
   /// True after FC08 "force listen only mode": every request is watched
@@ -178,6 +183,7 @@ class SlaveEngine {
   uint16_t diagnostic_register_ = 0;
   uint16_t event_count_ = 0;  // FC0B: successful completions
   bool listen_only_ = false;
+  bool any_unit_ = false;
   std::array<uint8_t, kEventLogSize> events_{};  // ring, events_[event_head_ - 1] newest
   size_t event_head_ = 0, event_len_ = 0;
 };

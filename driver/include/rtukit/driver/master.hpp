@@ -15,6 +15,7 @@
 #include <chrono>
 #include <cstdint>
 #include <functional>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <span>
@@ -121,6 +122,38 @@ class Master {
   /// the write first. Not for broadcast.
   Error read_write_multiple_registers(UnitId unit, uint16_t read_address, std::span<uint16_t> out,
                                       uint16_t write_address, std::span<const uint16_t> values);
+
+  // ---- diagnostics and identification (issue 14) ----
+
+  /// FC07: the device's eight exception status outputs.
+  Error read_exception_status(UnitId unit, uint8_t& status);
+  /// FC08 with `sub_function` and its data field (2 bytes for every
+  /// sub-function but 00, return query data, which takes any). `answer`
+  /// gets the data field of the response. Force listen only mode (04) is
+  /// never answered: it returns ok once sent.
+  Error diagnostics(UnitId unit, Diagnostic sub_function, std::span<const uint8_t> data,
+                    std::vector<uint8_t>& answer);
+  /// FC08 with data 0x0000 that answers one value: a counter (0B..12) or the
+  /// diagnostic register (02).
+  Error diagnostic_value(UnitId unit, Diagnostic sub_function, uint16_t& value);
+  struct CommEvents {
+    uint16_t status = 0;          ///< 0xFFFF: still busy with an earlier request
+    uint16_t event_count = 0;     ///< successful completions
+    uint16_t message_count = 0;   ///< FC0C only: bus messages
+    std::vector<uint8_t> events;  ///< FC0C only: the newest first
+  };
+  /// FC0B (log = false) or FC0C (log = true).
+  Error comm_events(UnitId unit, bool log, CommEvents& out);
+  /// FC11: the data after the byte count (server id, run indicator, more).
+  Error report_server_id(UnitId unit, std::vector<uint8_t>& data);
+  struct DeviceIdentification {
+    uint8_t conformity = 0;                  ///< 0x01..0x03, +0x80 with individual access
+    std::map<uint8_t, std::string> objects;  ///< 0 vendor, 1 product code, 2 revision, ...
+  };
+  /// FC2B/0E. A stream (basic, regular, extended) from `object_id` on,
+  /// following "more follows" with further requests; `individual`: that one object.
+  Error read_device_identification(UnitId unit, DeviceIdAccess access, DeviceIdentification& out,
+                                   uint8_t object_id = 0);
 
   /// Any request. `on_response` runs (under the lock) with the decoded
   /// response while its data is valid; not called for broadcasts.
