@@ -1,8 +1,11 @@
 // The rtukit binary as users run it: outputs and exit codes
 // (0 ok, 1 Modbus exception, 2 usage, 3 no response, 4 I/O error).
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <fstream>
+#include <thread>
 
 #include "process.hpp"
 
@@ -18,7 +21,9 @@ class Cli : public ::testing::Test {
   void SetUp() override {
     port_ = dir_ / "tty";
     std::ofstream(dir_ / "init.json") << R"({"holding": {"0x10": [1, 2, 65535], "20": [0, 16968, 0, 17096]},
-                                           "input": {"0": 7}, "coils": {"3": 1}})";
+                                           "input": {"0": 7}, "coils": {"3": 1},
+                                           "identification": {"vendor": "ACME", "product_code": "M-3",
+                                                              "revision": "2.1", "0x80": "test bench"}})";
     slave_ = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", "pty:" + port_,
                                                                 "--unit", "5", "--registers", "100", "--init",
                                                                 dir_ / "init.json"});
@@ -119,6 +124,51 @@ TEST_F(Cli, MaskWriteAndReadWrite) {
   r = rtukit({"readwrite", "--port", port_, "--unit", "0", "1", "1", "1", "1"});
   EXPECT_EQ(r.code, 2) << r.output;
   EXPECT_NE(r.output.find("cannot be broadcast"), std::string::npos) << r.output;
+}
+
+// Diagnostics and identification (issue 14): counters that match what was
+// injected on the line, the event log, echo, listen-only and restart.
+TEST_F(Cli, DiagAndIdent) {
+  ASSERT_EQ(rtukit({"diag", "--port", port_, "--unit", "5", "clear"}).code, 0);
+  // Two frames with a bad CRC and one exception, straight onto the line.
+  {
+    const int fd = ::open(port_.c_str(), O_RDWR | O_NOCTTY);
+    ASSERT_GE(fd, 0);
+    const uint8_t bad[] = {0x05, 0x03, 0x00, 0x00, 0x00, 0x01, 0x00, 0x00};
+    ASSERT_EQ(::write(fd, bad, sizeof bad), static_cast<ssize_t>(sizeof bad));
+    std::this_thread::sleep_for(50ms);  // a silence between them, as on a line
+    ASSERT_EQ(::write(fd, bad, sizeof bad), static_cast<ssize_t>(sizeof bad));
+    std::this_thread::sleep_for(50ms);
+    ::close(fd);
+  }
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "99", "2"}).code, 1);
+  RunResult r = rtukit({"diag", "--port", port_, "--unit", "5", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find(R"("bus_crc_errors":2,"bus_exceptions":1)"), std::string::npos) << r.output;
+  r = rtukit({"diag", "--port", port_, "--unit", "5", "echo", "0x12", "0x34"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("echo ok: 12 34"), std::string::npos) << r.output;
+  r = rtukit({"diag", "--port", port_, "--unit", "5", "events"});
+  EXPECT_NE(r.output.find("received, communication error"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("sent, read exception"), std::string::npos) << r.output;
+  // Listen-only: silent until restart.
+  ASSERT_EQ(rtukit({"diag", "--port", port_, "--unit", "5", "listen-only"}).code, 0);
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "0x10", "--timeout", "200"}).code, 3);
+  r = rtukit({"diag", "--port", port_, "--unit", "5", "restart", "--timeout", "200"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "0x10"}).output, "16 (0x0010): 1\n");
+  // Identification from --init, one object, FC11.
+  r = rtukit({"ident", "--port", port_, "--unit", "5", "--level", "extended"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("vendor        ACME"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("0x80          test bench"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("(conformity: extended, individual access)"), std::string::npos) << r.output;
+  r = rtukit({"ident", "--port", port_, "--unit", "5", "--object", "1", "--json"});
+  EXPECT_NE(r.output.find(R"("objects":{"product code":"M-3"}})"), std::string::npos) << r.output;
+  r = rtukit({"ident", "--port", port_, "--unit", "5", "--object", "7"});
+  EXPECT_EQ(r.code, 1) << r.output;  // 02: no such object
+  r = rtukit({"ident", "--port", port_, "--unit", "5", "--server-id"});
+  EXPECT_EQ(r.output, "server id 5, running\nACME M-3 2.1\n");
 }
 
 TEST_F(Cli, ModbusException_Exit1_NamesTheException) {

@@ -2,6 +2,9 @@
 // wire bytes out.
 #include <gtest/gtest.h>
 
+#include <map>
+#include <string>
+
 #include "rtukit/core.hpp"
 #include "wire.hpp"
 
@@ -427,4 +430,198 @@ TEST(CombinedCodec, EncodeAndDecode) {
   EXPECT_TRUE(decode_response(mask, bytes("16 00 04 00 F2 00 25")).ok());
   EXPECT_EQ(decode_response(mask, bytes("16 00 04 00 F2 00 26")).error().code(), Errc::unexpected_response);
   EXPECT_EQ(decode_response(mask, bytes("96 02")).error().code(), Errc::illegal_data_address);
+}
+
+// ---- serial line diagnostics and identification (issue 14) ----
+
+namespace {
+
+// Declares everything; the specification's example identification.
+class FullBank : public CombinedBank {
+ public:
+  FunctionSet functions() const noexcept override {
+    return kDataFunctions | kRegisterCombinedFunctions | kDiagnosticFunctions | kIdentificationFunctions;
+  }
+  uint8_t status = 0x6D;
+  uint8_t exception_status() override { return status; }
+  std::map<uint8_t, std::string> objects{{0, "Company identification"}, {1, "Product code XX"}, {2, "V2.11"}};
+  std::string_view device_object(uint8_t id) override {
+    const auto it = objects.find(id);
+    return it == objects.end() ? std::string_view() : std::string_view(it->second);
+  }
+};
+
+class DiagTest : public ::testing::Test {
+ protected:
+  void SetUp() override { ASSERT_TRUE(engine.add_unit(UnitId{1}, bank).ok()); }
+  // "01 " + the PDU as hex, through the engine; the answer's PDU as hex.
+  std::string pdu_answer(const std::string& pdu) {
+    const std::string got = answer(engine, "01 " + pdu);
+    if (got.size() < 9) return got;
+    return got.substr(3, got.size() - 9);  // without the address and the CRC
+  }
+  FullBank bank;
+  SlaveEngine engine;
+};
+
+std::string fmt_hex(uint8_t b) {
+  return hex(std::vector<uint8_t>{b});
+}
+
+std::string text_hex(const std::string& s) {
+  return hex({reinterpret_cast<const uint8_t*>(s.data()), s.size()});
+}
+
+}  // namespace
+
+// The specification's examples (MODBUS Application Protocol 1.1b3, 6.7, 6.8).
+TEST_F(DiagTest, ExceptionStatusAndReturnQueryData_SpecificationExamples) {
+  EXPECT_EQ(pdu_answer("07"), "07 6D");
+  EXPECT_EQ(pdu_answer("08 00 00 A5 37"), "08 00 00 A5 37");
+  EXPECT_EQ(pdu_answer("08 00 00"), "08 00 00");  // no data at all
+}
+
+TEST_F(DiagTest, CountersMatchWhatTheLineSaw) {
+  engine.note_crc_errors(3);                                  // three frames failed their CRC
+  EXPECT_EQ(answer(engine, "02 03 00 00 00 01"), "");         // another unit's request
+  EXPECT_EQ(pdu_answer("03 00 00 00 01"), "03 02 00 00");     // ours
+  EXPECT_EQ(pdu_answer("03 00 C8 00 01"), "83 02");           // exception 02
+  EXPECT_EQ(pdu_answer("41"), "C1 01");                       // exception 01
+  EXPECT_EQ(answer(engine, "00 06 00 01 00 07"), "");         // a broadcast: no answer
+  EXPECT_EQ(pdu_answer("08 00 0B 00 00"), "08 00 0B 00 06");  // bus messages (this one too)
+  EXPECT_EQ(pdu_answer("08 00 0C 00 00"), "08 00 0C 00 03");  // CRC errors
+  EXPECT_EQ(pdu_answer("08 00 0D 00 00"), "08 00 0D 00 02");  // exceptions
+  EXPECT_EQ(pdu_answer("08 00 0E 00 00"), "08 00 0E 00 08");  // to us: 5 + broadcast + these 3... = 8
+  EXPECT_EQ(pdu_answer("08 00 0F 00 00"), "08 00 0F 00 01");  // unanswered: the broadcast
+  EXPECT_EQ(pdu_answer("08 00 10 00 00"), "08 00 10 00 00");  // NAK
+  EXPECT_EQ(pdu_answer("08 00 11 00 00"), "08 00 11 00 00");  // busy
+  EXPECT_EQ(pdu_answer("08 00 12 00 00"), "08 00 12 00 00");  // overruns
+  EXPECT_EQ(pdu_answer("08 00 02 00 00"), "08 00 02 00 00");  // diagnostic register
+  EXPECT_EQ(engine.line_counters().bus_crc_errors, 3u);
+  // Clear: every counter back to 0 (the clear itself is counted afterwards).
+  EXPECT_EQ(pdu_answer("08 00 0A 00 00"), "08 00 0A 00 00");
+  EXPECT_EQ(pdu_answer("08 00 0C 00 00"), "08 00 0C 00 00");
+  EXPECT_EQ(pdu_answer("08 00 0D 00 00"), "08 00 0D 00 00");
+  EXPECT_EQ(pdu_answer("08 00 0B 00 00"), "08 00 0B 00 03");  // the two reads above and this one
+}
+
+TEST_F(DiagTest, SubFunctionMatrix) {
+  for (const char* unsupported : {"08 00 03 0A 00", "08 00 13 00 00", "08 00 15 00 00", "08 FF FF 00 00"})
+    EXPECT_EQ(pdu_answer(unsupported), "88 01") << unsupported;
+  EXPECT_EQ(pdu_answer("08 00 0B 00 01"), "88 03");  // counters take 0x0000
+  EXPECT_EQ(pdu_answer("08 00 01 12 34"), "88 03");  // restart takes 0000 or FF00
+  EXPECT_EQ(pdu_answer("08 00 0B 00"), "88 03");     // a short data field
+  EXPECT_EQ(pdu_answer("08 00"), "");                // no sub-function at all: dropped
+  EXPECT_EQ(pdu_answer("07 00"), "87 03");
+}
+
+// Listen-only mode really makes the slave silent (and inert) until "restart
+// communications", which is not answered either.
+TEST_F(DiagTest, ListenOnlyUntilRestart) {
+  EXPECT_EQ(pdu_answer("08 00 04 00 00"), "");  // force listen only: no answer
+  EXPECT_TRUE(engine.listen_only());
+  EXPECT_EQ(pdu_answer("06 00 01 00 07"), "");  // not answered...
+  EXPECT_EQ(bank.holding[1], 0);                // ...and not executed
+  EXPECT_EQ(answer(engine, "00 06 00 01 00 07"), "");
+  EXPECT_EQ(bank.holding[1], 0);                // not even a broadcast
+  EXPECT_EQ(pdu_answer("08 00 0B 00 00"), "");  // diagnostics neither
+  EXPECT_EQ(pdu_answer("08 00 01 00 00"), "");  // restart: leaves the mode, silently
+  EXPECT_FALSE(engine.listen_only());
+  EXPECT_EQ(pdu_answer("06 00 01 00 07"), "06 00 01 00 07");
+  EXPECT_EQ(bank.holding[1], 7);
+  EXPECT_EQ(pdu_answer("08 00 01 FF 00"), "08 00 01 FF 00");  // restart when listening: echoed
+}
+
+// FC0B and FC0C: the event counter counts completed requests (not the polls
+// of it, not exceptions); the log holds the events, the newest first.
+TEST_F(DiagTest, CommEventCounterAndLog) {
+  EXPECT_EQ(pdu_answer("08 00 01 FF 00"), "08 00 01 FF 00");  // restart, clear the log
+  EXPECT_EQ(pdu_answer("03 00 00 00 01"), "03 02 00 00");
+  EXPECT_EQ(pdu_answer("03 00 C8 00 01"), "83 02");
+  EXPECT_EQ(pdu_answer("0B"), "0B 00 00 00 02");  // the restart's echo and the read
+  EXPECT_EQ(pdu_answer("0B"), "0B 00 00 00 02");  // polling it does not count
+  // Byte count 6 + 10 events, status 0, 2 events counted, 5 messages; then
+  // (newest first) received FC0C, sent, received, sent (FC0B), received,
+  // sent read exception, received, sent, received, sent (restart), restart.
+  EXPECT_EQ(pdu_answer("0C"), "0C 11 00 00 00 02 00 05 80 40 80 40 80 41 80 40 80 40 00");
+  // The 64 newest only.
+  for (int i = 0; i < 40; ++i) pdu_answer("03 00 00 00 01");
+  const std::string log = pdu_answer("0C");
+  EXPECT_EQ(log.substr(0, 5), "0C 46");  // 6 + 64
+}
+
+// Identification: the specification's example stream (basic), regular and
+// extended streams, individual access, "more follows".
+TEST_F(DiagTest, ReadDeviceIdentification) {
+  const std::string basic = "2B 0E 01 81 00 00 03 00 16 " + text_hex("Company identification") + " 01 0F " +
+                            text_hex("Product code XX") + " 02 05 " + text_hex("V2.11");
+  EXPECT_EQ(pdu_answer("2B 0E 01 00"), basic);
+  EXPECT_EQ(pdu_answer("2B 0E 01 09"), basic);  // an object it does not have: from 0
+  EXPECT_EQ(pdu_answer("2B 0E 01 02"), "2B 0E 01 81 00 00 01 02 05 " + text_hex("V2.11"));
+  // A regular object: conformity 2; a regular stream includes the basic ones.
+  bank.objects[4] = "Pump";
+  EXPECT_EQ(pdu_answer("2B 0E 02 04"), "2B 0E 02 82 00 00 01 04 04 " + text_hex("Pump"));
+  // Extended asked of a regular device: its own level.
+  EXPECT_EQ(pdu_answer("2B 0E 03 04"), "2B 0E 03 82 00 00 01 04 04 " + text_hex("Pump"));
+  // Individual access: one object, or 02.
+  EXPECT_EQ(pdu_answer("2B 0E 04 01"), "2B 0E 04 82 00 00 01 01 0F " + text_hex("Product code XX"));
+  EXPECT_EQ(pdu_answer("2B 0E 04 07"), "AB 02");
+  EXPECT_EQ(pdu_answer("2B 0E 05 00"), "AB 03");
+  EXPECT_EQ(pdu_answer("2B 0E 00 00"), "AB 03");
+  EXPECT_EQ(pdu_answer("2B 0D 01 00"), "AB 01");  // MEI type 0D: not implemented
+  // More follows: three 100-byte objects do not fit one response.
+  bank.objects[0x80] = std::string(100, 'a');
+  bank.objects[0x81] = std::string(100, 'b');
+  bank.objects[0x82] = std::string(100, 'c');
+  const std::string first = pdu_answer("2B 0E 03 80");
+  EXPECT_EQ(first.substr(0, 20), "2B 0E 03 83 FF 82 02");  // two objects; the next is 0x82
+  const std::string second = pdu_answer("2B 0E 03 82");
+  EXPECT_EQ(second.substr(0, 20), "2B 0E 03 83 00 00 01");  // the last one
+}
+
+TEST_F(DiagTest, ReportServerId) {
+  EXPECT_EQ(pdu_answer("11"), "11 " +
+                                  hex(std::vector<uint8_t>{static_cast<uint8_t>(2 + 22 + 1 + 15 + 1 + 5)}) +
+                                  " 01 FF " + text_hex("Company identification Product code XX V2.11"));
+}
+
+TEST_F(SlaveEngineTest, DiagnosticsAndIdentification_Are01UnlessDeclared) {
+  for (const uint8_t f : {0x07, 0x08, 0x0B, 0x0C, 0x11, 0x2B}) {
+    std::string pdu = fmt_hex(f);
+    if (f == 0x08) pdu += " 00 00 A5 37";
+    if (f == 0x2B) pdu += " 0E 01 00";
+    EXPECT_EQ(answer(engine, "01 " + pdu), exception(1, f, 0x01)) << pdu;
+  }
+}
+
+// The master's side: the specification's response examples decode.
+TEST(DiagCodec, MasterDecodesTheSpecificationExamples) {
+  Request r;
+  r.function = 0x0B;
+  const auto counter = bytes("0B FF FF 01 08");  // the response views these bytes
+  auto got = decode_response(r, counter);
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(hex(got->body), "FF FF 01 08");
+  r.function = 0x0C;
+  const auto log = bytes("0C 08 00 00 01 08 01 21 20 00");
+  got = decode_response(r, log);
+  ASSERT_TRUE(got.ok());
+  EXPECT_EQ(hex(got->body), "08 00 00 01 08 01 21 20 00");
+  EXPECT_FALSE(decode_response(r, bytes("0C 09 00 00 01 08 01 21 20 00")).ok());  // byte count wrong
+  r.function = 0x08;
+  r.sub_function = 0;
+  EXPECT_TRUE(decode_response(r, bytes("08 00 00 A5 37")).ok());
+  EXPECT_EQ(decode_response(r, bytes("08 00 01 A5 37")).error().code(), Errc::unexpected_response);
+  r.function = 0x2B;
+  r.read_code = 1;
+  EXPECT_TRUE(decode_response(r, bytes("2B 0E 01 01 00 00 01 00 02 41 42")).ok());
+  EXPECT_EQ(decode_response(r, bytes("2B 0E 01 01 00 00 01 00 05 41 42")).error().code(), Errc::malformed);
+  EXPECT_EQ(decode_response(r, bytes("2B 0E 02 01 00 00 00")).error().code(), Errc::unexpected_response);
+  std::array<uint8_t, 8> out{};
+  r = Request{};
+  r.function = 0x08;
+  r.sub_function = 0x04;
+  auto n = encode_request(r, out);
+  ASSERT_TRUE(n.ok());
+  EXPECT_EQ(hex({out.data(), *n}), "08 00 04 00 00");
 }

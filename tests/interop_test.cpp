@@ -79,20 +79,48 @@ void exercise_server(Master& m) {
 
 // ---- our master against their servers ----
 
+// FC11 against libmodbus's server: its slave id, "on", then "LMB" and its version.
+void report_server_id_of_libmodbus(Master& m) {
+  std::vector<uint8_t> data;
+  ASSERT_TRUE(m.report_server_id(UnitId{1}, data).ok());
+  ASSERT_GE(data.size(), 5u);
+  EXPECT_EQ(data[1], 0xFF);
+  EXPECT_EQ(std::string(data.begin() + 2, data.begin() + 5), "LMB");
+}
+
+// FC08 and FC2B/0E against pymodbus's server.
+void diagnostics_of_pymodbus(Master& m) {
+  const uint8_t echo[] = {0xA5, 0x37};
+  std::vector<uint8_t> answer;
+  ASSERT_TRUE(m.diagnostics(UnitId{1}, Diagnostic::return_query_data, echo, answer).ok());
+  EXPECT_EQ(answer, (std::vector<uint8_t>{0xA5, 0x37}));
+  uint16_t messages = 0;
+  ASSERT_TRUE(m.diagnostic_value(UnitId{1}, Diagnostic::bus_message_count, messages).ok());
+  Master::DeviceIdentification id;
+  ASSERT_TRUE(m.read_device_identification(UnitId{1}, DeviceIdAccess::basic, id).ok());
+  EXPECT_EQ(id.objects[0], "pymodbus");
+  EXPECT_EQ(id.objects[1], "PM");
+  EXPECT_EQ(id.objects[2], "3.0");
+}
+
 TEST(Interop, OurMaster_LibmodbusServer_RtuOverSocatPty) {
   TempDir dir;
   PtyPair pair(dir);
   ASSERT_TRUE(pair.ready());
   Process server({kLibmodbusServer, "rtu", pair.a()});
   ASSERT_TRUE(server.wait_for_output("ready")) << server.output();
-  exercise_server(*master_for(pair.b()));
+  auto m = master_for(pair.b());
+  exercise_server(*m);
+  report_server_id_of_libmodbus(*m);
 }
 
 TEST(Interop, OurMaster_LibmodbusServer_Tcp) {
   const uint16_t port = free_tcp_port();
   Process server({kLibmodbusServer, "tcp", std::to_string(port)});
   ASSERT_TRUE(server.wait_for_output("ready")) << server.output();
-  exercise_server(*master_for("tcp://127.0.0.1:" + std::to_string(port)));
+  auto m = master_for("tcp://127.0.0.1:" + std::to_string(port));
+  exercise_server(*m);
+  report_server_id_of_libmodbus(*m);
 }
 
 TEST(Interop, OurMaster_PymodbusServer_RtuOverSocatPty) {
@@ -101,14 +129,18 @@ TEST(Interop, OurMaster_PymodbusServer_RtuOverSocatPty) {
   ASSERT_TRUE(pair.ready());
   Process server({kPython, kPeers + "/pymodbus_server.py", "rtu", pair.a()});
   ASSERT_TRUE(server.wait_for_output("ready")) << server.output();
-  exercise_server(*master_for(pair.b()));
+  auto m = master_for(pair.b());
+  exercise_server(*m);
+  diagnostics_of_pymodbus(*m);
 }
 
 TEST(Interop, OurMaster_PymodbusServer_Tcp) {
   const uint16_t port = free_tcp_port();
   Process server({kPython, kPeers + "/pymodbus_server.py", "tcp", std::to_string(port)});
   ASSERT_TRUE(server.wait_for_output("ready")) << server.output();
-  exercise_server(*master_for("tcp://127.0.0.1:" + std::to_string(port)));
+  auto m = master_for("tcp://127.0.0.1:" + std::to_string(port));
+  exercise_server(*m);
+  diagnostics_of_pymodbus(*m);
 }
 
 // ---- their clients against our slave (the rtukit binary) ----
@@ -140,6 +172,25 @@ TEST(Interop, LibmodbusClient_OurSlave_Tcp) {
   auto slave = start_our_slave("tcp://127.0.0.1:" + std::to_string(port));
   const RunResult r = run({kLibmodbusClient, "tcp", std::to_string(port)});
   EXPECT_EQ(r.code, 0) << r.output;
+}
+
+// pymodbus's diagnostic, identification and report-server-id requests (issue 14).
+TEST(Interop, PymodbusDiagnostics_OurSlave_RtuOverSocatPty) {
+  TempDir dir;
+  PtyPair pair(dir);
+  ASSERT_TRUE(pair.ready());
+  auto slave = start_our_slave(pair.a());
+  const RunResult r = run({kPython, kPeers + "/pymodbus_diag.py", "rtu", pair.b()}, 60000ms);
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+TEST(Interop, PymodbusDiagnostics_OurSlave_Tcp) {
+  const uint16_t port = free_tcp_port();
+  auto slave = start_our_slave("tcp://127.0.0.1:" + std::to_string(port));
+  const RunResult r = run({kPython, kPeers + "/pymodbus_diag.py", "tcp", std::to_string(port)});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
 }
 
 TEST(Interop, PymodbusClient_OurSlave_RtuOverSocatPty) {

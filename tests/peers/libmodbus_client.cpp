@@ -49,12 +49,19 @@ int main(int argc, char** argv) {
   // FC16 mask write and FC17 read/write multiple (issue 14).
   CHECK(modbus_write_register(ctx, 50, 0x12) == 1, "write 50");
   CHECK(modbus_mask_write_register(ctx, 50, 0x00F2, 0x0025) == 1, "mask_write_register");
-  CHECK(modbus_read_registers(ctx, 50, 1, regs) == 1 && regs[0] == 0x17, "mask result 0x17, got 0x%X", regs[0]);
+  CHECK(modbus_read_registers(ctx, 50, 1, regs) == 1 && regs[0] == 0x17, "mask result 0x17, got 0x%X",
+        regs[0]);
   const uint16_t rw_values[] = {7, 8};
   uint16_t rw_back[3] = {};
   CHECK(modbus_write_and_read_registers(ctx, 60, 2, rw_values, 59, 3, rw_back) == 3 && rw_back[0] == 0 &&
             rw_back[1] == 7 && rw_back[2] == 8,
         "write_and_read_registers: the write comes first (%u %u %u)", rw_back[0], rw_back[1], rw_back[2]);
+
+  // FC11 report slave id: our slave's unit, "on", then "vendor product revision".
+  uint8_t id[MODBUS_MAX_PDU_LENGTH] = {};
+  const int n = modbus_report_slave_id(ctx, sizeof id, id);
+  CHECK(n > 2 && id[1] == 0xFF && std::string(reinterpret_cast<char*>(id + 2), n - 2).find("rtukit") == 0,
+        "report_slave_id: %d bytes", n);
 
   std::printf("OK\n");
   modbus_close(ctx);

@@ -3,10 +3,12 @@
 
 usage: pymodbus_server.py rtu DEVICE | tcp PORT
 holding i = 10*i, input i = 1000+i, coil i = i%2, discrete i = (i+1)%2 (i < 200), unit 1.
+Identification: vendor "pymodbus", product code "PM", revision "3.0".
 """
 import sys
 
 from pymodbus.datastore import ModbusSequentialDataBlock, ModbusServerContext, ModbusSlaveContext
+from pymodbus.device import ModbusDeviceIdentification
 from pymodbus.server import StartSerialServer, StartTcpServer
 from pymodbus.transaction import ModbusRtuFramer
 
@@ -21,11 +23,14 @@ def main():
         zero_mode=True,
     )
     context = ModbusServerContext(slaves={1: unit}, single=False)
+    identity = ModbusDeviceIdentification(
+        info_name={"VendorName": "pymodbus", "ProductCode": "PM", "MajorMinorRevision": "3.0"})
     print("ready", flush=True)
     if mode == "rtu":
-        StartSerialServer(context=context, framer=ModbusRtuFramer, port=target, baudrate=9600, timeout=0.005)
+        StartSerialServer(context=context, framer=ModbusRtuFramer, port=target, baudrate=9600, timeout=0.005,
+                          identity=identity)
     else:
-        StartTcpServer(context=context, address=("127.0.0.1", int(target)))
+        StartTcpServer(context=context, address=("127.0.0.1", int(target)), identity=identity)
 
 
 if __name__ == "__main__":
