@@ -7,6 +7,8 @@
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <string>
+#include <string_view>
 
 #include "rtukit/core.hpp"
 
@@ -14,6 +16,19 @@ namespace {
 
 class Bank final : public rtukit::RegisterBank {
  public:
+  // Every function, so that diagnostics, identification, FC16 and FC17 are fuzzed too.
+  rtukit::FunctionSet functions() const noexcept override {
+    return rtukit::kDataFunctions | rtukit::kRegisterCombinedFunctions | rtukit::kDiagnosticFunctions |
+           rtukit::kIdentificationFunctions;
+  }
+  uint8_t exception_status() override { return 0x6D; }
+  // Objects long enough that a stream needs "more follows".
+  std::string_view device_object(uint8_t id) override {
+    static const std::string long_text(120, 'x');
+    if (id <= 2) return "basic";
+    if (id == 0x05 || id == 0x80 || id == 0x81 || id == 0xFF) return long_text;
+    return {};
+  }
   std::array<uint16_t, 300> regs{};
   std::array<uint8_t, 300> bits{};
   rtukit::Errc read_holding_registers(uint16_t a, std::span<uint16_t> out) override {
@@ -51,6 +66,13 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static SlaveEngine engine;
   static bool once = [] { return engine.add_unit(UnitId{1}, bank).ok(); }();
   (void)once;
+  // Listen-only mode would silence every later input: leave it each time
+  // (its own behaviour is tested in tests/core_slave_test.cpp).
+  if (engine.listen_only()) {
+    const uint8_t restart[] = {0x08, 0x00, 0x01, 0x00, 0x00};
+    std::array<uint8_t, kMaxPduSize> scratch{};
+    (void)engine.handle_pdu(UnitId{1}, restart, scratch);
+  }
 
   // RTU: the input is address + PDU; append the CRC so the engine sees it.
   std::array<uint8_t, kMaxRtuAduSize> adu{};

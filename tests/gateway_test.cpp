@@ -95,6 +95,31 @@ TEST_F(GatewayTest, SilentUnitIs0B_NotAllowedIs0A_ReadOnlyIs01) {
   EXPECT_NE(r.output.find("exception 0B"), std::string::npos) << r.output;
 }
 
+// Diagnostics and identification pass through (issue 14); a read-only
+// gateway refuses what would change the device's line state.
+TEST_F(GatewayTest, DiagnosticsAndIdentificationThroughTheGateway) {
+  start({"--read-only"});
+  auto m = client();
+  const uint8_t echo[] = {1, 2, 3};
+  std::vector<uint8_t> answer;
+  ASSERT_TRUE(m->diagnostics(UnitId{21}, Diagnostic::return_query_data, echo, answer).ok());
+  EXPECT_EQ(answer, (std::vector<uint8_t>{1, 2, 3}));
+  uint16_t messages = 0;
+  ASSERT_TRUE(m->diagnostic_value(UnitId{21}, Diagnostic::bus_message_count, messages).ok());
+  EXPECT_GE(messages, 2);
+  Master::DeviceIdentification id;
+  ASSERT_TRUE(m->read_device_identification(UnitId{21}, DeviceIdAccess::basic, id).ok());
+  EXPECT_EQ(id.objects[0], "rtukit");
+  const uint8_t zero[] = {0, 0};
+  EXPECT_EQ(m->diagnostics(UnitId{21}, Diagnostic::clear_counters, zero, answer).code(),
+            Errc::illegal_function);
+  EXPECT_EQ(m->diagnostics(UnitId{21}, Diagnostic::force_listen_only, zero, answer).code(),
+            Errc::ok);  // sent...
+  // ...but refused with 01 by the gateway, so the device still answers.
+  uint16_t v = 0;
+  EXPECT_TRUE(m->read_holding_registers(UnitId{21}, 0, {&v, 1}).ok());
+}
+
 TEST_F(GatewayTest, BusDownIs0A) {
   start({}, /*with_bus=*/false);
   auto m = client();

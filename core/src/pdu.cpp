@@ -241,16 +241,18 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       out[0] = r.function;
       return size_t{1};
     case fc(Function::diagnostics): {
-      // The data field: `data` when given (return query data), else `value`.
-      const size_t bytes = r.data.empty() ? 2 : r.data.size();
+      // The data field: return query data (00) carries `data`, any length;
+      // every other sub-function its 2-byte `value`.
+      const bool query = r.sub_function == static_cast<uint16_t>(Diagnostic::return_query_data);
+      const size_t bytes = query ? r.data.size() : 2;
       if (3 + bytes > kMaxPduSize) return Errc::invalid_argument;
       if (out.size() < 3 + bytes) return Errc::buffer_too_small;
       out[0] = r.function;
       store_be16(&out[1], r.sub_function);
-      if (r.data.empty())
-        store_be16(&out[3], r.value);
-      else
+      if (query)
         std::memcpy(&out[3], r.data.data(), bytes);
+      else
+        store_be16(&out[3], r.value);
       return 3 + bytes;
     }
     case fc(Function::encapsulated_interface):

@@ -24,6 +24,21 @@ bool is_write(uint8_t function) {
          function == fc(Function::read_write_multiple_registers);  // it writes before it reads
 }
 
+// FC08 sub-functions that change the device's line state: restart (and
+// clear), listen-only (which silences it), clearing counters.
+bool changes_line_state(const Request& r) {
+  if (r.function != fc(Function::diagnostics)) return false;
+  switch (static_cast<Diagnostic>(r.sub_function)) {
+    case Diagnostic::restart_communications:
+    case Diagnostic::force_listen_only:
+    case Diagnostic::clear_counters:
+    case Diagnostic::clear_overrun_counter:
+      return true;
+    default:
+      return false;
+  }
+}
+
 bool is_read(uint8_t function) {
   return function >= fc(Function::read_coils) && function <= fc(Function::read_input_registers);
 }
@@ -169,7 +184,8 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     return;
   }
   if (!allowed(h.unit)) return refuse(Errc::gateway_path_unavailable);
-  if (options.read_only && is_write(function)) return refuse(Errc::illegal_function);
+  if (options.read_only && (is_write(function) || changes_line_state(*req)))
+    return refuse(Errc::illegal_function);
   std::lock_guard lock(mutex);
   if (options.cache.count() > 0 && is_read(function)) {
     const auto hit = cache.find(CacheKey{h.unit, function, req->address, req->quantity});
