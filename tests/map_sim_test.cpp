@@ -104,6 +104,33 @@ TEST(MapSim, ReadAndWatchByName) {
   EXPECT_NE(w.output.find("voltage = 230.0 V", first + 1), std::string::npos) << w.output;
 }
 
+// Identification and diagnostics (issue 14): a map device and both built-in
+// simulators say who they are; the Inverjet's board versions come from its
+// input registers.
+TEST(MapSim, IdentificationAndDiagnostics) {
+  TempDir dir;
+  MapSim sim(dir);
+  ASSERT_TRUE(sim.started) << sim.process.output();
+  RunResult r = run({kBin, "ident", "--port", sim.tty});
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("vendor        example\nproduct code  EM-1\nrevision      1.0\n"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("product name  single-phase energy meter"), std::string::npos) << r.output;
+  r = run({kBin, "diag", "--port", sim.tty, "echo"});
+  EXPECT_EQ(r.code, 0) << r.output;
+
+  Process jet({kBin, "sim", "inverjet", "--listen", "pty:" + (dir / "jet"), "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  r = run({kBin, "ident", "--port", dir / "jet", "--unit", "21", "--level", "extended", "--json"});
+  ASSERT_EQ(r.code, 0) << r.output;
+  const nlohmann::json doc = nlohmann::json::parse(r.output);
+  EXPECT_EQ(doc["objects"]["vendor"], "Inverjet");
+  EXPECT_EQ(doc["objects"]["revision"], "V1.2");  // the display board's software (input 0x0000)
+  EXPECT_EQ(doc["objects"]["0x82"], "V1.3");      // the driver board's software (input 0x0004)
+  EXPECT_EQ(doc["conformity"], "extended");
+}
+
 TEST(MapSim, PymodbusMasterSeesTheMapsRules) {
   TempDir dir;
   MapSim sim(dir);

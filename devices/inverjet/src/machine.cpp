@@ -461,6 +461,7 @@ void Machine::set_mains_voltage(double volts) noexcept {
 namespace rtukit::inverjet {
 
 std::string_view Machine::device_object(uint8_t id) {
+  refresh(profile::Space::input);  // the versions live in the input registers
   const auto version = [this](profile::Handle h) {
     // "V1.2" from the version register pair (major in the high word).
     const auto raw = static_cast<uint32_t>(image().get(h));

@@ -192,13 +192,17 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
     const YAML::Node device = doc["device"];
     if (!device || !device.IsMap()) reader.fail(doc, "'device' (name, title...) is missing");
     check_fields(reader, device,
-                 {"name", "title", "vendor", "unit", "unit_max", "baud", "parity", "stop_bits", "quirks"},
+                 {"name", "title", "vendor", "product_code", "revision", "unit", "unit_max", "baud", "parity",
+                  "stop_bits", "quirks"},
                  "device");
     Profile& p = map->profile_;
     if (!device["name"]) reader.fail(device, "device.name is missing");
     p.name = map->keep(reader.text(device["name"], "device.name"));
     if (device["title"]) p.title = map->keep(reader.text(device["title"], "device.title"));
     if (device["vendor"]) p.vendor = map->keep(reader.text(device["vendor"], "device.vendor"));
+    if (device["product_code"])
+      p.product_code = map->keep(reader.text(device["product_code"], "device.product_code"));
+    if (device["revision"]) p.revision = map->keep(reader.text(device["revision"], "device.revision"));
     if (device["unit"]) {
       const int64_t u = reader.integer(device["unit"], "device.unit");
       if (u < 1 || u > 255) reader.fail(device["unit"], "device.unit must be 1..255");
@@ -403,6 +407,8 @@ nlohmann::ordered_json map_document(const Profile& p) {
   device["name"] = p.name;
   if (!p.title.empty()) device["title"] = p.title;
   if (!p.vendor.empty()) device["vendor"] = p.vendor;
+  if (!p.product_code.empty()) device["product_code"] = p.product_code;
+  if (!p.revision.empty()) device["revision"] = p.revision;
   device["unit"] = p.link.unit;
   if (p.link.unit_max != 247) device["unit_max"] = p.link.unit_max;
   device["baud"] = p.link.baud;

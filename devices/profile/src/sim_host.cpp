@@ -47,6 +47,14 @@ struct SimHost::Bank final : RegisterBank {
     sync();
     return m().write_holding_registers(a, values);
   }
+  uint8_t exception_status() override {
+    sync();
+    return m().exception_status();
+  }
+  std::string_view device_object(uint8_t id) override {
+    sync();
+    return m().device_object(id);
+  }
   void after_response() override {
     m().after_response();
     host.after_response();
