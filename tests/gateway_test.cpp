@@ -220,6 +220,25 @@ TEST_F(GatewayTest, QueuedIdenticalReadsShareOneTransaction) {
   EXPECT_LE(bus_requests() - before, 2u) << "8 identical reads should share the bus";
 }
 
+// FC16 and FC17 through the gateway: relayed as the device answers them,
+// and as writes they invalidate the cached reads they change.
+TEST_F(GatewayTest, MaskWriteAndReadWrite_RelayedAndNeverHiddenByTheCache) {
+  start({"--cache-ms", "5000"});
+  auto m = client();
+  ASSERT_TRUE(m->write_single_register(UnitId{1}, 9, 0x12).ok());
+  uint16_t v = 0;
+  ASSERT_TRUE(m->read_holding_registers(UnitId{1}, 9, {&v, 1}).ok());  // now cached
+  ASSERT_TRUE(m->mask_write_register(UnitId{1}, 9, 0x00F2, 0x0025).ok());
+  ASSERT_TRUE(m->read_holding_registers(UnitId{1}, 9, {&v, 1}).ok());
+  EXPECT_EQ(v, 0x17);  // not the cached 0x12
+  const uint16_t values[] = {7, 8};
+  std::array<uint16_t, 3> after{};
+  ASSERT_TRUE(m->read_write_multiple_registers(UnitId{1}, 8, after, 9, values).ok());
+  EXPECT_EQ(after, (std::array<uint16_t, 3>{0, 7, 8}));
+  ASSERT_TRUE(m->read_holding_registers(UnitId{1}, 9, {&v, 1}).ok());
+  EXPECT_EQ(v, 7);  // the FC17 write invalidated the cache too
+}
+
 TEST_F(GatewayTest, MbpollAndPymodbusThroughTheGateway) {
   start();
   auto m = client();
