@@ -327,27 +327,37 @@ TEST(MasterDriver, HalfDuplexEcho_IsDiscarded_NotTakenForTheAnswer) {
   }
 }
 
+namespace {
+
+// Writes `frame` (its CRC appended) raw onto a slave's pty, as a foreign
+// master would, and returns what comes back: up to `expect` bytes in 2 s.
+std::vector<uint8_t> raw_exchange(const std::string& port, std::vector<uint8_t> frame, size_t expect) {
+  const int fd = ::open(port.c_str(), O_RDWR | O_NOCTTY);
+  if (fd < 0 || !io::make_raw(fd).ok()) return {};
+  const uint16_t crc = crc16(frame);
+  frame.push_back(static_cast<uint8_t>(crc));
+  frame.push_back(static_cast<uint8_t>(crc >> 8));
+  std::vector<uint8_t> got;
+  if (::write(fd, frame.data(), frame.size()) == static_cast<ssize_t>(frame.size()))
+    test::eventually(
+        [&] {
+          uint8_t buf[16];
+          const ssize_t n = ::read(fd, buf, sizeof buf);
+          if (n > 0) got.insert(got.end(), buf, buf + n);
+          return got.size() >= expect;
+        },
+        2000ms);
+  ::close(fd);
+  return got;
+}
+
+}  // namespace
+
 TEST(SlaveServer, UnknownFunction_IsAnsweredAfterSilence_OnAPty) {
   TempDir dir;
   SlaveOnThread slave("pty:" + (dir / "tty"));
-  const int fd = ::open(slave.client_port().c_str(), O_RDWR | O_NOCTTY);
-  ASSERT_GE(fd, 0);
-  ASSERT_TRUE(io::make_raw(fd).ok());
-  std::vector<uint8_t> request = {0x01, 0x41, 0x0E, 0x01, 0x00};  // FC 41 (user-defined): length unknown
-  const uint16_t crc = crc16(request);
-  request.push_back(static_cast<uint8_t>(crc));
-  request.push_back(static_cast<uint8_t>(crc >> 8));
-  ASSERT_EQ(::write(fd, request.data(), request.size()), static_cast<ssize_t>(request.size()));
-  std::vector<uint8_t> got;
-  test::eventually(
-      [&] {
-        uint8_t buf[16];
-        const ssize_t n = ::read(fd, buf, sizeof buf);
-        if (n > 0) got.insert(got.end(), buf, buf + n);
-        return got.size() >= 5;
-      },
-      2000ms);
-  ::close(fd);
+  // FC 41 (user-defined): its length is unknown, so silence ends it.
+  const std::vector<uint8_t> got = raw_exchange(slave.client_port(), {0x01, 0x41, 0x0E, 0x01, 0x00}, 5);
   ASSERT_EQ(got.size(), 5u);
   EXPECT_EQ(got[1], 0xC1);  // exception 01
   EXPECT_EQ(got[2], 0x01);
@@ -360,25 +370,9 @@ TEST(SlaveServer, UnknownFunction_IsAnsweredAfterSilence_OnAPty) {
 TEST(SlaveServer, ByteCountDisagreeingWithTheLength_Is03OnAPty) {
   TempDir dir;
   SlaveOnThread slave("pty:" + (dir / "tty"));
-  const int fd = ::open(slave.client_port().c_str(), O_RDWR | O_NOCTTY);
-  ASSERT_GE(fd, 0);
-  ASSERT_TRUE(io::make_raw(fd).ok());
   // FC10, 2 registers, byte count 3 (should be 4), 4 data bytes.
-  std::vector<uint8_t> request = {0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x03, 0x00, 0x07, 0x00, 0x08};
-  const uint16_t crc = crc16(request);
-  request.push_back(static_cast<uint8_t>(crc));
-  request.push_back(static_cast<uint8_t>(crc >> 8));
-  ASSERT_EQ(::write(fd, request.data(), request.size()), static_cast<ssize_t>(request.size()));
-  std::vector<uint8_t> got;
-  test::eventually(
-      [&] {
-        uint8_t buf[16];
-        const ssize_t n = ::read(fd, buf, sizeof buf);
-        if (n > 0) got.insert(got.end(), buf, buf + n);
-        return got.size() >= 5;
-      },
-      2000ms);
-  ::close(fd);
+  const std::vector<uint8_t> got = raw_exchange(
+      slave.client_port(), {0x01, 0x10, 0x00, 0x00, 0x00, 0x02, 0x03, 0x00, 0x07, 0x00, 0x08}, 5);
   ASSERT_EQ(got.size(), 5u);
   EXPECT_EQ(got[1], 0x90);
   EXPECT_EQ(got[2], 0x03);  // illegal data value
