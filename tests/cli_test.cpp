@@ -237,3 +237,24 @@ TEST(CliSlave, BadInitFile_Exit2_AndBusyPort_Exit4) {
   r = run({kRtukit, "slave", "--listen", "tcp://127.0.0.1:" + std::to_string(port)});
   EXPECT_EQ(r.code, 4) << r.output;
 }
+
+// `--any-unit` (issue 14): over Modbus TCP every unit id reaches the first
+// unit; without it another id is not answered; on a serial line it is refused.
+TEST(CliSlave, AnyUnitOverTcp) {
+  const uint16_t port = free_tcp_port();
+  const std::string where = "tcp://127.0.0.1:" + std::to_string(port);
+  {
+    Process plain({kRtukit, "slave", "--listen", where, "--unit", "5"});
+    ASSERT_TRUE(plain.wait_for_output("listening on")) << plain.output();
+    EXPECT_EQ(run({kRtukit, "read", "--port", where, "--unit", "9", "0", "--timeout", "300"}).code, 3);
+    plain.stop();
+  }
+  Process any({kRtukit, "slave", "--listen", where, "--unit", "5", "--any-unit"});
+  ASSERT_TRUE(any.wait_for_output("listening on")) << any.output();
+  ASSERT_EQ(run({kRtukit, "write", "--port", where, "--unit", "9", "3", "77"}).code, 0);
+  EXPECT_EQ(run({kRtukit, "read", "--port", where, "--unit", "5", "3"}).output, "3 (0x0003): 77\n");
+  TempDir dir;
+  const RunResult serial = run({kRtukit, "slave", "--listen", "pty:" + (dir / "tty"), "--any-unit"});
+  EXPECT_EQ(serial.code, 2) << serial.output;
+  EXPECT_NE(serial.output.find("--any-unit is for Modbus TCP"), std::string::npos) << serial.output;
+}
