@@ -428,6 +428,14 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
       },
       [](const ChairArgs& a) { return run_set(a, a.key, a.value); });
   add_command<ChairArgs>(
+      *chair, action, "stopping",
+      "D-9: stopping time and distance per speed level and drive mode (model clock)",
+      [](CLI::App& cmd, ChairArgs&) { examples(cmd, {"rtukit rehand6600 stopping"}); },
+      [](const ChairArgs&) {
+        fmt::print("{}", rh::stopping_markdown());
+        return kOk;
+      });
+  add_command<ChairArgs>(
       *chair, action, "errors", "table 3: error codes, functions and UI texts",
       [](CLI::App& cmd, ChairArgs& a) {
         cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");

@@ -23,4 +23,5 @@ PY
 replace docs/inverjet.md "rtukit inverjet registers" inverjet registers
 replace docs/rehand6600.md "rtukit rehand6600 registers" rehand6600 registers
 replace docs/rehand6600.md "rtukit rehand6600 errors" rehand6600 errors
+replace docs/rehand6600.md "rtukit rehand6600 stopping" rehand6600 stopping
 echo "docs regenerated"

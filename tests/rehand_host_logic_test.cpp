@@ -170,5 +170,43 @@ TEST(RehandHostLogic, PollEvents_ChangesEdgesAndLocalErrors) {
   EXPECT_FALSE(rig.has(Event::Type::horn));
 }
 
+// D-8 on the host's side: an error drops every hold (and writes 0), and a
+// dropped hold stays refused until the UI releases it, so a finger that
+// stayed on the button through a fault restarts nothing when it clears.
+TEST(RehandHostLogic, AnErrorDropsEveryHold_UntilTheUiReleasesIt_D8) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  rig.logic.hold(reg::kLegRotate, 1, rig.t);
+  auto writes = rig.cycle();
+  ASSERT_EQ(writes.size(), 1u);
+  EXPECT_EQ(writes[0].value, 1);
+  rig.logic.take_events();
+  rig.table1[reg::kErrorCode] = 0x1093;
+  writes = rig.cycle();
+  ASSERT_EQ(writes.size(), 1u);  // the hold written to 0 at once
+  EXPECT_EQ(writes[0].address, reg::kLegRotate);
+  EXPECT_EQ(writes[0].value, 0);
+  EXPECT_TRUE(rig.logic.dropped(reg::kLegRotate));
+  EXPECT_EQ(rig.logic.held(reg::kLegRotate), 0);
+  rig.table1[reg::kErrorCode] = 0;
+  EXPECT_TRUE(rig.cycle().empty());  // cleared: nothing written, nothing moves
+  EXPECT_TRUE(rig.logic.dropped(reg::kLegRotate));
+  rig.logic.release(reg::kLegRotate);  // the finger lifted
+  EXPECT_FALSE(rig.logic.dropped(reg::kLegRotate));
+}
+
+TEST(RehandHostLogic, LinkLossDropsEveryHold_D8) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  rig.logic.hold(reg::kPhoneForward, 1, rig.t);
+  rig.cycle();
+  for (int i = 0; i < 3; ++i) rig.cycle(Errc::timeout);
+  EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError);
+  EXPECT_TRUE(rig.logic.dropped(reg::kPhoneForward));
+  EXPECT_EQ(rig.logic.held(reg::kPhoneForward), 0);
+}
+
 }  // namespace
 }  // namespace rtukit::rehand6600

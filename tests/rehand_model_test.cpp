@@ -200,6 +200,10 @@ TEST(RehandPostureRules, AntiPinchStopsEverything) {
   EXPECT_EQ(rig.at(reg::kActuatorPosition + 1), 0);
   ASSERT_EQ(rig.write(reg::kAntiPinch, {0}), Errc::ok);
   rig.run_for(1000);
+  EXPECT_EQ(rig.at(reg::kActuatorPosition), at);  // no restart by itself (D-8)
+  EXPECT_EQ(rig.chair.command(reg::kSeatLift), 0);
+  ASSERT_EQ(rig.write(reg::kSeatLift, {1}), Errc::ok);  // a new rising edge
+  rig.run_for(1000);
   EXPECT_GT(rig.at(reg::kActuatorPosition), at);
 }
 
@@ -214,7 +218,8 @@ TEST(RehandPostureRules, PhysicalButtonOutranksTheUi) {
   EXPECT_EQ(rig.at(reg::kSeatLiftStatus), 2);
   rig.chair.press_button(reg::kSeatLift, 0);
   rig.run_for(1000);
-  EXPECT_EQ(rig.at(reg::kActuatorPosition), 300);  // the UI's hold again
+  EXPECT_EQ(rig.at(reg::kActuatorPosition), 200);  // the UI's hold does not come back (D-8)
+  EXPECT_EQ(rig.chair.command(reg::kSeatLift), 0);
 }
 
 TEST(RehandPostureRules, OverCurrentActuatorDoesNotMove) {
@@ -302,6 +307,11 @@ TEST(RehandDrive, ObstacleAheadStops) {
   rig.chair.set_joystick(0, 100);
   rig.run_for(2000);
   EXPECT_EQ(rig.at(reg::kSpeed), 0);
+  rig.chair.set_joystick(0, -100);  // straight to reverse: the joystick was never neutral (D-8)
+  rig.run_for(1000);
+  EXPECT_EQ(rig.at(reg::kMotion), 1);
+  rig.chair.set_joystick(0, 0);
+  rig.run_for(100);
   rig.chair.set_joystick(0, -100);  // backing away is fine
   rig.run_for(2000);
   EXPECT_EQ(rig.at(reg::kMotion), 3);
@@ -337,6 +347,212 @@ TEST(RehandSafety, FaultLocksOutMotionButReleasingWorks) {
   EXPECT_EQ(rig.write(reg::kSeatLift, {1}), Errc::ok);
 }
 
+// ------------------------------------------------------------ safety: D-5a, D-8, D-9, D-10, D-11
+
+// A chair behind the slave engine, as the bus reaches it.
+struct Bus {
+  Bus() { EXPECT_FALSE(engine.add_unit(UnitId{1}, rig.chair)); }
+  std::string pdu(const std::string& hex) {
+    rig.chair.advance_to(rig.now);
+    const auto req = test::bytes(hex);
+    std::array<uint8_t, 256> out{};
+    const size_t n = engine.handle_pdu(UnitId{1}, req, out).length;
+    return test::hex({out.data(), n});
+  }
+  Rig rig;
+  SlaveEngine engine;
+};
+
+TEST(RehandSafety, OnlyExecutedRequestsFeedTheWatchdog_D5a) {
+  Bus bus;
+  ASSERT_EQ(bus.pdu("06 00 6E 00 01"), "06 00 6E 00 01");  // phone forward, executed
+  // A host stuck sending requests the controller rejects, every 50 ms.
+  const char* rejected[] = {"04 00 00 00 30",   // FC04: 01
+                            "03 00 60 00 01",   // table 2 read: 02
+                            "06 00 60 00 09",   // a value not listed: 03
+                            "06 00 01 00 01"};  // table 1 write: 02
+  for (int i = 0; i < 10; ++i) {
+    bus.rig.now += 50;
+    const std::string answer = bus.pdu(rejected[i % 4]);
+    ASSERT_EQ(answer.substr(0, 1), "8") << answer;  // an exception
+  }
+  EXPECT_EQ(bus.rig.chair.command(reg::kPhoneForward), 0);  // a dead host
+  EXPECT_EQ(bus.rig.chair.watchdog_trips(), 1u);
+  // An executed poll does feed it.
+  ASSERT_EQ(bus.pdu("06 00 6F 00 01"), "06 00 6F 00 01");
+  for (int i = 0; i < 20; ++i) {
+    bus.rig.now += 50;
+    ASSERT_EQ(bus.pdu("03 00 00 00 30").substr(0, 5), "03 60");
+  }
+  EXPECT_EQ(bus.rig.chair.command(reg::kPhoneReverse), 1);
+}
+
+TEST(RehandSafety, ClearingAFaultRestartsNothing_PostureHeld_D8) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kLegRotate, {1}), Errc::ok);  // posture 5
+  rig.run_for(1000);
+  const uint16_t at = rig.at(reg::kActuatorPosition + 3);
+  ASSERT_GT(at, 0);
+  rig.chair.set_error(0x1093);
+  rig.run_for(500);
+  rig.chair.set_error(0);
+  rig.run_for(2000);  // the host keeps polling
+  EXPECT_EQ(rig.at(reg::kActuatorPosition + 3), at);
+  EXPECT_EQ(rig.at(reg::kLegRestStatus), 0);
+  EXPECT_EQ(rig.chair.command(reg::kLegRotate), 0);
+}
+
+TEST(RehandSafety, ClearingAFaultRestartsNothing_PhoneForwardHeld_D8) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);
+  rig.run_for(2000);
+  ASSERT_GT(rig.chair.speed_kmh(), 0);
+  rig.chair.set_error(0x1271);
+  rig.run_for(1000);
+  rig.chair.set_error(0);
+  rig.run_for(3000);  // polling goes on: the chair stays put
+  EXPECT_EQ(rig.chair.speed_kmh(), 0);
+  EXPECT_EQ(rig.at(reg::kMotion), 1);
+  ASSERT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);  // a new rising edge drives
+  rig.run_for(1000);
+  EXPECT_GT(rig.chair.speed_kmh(), 0);
+}
+
+TEST(RehandSafety, WatchdogTripNeedsANewRisingEdge_D8) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);
+  rig.run_for(1000);
+  rig.run_for(2000, 0);  // the host stalls
+  ASSERT_EQ(rig.chair.watchdog_trips(), 1u);
+  rig.run_for(2000);  // it comes back and polls, without writing
+  EXPECT_EQ(rig.chair.speed_kmh(), 0);
+  EXPECT_EQ(rig.chair.command(reg::kPhoneForward), 0);
+}
+
+TEST(RehandSafety, JoystickMustBeNeutralOnceAfterAFault_D8) {
+  Rig rig;
+  rig.chair.set_joystick(0, 100);
+  rig.run_for(1000);
+  ASSERT_GT(rig.chair.speed_kmh(), 0);
+  rig.chair.set_error(0x1271);
+  rig.run_for(500);
+  rig.chair.set_error(0);
+  rig.run_for(2000);  // still deflected: no drive
+  EXPECT_EQ(rig.chair.speed_kmh(), 0);
+  EXPECT_TRUE(rig.chair.joystick_locked());
+  rig.chair.set_joystick(0, 0);
+  rig.run_for(100);
+  EXPECT_FALSE(rig.chair.joystick_locked());
+  rig.chair.set_joystick(0, 100);
+  rig.run_for(1000);
+  EXPECT_GT(rig.chair.speed_kmh(), 0);
+}
+
+TEST(RehandSafety, ObstacleStopDoesNotResumeWhenTheObstacleGoes_D8) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);
+  rig.run_for(2000);
+  rig.chair.set_distance(0, 200);
+  rig.run_for(100);
+  EXPECT_EQ(rig.chair.command(reg::kPhoneForward), 0);
+  EXPECT_TRUE(rig.chair.emergency_braking());
+  rig.chair.set_distance(0, 2000);
+  rig.run_for(2000);
+  EXPECT_EQ(rig.chair.speed_kmh(), 0);
+}
+
+TEST(RehandSafety, FaultAndAntiPinchBrakeAtTheEmergencyRate_D9) {
+  for (int kind = 0; kind < 2; ++kind) {
+    Rig rig;
+    ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
+    ASSERT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);
+    rig.run_for(5000);
+    ASSERT_EQ(rig.chair.speed_kmh(), 6.0);
+    if (kind == 0)
+      rig.chair.set_error(0x1271);
+    else
+      ASSERT_EQ(rig.write(reg::kAntiPinch, {1}), Errc::ok);
+    rig.run_for(700);
+    EXPECT_NEAR(rig.chair.speed_kmh(), 0.4, 1e-9) << kind;  // 6 - 8 km/h/s x 0.7 s
+    rig.run_for(100);
+    EXPECT_EQ(rig.chair.speed_kmh(), 0.0) << kind;
+  }
+  Rig release;  // a release brakes at the normal rate
+  ASSERT_EQ(release.write(reg::kSpeedLevel, {5}), Errc::ok);
+  ASSERT_EQ(release.write(reg::kPhoneForward, {1}), Errc::ok);
+  release.run_for(5000);
+  ASSERT_EQ(release.write(reg::kPhoneForward, {0}), Errc::ok);
+  release.run_for(1000);
+  EXPECT_NEAR(release.chair.speed_kmh(), 2.0, 1e-9);
+}
+
+TEST(RehandSafety, EveryStopWithinOneAndAHalfSecondsOfTheLastRequest_D9) {
+  const std::vector<StoppingEntry> table = stopping_table();
+  ASSERT_EQ(table.size(), 15u);  // 5 levels x 3 modes
+  double worst = 0;
+  for (const StoppingEntry& e : table) {
+    EXPECT_LE(e.host_lost_s, 1.5) << "level " << e.level << " mode " << e.mode;
+    EXPECT_GT(e.top_kmh, 0);
+    worst = std::max(worst, e.host_lost_s);
+  }
+  EXPECT_DOUBLE_EQ(worst, 1.4);  // level 5 outdoor: 0.5 s watchdog + 7.2 / 8 s
+}
+
+TEST(RehandSafety, RaisedChairCrawlsAndThePhoneMayNotDrive_D10) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
+  ASSERT_EQ(rig.write(reg::kSeatLift, {1}), Errc::ok);
+  rig.run_for(1000);
+  ASSERT_EQ(rig.write(reg::kSeatLift, {0}), Errc::ok);
+  ASSERT_FALSE(rig.chair.seated());
+  EXPECT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::server_device_failure);
+  rig.chair.set_joystick(0, 100);
+  rig.run_for(3000);
+  EXPECT_DOUBLE_EQ(rig.chair.speed_kmh(), 1.2);
+  rig.chair.set_joystick(0, 0);
+  rig.run_for(1000);
+  ASSERT_EQ(rig.write(reg::kSeatLift, {2}), Errc::ok);  // back down
+  rig.run_for(2000);
+  ASSERT_TRUE(rig.chair.seated());
+  ASSERT_EQ(rig.write(reg::kSeatLift, {0}), Errc::ok);
+  EXPECT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok);
+  // Raising the seat while the phone drives stops the phone.
+  ASSERT_EQ(rig.write(reg::kSeatTilt, {1}), Errc::ok);
+  rig.run_for(500);
+  EXPECT_EQ(rig.chair.command(reg::kPhoneForward), 0);
+}
+
+TEST(RehandSafety, DeflectedJoystickAtHandshakeIsLockedUntilNeutral_D11) {
+  Rig rig;
+  rig.chair.set_joystick(0, 100);                        // held since before the host came up...
+  ASSERT_EQ(rig.write(reg::kHostReady, {1}), Errc::ok);  // ...the handshake
+  rig.run_for(1000);
+  EXPECT_EQ(rig.chair.speed_kmh(), 0);
+  rig.chair.set_joystick(0, 0);
+  rig.run_for(50);
+  rig.chair.set_joystick(0, 100);
+  rig.run_for(1000);
+  EXPECT_GT(rig.chair.speed_kmh(), 0);
+}
+
+TEST(RehandSafety, ChargingBlocksStandingUpAndRaisingButNotLowering_D11) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kSeatLift, {1}), Errc::ok);
+  rig.run_for(1000);
+  ASSERT_EQ(rig.write(reg::kSeatLift, {0}), Errc::ok);
+  rig.chair.set_charging(true);
+  EXPECT_EQ(rig.write(reg::kStandSit, {1}), Errc::server_device_failure);
+  EXPECT_EQ(rig.write(reg::kSeatLift, {1}), Errc::server_device_failure);
+  rig.chair.press_button(reg::kSeatLift, 1);  // the physical button neither
+  rig.run_for(1000);
+  EXPECT_EQ(rig.at(reg::kActuatorPosition), 100);
+  rig.chair.press_button(reg::kSeatLift, 0);
+  EXPECT_EQ(rig.write(reg::kSeatLift, {2}), Errc::ok);  // lowering stays allowed
+  rig.run_for(1000);
+  EXPECT_EQ(rig.at(reg::kActuatorPosition), 0);
+  EXPECT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::server_device_failure);
+}
+
 TEST(RehandSafety, WatchdogStopsAHeldPhoneForwardWhenTheHostFallsSilent) {
   Rig rig;
   ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
@@ -351,8 +567,8 @@ TEST(RehandSafety, WatchdogStopsAHeldPhoneForwardWhenTheHostFallsSilent) {
   EXPECT_EQ(rig.now - silent_from, 500u);
   EXPECT_EQ(rig.chair.command(reg::kPhoneForward), 0);
   EXPECT_EQ(rig.chair.watchdog_trips(), 1u);
-  rig.run_for(1500, 0);  // braking at 4 km/h/s from 6 km/h
-  EXPECT_EQ(rig.at(reg::kSpeed), 0);
+  rig.run_for(750, 0);  // emergency braking at 8 km/h/s from 6 km/h (D-9)
+  EXPECT_EQ(rig.chair.speed_kmh(), 0.0);
   EXPECT_EQ(rig.at(reg::kMotion), 1);
 }
 

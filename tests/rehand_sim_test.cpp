@@ -365,7 +365,7 @@ TEST(RehandInterop, HostController_GenericLibmodbusSlaveWithId68) {
 
 TEST(RehandDocs, ReferencesAreGeneratedFromTheTables) {
   const std::string doc = read_file(std::string(DOCS_DIR) + "/rehand6600.md");
-  for (const std::string name : {"registers", "errors"}) {
+  for (const std::string name : {"registers", "errors", "stopping"}) {
     const std::string begin = "<!-- BEGIN GENERATED: rtukit rehand6600 " + name + " -->\n";
     const std::string end = "\n<!-- END GENERATED: rtukit rehand6600 " + name + " -->";
     const size_t a = doc.find(begin), b = doc.find(end);

@@ -8,7 +8,7 @@
 namespace rtukit::rehand6600 {
 namespace {
 
-// Hold-type motion commands the watchdog resets (D-5).
+// Hold-type motion commands the watchdog and every safety stop reset (D-5, D-8).
 constexpr uint16_t kWatchdogHolds[] = {reg::kStandSit,  reg::kSeatLift,     reg::kBackrest,
                                        reg::kSeatTilt,  reg::kLegRotate,    reg::kLegExtend,
                                        reg::kPlateTilt, reg::kPhoneForward, reg::kPhoneReverse,
@@ -112,6 +112,13 @@ Error Chair::apply_write(Space, uint16_t address, std::span<const uint16_t> valu
     const bool phone_drive = r.address >= reg::kPhoneForward && r.address <= reg::kPhoneRight;
     if (phone_drive && (!joystick_neutral() || (local_control_ && speed_ > 0)))
       return Error(Errc::server_device_failure, "the local user has the chair");
+    if (phone_drive && !seated())
+      return Error(Errc::server_device_failure, "no phone driving while not fully seated (D-10)");
+    if (phone_drive && (charging_ || !clutch_drive_))
+      return Error(Errc::server_device_failure, "no driving while charging or in push (R-2)");
+    const bool raising = (r.address == reg::kStandSit || r.address == reg::kSeatLift) && values[i] == 1;
+    if (raising && charging_)
+      return Error(Errc::server_device_failure, "no standing up or raising the seat while charging (D-11)");
   }
   for (size_t i = 0; i < values.size(); ++i) {
     const auto a = static_cast<uint16_t>(address + i);
@@ -120,6 +127,12 @@ Error Chair::apply_write(Space, uint16_t address, std::span<const uint16_t> valu
     if (!rising) continue;
     // Pulse commands act on the rising edge only.
     switch (a) {
+      case reg::kHostReady:  // a handshake: a deflected joystick must be neutral once (D-11)
+        if (!joystick_neutral()) joystick_locked_ = true;
+        break;
+      case reg::kAntiPinch:  // an emergency stop of everything (D-8, D-9)
+        safety_stop();
+        break;
       case reg::kLight:
       case reg::kPhoneLight:
         main_light_ = !main_light_;
@@ -154,6 +167,28 @@ void Chair::press_button(uint16_t command, uint16_t value) noexcept {
   if (command < reg::kStandSit || command > reg::kPlateTilt || value > 2) return;
   button_command_ = value ? command : 0;
   button_value_ = value;
+  // The button outranks the UI; the UI's postures do not come back when it
+  // is released (D-8).
+  if (value) {
+    for (uint16_t r = reg::kStandSit; r <= reg::kPlateTilt; ++r) set_command(r, 0);
+  }
+}
+
+void Chair::set_error(uint16_t code) noexcept {
+  const bool raised = code != 0 && error_ == 0;
+  error_ = code;
+  if (raised) safety_stop();
+}
+
+void Chair::clear_motion_holds() noexcept {
+  for (uint16_t r : kWatchdogHolds) set_command(r, 0);
+}
+
+void Chair::safety_stop() noexcept {
+  clear_motion_holds();
+  joystick_locked_ = !joystick_neutral();
+  emergency_ = speed_ > 0;
+  ++safety_stops_;
 }
 
 void Chair::set_distance(unsigned side, uint16_t mm) noexcept {
@@ -182,9 +217,11 @@ void Chair::advance_to(uint64_t now_ms) noexcept {
 }
 
 Chair::Drive Chair::drive_demand() const noexcept {
-  if (!clutch_drive_ || charging_ || error_ != 0) return {};  // no driving (R-2, D-6)
+  if (!clutch_drive_ || charging_ || error_ != 0) return {};  // no driving (R-2, D-6, D-11)
   int x = 0, y = 0;
-  if (!joystick_neutral()) {
+  const bool phone = joystick_neutral();
+  if (!phone) {
+    if (joystick_locked_) return {};  // not neutral since the last stop (D-8, D-11)
     x = joy_x_ <= -10 ? -1 : joy_x_ >= 10 ? 1 : 0;
     y = joy_y_ <= -10 ? -1 : joy_y_ >= 10 ? 1 : 0;
   } else {
@@ -196,18 +233,24 @@ Chair::Drive Chair::drive_demand() const noexcept {
   }
   const uint16_t motion = motion_of(x, y);
   if (motion == kStatic) return {};
+  if (phone && !seated()) return {.blocked = true, .phone = true};  // D-10
   // Obstacles closer than the stop distance block motion towards them.
-  if (y > 0 && distance_[0] < model_.stop_distance_mm) return {};
-  if (y < 0 && distance_[1] < model_.stop_distance_mm) return {};
+  if ((y > 0 && distance_[0] < model_.stop_distance_mm) || (y < 0 && distance_[1] < model_.stop_distance_mm))
+    return {.blocked = true, .phone = phone};
   const uint16_t mode = command(reg::kDriveMode);
   const double factor = mode == 2 ? 0.6 : mode == 3 ? 1.2 : 1.0;  // indoor < normal < outdoor
   const double base = command(reg::kSpeedLevel) * 1.2 * factor;   // level 5 normal: 6 km/h
-  const double target = y > 0 ? base : y < 0 ? base / 2 : base / 3;
-  return {motion, target};
+  double target = y > 0 ? base : y < 0 ? base / 2 : base / 3;
+  if (!seated()) target = std::min(target, model_.raised_limit_kmh);  // D-10
+  return {.motion = motion, .target = target, .phone = phone};
 }
 
 void Chair::step(uint32_t dt_ms) noexcept {
   const double dt = dt_ms / 1000.0;
+  if (joystick_neutral()) joystick_locked_ = false;
+  // A demand an obstacle (or D-10) refuses is a stop nobody asked for: it
+  // does not resume when the obstacle goes (D-8).
+  if (drive_demand().blocked) safety_stop();
   // Driving: a change of direction first brings the chair to a stop.
   const Drive d = drive_demand();
   double target = d.target;
@@ -216,10 +259,13 @@ void Chair::step(uint32_t dt_ms) noexcept {
     motion_ = d.motion;
     local_control_ = d.motion != kStatic && !joystick_neutral();
   }
+  if (emergency_) target = 0;
   if (speed_ < target)
     speed_ = std::min(target, speed_ + model_.accel_kmh_per_s * dt);
   else
-    speed_ = std::max(target, speed_ - model_.decel_kmh_per_s * dt);
+    speed_ = std::max(target,
+                      speed_ - (emergency_ ? model_.emergency_decel_kmh_per_s : model_.decel_kmh_per_s) * dt);
+  if (speed_ <= 0) emergency_ = false;
   if (speed_ <= 0 && d.motion == kStatic) motion_ = kStatic;
 
   if (charging_)
@@ -231,12 +277,12 @@ void Chair::step(uint32_t dt_ms) noexcept {
 
   // D-5: no frame for the watchdog time -> every hold-type motion command off.
   if (watchdog_ms_ && now_ >= last_frame_ + watchdog_ms_) {
-    bool reset = false;
-    for (uint16_t r : kWatchdogHolds) {
-      reset = reset || command(r) != 0;
-      set_command(r, 0);
+    bool held = false;
+    for (uint16_t r : kWatchdogHolds) held = held || command(r) != 0;
+    if (held) {
+      ++watchdog_trips_;
+      safety_stop();
     }
-    if (reset) ++watchdog_trips_;
   }
 }
 
@@ -260,6 +306,12 @@ void Chair::move_actuators(double dt) noexcept {
   const bool blocked = command(reg::kAntiPinch) != 0 || error_ != 0;
   for (size_t i = 0; i < n && !blocked; ++i) {
     const int d = active[i].value == 1 ? 1 : -1;
+    // D-11: while charging, standing up and raising the seat do not start
+    // (lowering and sitting down stay allowed).
+    if (charging_ && d > 0 && (active[i].command == reg::kStandSit || active[i].command == reg::kSeatLift)) {
+      active[i].value = 0;
+      continue;
+    }
     switch (active[i].command) {
       case reg::kStandSit:
         dir[0] = dir[1] = dir[3] = d;

@@ -163,15 +163,19 @@ void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words)
   if (rising(reg::kHornButton)) events_.push_back({Event::Type::horn, reg::kHornButton, 0, 1});
   if (rising(reg::kViewButton)) events_.push_back({Event::Type::view, reg::kViewButton, 0, 1});
   const uint16_t before = prev.valid ? prev.error_code() : 0;
+  bool raised = false;
   if (before != next.error_code()) {
     if (before) events_.push_back({Event::Type::error_cleared, reg::kErrorCode, 0, 0, before, {}});
-    if (next.error_code())
+    if (next.error_code()) {
       events_.push_back({Event::Type::error_raised, reg::kErrorCode, 0, 0, next.error_code(),
                          error_text(next.error_code())});
+      raised = true;
+    }
   }
   next.valid = true;
   next.sequence = prev.sequence + 1;
   snapshot_ = next;
+  if (raised) drop_holds(true);
   // Expired leases are released; live ones are written again, so the
   // controller holds exactly what the UI holds even after its watchdog fired.
   for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
@@ -197,6 +201,18 @@ void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
   if (!comm_error_) {
     comm_error_ = true;
     events_.push_back(Event{Event::Type::error_raised, 0, 0, 0, kMasterCommunicationError, reason});
+  }
+  drop_holds(false);  // nothing to write to: the controller's watchdog stops it
+}
+
+void HostLogic::drop_holds(bool write_zero) {
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    Lease& l = holds_[i];
+    if (l.value == 0) continue;
+    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (write_zero) queue_.push_back(Request{Request::Kind::write, address, 0});
+    l = {.dropped = true};
+    events_.push_back(Event{Event::Type::released, address});
   }
 }
 
@@ -330,6 +346,9 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
   bool changed = false;
   {
     std::lock_guard lock(mutex_);
+    if (logic_.dropped(command))
+      return rtukit::Status(Errc::refused,
+                            fmt::format("{} was stopped by an error (D-8): release and press again", r->key));
     changed = logic_.hold(command, value, Clock::now());
   }
   if (!changed) return {};

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/chair.hpp"
 
 namespace rtukit::rehand6600 {
 namespace {
@@ -111,6 +112,72 @@ std::string errors_markdown() {
       "\nEvery active error shows as a full-screen overlay and disables every function. 1010 is also raised "
       "by "
       "the host itself when the controller does not answer (communication error).\n";
+  return out;
+}
+
+// ---------------------------------------------------------------- D-9
+
+namespace {
+
+// Drives a fresh chair forward from the phone at `level` and `mode` until it
+// is at top speed, polled every 50 ms, then stops it one way or the other and
+// integrates the distance on the model's 1-ms clock.
+StoppingEntry::Stop measure_stop(unsigned level, uint16_t mode, bool release, double* top) {
+  constexpr uint32_t kWatchdogMs = 500;
+  Chair chair(0, kWatchdogMs);
+  uint64_t now = 0;
+  const auto request = [&](uint16_t a, uint16_t v) {
+    chair.frame_received();
+    (void)chair.write(a, std::span<const uint16_t>(&v, 1));
+  };
+  request(reg::kSpeedLevel, static_cast<uint16_t>(level));
+  request(reg::kDriveMode, mode);
+  request(reg::kPhoneForward, 1);
+  for (int i = 0; i < 400; ++i) {  // 20 s: far longer than any ramp
+    chair.advance_to(now += 50);
+    chair.frame_received();
+  }
+  *top = chair.speed_kmh();
+  if (release) request(reg::kPhoneForward, 0);  // else: the host's last request was the poll above
+  const uint64_t last = now;
+  double metres = 0;
+  while (chair.speed_kmh() > 0 && now < last + 60000) {
+    const double before = chair.speed_kmh();
+    chair.advance_to(++now);
+    metres += (before + chair.speed_kmh()) / 2 / 3.6 / 1000;  // trapezoid over 1 ms
+  }
+  return {static_cast<double>(now - last) / 1000.0, metres};
+}
+
+}  // namespace
+
+std::vector<StoppingEntry> stopping_table() {
+  std::vector<StoppingEntry> out;
+  for (unsigned level = 1; level <= 5; ++level) {
+    for (uint16_t mode : {uint16_t{2}, uint16_t{1}, uint16_t{3}}) {
+      StoppingEntry e{.level = level, .mode = mode};
+      const StoppingEntry::Stop released = measure_stop(level, mode, true, &e.top_kmh);
+      const StoppingEntry::Stop lost = measure_stop(level, mode, false, &e.top_kmh);
+      e.release_s = released.seconds;
+      e.release_m = released.metres;
+      e.host_lost_s = lost.seconds;
+      e.host_lost_m = lost.metres;
+      out.push_back(e);
+    }
+  }
+  return out;
+}
+
+std::string stopping_markdown() {
+  std::string out =
+      "| speed level | drive mode | top speed | release: time | release: distance | host lost: time | host "
+      "lost: distance |\n|---|---|---|---|---|---|---|\n";
+  for (const StoppingEntry& e : stopping_table()) {
+    const Register& mode = *find_register(reg::kDriveMode);
+    out += fmt::format("| {} | {} | {:.1f} km/h | {:.2f} s | {:.2f} m | {:.2f} s | {:.2f} m |\n", e.level,
+                       profile::name_of(mode, e.mode), e.top_kmh, e.release_s, e.release_m, e.host_lost_s,
+                       e.host_lost_m);
+  }
   return out;
 }
 

@@ -15,6 +15,8 @@
 //  - UI rules, enforced with a reason: no driving while charging or in push,
 //    phone drive only while static, nothing but releasing (and reporting a
 //    host fault) while an error overlay is active (local 0x0026 or 1010).
+//  - D-8: raising an error drops every hold; a dropped hold is refused until
+//    the UI releases it, so nothing restarts when the error clears.
 //
 //   rtukit::rehand6600::Host host(rtukit::io::make_link(spec));
 //   host.on_event([](const rtukit::rehand6600::Event& e) { ... });  // on the host's thread
@@ -131,8 +133,12 @@ class HostLogic {
   /// Holds `command` at `value` until `now` + lease. True when the value
   /// changed (the caller writes it at once).
   bool hold(uint16_t command, uint16_t value, TimePoint now);
+  /// Releases a hold, and lets a hold dropped by a stop be pressed again.
   void release(uint16_t command);
   uint16_t held(uint16_t command) const { return holds_[command - reg::kCommandFirst].value; }
+  /// D-8: every hold is dropped when an error (local or 1010) is raised; a
+  /// dropped hold is refused until the UI releases it (a new press).
+  bool dropped(uint16_t command) const { return holds_[command - reg::kCommandFirst].dropped; }
 
   // ---- what the controller looks like ----
   const Snapshot& snapshot() const noexcept { return snapshot_; }
@@ -162,7 +168,9 @@ class HostLogic {
   struct Lease {
     uint16_t value = 0;
     TimePoint until{};
+    bool dropped = false;
   };
+  void drop_holds(bool write_zero);
   std::array<Lease, reg::kCommandCount> holds_{};
 };
 
