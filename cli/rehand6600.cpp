@@ -17,6 +17,8 @@
 #include "rtukit/devices/rehand6600/host.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/programs/rehand_host.hpp"
+#include "rtukit/web/server.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -27,6 +29,9 @@ using nlohmann::json;
 // Every rehand6600 command's options (each command uses the ones it declares).
 struct ChairArgs {
   LinkOptions link;
+  std::string http = "127.0.0.1:8080";  ///< host: the display's listener
+  std::vector<std::string> phone;       ///< host: phone listeners
+  std::string pairing_file;             ///< host: paired phones
   std::string unit = "1";
   bool json = false;
   bool mph = false;
@@ -353,6 +358,52 @@ int run_set(const ChairArgs& a, const std::string& what, const std::string& valu
   return kOk;
 }
 
+// The daemon on the RK3588: owns the UART, serves the HMI and the phone page
+// until SIGINT/SIGTERM.
+int run_host(const ChairArgs& a) {
+  programs::HostDaemonOptions o;
+  o.http = a.http;
+  o.phone = a.phone;
+  o.mph = a.mph;
+  o.pairing_file = a.pairing_file;
+  if (o.pairing_file.empty()) {
+    const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=
+    const char* home = std::getenv("HOME");
+    o.pairing_file = state  ? std::string(state) + "/rehand6600-pairing.json"
+                     : home ? std::string(home) + "/.local/state/rtukit/rehand6600-pairing.json"
+                            : "rehand6600-pairing.json";
+  }
+  o.host.unit = unit_of(a);
+  o.host.response_timeout = std::chrono::milliseconds(a.link.timeout_ms);
+  o.host.trace = a.link.tracer();
+  for (const std::string& l : a.phone) {
+    if (!web::is_loopback(l))
+      fmt::print(stderr,
+                 "warning: phones connect on {} from the network: they need pairing, and the link is plain "
+                 "HTTP (see docs/rehand6600.md, security)\n",
+                 l);
+  }
+  if (!web::is_loopback(a.http))
+    fmt::print(stderr,
+               "warning: the display listener {} is reachable from the network: anyone who reaches it "
+               "controls the chair's display functions\n",
+               a.http);
+  programs::HostDaemon daemon(io::make_link(a.link.spec(false)), o);
+  const Interruptible interrupt;
+  if (rtukit::Status e = daemon.start())
+    throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
+                  fmt::format("rehand6600 host: {}", e.reason())};
+  const auto urls = daemon.urls();
+  fmt::print("rehand6600 host: display {}  (open it in the kiosk browser)\n", urls[0]);
+  for (size_t i = 1; i < urls.size(); ++i) fmt::print("rehand6600 host: phones {}/phone\n", urls[i]);
+  fmt::print("rehand6600 host: pairing store {}\n", o.pairing_file);
+  std::fflush(stdout);
+  while (interrupt.sleep(std::chrono::milliseconds(200))) {
+  }
+  daemon.stop();
+  return kOk;
+}
+
 int run_errors(bool as_json) {
   if (!as_json) {
     fmt::print("{}", rh::errors_markdown());
@@ -427,6 +478,22 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                        "rtukit rehand6600 set " + port + " speed-level 3 --json"});
       },
       [](const ChairArgs& a) { return run_set(a, a.key, a.value); });
+  add_command<ChairArgs>(
+      *chair, action, "host",
+      "the RK3588 host daemon: owns the UART, serves the touch HMI and the phone remote",
+      [&](CLI::App& cmd, ChairArgs& a) {
+        add_link(cmd, a, true);
+        cmd.add_option("--http", a.http, "the display's listener (HOST:PORT; loopback: the kiosk browser)")
+            ->capture_default_str();
+        cmd.add_option("--phone", a.phone,
+                       "a listener for phones (HOST:PORT, repeatable), e.g. 0.0.0.0:8443");
+        cmd.add_option(
+            "--pairing-file", a.pairing_file,
+            "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");
+        examples(cmd,
+                 {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 0.0.0.0:8443"});
+      },
+      [](const ChairArgs& a) { return run_host(a); });
   add_command<ChairArgs>(
       *chair, action, "stopping",
       "D-9: stopping time and distance per speed level and drive mode (model clock)",

@@ -19,6 +19,8 @@ PACKAGES=(
   libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   # the sniffer's pcap files, decoded by Wireshark's dissector
   tshark
+  # the web layer (Boost.Beast, header-only) and its pages tested in a real browser
+  libboost-dev chromium chromium-driver python3-selenium
 )
 
 missing=()

@@ -22,11 +22,15 @@ Status fail(const std::string& what, int err) {
 
 }  // namespace
 
-Status write_file_atomically(const std::string& path, std::string_view content) {
+Status write_file_atomically(const std::string& path, std::string_view content, unsigned mode) {
   make_parents(path);
-  // Per process, so two writers never share a temporary file.
+  // Per process, so two writers never share a temporary file. A leftover of
+  // ours (a crash) is removed; unlink never follows a planted symlink, and
+  // O_EXCL | O_NOFOLLOW never writes through one.
   const std::string tmp = path + ".tmp." + std::to_string(::getpid());
-  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  ::unlink(tmp.c_str());
+  const int fd =
+      ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, static_cast<mode_t>(mode));
   if (fd < 0) return fail("cannot create " + tmp, errno);
   const auto abandon = [&](const std::string& what) {
     const int err = errno;

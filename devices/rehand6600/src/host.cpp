@@ -326,7 +326,11 @@ rtukit::Status Host::check_ui_rules(const Register& r, uint16_t value) const {
         phone_holding = phone_holding || logic_.held(a) != 0;
     }
     if (!phone_holding && !s.is_static()) return refuse("phone drive only while the chair is static");
+    if (s[reg::kActuatorPosition] > 0 || s[reg::kActuatorPosition + 2] > 0)
+      return refuse("no phone driving while the chair is not fully seated");
   }
+  if ((r.address == reg::kStandSit || r.address == reg::kSeatLift) && value == 1 && snapshot().charging())
+    return refuse("no standing up or raising the seat while charging");
   return {};
 }
 

@@ -12,10 +12,12 @@
 namespace rtukit::io {
 
 /// Writes `content` to a temporary file next to `path` (its directories are
-/// created), flushes it (fsync), renames it over `path` (atomic on POSIX file
-/// systems) and flushes the directory. Errors: io_error with the OS error
-/// and a one-line reason. A failed write leaves `path` untouched.
-Status write_file_atomically(const std::string& path, std::string_view content);
+/// created; the temporary file is created exclusively and never through a
+/// symlink), flushes it (fsync), renames it over `path` (atomic on POSIX file
+/// systems) and flushes the directory. The file gets `mode` (0600 for
+/// secrets). Errors: io_error with the OS error and a one-line reason. A
+/// failed write leaves `path` untouched.
+Status write_file_atomically(const std::string& path, std::string_view content, unsigned mode = 0644);
 
 /// Reads a small regular file whole. Never blocks on a FIFO, never reads a
 /// device or a file larger than `max_size` into memory. Errors: io_error

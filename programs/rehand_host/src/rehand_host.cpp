@@ -1,0 +1,549 @@
+// The host daemon: the host controller on its own thread (polls, leases,
+// 1010), the web server on another. They meet in two places only: the
+// server thread calls the Host's thread-safe commands, and the Host's
+// events are posted to the server thread. Neither waits for a client.
+#include "rtukit/programs/rehand_host.hpp"
+
+#include <fmt/core.h>
+
+#include <atomic>
+#include <chrono>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <random>
+#include <set>
+
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
+#include "rtukit/web/assets.hpp"
+#include "rtukit/web/server.hpp"
+
+namespace rtukit::programs {
+namespace {
+
+namespace rh = rehand6600;
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::json;
+
+constexpr auto kCodeLifetime = std::chrono::minutes(2);
+constexpr int kCodeAttempts = 5;
+
+enum class Role { display, phone };
+
+struct Client {
+  web::SocketPtr socket;
+  Role role = Role::display;
+  bool paired = false;
+  std::string token, name;
+  std::set<uint16_t> holds;  ///< commands this client holds (released when it goes)
+};
+
+std::optional<uint16_t> direction_register(std::string_view dir) {
+  if (dir == "forward") return rh::reg::kPhoneForward;
+  if (dir == "reverse") return rh::reg::kPhoneReverse;
+  if (dir == "left") return rh::reg::kPhoneLeft;
+  if (dir == "right") return rh::reg::kPhoneRight;
+  return std::nullopt;
+}
+
+bool is_posture(uint16_t a) {
+  return a >= rh::reg::kStandSit && a <= rh::reg::kPlateTilt;
+}
+
+// A JSON value as the text profile::parse_value reads ("up", "2", "outdoor").
+std::optional<std::string> value_text(const Json& v) {
+  if (v.is_string()) return v.get<std::string>();
+  if (v.is_number_integer()) return std::to_string(v.get<int64_t>());
+  return std::nullopt;
+}
+
+}  // namespace
+
+struct HostDaemon::Impl {
+  Impl(std::unique_ptr<io::Link> link, HostDaemonOptions o)
+      : options(std::move(o)),
+        host(std::move(link), options.host),
+        pairing(options.pairing_file),
+        server(listen_list(options), handlers()) {}
+
+  static web::ServerOptions listen_list(const HostDaemonOptions& o) {
+    web::ServerOptions s;
+    s.listen.push_back(o.http);
+    for (const std::string& p : o.phone) s.listen.push_back(p);
+    return s;
+  }
+
+  web::Handlers handlers() {
+    web::Handlers h;
+    h.http = [this](const web::HttpRequest& r) { return http(r); };
+    h.upgrade = [this](const web::HttpRequest& r) { return upgrade(r); };
+    h.opened = [this](const web::SocketPtr& s) { opened(s); };
+    h.message = [this](const web::SocketPtr& s, std::string_view text) { message(s, text); };
+    h.closed = [this](const web::SocketPtr& s) { closed(s); };
+    return h;
+  }
+
+  // ------------------------------------------------------------ HTTP
+
+  web::HttpResponse http(const web::HttpRequest& r) {
+    const bool display_listener = r.listener == 0;
+    if (r.method != "GET" && r.method != "HEAD")
+      return {.status = 405, .content_type = "text/plain; charset=utf-8", .body = "only GET\n"};
+    std::string path = r.path;
+    if (path == "/") path = display_listener ? "/rehand/hmi.html" : "/rehand/phone.html";
+    if (path == "/phone") path = "/rehand/phone.html";
+    if (path == "/api/state") {
+      if (!display_listener && !pairing.contains(r.param("token")))
+        return {.status = 401, .body = R"({"error":"not paired"})"};
+      return {.body = state_json().dump()};
+    }
+    if (path == "/healthz") return {.body = Json{{"connected", host.connected()}}.dump()};
+    if (auto a = web::asset_response(path)) return *a;
+    return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
+  }
+
+  std::optional<web::HttpResponse> upgrade(const web::HttpRequest& r) {
+    if (r.path != "/ws") return web::HttpResponse{.status = 404, .body = R"({"error":"no such endpoint"})"};
+    const std::string role = r.param("role");
+    if (role == "display" && r.listener != 0)
+      return web::HttpResponse{.status = 403,
+                               .body = R"({"error":"the display connects on the display's listener"})"};
+    if (role != "display" && role != "phone")
+      return web::HttpResponse{.status = 400, .body = R"({"error":"role must be display or phone"})"};
+    return std::nullopt;
+  }
+
+  // ------------------------------------------------------------ WebSocket
+
+  void opened(const web::SocketPtr& s) {
+    Client c{.socket = s};
+    c.role = s->request().param("role") == "display" ? Role::display : Role::phone;
+    if (c.role == Role::phone) {
+      c.token = s->request().param("token");
+      c.paired = pairing.contains(c.token);
+      c.name = c.paired ? pairing.name_of(c.token) : "";
+    }
+    const Client& added = clients.emplace(s->id(), std::move(c)).first->second;
+    Json hello{{"type", "hello"},
+               {"role", added.role == Role::display ? "display" : "phone"},
+               {"paired", added.role == Role::display || added.paired},
+               {"client", s->id()},
+               {"lease_ms", options.host.lease.count()},
+               {"mph", options.mph}};
+    s->send(hello.dump());
+    if (added.role == Role::display || added.paired) s->send(state_json().dump());
+    if (added.role == Role::phone && added.paired) broadcast_state();  // the display lists it
+  }
+
+  void closed(const web::SocketPtr& s) {
+    auto it = clients.find(s->id());
+    if (it == clients.end()) return;
+    // Dead-man: whatever this client held stops now, not at the lease's end.
+    for (uint16_t a : it->second.holds) (void)host.release(a);
+    if (driver == s->id()) driver.reset();
+    if (one_touch.value && one_touch.owner == s->id()) end_one_touch();
+    const bool was_phone = it->second.role == Role::phone && it->second.paired;
+    clients.erase(it);
+    if (was_phone) broadcast_state();
+  }
+
+  void message(const web::SocketPtr& s, std::string_view text) {
+    auto it = clients.find(s->id());
+    if (it == clients.end()) return;
+    Client& c = it->second;
+    const Json m = Json::parse(text, nullptr, false);
+    if (m.is_discarded() || !m.is_object() || !m.contains("op") || !m["op"].is_string()) {
+      s->send(Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
+      return;
+    }
+    const std::string op = m["op"].get<std::string>();
+    Json result{{"type", "result"}, {"op", op}};
+    if (m.contains("id")) result["id"] = m["id"];
+    const rtukit::Status e =
+        c.role == Role::display ? display_command(c, op, m) : phone_command(c, op, m, result);
+    result["ok"] = !e;
+    if (e) result["error"] = std::string(e.reason());
+    s->send(result.dump());
+  }
+
+  static rtukit::Status refuse(std::string reason) {
+    return rtukit::Status(Errc::refused, std::move(reason));
+  }
+  static rtukit::Status bad(std::string reason) {
+    return rtukit::Status(Errc::invalid_argument, std::move(reason));
+  }
+
+  // A command row by its key, checked to be one of `allowed`.
+  static rtukit::Outcome<const rh::Register*> command_row(const Json& m,
+                                                          bool (*allowed)(const rh::Register&)) {
+    if (!m.contains("command") || !m["command"].is_string()) return bad("\"command\" must be a register key");
+    const std::string key = m["command"].get<std::string>();
+    const rh::Register* r = rh::find_register(key);
+    if (!r || rh::table_of(*r) != rh::Table::command || !allowed(*r))
+      return bad(fmt::format("'{}' is not a command this page may send", key));
+    return r;
+  }
+
+  rtukit::Status hold_for(Client& c, uint16_t address, uint16_t value) {
+    if (rtukit::Status e = host.hold(address, value)) return e;
+    c.holds.insert(address);
+    return {};
+  }
+
+  rtukit::Status release_for(Client& c, uint16_t address) {
+    c.holds.erase(address);
+    if (Error e = host.release(address)) return rtukit::Status(e, fmt::format("release: {}", e.name()));
+    return {};
+  }
+
+  rtukit::Status display_command(Client& c, const std::string& op, const Json& m) {
+    if (op == "hold" || op == "release") {
+      auto row = command_row(m, [](const rh::Register& r) {
+        return r.role == profile::Role::hold && (is_posture(r.address) || r.address == rh::reg::kAntiPinch);
+      });
+      if (!row) return row.error();
+      const rh::Register& r = **row;
+      if (op == "release") return release_for(c, r.address);
+      const std::optional<std::string> v = m.contains("value") ? value_text(m["value"]) : std::nullopt;
+      if (!v) return bad("\"value\" must be a name or a number");
+      const Outcome<int64_t> raw = profile::parse_value(r, *v);
+      if (!raw) return bad(std::string(raw.error().reason()));
+      if (*raw == 0) return release_for(c, r.address);
+      return hold_for(c, r.address, static_cast<uint16_t>(*raw));
+    }
+    if (op == "pulse") {
+      auto row = command_row(m, [](const rh::Register& r) { return r.address == rh::reg::kLight; });
+      if (!row) return row.error();
+      return host.pulse((*row)->address);
+    }
+    if (op == "set") {
+      if (!m.contains("key") || !m["key"].is_string())
+        return bad("\"key\" must be drive_mode or speed_level");
+      const std::string key = m["key"].get<std::string>();
+      const rh::Register* r = rh::find_register(key);
+      if (!r || (r->address != rh::reg::kDriveMode && r->address != rh::reg::kSpeedLevel))
+        return bad(fmt::format("'{}' is not a setting (drive_mode, speed_level)", key));
+      const std::optional<std::string> v = m.contains("value") ? value_text(m["value"]) : std::nullopt;
+      if (!v) return bad("\"value\" must be a name or a number");
+      const Outcome<int64_t> raw = profile::parse_value(*r, *v);
+      if (!raw) return bad(std::string(raw.error().reason()));
+      const auto value = static_cast<uint16_t>(*raw);
+      const rtukit::Status e =
+          r->address == rh::reg::kDriveMode ? host.set_drive_mode(value) : host.set_speed_level(value);
+      if (e) return e;
+      (r->address == rh::reg::kDriveMode ? drive_mode : speed_level) = value;
+      broadcast_state();
+      return {};
+    }
+    if (op == "one_touch") {
+      const std::string v = m.value("value", "");
+      if (v == "stop") {
+        end_one_touch();
+        return {};
+      }
+      if (v != "stand" && v != "sit") return bad("\"value\" must be stand, sit or stop");
+      if (one_touch.value) end_one_touch();
+      const uint16_t value = v == "stand" ? 1 : 2;
+      if (rtukit::Status e = host.hold(rh::reg::kStandSit, value)) return e;
+      one_touch = {value, c.socket->id(), Clock::now(), false};
+      broadcast_state();
+      return {};
+    }
+    if (op == "pair_start") {
+      std::uniform_int_distribution<int> digits(0, 999999);
+      code = {fmt::format("{:06d}", digits(random)), Clock::now() + kCodeLifetime, 0};
+      broadcast_state();
+      return {};
+    }
+    if (op == "pair_cancel") {
+      code = {};
+      broadcast_state();
+      return {};
+    }
+    if (op == "revoke") {
+      if (!m.contains("client") || !m["client"].is_number_unsigned())
+        return bad("\"client\" must be a client id");
+      auto it = clients.find(m["client"].get<uint64_t>());
+      if (it == clients.end() || it->second.role != Role::phone) return bad("no such phone");
+      if (rtukit::Status e = pairing.remove(it->second.token)) return e;
+      web::SocketPtr s = it->second.socket;
+      s->close("revoked by the display");
+      closed(s);  // its holds go now, not when the close completes
+      return {};
+    }
+    return bad(fmt::format("unknown command '{}'", op));
+  }
+
+  rtukit::Status phone_command(Client& c, const std::string& op, const Json& m, Json& result) {
+    if (op == "pair") {
+      if (c.paired) return {};
+      const std::string given = m.value("code", "");
+      if (code.code.empty() || Clock::now() > code.until)
+        return refuse("no pairing code is shown: ask the display for one");
+      if (given != code.code) {
+        if (++code.attempts >= kCodeAttempts) code = {};  // guessing: the code is gone
+        broadcast_state();
+        return refuse("wrong code");
+      }
+      code = {};
+      Outcome<std::string> token = pairing.add(m.value("name", ""));
+      if (!token) return token.error();
+      c.token = *token;
+      c.paired = true;
+      c.name = pairing.name_of(c.token);
+      result["token"] = c.token;
+      result["name"] = c.name;
+      c.socket->send(state_json().dump());
+      broadcast_state();
+      return {};
+    }
+    if (!c.paired) return refuse("not paired: enter the code the display shows");
+    if (op == "drive") {
+      const std::string dir = m.value("dir", "");
+      if (dir == "none" || dir.empty()) {
+        for (uint16_t a = rh::reg::kPhoneForward; a <= rh::reg::kPhoneRight; ++a)
+          if (c.holds.count(a)) (void)release_for(c, a);
+        if (driver == c.socket->id()) driver.reset();
+        broadcast_state();
+        return {};
+      }
+      const std::optional<uint16_t> a = direction_register(dir);
+      if (!a) return bad("\"dir\" must be forward, reverse, left, right or none");
+      if (driver && *driver != c.socket->id()) {
+        auto other = clients.find(*driver);
+        return refuse(
+            fmt::format("{} is driving", other != clients.end() ? other->second.name : "another phone"));
+      }
+      for (uint16_t b = rh::reg::kPhoneForward; b <= rh::reg::kPhoneRight; ++b)
+        if (b != *a && c.holds.count(b)) (void)release_for(c, b);
+      if (rtukit::Status e = hold_for(c, *a, 1)) return e;
+      if (driver != c.socket->id()) {
+        driver = c.socket->id();
+        broadcast_state();
+      }
+      return {};
+    }
+    if (op == "horn") {
+      if (m.value("on", false)) return hold_for(c, rh::reg::kPhoneHorn, 1);
+      return release_for(c, rh::reg::kPhoneHorn);
+    }
+    if (op == "pulse") {
+      const std::string what = m.value("command", "");
+      const uint16_t a = what == "light"          ? rh::reg::kPhoneLight
+                         : what == "left_signal"  ? rh::reg::kPhoneLeftSignal
+                         : what == "right_signal" ? rh::reg::kPhoneRightSignal
+                                                  : 0;
+      if (!a) return bad("\"command\" must be light, left_signal or right_signal");
+      return host.pulse(a);
+    }
+    return bad(fmt::format("unknown command '{}'", op));
+  }
+
+  void end_one_touch() {
+    if (!one_touch.value) return;
+    one_touch = {};
+    (void)host.release(rh::reg::kStandSit);
+    broadcast_state();
+  }
+
+  // Every 50 ms on the server thread: the one-touch stand/sit runs until the
+  // chair reports it done, the pairing code expires.
+  void tick() {
+    if (one_touch.value) {
+      const rh::Snapshot s = host.snapshot();
+      const bool moving = s[rh::reg::kStandStatus] != 0;
+      if (moving) one_touch.moved = true;
+      if ((one_touch.moved && !moving) ||
+          (!one_touch.moved && Clock::now() - one_touch.started > std::chrono::seconds(1)))
+        end_one_touch();
+      else if (host.hold(rh::reg::kStandSit, one_touch.value))
+        end_one_touch();  // refused (an error, D-8): it ends here
+    }
+    if (!code.code.empty() && Clock::now() > code.until) {
+      code = {};
+      broadcast_state();
+    }
+  }
+
+  // ------------------------------------------------------------ state
+
+  Json state_json() {
+    const rh::Snapshot s = host.snapshot();
+    const uint16_t error = host.active_error();
+    Json values = Json::object(), text = Json::object();
+    for (const rh::Register& r : rh::registers()) {
+      if (rh::table_of(r) != rh::Table::status || r.key.starts_with("reserved")) continue;
+      values[std::string(r.key)] = s[r.address];
+      text[std::string(r.key)] = rh::format_value(r, s[r.address]);
+    }
+    Json st{{"type", "state"},
+            {"connected", host.connected() && s.valid},
+            {"error", error},
+            {"error_text", error ? rh::error_text(error) : ""},
+            {"values", values},
+            {"text", text},
+            {"drive_mode", profile::name_of(*rh::find_register(rh::reg::kDriveMode), drive_mode)},
+            {"speed_level", speed_level},
+            {"one_touch", one_touch.value == 1   ? "stand"
+                          : one_touch.value == 2 ? "sit"
+                                                 : ""}};
+    // Why a control is disabled, as the UI rules say (empty: allowed).
+    const std::string overlay = error ? fmt::format("{} is active", rh::error_text(error)) : "";
+    const bool seated = s[rh::reg::kActuatorPosition] == 0 && s[rh::reg::kActuatorPosition + 2] == 0;
+    std::string drive = overlay;
+    if (drive.empty() && s.charging()) drive = "no driving while charging";
+    if (drive.empty() && !s.clutch_drive()) drive = "no driving with the clutch in push";
+    if (drive.empty() && !seated) drive = "no phone driving while the chair is not fully seated";
+    if (drive.empty() && !s.is_static() && !driver) drive = "phone drive only while the chair is static";
+    std::string raise = overlay;
+    if (raise.empty() && s.charging()) raise = "no standing up or raising the seat while charging";
+    st["disabled"] = {{"all", overlay}, {"drive", drive}, {"raise", raise}};
+    Json phones = Json::array();
+    for (const auto& [id, c] : clients)
+      if (c.role == Role::phone && c.paired)
+        phones.push_back({{"client", id}, {"name", c.name}, {"driving", driver == id}});
+    st["phones"] = phones;
+    st["paired_phones"] = pairing.size();
+    return st;
+  }
+
+  // The state goes to every display and paired phone; the pairing code to
+  // displays only.
+  void broadcast_state() {
+    Json st = state_json();
+    const std::string for_phones = st.dump();
+    st["pairing_code"] = code.code;
+    st["pairing_seconds"] =
+        code.code.empty()
+            ? 0
+            : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
+    const std::string for_displays = st.dump();
+    for (auto& [id, c] : clients) {
+      if (c.role == Role::display)
+        c.socket->send(for_displays);
+      else if (c.paired)
+        c.socket->send(for_phones);
+    }
+  }
+
+  void broadcast(const Json& j) {
+    const std::string text = j.dump();
+    for (auto& [id, c] : clients)
+      if (c.role == Role::display || c.paired) c.socket->send(text);
+  }
+
+  // On the server thread: what the host controller reported.
+  void host_event(const rh::Event& e) {
+    using T = rh::Event::Type;
+    switch (e.type) {
+      case T::connected:
+        // The controller may have rebooted to its defaults: give it ours.
+        (void)host.set_drive_mode(drive_mode);
+        (void)host.set_speed_level(speed_level);
+        broadcast_state();
+        break;
+      case T::horn:
+        broadcast({{"type", "event"}, {"event", "horn"}});
+        break;
+      case T::view:
+        broadcast({{"type", "event"}, {"event", "view"}});
+        break;
+      case T::error_raised:
+      case T::error_cleared:
+        if (e.type == T::error_raised) one_touch = {};  // the host dropped it (D-8)
+        for (auto& [id, c] : clients) c.holds.clear();
+        if (e.type == T::error_raised) driver.reset();
+        broadcast({{"type", "event"},
+                   {"event", e.type == T::error_raised ? "error_raised" : "error_cleared"},
+                   {"code", e.code},
+                   {"text", rh::error_text(e.code)},
+                   {"reason", e.reason}});
+        broadcast_state();
+        break;
+      case T::released: {
+        const rh::Register* r = rh::find_register(e.address);
+        for (auto& [id, c] : clients) c.holds.erase(e.address);
+        broadcast({{"type", "event"}, {"event", "released"}, {"command", r ? std::string(r->key) : ""}});
+        break;
+      }
+      case T::changed:
+        break;
+    }
+  }
+
+  HostDaemonOptions options;
+  rh::Host host;
+  PairingStore pairing;
+  web::Server server;
+  std::atomic<bool> flush_pending{false};
+  // Server-thread state.
+  std::map<uint64_t, Client> clients;
+  std::optional<uint64_t> driver;
+  uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
+  struct OneTouch {
+    uint16_t value = 0;
+    uint64_t owner = 0;
+    Clock::time_point started{};
+    bool moved = false;
+  } one_touch;
+  struct Code {
+    std::string code;
+    Clock::time_point until{};
+    int attempts = 0;
+  } code;
+  std::mt19937 random{std::random_device{}()};
+  bool started = false;
+};
+
+HostDaemon::HostDaemon(std::unique_ptr<io::Link> link, HostDaemonOptions options)
+    : impl_(std::make_unique<Impl>(std::move(link), std::move(options))) {}
+
+HostDaemon::~HostDaemon() {
+  stop();
+}
+
+rtukit::Status HostDaemon::start() {
+  Impl& d = *impl_;
+  if (d.options.pairing_file.empty()) return rtukit::Status(Errc::invalid_argument, "no pairing file given");
+  if (rtukit::Status e = d.pairing.load()) return e;
+  d.host.on_event([&d](const rh::Event& e) {
+    if (e.type == rh::Event::Type::changed) {
+      // One state message per poll, however many registers changed.
+      if (!d.flush_pending.exchange(true))
+        d.server.post([&d] {
+          d.flush_pending = false;
+          d.broadcast_state();
+        });
+      return;
+    }
+    d.server.post([&d, e] { d.host_event(e); });
+  });
+  d.server.every(50, [&d] { d.tick(); });
+  if (rtukit::Status e = d.server.start()) return e;
+  d.host.start();
+  d.started = true;
+  return {};
+}
+
+void HostDaemon::stop() {
+  Impl& d = *impl_;
+  if (!d.started) return;
+  d.started = false;
+  d.host.stop();  // releases every hold first
+  d.server.stop();
+}
+
+std::vector<uint16_t> HostDaemon::ports() const {
+  return impl_->server.ports();
+}
+
+std::vector<std::string> HostDaemon::urls() const {
+  std::vector<std::string> out;
+  const auto ports = impl_->server.ports();
+  for (size_t i = 0; i < ports.size(); ++i)
+    out.push_back(web::url_of(i == 0 ? impl_->options.http : impl_->options.phone[i - 1], ports[i]));
+  return out;
+}
+
+}  // namespace rtukit::programs
