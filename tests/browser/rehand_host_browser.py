@@ -168,7 +168,7 @@ def main():
         host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{http_port}",
                                  "--phone", f"127.0.0.1:{phone_port}", "--pairing-file",
                                  os.path.join(work, "pairing.json")], stdout=subprocess.PIPE,
-                                stderr=subprocess.STDOUT, text=True)
+                                stderr=open(os.path.join(work, "host1.err"), "w"), text=True)
         procs.append(host)
         check("daemon prints the display URL", f"http://127.0.0.1:{http_port}" in host.stdout.readline())
         con = Console(console_path)
@@ -350,6 +350,27 @@ setTimeout(() => done('still open'), 5000);
         con.cmd("charger off")
         wait_for(lambda: phone.find_element(By.ID, "fwd").is_enabled(), 3)
 
+        # a phone that stops renewing (socket still open: Wi-Fi gone quiet) is
+        # released by the lease
+        phone_token = phone.execute_script("return localStorage.getItem('rtukit-rehand6600-token')")
+        SILENT_JS = """
+const [url, done] = [arguments[0], arguments[arguments.length - 1]];
+const ws = new WebSocket(url); window.__silent = ws;
+ws.onmessage = (e) => { const m = JSON.parse(e.data); if (m.type === 'result') done(m); };
+ws.onopen = () => ws.send(JSON.stringify({op: 'drive', dir: 'forward', id: 1}));
+setTimeout(() => done({timeout: true}), 3000);
+"""
+        wait_for(lambda: state(http_port)["values"]["motion"] == 1 and state(http_port)["values"]["speed"] == 0, 5)
+        first = hmi.execute_async_script(SILENT_JS, f"ws://127.0.0.1:{phone_port}/ws?role=phone&token={phone_token}")
+        t0 = time.monotonic()
+        check("one drive command accepted", first.get("ok") is True, json.dumps(first))
+        gone = wait_for(lambda: "phone_forward" not in con.held(), 2, 0.005)
+        dt = (time.monotonic() - t0) * 1000
+        check("no renewal: released by the lease (socket still open)", bool(gone) and 250 < dt < 300 + 50 + 150,
+              f"{dt:.0f} ms")
+        check("the silent socket is still open", hmi.execute_script("return window.__silent.readyState") == 1)
+        hmi.execute_script("window.__silent.close()")
+
         # a killed phone stops the chair within lease + poll
         fwd = phone.find_element(By.ID, "fwd")
         ActionChains(phone).click_and_hold(fwd).perform()
@@ -365,11 +386,12 @@ setTimeout(() => done('still open'), 5000);
         token = json.load(open(os.path.join(work, "pairing.json")))["phones"][0]["token"]
         check("pairing file is private", (os.stat(os.path.join(work, "pairing.json")).st_mode & 0o077) == 0)
         host.send_signal(signal.SIGTERM)
-        host.wait(10)
+        code = host.wait(10)
+        check("the daemon ends cleanly on SIGTERM", code == 0, f"exit {code}")
         host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{http_port}",
                                  "--phone", f"127.0.0.1:{phone_port}", "--pairing-file",
                                  os.path.join(work, "pairing.json")], stdout=subprocess.DEVNULL,
-                                stderr=subprocess.DEVNULL)
+                                stderr=open(os.path.join(work, "host2.err"), "w"))
         procs.append(host)
         check("after a restart the paired phone is still paired",
               wait_for(lambda: _try(lambda: state(phone_port, token)["connected"]), 8))
@@ -390,6 +412,11 @@ setTimeout(() => done('still open'), 5000);
                 p.wait(5)
             except subprocess.TimeoutExpired:
                 p.kill()
+    # A sanitizer build (ASan, TSan) reports on the daemon's stderr.
+    for name in ("host1.err", "host2.err"):
+        path = os.path.join(work, name)
+        report = open(path).read() if os.path.exists(path) else ""
+        check(f"no sanitizer report from the daemon ({name})", "Sanitizer" not in report, report[:2000])
     print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
     return 0 if not failures else 1
 

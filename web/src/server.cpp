@@ -127,7 +127,13 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
       : Socket(id, std::move(request)), server_(server), ws_(std::move(socket)) {}
 
   void start(http::request<http::string_body> upgrade) {
-    ws_.set_option(websocket::stream_base::timeout::suggested(beast::role_type::server));
+    // Idle pings find a peer that vanished without a close (Wi-Fi gone); a
+    // peer that does not answer a close handshake is cut off after 2 s.
+    websocket::stream_base::timeout t{};
+    t.handshake_timeout = std::chrono::seconds(2);
+    t.idle_timeout = std::chrono::seconds(10);
+    t.keep_alive_pings = true;
+    ws_.set_option(t);
     ws_.read_message_max(server_.options.max_message);
     ws_.async_accept(upgrade, [self = shared_from_this()](beast::error_code ec) {
       if (ec) return self->finish();
@@ -146,7 +152,8 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
       if (!self->open_ || self->closing_) return;
       self->queued_ += text.size();
       self->queue_.push_back(std::move(text));
-      if (self->queued_ > self->server_.options.max_queue) return self->close("too slow: messages not read");
+      // A client that does not read cannot take a close frame either: cut.
+      if (self->queued_ > self->server_.options.max_queue) return self->cut();
       if (self->queue_.size() == 1) self->write();
     });
   }
@@ -163,6 +170,12 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   bool is_open() const override { return open_ && !closing_; }
 
  private:
+  void cut() {
+    closing_ = true;
+    beast::error_code ignored;
+    beast::get_lowest_layer(ws_).socket().close(ignored);  // pending operations end: finish()
+  }
+
   void do_close(const std::string& reason) {
     // A peer that does not answer the close handshake is cut off by the timeout.
     ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, reason),
