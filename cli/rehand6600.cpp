@@ -32,6 +32,7 @@ struct ChairArgs {
   std::string http = "127.0.0.1:8080";  ///< host: the display's listener
   std::vector<std::string> phone;       ///< host: phone listeners
   std::string pairing_file;             ///< host: paired phones
+  std::string phone_url;                ///< host: what phones open (QR code)
   std::string unit = "1";
   bool json = false;
   bool mph = false;
@@ -366,6 +367,7 @@ int run_host(const ChairArgs& a) {
   o.phone = a.phone;
   o.mph = a.mph;
   o.pairing_file = a.pairing_file;
+  o.phone_url = a.phone_url;
   if (o.pairing_file.empty()) {
     const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=
     const char* home = std::getenv("HOME");

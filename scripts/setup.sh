@@ -20,7 +20,7 @@ PACKAGES=(
   # the sniffer's pcap files, decoded by Wireshark's dissector
   tshark
   # the web layer (Boost.Beast, header-only) and its pages tested in a real browser
-  libboost-dev chromium chromium-driver python3-selenium
+  libboost-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
 )
 
 missing=()

@@ -309,8 +309,19 @@ setTimeout(() => done('still open'), 5000);
         code = wait_for(lambda: re.fullmatch(r"\d{6}", text(hmi, "#code")) and text(hmi, "#code"))
         check("the display shows a one-time code", bool(code), str(code))
         hmi.save_screenshot(os.path.join(OUT, "hmi-pairing-code.png"))
-        phone.find_element(By.ID, "pair-code").clear()
-        phone.find_element(By.ID, "pair-code").send_keys(code)
+        # The QR code, read by zbar (a decoder we did not write), opens the
+        # phone page with the code filled in.
+        qr = hmi.find_element(By.ID, "qr")
+        wait_for(lambda: hmi.execute_script("return arguments[0].complete && arguments[0].naturalWidth > 0", qr))
+        qr.screenshot(os.path.join(OUT, "pairing-qr.png"))
+        decoded = subprocess.run(["zbarimg", "-q", "--raw", os.path.join(OUT, "pairing-qr.png")],
+                                 capture_output=True, text=True).stdout.strip()
+        check("the QR code holds the phone address and the code",
+              decoded == f"http://127.0.0.1:{phone_port}/?code={code}", decoded)
+        phone.get(decoded or f"http://127.0.0.1:{phone_port}/")
+        check("the code is filled in from the QR code",
+              wait_for(lambda: phone.find_element(By.ID, "pair-code").get_attribute("value") == code),
+              phone.find_element(By.ID, "pair-code").get_attribute("value"))
         phone.find_element(By.ID, "pair-name").send_keys("Test phone")
         phone.find_element(By.ID, "pair-go").click()
         check("phone paired", wait_for(lambda: phone.find_element(By.ID, "remote").is_displayed()
@@ -400,6 +411,15 @@ setTimeout(() => done({timeout: true}), 3000);
             phone.quit()
         except Exception:
             pass
+
+        # the controller unplugged: Master error 1010 covers the display
+        hmi.refresh()
+        wait_for(lambda: text(hmi, "#link") == "connected", 8)
+        sim.send_signal(signal.SIGKILL)
+        check("link lost: the 1010 overlay", wait_for(
+            lambda: hmi.find_element(By.ID, "error-overlay").is_displayed()
+            and text(hmi, "#error-text") == "1010 Master Error", 5), text(hmi, "#error-text"))
+        hmi.save_screenshot(os.path.join(OUT, "hmi-1010.png"))
     finally:
         for d in drivers:
             try:

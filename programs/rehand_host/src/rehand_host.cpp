@@ -4,9 +4,14 @@
 // events are posted to the server thread. Neither waits for a client.
 #include "rtukit/programs/rehand_host.hpp"
 
+#include <arpa/inet.h>
 #include <fmt/core.h>
+#include <ifaddrs.h>
+#include <netinet/in.h>
+#include <qrencode.h>
 
 #include <atomic>
+#include <cstring>
 #include <chrono>
 #include <map>
 #include <nlohmann/json.hpp>
@@ -58,6 +63,40 @@ std::optional<std::string> value_text(const Json& v) {
   return std::nullopt;
 }
 
+// This machine's first non-loopback IPv4 address, for a URL a phone can open.
+std::string first_lan_address() {
+  ifaddrs* list = nullptr;
+  if (::getifaddrs(&list) != 0) return "127.0.0.1";
+  std::string out = "127.0.0.1";
+  for (ifaddrs* i = list; i; i = i->ifa_next) {
+    if (!i->ifa_addr || i->ifa_addr->sa_family != AF_INET) continue;
+    const auto* a = reinterpret_cast<const sockaddr_in*>(i->ifa_addr);
+    if ((ntohl(a->sin_addr.s_addr) >> 24) == 127) continue;
+    char text[INET_ADDRSTRLEN] = {};
+    ::inet_ntop(AF_INET, &a->sin_addr, text, sizeof text);
+    out = text;
+    break;
+  }
+  ::freeifaddrs(list);
+  return out;
+}
+
+// `text` as a QR code (libqrencode), as SVG with a 4-module quiet zone.
+std::string qr_svg(const std::string& text) {
+  QRcode* q = QRcode_encodeString(text.c_str(), 0, QR_ECLEVEL_M, QR_MODE_8, 1);
+  if (!q) return {};
+  const int n = q->width;
+  std::string path;
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      if (q->data[y * n + x] & 1) path += fmt::format("M{} {}h1v1h-1z", x + 4, y + 4);
+  QRcode_free(q);
+  return fmt::format(
+      R"(<svg xmlns="http://www.w3.org/2000/svg" viewBox="0 0 {0} {0}" shape-rendering="crispEdges">)"
+      R"(<rect width="{0}" height="{0}" fill="#fff"/><path d="{1}" fill="#000"/></svg>)",
+      n + 8, path);
+}
+
 }  // namespace
 
 struct HostDaemon::Impl {
@@ -99,6 +138,12 @@ struct HostDaemon::Impl {
       return {.body = state_json().dump()};
     }
     if (path == "/healthz") return {.body = Json{{"connected", host.connected()}}.dump()};
+    if (path == "/api/pair/qr.svg" && display_listener) {
+      // The phone's address with the code: scanning it opens the phone page
+      // with the code filled in.
+      if (code.code.empty()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
+      return {.content_type = "image/svg+xml", .body = qr_svg(fmt::format("{}/?code={}", phone_url, code.code))};
+    }
     if (auto a = web::asset_response(path)) return *a;
     return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
   }
@@ -493,6 +538,7 @@ struct HostDaemon::Impl {
     int attempts = 0;
   } code;
   std::mt19937 random{std::random_device{}()};
+  std::string phone_url;  ///< set by start(), read on the server thread after
   bool started = false;
 };
 
@@ -521,6 +567,15 @@ rtukit::Status HostDaemon::start() {
   });
   d.server.every(50, [&d] { d.tick(); });
   if (rtukit::Status e = d.server.start()) return e;
+  d.phone_url = d.options.phone_url;
+  if (d.phone_url.empty() && !d.options.phone.empty()) {
+    std::string url = web::url_of(d.options.phone[0], d.server.ports()[1]);
+    for (const char* any : {"0.0.0.0", "[::]"}) {
+      if (const size_t at = url.find(any); at != std::string::npos) url.replace(at, std::strlen(any), first_lan_address());
+    }
+    d.phone_url = url;
+  }
+  if (d.phone_url.empty()) d.phone_url = web::url_of(d.options.http, d.server.ports()[0]);
   d.host.start();
   d.started = true;
   return {};

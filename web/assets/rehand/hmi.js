@@ -7,6 +7,13 @@ import { connect, holdButton, $, beep } from '/rehand/common.js';
 let state = null;
 let mph = false;
 let acknowledged = 0;  // the error code the user acknowledged
+let codeShown = '';
+let codeDeadline = 0;
+function showCodeTime() {
+  const left = Math.max(0, Math.round((codeDeadline - Date.now()) / 1000));
+  $('#code-time').textContent = codeShown ? `valid ${Math.floor(left / 60)}:${String(left % 60).padStart(2, '0')}` : '';
+}
+setInterval(showCodeTime, 1000);
 const all = () => [...document.querySelectorAll('main button')];
 
 const api = connect(() => 'role=display', onMessage, (up) => {
@@ -81,7 +88,16 @@ function render(s) {
   $('#code-box').classList.toggle('hidden', !code);
   $('#pair').classList.toggle('hidden', !!code);
   $('#code').textContent = code;
-  $('#code-time').textContent = code ? `valid ${s.pairing_seconds} s` : '';
+  if (code && $('#qr').dataset.code !== code) {
+    $('#qr').dataset.code = code;
+    $('#qr').src = `/api/pair/qr.svg?c=${code}`;
+  }
+  if (code && codeShown !== code) {
+    codeShown = code;
+    codeDeadline = Date.now() + s.pairing_seconds * 1000;
+  }
+  if (!code) codeShown = '';
+  showCodeTime();
   const list = $('#phone-list');
   list.replaceChildren(...s.phones.map((p) => {
     const row = document.createElement('div');

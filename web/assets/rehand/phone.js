@@ -47,6 +47,9 @@ api = connect(() => `role=phone&token=${encodeURIComponent(token)}`, onMessage, 
   if (!up) $('#reason').textContent = 'no connection to the chair';
 });
 
+// Opened from the display's QR code: the code is in the address.
+const fromQr = new URLSearchParams(location.search).get('code');
+if (fromQr) $('#pair-code').value = fromQr;
 $('#pair-go').onclick = () => api.send('pair', { code: $('#pair-code').value.trim(), name: $('#pair-name').value.trim() });
 for (const b of document.querySelectorAll('#pad button')) {
   holdButton(b, api, () => api.send('drive', { dir: b.dataset.dir }).then((r) => {

@@ -61,6 +61,10 @@ struct HostDaemonOptions {
   std::string http = "127.0.0.1:8080";  ///< the display's listener
   std::vector<std::string> phone;       ///< phone listeners ("0.0.0.0:8443")
   std::string pairing_file;             ///< required
+  /// What phones open ("http://192.168.4.1:8443"), for the pairing QR code.
+  /// Empty: the first phone listener, with this machine's first non-loopback
+  /// IPv4 address for 0.0.0.0.
+  std::string phone_url;
   rehand6600::HostOptions host;
   bool mph = false;  ///< show speed in mph
 };
