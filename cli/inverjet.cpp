@@ -18,6 +18,8 @@
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/io/atomic_file.hpp"
+#include "rtukit/programs/inverjet_bridge.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -42,6 +44,12 @@ struct JetArgs {
   std::string plan;           ///< plan number
   std::string file;           ///< plan file
   std::string what = "show";  ///< config item
+  // bridge
+  std::vector<std::string> units;  ///< "21" or "22=lane2"
+  std::string mqtt = "mqtt://127.0.0.1:1883", id, user, password_file, tls_ca,
+              discovery_prefix = "homeassistant";
+  double poll_hz = 2, max_rate = 2;
+  bool no_discovery = false;
 };
 
 void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
@@ -413,6 +421,53 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
   return kOk;
 }
 
+// The MQTT bridge, until SIGINT/SIGTERM.
+int run_bridge(const JetArgs& a) {
+  programs::BridgeOptions o;
+  o.tls_ca = a.tls_ca;
+  if (rtukit::Status e = programs::parse_mqtt_url(a.mqtt, o)) throw Failure{kUsage, std::string(e.reason())};
+  o.user = a.user;
+  if (!a.password_file.empty()) {
+    const Outcome<std::string> pw = io::read_regular_file(a.password_file, 4096);
+    if (!pw) throw Failure{kIoError, fmt::format("--password-file: {}", pw.error().reason())};
+    o.password = *pw;
+    while (!o.password.empty() && (o.password.back() == '\n' || o.password.back() == '\r'))
+      o.password.pop_back();
+  }
+  o.poll_hz = a.poll_hz;
+  o.max_rate = a.max_rate;
+  o.discovery_prefix = a.no_discovery ? "" : a.discovery_prefix;
+  o.response_timeout_ms = a.link.timeout_ms;
+  const std::vector<std::string> units = a.units.empty() ? std::vector<std::string>{"21"} : a.units;
+  for (const std::string& u : units) {
+    const size_t eq = u.find('=');
+    programs::BridgeMachine m;
+    m.unit = static_cast<uint8_t>(parse_number(u.substr(0, eq), "unit", 1, 254));
+    if (eq != std::string::npos)
+      m.id = u.substr(eq + 1);
+    else if (units.size() == 1)
+      m.id = a.id;
+    else
+      m.id = fmt::format("{}-{}", a.id, m.unit);
+    if (m.id.empty())
+      throw Failure{kUsage, "--id is required (the machine's name in the topics: rtukit/inverjet/ID/...)"};
+    o.machines.push_back(m);
+  }
+  programs::Bridge bridge(io::make_link(a.link.spec(false)), o);
+  const Interruptible interrupt;
+  if (rtukit::Status e = bridge.start())
+    throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
+                  fmt::format("inverjet bridge: {}", e.reason())};
+  for (const programs::BridgeMachine& m : o.machines)
+    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on mqtt://{}:{}\n", m.unit, m.id, o.host,
+               o.port);
+  std::fflush(stdout);
+  while (interrupt.sleep(std::chrono::milliseconds(200))) {
+  }
+  bridge.stop();
+  return kOk;
+}
+
 }  // namespace
 
 void add_inverjet_commands(CLI::App& app, Action& action) {
@@ -420,6 +475,29 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       app.add_subcommand("inverjet", "the Inverjet swimming machine (unit 21, 9600 8N1 by default)");
   jet->require_subcommand(1);
   const std::string port = "--port /dev/ttyUSB0";
+  add_command<JetArgs>(
+      *jet, action, "bridge", "MQTT bridge with Home Assistant discovery (docs/inverjet.md)",
+      [&](CLI::App& cmd, JetArgs& a) {
+        a.link.add_to(cmd, false, ij::kDefaultBaud);
+        cmd.add_option("--unit,-u", a.units, "a machine: UNIT or UNIT=ID (repeatable; default 21)");
+        cmd.add_option("--mqtt", a.mqtt, "the broker: mqtt://HOST[:PORT] or mqtts://HOST[:PORT]")
+            ->capture_default_str();
+        cmd.add_option("--id", a.id, "the machine's id in the topics (rtukit/inverjet/ID/...)");
+        cmd.add_option("--user", a.user, "MQTT user name");
+        cmd.add_option("--password-file", a.password_file, "a file holding the MQTT password");
+        cmd.add_option("--tls-ca", a.tls_ca, "CA certificate file: TLS to the broker");
+        cmd.add_option("--poll-hz", a.poll_hz, "polls per second per machine")->capture_default_str();
+        cmd.add_option("--max-rate", a.max_rate, "state documents per second per machine, at most")
+            ->capture_default_str();
+        cmd.add_option("--discovery-prefix", a.discovery_prefix, "Home Assistant's discovery prefix")
+            ->capture_default_str();
+        cmd.add_flag("--no-discovery", a.no_discovery, "no Home Assistant discovery");
+        examples(cmd,
+                 {"rtukit inverjet bridge " + port + " --mqtt mqtt://127.0.0.1:1883 --id pool1",
+                  "rtukit inverjet bridge " + port +
+                      " --unit 21=lane1 --unit 22=lane2 --user jets --password-file /etc/rtukit/mqtt.pw"});
+      },
+      [](const JetArgs& a) { return run_bridge(a); });
   add_command<JetArgs>(
       *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
       [&](CLI::App& cmd, JetArgs& a) {

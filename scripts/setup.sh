@@ -21,6 +21,8 @@ PACKAGES=(
   tshark
   # the web layer (Boost.Beast, header-only) and its pages tested in a real browser
   libboost-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
+  # the Inverjet MQTT bridge (libmosquitto) and its tests (a real broker and its clients)
+  libmosquitto-dev mosquitto mosquitto-clients
 )
 
 missing=()

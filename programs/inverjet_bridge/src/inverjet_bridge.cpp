@@ -1,0 +1,543 @@
+// The MQTT bridge. Threads: libmosquitto's network thread per machine
+// (callbacks only queue commands and set flags), and one bridge thread that
+// owns the serial bus: it runs queued commands first, then polls each
+// machine that is due, then publishes what changed.
+#include "rtukit/programs/inverjet_bridge.hpp"
+
+#include <fmt/core.h>
+#include <mosquitto.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <ctime>
+#include <deque>
+#include <map>
+#include <mutex>
+#include <nlohmann/json.hpp>
+#include <optional>
+#include <set>
+#include <thread>
+
+#include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/driver/master.hpp"
+
+namespace rtukit::programs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::json;
+namespace ij = inverjet;
+
+struct Command {
+  std::string name;  ///< the topic's last level: start, pause, ...
+  std::string payload;
+  bool retained = false;
+};
+
+// "30:00", "1800" or 1800 -> seconds.
+std::optional<uint32_t> seconds_of(const Json& v) {
+  if (v.is_number_unsigned()) return v.get<uint32_t>();
+  if (v.is_string()) {
+    const Result<uint32_t> s = profile::parse_mm_ss(v.get<std::string>());
+    if (s) return *s;
+  }
+  return std::nullopt;
+}
+
+std::optional<uint16_t> small_number(const Json& v) {
+  if (v.is_number_unsigned() && v.get<uint64_t>() <= 0xFFFF) return static_cast<uint16_t>(v.get<uint64_t>());
+  if (v.is_string()) {
+    const std::string s = v.get<std::string>();
+    if (!s.empty() && s.size() <= 5 && s.find_first_not_of("0123456789") == std::string::npos) {
+      const unsigned long n = std::stoul(s);
+      if (n <= 0xFFFF) return static_cast<uint16_t>(n);
+    }
+  }
+  return std::nullopt;
+}
+
+bool valid_topic_level(const std::string& id) {
+  return !id.empty() && id.size() <= 64 && id.find_first_of("/+#") == std::string::npos &&
+         id.find_first_of(" \t\n") == std::string::npos;
+}
+
+std::string iso_now() {
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  ::gmtime_r(&t, &tm);
+  char out[32];
+  std::strftime(out, sizeof out, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return out;
+}
+
+}  // namespace
+
+rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
+  std::string rest;
+  uint16_t default_port = 1883;
+  if (url.rfind("mqtt://", 0) == 0) {
+    rest = url.substr(7);
+  } else if (url.rfind("mqtts://", 0) == 0) {
+    rest = url.substr(8);
+    default_port = 8883;
+    if (o.tls_ca.empty()) return rtukit::Status(Errc::invalid_argument, "mqtts:// needs --tls-ca FILE");
+  } else {
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("{}: expected mqtt://HOST[:PORT] or mqtts://...", url));
+  }
+  const size_t colon = rest.rfind(':');
+  o.host = rest.substr(0, colon);
+  o.port = default_port;
+  if (colon != std::string::npos) {
+    const std::string p = rest.substr(colon + 1);
+    if (p.empty() || p.size() > 5 || p.find_first_not_of("0123456789") != std::string::npos ||
+        std::stoul(p) > 65535 || std::stoul(p) == 0)
+      return rtukit::Status(Errc::invalid_argument, fmt::format("{}: the port must be 1..65535", url));
+    o.port = static_cast<uint16_t>(std::stoul(p));
+  }
+  if (o.host.empty()) return rtukit::Status(Errc::invalid_argument, fmt::format("{}: no host", url));
+  return {};
+}
+
+// ---------------------------------------------------------------- one machine
+
+struct Machine {
+  Machine(Master& master, BridgeMachine m, const BridgeOptions& o)
+      : config(std::move(m)),
+        options(o),
+        client(master, UnitId{config.unit}),
+        base("rtukit/inverjet/" + config.id) {}
+  ~Machine() {
+    if (mosq) mosquitto_destroy(mosq);
+  }
+
+  BridgeMachine config;
+  const BridgeOptions& options;
+  ij::Client client;
+  std::string base;
+  mosquitto* mosq = nullptr;
+
+  std::mutex mutex;  ///< guards commands (filled on the MQTT thread)
+  std::deque<Command> commands;
+  std::atomic<bool> connected{false};
+  std::atomic<bool> announce{false};  ///< (re)connected: discovery and availability again
+  std::atomic<unsigned> acked{0};     ///< QoS 1 publishes the broker acknowledged
+
+  // Bridge thread only.
+  bool online = false;
+  unsigned failures = 0;
+  Clock::time_point next_poll{};
+  Clock::time_point last_state_publish{};
+  std::string last_state;
+  std::map<std::string, std::string> last_values;
+  bool state_pending = false;
+
+  void publish(const std::string& topic, const std::string& payload, bool retain, int qos = 1) {
+    mosquitto_publish(mosq, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), qos,
+                      retain);
+  }
+};
+
+struct Bridge::Impl {
+  Impl(std::unique_ptr<io::Link> link, BridgeOptions o)
+      : options(std::move(o)),
+        master(std::move(link),
+               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms)}) {}
+
+  BridgeOptions options;
+  Master master;
+  std::vector<std::unique_ptr<Machine>> machines;
+  std::thread thread;
+  std::mutex mutex;
+  std::condition_variable wake;
+  bool stopping = false;
+
+  // ---------------------------------------------------------- MQTT side (network thread)
+
+  static void on_connect(mosquitto* m, void* self, int rc) {
+    auto& machine = *static_cast<Machine*>(self);
+    if (rc != 0) return;  // refused (credentials): libmosquitto retries with back-off
+    machine.connected = true;
+    const std::string topic = machine.base + "/set/#";
+    mosquitto_subscribe(m, nullptr, topic.c_str(), 1);
+    machine.announce = true;
+  }
+
+  static void on_disconnect(mosquitto*, void* self, int) { static_cast<Machine*>(self)->connected = false; }
+  static void on_publish(mosquitto*, void* self, int) { ++static_cast<Machine*>(self)->acked; }
+
+  static void on_message(mosquitto*, void* self, const mosquitto_message* msg) {
+    auto& machine = *static_cast<Machine*>(self);
+    const std::string topic = msg->topic;
+    const std::string prefix = machine.base + "/set/";
+    if (topic.rfind(prefix, 0) != 0) return;
+    Command c{topic.substr(prefix.size()),
+              std::string(static_cast<const char*>(msg->payload), static_cast<size_t>(msg->payloadlen)),
+              msg->retain};
+    std::lock_guard lock(machine.mutex);
+    if (machine.commands.size() < 32) machine.commands.push_back(std::move(c));  // a flood is cut, not queued
+  }
+
+  // ---------------------------------------------------------- the bus side (bridge thread)
+
+  rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
+    const auto refuse = [](std::string why) {
+      return rtukit::Status(Errc::invalid_argument, std::move(why));
+    };
+    const Json body = Json::parse(c.payload, nullptr, false);
+    // Stale: a retained command, or one stamped too long ago. Never run.
+    if (c.retained) return rtukit::Status(Errc::refused, "stale: a retained command is never run");
+    if (body.is_object() && body.contains("ts") && body["ts"].is_number()) {
+      double ts = body["ts"].get<double>();
+      if (ts > 1e12) ts /= 1000;  // milliseconds
+      const double age = static_cast<double>(std::time(nullptr)) - ts;
+      if (age > options.max_age_s)
+        return rtukit::Status(Errc::refused,
+                              fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, options.max_age_s));
+    }
+    if (c.name == "pause") return m.client.pause();
+    if (c.name == "resume") return m.client.resume();
+    if (c.name == "stop") return m.client.stop();
+    if (c.name == "speed") {
+      const Json v = body.is_object() && body.contains("speed") ? body["speed"]
+                     : body.is_discarded()                      ? Json(c.payload)
+                                                                : body;
+      const std::optional<uint16_t> speed = small_number(v);
+      if (!speed) return refuse("speed: expected a number 0..100");
+      return m.client.set_speed(*speed);
+    }
+    if (c.name == "plan_select") {
+      // Home Assistant's select: "Plan 1".."Plan 4" starts that plan.
+      const std::string v = body.is_string() ? body.get<std::string>() : c.payload;
+      if (v.size() != 6 || v.rfind("Plan ", 0) != 0 || v[5] < '1' || v[5] > '4')
+        return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", v.substr(0, 20)));
+      return m.client.start_plan(static_cast<unsigned>(v[5] - '0'));
+    }
+    if (c.name == "start") {
+      if (!body.is_object()) return m.client.start_free_from_memory();  // a button's "PRESS"
+      const std::string mode = body.value("mode", "free");
+      if (mode == "free") {
+        if (!body.contains("speed")) return m.client.start_free_from_memory();
+        const std::optional<uint16_t> speed = small_number(body["speed"]);
+        if (!speed) return refuse("speed: expected a number 0..100");
+        return m.client.start_free(*speed);
+      }
+      if (mode == "timer") {
+        const std::optional<uint16_t> speed =
+            body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
+        const std::optional<uint32_t> duration =
+            body.contains("duration") ? seconds_of(body["duration"]) : std::nullopt;
+        if (!speed) return refuse("timer: \"speed\" 0..100 is required");
+        if (!duration || *duration < 1 || *duration > 5999)
+          return refuse("timer: \"duration\" 00:01..99:59 is required");
+        return m.client.start_timer(*speed, static_cast<uint16_t>(*duration));
+      }
+      if (mode == "plan") {
+        const std::optional<uint16_t> plan =
+            body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+        if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
+        const std::optional<uint32_t> from =
+            body.contains("from") ? seconds_of(body["from"]) : std::optional<uint32_t>(0);
+        if (!from || *from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
+        return m.client.start_plan(*plan, static_cast<uint16_t>(*from));
+      }
+      return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", mode.substr(0, 20)));
+    }
+    if (c.name == "plan") {
+      if (!body.is_object() || !body.contains("segments") || !body["segments"].is_array())
+        return refuse(
+            "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": %, \"end\": \"mm:ss\"}, ...]}");
+      const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+      if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
+      std::vector<ij::Segment> segments;
+      for (const Json& s : body["segments"]) {
+        ij::Segment segment;
+        bool ok = false;
+        if (s.is_object() && s.contains("speed") && s.contains("end")) {
+          const std::optional<uint16_t> speed = small_number(s["speed"]);
+          const std::optional<uint32_t> end = seconds_of(s["end"]);
+          ok = speed.has_value() && end.has_value() && end.value_or(0) <= 0xFFFF;
+          if (ok) segment = {speed.value_or(0), static_cast<uint16_t>(end.value_or(0))};
+        }
+        if (!ok)
+          return refuse(fmt::format("plan: segment {} needs \"speed\" and \"end\"", segments.size() + 1));
+        segments.push_back(segment);
+      }
+      if (rtukit::Status e = ij::validate_plan(segments)) return e;
+      if (rtukit::Status e = m.client.write_plan(*plan, segments)) return e;
+      result["segments"] = segments.size();
+      return {};
+    }
+    return refuse(fmt::format("unknown command '{}'", c.name.substr(0, 40)));
+  }
+
+  Json state_document(const ij::MachineStatus& s) {
+    Json faults = Json::array();
+    for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
+    const bool timer = s.family() == ij::Family::timer;
+    return Json{{"mode", s.mode == 0 ? (timer ? "timer" : "free") : fmt::format("plan {}", s.mode)},
+                {"mode_raw", s.mode},
+                {"state", std::string(s.state_name())},
+                {"state_raw", s.state},
+                {"running", s.phase() == ij::Phase::running},
+                {"speed", s.speed},
+                {"time", profile::format_mm_ss(s.run_time)},
+                {"remaining_s", timer ? Json(s.run_time) : Json(nullptr)},
+                {"elapsed_s", timer ? Json(nullptr) : Json(s.run_time)},
+                {"faults", faults},
+                {"fault", !faults.empty()},
+                {"mosfet_c", s.mosfet_c},
+                {"motor_c", s.motor_c},
+                {"current_a", s.current_a},
+                {"rpm", s.rpm},
+                {"bus_v", s.bus_v},
+                {"plan_select", s.mode >= 1 && s.mode <= 4 ? fmt::format("Plan {}", s.mode) : ""},
+                {"versions",
+                 {{"display_software", s.display_software},
+                  {"display_hardware", s.display_hardware},
+                  {"driver_software", s.driver_software},
+                  {"driver_hardware", s.driver_hardware}}}};
+  }
+
+  void publish_discovery(Machine& m) {
+    if (options.discovery_prefix.empty()) return;
+    const std::string node = "rtukit_inverjet_" + m.config.id;
+    const Json device{{"identifiers", Json::array({node})},
+                      {"name", fmt::format("Inverjet {}", m.config.id)},
+                      {"manufacturer", "Inverjet"},
+                      {"model", "counter-current swimming machine"},
+                      {"via_device", "rtukit"}};
+    const auto entity = [&](const std::string& component, const std::string& object, Json config) {
+      config["unique_id"] = node + "_" + object;
+      config["object_id"] = node + "_" + object;
+      config["device"] = device;
+      config["availability_topic"] = m.base + "/availability";
+      config["payload_available"] = "online";
+      config["payload_not_available"] = "offline";
+      m.publish(fmt::format("{}/{}/{}/{}/config", options.discovery_prefix, component, node, object),
+                config.dump(), true);
+    };
+    const std::string state = m.base + "/state";
+    const auto sensor = [&](const std::string& object, const std::string& name, const std::string& key,
+                            Json extra = {}) {
+      Json c{{"name", name}, {"state_topic", state}, {"value_template", "{{ value_json." + key + " }}"}};
+      for (auto& [k, v] : extra.items()) c[k] = v;
+      entity("sensor", object, c);
+    };
+    sensor("state", "State", "state", {{"json_attributes_topic", state}, {"icon", "mdi:swim"}});
+    sensor("mode", "Mode", "mode");
+    sensor("remaining", "Remaining time", "remaining_s",
+           {{"unit_of_measurement", "s"}, {"device_class", "duration"}});
+    sensor("elapsed", "Elapsed time", "elapsed_s",
+           {{"unit_of_measurement", "s"}, {"device_class", "duration"}});
+    sensor("mosfet_temperature", "MOSFET temperature", "mosfet_c",
+           {{"unit_of_measurement", "°C"}, {"device_class", "temperature"}, {"state_class", "measurement"}});
+    sensor("motor_temperature", "Motor temperature", "motor_c",
+           {{"unit_of_measurement", "°C"}, {"device_class", "temperature"}, {"state_class", "measurement"}});
+    sensor("current", "Current", "current_a",
+           {{"unit_of_measurement", "A"}, {"device_class", "current"}, {"state_class", "measurement"}});
+    sensor("rpm", "Motor speed", "rpm", {{"unit_of_measurement", "rpm"}, {"state_class", "measurement"}});
+    sensor("bus_voltage", "Bus voltage", "bus_v",
+           {{"unit_of_measurement", "V"}, {"device_class", "voltage"}, {"state_class", "measurement"}});
+    entity("number", "speed",
+           {{"name", "Speed"},
+            {"state_topic", state},
+            {"value_template", "{{ value_json.speed }}"},
+            {"command_topic", m.base + "/set/speed"},
+            {"min", 0},
+            {"max", 100},
+            {"step", 1},
+            {"unit_of_measurement", "%"},
+            {"mode", "slider"}});
+    entity("binary_sensor", "fault",
+           {{"name", "Fault"},
+            {"state_topic", state},
+            {"value_template", "{{ 'ON' if value_json.fault else 'OFF' }}"},
+            {"payload_on", "ON"},
+            {"payload_off", "OFF"},
+            {"device_class", "problem"},
+            {"json_attributes_topic", state},
+            {"json_attributes_template", "{{ {'faults': value_json.faults} | tojson }}"}});
+    for (const char* b : {"start", "pause", "resume", "stop"}) {
+      std::string name = b;
+      name[0] = static_cast<char>(name[0] - 'a' + 'A');
+      entity("button", b,
+             {{"name", name}, {"command_topic", m.base + "/set/" + b}, {"payload_press", "PRESS"}});
+    }
+    entity("select", "plan",
+           {{"name", "Training plan"},
+            {"state_topic", state},
+            {"value_template", "{{ value_json.plan_select }}"},
+            {"command_topic", m.base + "/set/plan_select"},
+            {"options", Json::array({"Plan 1", "Plan 2", "Plan 3", "Plan 4"})}});
+  }
+
+  void publish_state(Machine& m, const Json& doc, Clock::time_point now) {
+    const std::string text = doc.dump();
+    if (text == m.last_state) return;
+    const double min_gap = options.max_rate > 0 ? 1.0 / options.max_rate : 0;
+    if (std::chrono::duration<double>(now - m.last_state_publish).count() < min_gap) {
+      m.state_pending = true;  // published at the next poll after the gap
+      return;
+    }
+    m.last_state = text;
+    m.last_state_publish = now;
+    m.state_pending = false;
+    m.publish(m.base + "/state", text, true);
+    for (const char* key : {"mode", "state", "speed", "time", "remaining_s", "elapsed_s", "mosfet_c",
+                            "motor_c", "current_a", "rpm", "bus_v", "faults"}) {
+      const std::string v = doc[key].is_string() ? doc[key].get<std::string>() : doc[key].dump();
+      std::string& last = m.last_values[key];
+      if (last == v) continue;
+      last = v;
+      m.publish(m.base + "/value/" + key, v, true);
+    }
+  }
+
+  void set_online(Machine& m, bool online) {
+    if (m.online == online && !m.announce) return;
+    m.online = online;
+    m.publish(m.base + "/availability", online ? "online" : "offline", true);
+  }
+
+  void run() {
+    std::unique_lock lock(mutex);
+    const auto period =
+        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.poll_hz));
+    while (!stopping) {
+      lock.unlock();
+      const Clock::time_point now = Clock::now();
+      for (auto& mp : machines) {
+        Machine& m = *mp;
+        if (m.announce.exchange(false)) {
+          publish_discovery(m);
+          m.publish(m.base + "/availability", m.online ? "online" : "offline", true);
+          m.last_state.clear();  // the broker may have lost retained messages: publish again
+          m.last_values.clear();
+        }
+        std::deque<Command> todo;
+        {
+          std::lock_guard g(m.mutex);
+          todo.swap(m.commands);
+        }
+        for (const Command& c : todo) {
+          Json result{{"command", c.name}, {"at", iso_now()}};
+          // A caller's correlation id comes back with the answer.
+          if (const Json body = Json::parse(c.payload, nullptr, false);
+              body.is_object() && body.contains("id"))
+            result["id"] = body["id"];
+          const rtukit::Status e = run_command(m, c, result);
+          result["ok"] = !e;
+          if (e) {
+            result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
+                                                             e.error().exception_code(), e.name(), e.reason())
+                                               : std::string(e.reason());
+          }
+          m.publish(m.base + "/result", result.dump(), false);
+          if (!e) m.next_poll = now;  // show the effect at once
+        }
+        if (now < m.next_poll && !m.state_pending) continue;
+        const Result<ij::MachineStatus> s = m.client.status();
+        if (!s) {
+          // Offline: polled again after a back-off, so it costs the others
+          // one response timeout per back-off at most.
+          ++m.failures;
+          if (m.failures >= 2) set_online(m, false);
+          m.next_poll = now + std::min<Clock::duration>(period * (1u << std::min(m.failures, 4u)),
+                                                        std::chrono::seconds(5));
+          continue;
+        }
+        m.failures = 0;
+        set_online(m, true);
+        publish_state(m, state_document(*s), now);
+        m.next_poll = now + period;
+      }
+      lock.lock();
+      wake.wait_for(lock, std::chrono::milliseconds(20), [this] { return stopping; });
+    }
+  }
+};
+
+Bridge::Bridge(std::unique_ptr<io::Link> link, BridgeOptions options)
+    : impl_(std::make_unique<Impl>(std::move(link), std::move(options))) {}
+
+Bridge::~Bridge() {
+  stop();
+}
+
+rtukit::Status Bridge::start() {
+  Impl& b = *impl_;
+  if (b.options.machines.empty()) return rtukit::Status(Errc::invalid_argument, "no machine (--unit)");
+  std::set<std::string> ids;
+  std::set<uint8_t> units;
+  for (const BridgeMachine& m : b.options.machines) {
+    if (!valid_topic_level(m.id))
+      return rtukit::Status(Errc::invalid_argument,
+                            fmt::format("id '{}': one MQTT topic level (no '/', '+', '#', spaces)", m.id));
+    if (!ids.insert(m.id).second)
+      return rtukit::Status(Errc::invalid_argument, fmt::format("id '{}' twice", m.id));
+    if (!units.insert(m.unit).second)
+      return rtukit::Status(Errc::invalid_argument, fmt::format("unit {} twice", m.unit));
+  }
+  mosquitto_lib_init();
+  for (const BridgeMachine& config : b.options.machines) {
+    auto m = std::make_unique<Machine>(b.master, config, b.options);
+    const std::string client_id = fmt::format("rtukit-inverjet-{}", config.id);
+    m->mosq = mosquitto_new(client_id.c_str(), true, m.get());
+    if (!m->mosq) return rtukit::Status(Errc::io_error, "libmosquitto: cannot create a client");
+    mosquitto_int_option(m->mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    if (!b.options.user.empty())
+      mosquitto_username_pw_set(m->mosq, b.options.user.c_str(),
+                                b.options.password.empty() ? nullptr : b.options.password.c_str());
+    if (!b.options.tls_ca.empty()) {
+      if (int rc = mosquitto_tls_set(m->mosq, b.options.tls_ca.c_str(), nullptr, nullptr, nullptr, nullptr);
+          rc != MOSQ_ERR_SUCCESS)
+        return rtukit::Status(Errc::io_error,
+                              fmt::format("--tls-ca {}: {}", b.options.tls_ca, mosquitto_strerror(rc)));
+    }
+    const std::string will = m->base + "/availability";
+    mosquitto_will_set(m->mosq, will.c_str(), 7, "offline", 1, true);
+    mosquitto_connect_callback_set(m->mosq, &Impl::on_connect);
+    mosquitto_disconnect_callback_set(m->mosq, &Impl::on_disconnect);
+    mosquitto_message_callback_set(m->mosq, &Impl::on_message);
+    mosquitto_publish_callback_set(m->mosq, &Impl::on_publish);
+    mosquitto_reconnect_delay_set(m->mosq, 1, 30, true);
+    // A broker that is down now is retried by the loop (connect_async).
+    mosquitto_connect_async(m->mosq, b.options.host.c_str(), b.options.port, 30);
+    mosquitto_loop_start(m->mosq);
+    b.machines.push_back(std::move(m));
+  }
+  b.thread = std::thread([&b] { b.run(); });
+  return {};
+}
+
+void Bridge::stop() {
+  Impl& b = *impl_;
+  if (!b.thread.joinable()) return;
+  {
+    std::lock_guard lock(b.mutex);
+    b.stopping = true;
+  }
+  b.wake.notify_all();
+  b.thread.join();
+  // "offline" for every machine, acknowledged by the broker (1 s at most),
+  // before a clean disconnect (which suppresses the last will).
+  for (auto& m : b.machines) {
+    m->acked = 0;
+    if (m->connected) m->publish(m->base + "/availability", "offline", true);
+  }
+  const auto deadline = Clock::now() + std::chrono::seconds(1);
+  for (auto& m : b.machines)
+    while (m->connected && m->acked == 0 && Clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  for (auto& m : b.machines) {
+    mosquitto_disconnect(m->mosq);
+    mosquitto_loop_stop(m->mosq, false);
+  }
+  b.machines.clear();
+  mosquitto_lib_cleanup();
+}
+
+}  // namespace rtukit::programs

@@ -1,0 +1,357 @@
+#!/usr/bin/python3
+"""The Inverjet MQTT bridge against a real Mosquitto broker, with Debian's
+mosquitto_sub / mosquitto_pub as the independent peers, and the simulated
+machine on a pty. Starts what it needs (a broker on a free loopback port with
+a config file written here), stops it by PID.
+
+Usage: inverjet_bridge_mqtt.py RTUKIT
+Prints "ok NAME" / "FAIL NAME detail" per check; exits 1 when one failed.
+"""
+import getpass
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+RTUKIT = sys.argv[1]
+failures = []
+procs = []
+
+
+def check(name, cond, detail=""):
+    print(f"{'ok' if cond else 'FAIL'} {name} {detail if not cond else ''}".rstrip(), flush=True)
+    if not cond:
+        failures.append(name)
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    p = s.getsockname()[1]
+    s.close()
+    return p
+
+
+def wait_for(fn, timeout=5.0, step=0.05):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        v = fn()
+        if v:
+            return v
+        time.sleep(step)
+    return fn()
+
+
+def start(argv, **kw):
+    p = subprocess.Popen(argv, stdout=kw.pop("stdout", subprocess.DEVNULL), stderr=kw.pop("stderr", subprocess.DEVNULL), **kw)
+    procs.append(p)
+    return p
+
+
+def stop(p, sig=signal.SIGTERM):
+    if p.poll() is None:
+        p.send_signal(sig)
+        try:
+            p.wait(5)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.wait()
+
+
+class Broker:
+    def __init__(self, work, port, extra=""):
+        self.conf = os.path.join(work, f"mosquitto-{port}.conf")
+        with open(self.conf, "w") as f:
+            # As root, mosquitto drops to the user named here before it reads
+            # the password file (which lives in our private temporary folder).
+            f.write(f"listener {port} 127.0.0.1\npersistence false\nuser {getpass.getuser()}\n"
+                    f"{extra or 'allow_anonymous true'}\n")
+        self.port = port
+        self.start()
+
+    def start(self):
+        self.p = start(["mosquitto", "-c", self.conf])
+        wait_for(lambda: _connects(self.port))
+
+    def restart(self):
+        stop(self.p)
+        self.start()
+
+
+def _connects(port):
+    try:
+        socket.create_connection(("127.0.0.1", port), 0.2).close()
+        return True
+    except OSError:
+        return False
+
+
+def sub(port, topics, count=None, timeout=3, auth=()):
+    """Retained and live messages on `topics` for `timeout` s (or until `count`)."""
+    argv = ["mosquitto_sub", "-p", str(port), "-v", "-W", str(timeout), *auth]
+    for t in topics:
+        argv += ["-t", t]
+    if count:
+        argv += ["-C", str(count)]
+    out = subprocess.run(argv, capture_output=True, text=True).stdout
+    msgs = []
+    for line in out.splitlines():
+        topic, _, payload = line.partition(" ")
+        msgs.append((topic, payload))
+    return msgs
+
+
+def pub(port, topic, payload, retain=False, auth=()):
+    argv = ["mosquitto_pub", "-p", str(port), "-t", topic, "-m", payload, "-q", "1", *auth]
+    if retain:
+        argv.append("-r")
+    return subprocess.run(argv, capture_output=True, text=True).returncode
+
+
+def retained(port, topic, auth=()):
+    msgs = sub(port, [topic], count=1, timeout=2, auth=auth)
+    return msgs[0][1] if msgs else None
+
+
+class Console:
+    def __init__(self, path):
+        self.s = socket.socket(socket.AF_UNIX)
+        self.s.connect(path)
+        self.s.settimeout(2)
+
+    def ask(self, line):
+        self.s.sendall(line.encode() + b"\n")
+        data = b""
+        while not data.endswith(b"\n"):
+            data += self.s.recv(4096)
+        return data.decode().strip()
+
+
+def machine(work, name):
+    pty, con = os.path.join(work, name), os.path.join(work, name + ".sock")
+    start([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console", "--console",
+           f"unix:{con}"])
+    wait_for(lambda: os.path.exists(pty) and os.path.exists(con))
+    return pty, Console(con)
+
+
+ERR_DIR = tempfile.mkdtemp(prefix="rtukit-bridge-err-")
+
+
+def bridge(pty, port, mid, *extra):
+    # stderr kept: a sanitizer build (ASan, TSan) reports there.
+    err = open(os.path.join(ERR_DIR, f"{mid}-{len(procs)}.err"), "w")
+    return start([RTUKIT, "inverjet", "bridge", "--port", pty, "--mqtt", f"mqtt://127.0.0.1:{port}", "--id", mid,
+                  "--poll-hz", "4", "--max-rate", "4", *extra], stderr=err)
+
+
+def command(port, mid, cmd, payload, auth=()):
+    """Publishes a command and returns the bridge's answer on .../result."""
+    out = subprocess.Popen(["mosquitto_sub", "-p", str(port), "-t", f"rtukit/inverjet/{mid}/result", "-C", "1", "-W",
+                            "5", *auth], stdout=subprocess.PIPE, text=True)
+    time.sleep(0.2)
+    pub(port, f"rtukit/inverjet/{mid}/set/{cmd}", payload, auth=auth)
+    line = out.communicate()[0].strip()
+    return json.loads(line) if line else None
+
+
+# Home Assistant's MQTT discovery schema (the keys each component takes, as
+# documented on home-assistant.io/integrations/<component>.mqtt), for the
+# keys the bridge uses.
+COMMON = {"name", "unique_id", "object_id", "device", "availability_topic", "payload_available",
+          "payload_not_available", "availability", "availability_mode", "icon", "entity_category",
+          "enabled_by_default", "qos", "json_attributes_topic", "json_attributes_template", "encoding"}
+SCHEMA = {
+    "sensor": COMMON | {"state_topic", "value_template", "unit_of_measurement", "device_class", "state_class",
+                        "force_update", "expire_after", "suggested_display_precision"},
+    "binary_sensor": COMMON | {"state_topic", "value_template", "payload_on", "payload_off", "device_class",
+                               "force_update", "expire_after", "off_delay"},
+    "number": COMMON | {"state_topic", "value_template", "command_topic", "command_template", "min", "max", "step",
+                        "mode", "unit_of_measurement", "device_class", "optimistic", "retain"},
+    "button": COMMON | {"command_topic", "command_template", "payload_press", "device_class", "retain"},
+    "select": COMMON | {"state_topic", "value_template", "command_topic", "command_template", "options",
+                        "optimistic", "retain"},
+}
+DEVICE_KEYS = {"identifiers", "connections", "name", "manufacturer", "model", "sw_version", "hw_version",
+               "suggested_area", "via_device", "configuration_url"}
+REQUIRED = {"sensor": {"state_topic"}, "binary_sensor": {"state_topic"}, "number": {"command_topic"},
+            "button": {"command_topic"}, "select": {"command_topic", "options"}}
+
+
+def main():
+    work = tempfile.mkdtemp(prefix="rtukit-mqtt-")
+    try:
+        port = free_port()
+        broker = Broker(work, port)
+        pty, con = machine(work, "jet1")
+
+        # a retained command left on the broker before the bridge comes up
+        pub(port, "rtukit/inverjet/pool1/set/start", '{"mode":"free","speed":60}', retain=True)
+        b = bridge(pty, port, "pool1")
+        check("availability online", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online"))
+        doc = wait_for(lambda: retained(port, "rtukit/inverjet/pool1/state"))
+        state = json.loads(doc) if doc else {}
+        check("retained state document", state.get("state") == "off" and state.get("speed") == 0
+              and state.get("bus_v") == 311.0 and "versions" in state, doc)
+        check("a retained command is never run", con.ask("get state").startswith("state = off"), con.ask("get state"))
+        pub(port, "rtukit/inverjet/pool1/set/start", "", retain=True)  # clear it
+        check("per-value topics", retained(port, "rtukit/inverjet/pool1/value/bus_v") == "311.0")
+
+        # every command and every refusal
+        r = command(port, "pool1", "start", '{"mode":"timer","speed":80,"duration":"30:00","id":7}')
+        check("start timer", r and r["ok"] and r.get("id") == 7, r)
+        check("the machine runs it", wait_for(lambda: con.ask("get speed").startswith("speed = 80")), con.ask("get speed"))
+        check("state published on change", wait_for(
+            lambda: json.loads(retained(port, "rtukit/inverjet/pool1/state") or "{}").get("speed") == 80))
+        r = command(port, "pool1", "speed", "120")
+        check("speed 120 refused with the client's reason", r and not r["ok"] and "outside 0..100" in r["error"], r)
+        r = command(port, "pool1", "speed", "55")
+        check("speed 55", r and r["ok"] and wait_for(lambda: "55" in con.ask("get speed")), r)
+        r = command(port, "pool1", "pause", "PRESS")
+        check("pause", r and r["ok"], r)
+        r = command(port, "pool1", "resume", "PRESS")
+        check("resume", r and r["ok"], r)
+        r = command(port, "pool1", "start", '{"mode":"timer","speed":50}')
+        check("timer without duration refused", r and not r["ok"] and "duration" in r["error"], r)
+        r = command(port, "pool1", "start", '{"mode":"warp"}')
+        check("unknown mode refused", r and not r["ok"] and "warp" in r["error"], r)
+        r = command(port, "pool1", "fly", "{}")
+        check("unknown command refused", r and not r["ok"] and "unknown command" in r["error"], r)
+        r = command(port, "pool1", "plan", '{"plan":2,"segments":[{"speed":40,"end":"05:00"},{"speed":60,"end":"04:00"}]}')
+        check("a plan with decreasing end times refused, nothing written",
+              r and not r["ok"] and "segment 2" in r["error"], r)
+        r = command(port, "pool1", "plan", '{"plan":2,"segments":[{"speed":40,"end":"05:00"},{"speed":70,"end":"10:00"}]}')
+        check("plan upload", r and r["ok"] and r.get("segments") == 2, r)
+        r = command(port, "pool1", "stop", "PRESS")
+        check("stop", r and r["ok"] and wait_for(lambda: con.ask("get state").startswith("state = off")), r)
+        r = command(port, "pool1", "pause", "PRESS")
+        check("pause with nothing running: the Modbus exception by name",
+              r and not r["ok"] and "exception 04" in r["error"], r)
+        r = command(port, "pool1", "start", json.dumps({"mode": "free", "speed": 30, "ts": time.time() - 60}))
+        check("a command sent 60 s ago is dropped", r and not r["ok"] and r["error"].startswith("stale"), r)
+        check("...and the machine stays off", con.ask("get state").startswith("state = off"))
+        r = command(port, "pool1", "plan_select", "Plan 2")
+        check("plan select starts plan 2", r and r["ok"] and wait_for(
+            lambda: json.loads(retained(port, "rtukit/inverjet/pool1/state") or "{}").get("plan_select") == "Plan 2"), r)
+        command(port, "pool1", "stop", "PRESS")
+
+        # a fault shows
+        con.ask("fault motor-drive")
+        check("fault published", wait_for(lambda: json.loads(retained(port, "rtukit/inverjet/pool1/state") or "{}")
+                                          .get("fault") is True), retained(port, "rtukit/inverjet/pool1/state"))
+        con.ask("fault clear")
+
+        # Home Assistant discovery
+        disc = sub(port, ["homeassistant/#"], timeout=2)
+        comps = {}
+        bad = []
+        own = {"rtukit/inverjet/pool1/" + t for t in ("state", "availability", "set/speed", "set/start", "set/pause",
+                                                      "set/resume", "set/stop", "set/plan_select")}
+        for topic, payload in disc:
+            parts = topic.split("/")
+            if len(parts) != 5 or parts[0] != "homeassistant" or parts[4] != "config":
+                bad.append(f"topic {topic}")
+                continue
+            comp = parts[1]
+            cfg = json.loads(payload)
+            comps[comp] = comps.get(comp, 0) + 1
+            if comp not in SCHEMA:
+                bad.append(f"component {comp}")
+                continue
+            extra = set(cfg) - SCHEMA[comp]
+            missing = REQUIRED[comp] - set(cfg)
+            if extra or missing:
+                bad.append(f"{topic}: unknown {sorted(extra)} missing {sorted(missing)}")
+            if set(cfg.get("device", {})) - DEVICE_KEYS:
+                bad.append(f"{topic}: device keys {sorted(set(cfg['device']) - DEVICE_KEYS)}")
+            for k, v in cfg.items():
+                if k.endswith("_topic") and v not in own:
+                    bad.append(f"{topic}: {k} {v} is not a bridge topic")
+            if cfg.get("unique_id", "").count("pool1") != 1 or parts[3] not in cfg.get("unique_id", ""):
+                bad.append(f"{topic}: unique_id {cfg.get('unique_id')}")
+        check("discovery payloads follow the schema", not bad, "; ".join(bad[:6]))
+        check("discovery announces every entity", comps == {"sensor": 9, "number": 1, "binary_sensor": 1,
+                                                            "button": 4, "select": 1}, comps)
+
+        # broker restart: the bridge comes back by itself and publishes again
+        broker.restart()
+        check("after a broker restart: online again", wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 15))
+        check("after a broker restart: state again", wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/state") is not None, 5))
+
+        # the machine unplugged, then back
+        stop(procs[1], signal.SIGKILL)  # the simulator
+        check("machine gone: offline", wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", 10))
+        pty2, con = machine(work, "jet1")
+        check("machine back: online", wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 15))
+
+        # last will: the bridge killed
+        stop(b, signal.SIGKILL)
+        check("bridge killed: the broker publishes offline (last will)", wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", 5))
+        b = bridge(pty, port, "pool1")
+        check("bridge back", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 10))
+        stop(b)
+        check("bridge stopped cleanly: offline", retained(port, "rtukit/inverjet/pool1/availability") == "offline")
+        plan = subprocess.run([RTUKIT, "inverjet", "plan", "show", "2", "--port", pty, "--json"], capture_output=True,
+                              text=True)
+        # The simulator was restarted without state: plan 2 is the factory plan again; shown to prove the port is free.
+        check("the port is free after the bridge stops", plan.returncode == 0, plan.stdout + plan.stderr)
+
+        # ---- the ACL: machine A's credentials cannot command machine B
+        aport = free_port()
+        pw = os.path.join(work, "passwd")
+        subprocess.run(["mosquitto_passwd", "-b", "-c", pw, "jetA", "secretA"], check=True)
+        subprocess.run(["mosquitto_passwd", "-b", pw, "jetB", "secretB"], check=True)
+        acl = os.path.join(work, "acl")
+        with open(acl, "w") as f:
+            f.write("pattern readwrite rtukit/inverjet/%u/#\npattern write homeassistant/+/rtukit_inverjet_%u/#\n")
+        os.chmod(pw, 0o600)
+        Broker(work, aport, f"allow_anonymous false\npassword_file {pw}\nacl_file {acl}")
+        ptyA, conA = machine(work, "jetA")
+        ptyB, conB = machine(work, "jetB")
+        for name, p_ in (("jetA", ptyA), ("jetB", ptyB)):
+            with open(os.path.join(work, name + ".pw"), "w") as f:
+                f.write("secret" + name[-1] + "\n")
+            bridge(p_, aport, name, "--user", name, "--password-file", os.path.join(work, name + ".pw"))
+        authA = ("-u", "jetA", "-P", "secretA")
+        authB = ("-u", "jetB", "-P", "secretB")
+        check("A and B online", wait_for(lambda: retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online"
+                                         and retained(aport, "rtukit/inverjet/jetB/availability", authB) == "online", 10))
+        pub(aport, "rtukit/inverjet/jetB/set/start", '{"mode":"free","speed":70}', auth=authA)
+        time.sleep(1.5)
+        check("A's credentials cannot command B", conB.ask("get state").startswith("state = off"), conB.ask("get state"))
+        r = command(aport, "jetA", "start", '{"mode":"free","speed":70}', auth=authA)
+        check("A's credentials command A", r and r["ok"] and wait_for(lambda: not conA.ask("get state").startswith("state = off")), r)
+        check("A cannot read B's state", retained(aport, "rtukit/inverjet/jetB/state", authA) is None)
+
+        # ---- 20 machines on one broker
+        fport = free_port()
+        Broker(work, fport)
+        for i in range(20):
+            p_, _ = machine(work, f"fleet{i}")
+            bridge(p_, fport, f"swim{i:02d}", "--no-discovery")
+        online = wait_for(lambda: sum(1 for t, v in sub(fport, ["rtukit/inverjet/+/availability"], timeout=1)
+                                      if v == "online") == 20, 30, 0.5)
+        check("20 machines online, each under its own id", online)
+        states = sub(fport, ["rtukit/inverjet/+/state"], timeout=1)
+        check("20 state documents", len({t for t, _ in states}) == 20, len(states))
+    finally:
+        for p in reversed(procs):
+            stop(p)
+    reports = [n for n in os.listdir(ERR_DIR) if "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
+    check("no sanitizer report from any bridge", not reports,
+          "".join(open(os.path.join(ERR_DIR, n)).read()[:3000] for n in reports[:1]))
+    print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
+    return 0 if not failures else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
