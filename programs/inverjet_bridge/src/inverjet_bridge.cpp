@@ -101,6 +101,115 @@ rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
   return {};
 }
 
+rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, const Json& body, Json& result) {
+  const std::string name(name_view);
+  const auto refuse = [](std::string why) {
+    return rtukit::Status(Errc::invalid_argument, std::move(why));
+  };
+  if (name == "pause") return client.pause();
+  if (name == "resume") return client.resume();
+  if (name == "stop") return client.stop();
+  if (name == "speed") {
+    const Json v = body.is_object() && body.contains("speed") ? body["speed"] : body;
+    const std::optional<uint16_t> speed = small_number(v);
+    if (!speed) return refuse("speed: expected a number 0..100");
+    return client.set_speed(*speed);
+  }
+  if (name == "plan_select") {
+    // Home Assistant's select: "Plan 1".."Plan 4" starts that plan.
+    const std::string v = body.is_string() ? body.get<std::string>() : body.dump();
+    if (v.size() != 6 || v.rfind("Plan ", 0) != 0 || v[5] < '1' || v[5] > '4')
+      return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", v.substr(0, 20)));
+    return client.start_plan(static_cast<unsigned>(v[5] - '0'));
+  }
+  if (name == "start") {
+    if (!body.is_object()) return client.start_free_from_memory();  // a button's "PRESS"
+    const std::string mode = body.value("mode", "free");
+    if (mode == "free") {
+      if (!body.contains("speed")) return client.start_free_from_memory();
+      const std::optional<uint16_t> speed = small_number(body["speed"]);
+      if (!speed) return refuse("speed: expected a number 0..100");
+      return client.start_free(*speed);
+    }
+    if (mode == "timer") {
+      const std::optional<uint16_t> speed =
+          body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
+      const std::optional<uint32_t> duration =
+          body.contains("duration") ? seconds_of(body["duration"]) : std::nullopt;
+      if (!speed) return refuse("timer: \"speed\" 0..100 is required");
+      if (!duration || *duration < 1 || *duration > 5999)
+        return refuse("timer: \"duration\" 00:01..99:59 is required");
+      return client.start_timer(*speed, static_cast<uint16_t>(*duration));
+    }
+    if (mode == "plan") {
+      const std::optional<uint16_t> plan =
+          body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+      if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
+      const std::optional<uint32_t> from =
+          body.contains("from") ? seconds_of(body["from"]) : std::optional<uint32_t>(0);
+      if (!from || *from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
+      return client.start_plan(*plan, static_cast<uint16_t>(*from));
+    }
+    return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", mode.substr(0, 20)));
+  }
+  if (name == "plan") {
+    if (!body.is_object() || !body.contains("segments") || !body["segments"].is_array())
+      return refuse(
+          "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": %, \"end\": \"mm:ss\"}, ...]}");
+    const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+    if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
+    std::vector<ij::Segment> segments;
+    for (const Json& s : body["segments"]) {
+      ij::Segment segment;
+      bool ok = false;
+      if (s.is_object() && s.contains("speed") && s.contains("end")) {
+        const std::optional<uint16_t> speed = small_number(s["speed"]);
+        const std::optional<uint32_t> end = seconds_of(s["end"]);
+        ok = speed.has_value() && end.has_value() && end.value_or(0) <= 0xFFFF;
+        if (ok) segment = {speed.value_or(0), static_cast<uint16_t>(end.value_or(0))};
+      }
+      if (!ok)
+        return refuse(fmt::format("plan: segment {} needs \"speed\" and \"end\"", segments.size() + 1));
+      segments.push_back(segment);
+    }
+    if (rtukit::Status e = ij::validate_plan(segments)) return e;
+    if (rtukit::Status e = client.write_plan(*plan, segments)) return e;
+    result["segments"] = segments.size();
+    return {};
+  }
+  return refuse(fmt::format("unknown command '{}'", name.substr(0, 40)));
+}
+
+
+Json machine_state_json(const ij::MachineStatus& s) {
+  Json faults = Json::array();
+  for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
+  const bool timer = s.family() == ij::Family::timer;
+  return Json{{"mode", s.mode == 0 ? (timer ? "timer" : "free") : fmt::format("plan {}", s.mode)},
+              {"mode_raw", s.mode},
+              {"state", std::string(s.state_name())},
+              {"state_raw", s.state},
+              {"running", s.phase() == ij::Phase::running},
+              {"speed", s.speed},
+              {"time", profile::format_mm_ss(s.run_time)},
+              {"remaining_s", timer ? Json(s.run_time) : Json(nullptr)},
+              {"elapsed_s", timer ? Json(nullptr) : Json(s.run_time)},
+              {"faults", faults},
+              {"fault", !faults.empty()},
+              {"mosfet_c", s.mosfet_c},
+              {"motor_c", s.motor_c},
+              {"current_a", s.current_a},
+              {"rpm", s.rpm},
+              {"bus_v", s.bus_v},
+              {"plan_select", s.mode >= 1 && s.mode <= 4 ? fmt::format("Plan {}", s.mode) : ""},
+              {"versions",
+               {{"display_software", s.display_software},
+                {"display_hardware", s.display_hardware},
+                {"driver_software", s.driver_software},
+                {"driver_hardware", s.driver_hardware}}}};
+}
+
+
 // ---------------------------------------------------------------- one machine
 
 struct Machine {
@@ -183,9 +292,6 @@ struct Bridge::Impl {
   // ---------------------------------------------------------- the bus side (bridge thread)
 
   rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
-    const auto refuse = [](std::string why) {
-      return rtukit::Status(Errc::invalid_argument, std::move(why));
-    };
     const Json body = Json::parse(c.payload, nullptr, false);
     // Stale: a retained command, or one stamped too long ago. Never run.
     if (c.retained) return rtukit::Status(Errc::refused, "stale: a retained command is never run");
@@ -197,108 +303,8 @@ struct Bridge::Impl {
         return rtukit::Status(Errc::refused,
                               fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, options.max_age_s));
     }
-    if (c.name == "pause") return m.client.pause();
-    if (c.name == "resume") return m.client.resume();
-    if (c.name == "stop") return m.client.stop();
-    if (c.name == "speed") {
-      const Json v = body.is_object() && body.contains("speed") ? body["speed"]
-                     : body.is_discarded()                      ? Json(c.payload)
-                                                                : body;
-      const std::optional<uint16_t> speed = small_number(v);
-      if (!speed) return refuse("speed: expected a number 0..100");
-      return m.client.set_speed(*speed);
-    }
-    if (c.name == "plan_select") {
-      // Home Assistant's select: "Plan 1".."Plan 4" starts that plan.
-      const std::string v = body.is_string() ? body.get<std::string>() : c.payload;
-      if (v.size() != 6 || v.rfind("Plan ", 0) != 0 || v[5] < '1' || v[5] > '4')
-        return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", v.substr(0, 20)));
-      return m.client.start_plan(static_cast<unsigned>(v[5] - '0'));
-    }
-    if (c.name == "start") {
-      if (!body.is_object()) return m.client.start_free_from_memory();  // a button's "PRESS"
-      const std::string mode = body.value("mode", "free");
-      if (mode == "free") {
-        if (!body.contains("speed")) return m.client.start_free_from_memory();
-        const std::optional<uint16_t> speed = small_number(body["speed"]);
-        if (!speed) return refuse("speed: expected a number 0..100");
-        return m.client.start_free(*speed);
-      }
-      if (mode == "timer") {
-        const std::optional<uint16_t> speed =
-            body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
-        const std::optional<uint32_t> duration =
-            body.contains("duration") ? seconds_of(body["duration"]) : std::nullopt;
-        if (!speed) return refuse("timer: \"speed\" 0..100 is required");
-        if (!duration || *duration < 1 || *duration > 5999)
-          return refuse("timer: \"duration\" 00:01..99:59 is required");
-        return m.client.start_timer(*speed, static_cast<uint16_t>(*duration));
-      }
-      if (mode == "plan") {
-        const std::optional<uint16_t> plan =
-            body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
-        if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
-        const std::optional<uint32_t> from =
-            body.contains("from") ? seconds_of(body["from"]) : std::optional<uint32_t>(0);
-        if (!from || *from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
-        return m.client.start_plan(*plan, static_cast<uint16_t>(*from));
-      }
-      return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", mode.substr(0, 20)));
-    }
-    if (c.name == "plan") {
-      if (!body.is_object() || !body.contains("segments") || !body["segments"].is_array())
-        return refuse(
-            "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": %, \"end\": \"mm:ss\"}, ...]}");
-      const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
-      if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
-      std::vector<ij::Segment> segments;
-      for (const Json& s : body["segments"]) {
-        ij::Segment segment;
-        bool ok = false;
-        if (s.is_object() && s.contains("speed") && s.contains("end")) {
-          const std::optional<uint16_t> speed = small_number(s["speed"]);
-          const std::optional<uint32_t> end = seconds_of(s["end"]);
-          ok = speed.has_value() && end.has_value() && end.value_or(0) <= 0xFFFF;
-          if (ok) segment = {speed.value_or(0), static_cast<uint16_t>(end.value_or(0))};
-        }
-        if (!ok)
-          return refuse(fmt::format("plan: segment {} needs \"speed\" and \"end\"", segments.size() + 1));
-        segments.push_back(segment);
-      }
-      if (rtukit::Status e = ij::validate_plan(segments)) return e;
-      if (rtukit::Status e = m.client.write_plan(*plan, segments)) return e;
-      result["segments"] = segments.size();
-      return {};
-    }
-    return refuse(fmt::format("unknown command '{}'", c.name.substr(0, 40)));
-  }
-
-  Json state_document(const ij::MachineStatus& s) {
-    Json faults = Json::array();
-    for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
-    const bool timer = s.family() == ij::Family::timer;
-    return Json{{"mode", s.mode == 0 ? (timer ? "timer" : "free") : fmt::format("plan {}", s.mode)},
-                {"mode_raw", s.mode},
-                {"state", std::string(s.state_name())},
-                {"state_raw", s.state},
-                {"running", s.phase() == ij::Phase::running},
-                {"speed", s.speed},
-                {"time", profile::format_mm_ss(s.run_time)},
-                {"remaining_s", timer ? Json(s.run_time) : Json(nullptr)},
-                {"elapsed_s", timer ? Json(nullptr) : Json(s.run_time)},
-                {"faults", faults},
-                {"fault", !faults.empty()},
-                {"mosfet_c", s.mosfet_c},
-                {"motor_c", s.motor_c},
-                {"current_a", s.current_a},
-                {"rpm", s.rpm},
-                {"bus_v", s.bus_v},
-                {"plan_select", s.mode >= 1 && s.mode <= 4 ? fmt::format("Plan {}", s.mode) : ""},
-                {"versions",
-                 {{"display_software", s.display_software},
-                  {"display_hardware", s.display_hardware},
-                  {"driver_software", s.driver_software},
-                  {"driver_hardware", s.driver_hardware}}}};
+    // Not JSON (a button's "PRESS", a bare number): the payload as a string.
+    return inverjet_command(m.client, c.name, body.is_discarded() ? Json(c.payload) : body, result);
   }
 
   void publish_discovery(Machine& m) {
@@ -451,7 +457,7 @@ struct Bridge::Impl {
         }
         m.failures = 0;
         set_online(m, true);
-        publish_state(m, state_document(*s), now);
+        publish_state(m, machine_state_json(*s), now);
         m.next_poll = now + period;
       }
       lock.lock();

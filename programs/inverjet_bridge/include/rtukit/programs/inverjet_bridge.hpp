@@ -23,6 +23,10 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+#include <string_view>
+
+#include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -45,6 +49,21 @@ struct BridgeOptions {
   std::string discovery_prefix = "homeassistant";  ///< empty: no discovery
   unsigned response_timeout_ms = 300;
 };
+
+/// The machine's status as the bridge and the pool panel publish it: mode,
+/// state by name, speed, time (remaining or elapsed), faults by name,
+/// temperatures, current, rpm, bus voltage, versions (docs/inverjet.md).
+nlohmann::json machine_state_json(const inverjet::MachineStatus& s);
+
+/// Runs one command as the bridge's set/<name> topics and the pool panel take
+/// it: start {mode free|timer|plan, speed, duration, plan, from} (anything
+/// not an object: free mode from memory), pause, resume, stop, speed (a
+/// number or {speed}), plan {plan, segments: [{speed, end}]}, plan_select
+/// ("Plan 1".."Plan 4"). Checked as the typed client checks (it runs them);
+/// never applied halfway. Errors: invalid_argument with the rule, or the
+/// machine's answer (Modbus exception with its reason), timeouts.
+rtukit::Status inverjet_command(inverjet::Client& client, std::string_view name, const nlohmann::json& body,
+                                nlohmann::json& result);
 
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.
