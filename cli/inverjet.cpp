@@ -20,6 +20,8 @@
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
+#include "rtukit/programs/inverjet_panel.hpp"
+#include "rtukit/web/server.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -49,6 +51,7 @@ struct JetArgs {
   std::string mqtt = "mqtt://127.0.0.1:1883", id, user, password_file, tls_ca,
               discovery_prefix = "homeassistant";
   double poll_hz = 2, max_rate = 2;
+  std::string http = "127.0.0.1:8081";  ///< panel
   bool no_discovery = false;
 };
 
@@ -468,6 +471,31 @@ int run_bridge(const JetArgs& a) {
   return kOk;
 }
 
+// The pool panel, until SIGINT/SIGTERM.
+int run_panel(const JetArgs& a) {
+  programs::PanelOptions o;
+  o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
+  o.http = a.http;
+  o.poll_hz = a.poll_hz;
+  o.response_timeout_ms = a.link.timeout_ms;
+  if (!web::is_loopback(a.http))
+    fmt::print(stderr,
+               "warning: the panel on {} is reachable from the network: anyone who reaches it can start "
+               "the machine; put it on the pool's own network or behind an authenticating proxy\n",
+               a.http);
+  programs::Panel panel(io::make_link(a.link.spec(false)), o);
+  const Interruptible interrupt;
+  if (rtukit::Status e = panel.start())
+    throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
+                  fmt::format("inverjet panel: {}", e.reason())};
+  fmt::print("inverjet panel: {}  (unit {})\n", panel.url(), o.unit);
+  std::fflush(stdout);
+  while (interrupt.sleep(std::chrono::milliseconds(200))) {
+  }
+  panel.stop();
+  return kOk;
+}
+
 }  // namespace
 
 void add_inverjet_commands(CLI::App& app, Action& action) {
@@ -498,6 +526,17 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
                       " --unit 21=lane1 --unit 22=lane2 --user jets --password-file /etc/rtukit/mqtt.pw"});
       },
       [](const JetArgs& a) { return run_bridge(a); });
+  add_command<JetArgs>(
+      *jet, action, "panel",
+      "the pool panel: a web page to run the machine and edit its plans (docs/inverjet.md)",
+      [&](CLI::App& cmd, JetArgs& a) {
+        a.link.add_to(cmd, false, ij::kDefaultBaud);
+        cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
+        cmd.add_option("--http", a.http, "HOST:PORT to serve the page on")->capture_default_str();
+        cmd.add_option("--poll-hz", a.poll_hz, "polls per second")->capture_default_str();
+        examples(cmd, {"rtukit inverjet panel " + port + " --http 127.0.0.1:8081"});
+      },
+      [](const JetArgs& a) { return run_panel(a); });
   add_command<JetArgs>(
       *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
       [&](CLI::App& cmd, JetArgs& a) {

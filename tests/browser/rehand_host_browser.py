@@ -19,123 +19,14 @@ import time
 import urllib.error
 import urllib.request
 
-from selenium import webdriver
-from selenium.webdriver.chrome.service import Service
 from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from browser_common import Console, browser, check, failures, free_port, layout, summary, wait_for  # noqa: E402
+
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 os.makedirs(OUT, exist_ok=True)
-failures = []
-
-
-def check(name, cond, detail=""):
-    print(f"{'ok' if cond else 'FAIL'} {name} {detail}".rstrip(), flush=True)
-    if not cond:
-        failures.append(name)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-def wait_for(fn, timeout=5.0, step=0.02):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        v = fn()
-        if v:
-            return v
-        time.sleep(step)
-    return fn()
-
-
-class Console:
-    """The simulator's console on its unix socket: the chair's physical side."""
-
-    def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
-
-    def cmd(self, line):
-        self.s.sendall(line.encode() + b"\n")
-        time.sleep(0.15)
-        data = b""
-        try:
-            self.s.settimeout(0.2)
-            while True:
-                chunk = self.s.recv(65536)
-                if not chunk:
-                    break
-                data += chunk
-        except socket.timeout:
-            pass
-        return data.decode(errors="replace")
-
-    def held(self):
-        # Reads until the status's last line: a probe of a few ms, not a fixed wait.
-        self.s.settimeout(2)
-        self.s.sendall(b"status\n")
-        data = b""
-        while not re.search(rb"held commands:[^\n]*\n", data):
-            chunk = self.s.recv(65536)
-            if not chunk:
-                break
-            data += chunk
-        m = re.search(r"held commands:(.*)", data.decode(errors="replace"))
-        return m.group(1).strip() if m else "?"
-
-
-def browser(width, height):
-    o = webdriver.ChromeOptions()
-    udd = tempfile.mkdtemp(prefix='rtukit-chromium-')
-    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
-              "--disable-background-networking", "--disable-component-update", "--disable-sync",
-              "--disable-dev-shm-usage", "--autoplay-policy=no-user-gesture-required",
-              f"--user-data-dir={udd}"]:
-        o.add_argument(a)
-    o.binary_location = "/usr/bin/chromium"
-    d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
-    d.set_window_size(width, height)
-    vw, vh = d.execute_script("return [innerWidth, innerHeight]")
-    d.set_window_size(width + (width - vw), height + (height - vh))
-    d.user_data_dir = udd
-    return d
-
-
-LAYOUT_JS = """
-const vis = (e) => { const r = e.getBoundingClientRect(); const s = getComputedStyle(e);
-  return r.width > 0 && r.height > 0 && s.visibility !== 'hidden' && !e.closest('.hidden'); };
-const controls = [...document.querySelectorAll('button, input')].filter(vis);
-const problems = [];
-for (let i = 0; i < controls.length; ++i) {
-  const a = controls[i].getBoundingClientRect();
-  if (a.right > innerWidth + 0.5 || a.bottom > innerHeight + 0.5 || a.left < -0.5 || a.top < -0.5)
-    problems.push('off screen: ' + (controls[i].id || controls[i].textContent.trim()));
-  for (let j = i + 1; j < controls.length; ++j) {
-    const b = controls[j].getBoundingClientRect();
-    if (a.left < b.right - 0.5 && b.left < a.right - 0.5 && a.top < b.bottom - 0.5 && b.top < a.bottom - 0.5)
-      problems.push('overlap: ' + controls[i].textContent.trim() + ' / ' + controls[j].textContent.trim());
-  }
-}
-for (const e of [...document.querySelectorAll('button, .value, .label, h1, h2, .banner, #code')].filter(vis)) {
-  if (e.scrollWidth > e.clientWidth + 1 || e.scrollHeight > e.clientHeight + 1)
-    problems.push('text does not fit: ' + (e.id || e.textContent.trim().slice(0, 30)));
-}
-return problems;
-"""
-
-
-def layout(d, name):
-    problems = d.execute_script(LAYOUT_JS)
-    d.save_screenshot(os.path.join(OUT, f"{name}.png"))
-    check(f"layout {name}", not problems, "; ".join(problems[:5]))
-
-
 def state(port, token=None):
     url = f"http://127.0.0.1:{port}/api/state" + (f"?token={token}" if token else "")
     with urllib.request.urlopen(url, timeout=2) as r:
@@ -190,7 +81,7 @@ def main():
         check("within 500 ms", latency < 500, f"{latency:.0f} ms")
         con.cmd("joystick 0 0")
         wait_for(lambda: text(hmi, "#speed") == "0 km/h", 5)
-        layout(hmi, "hmi-1280x800")
+        layout(hmi, "hmi-1280x800", OUT)
 
         # press and hold a posture: moves while held, stops on release
         up = hmi.find_element(By.CSS_SELECTOR, '[data-cmd="seat_lift"][data-value="up"]')
@@ -285,7 +176,7 @@ setTimeout(() => done('still open'), 5000);
         drivers.append(big)
         big.get(f"http://127.0.0.1:{http_port}/")
         wait_for(lambda: text(big, "#battery").startswith("80 %"))
-        layout(big, "hmi-1920x1080")
+        layout(big, "hmi-1920x1080", OUT)
 
         # ---- the phone: unpaired clients see and command nothing
         try:
@@ -298,7 +189,7 @@ setTimeout(() => done('still open'), 5000);
         phone.get(f"http://127.0.0.1:{phone_port}/")
         check("unpaired phone shows the pairing form", wait_for(lambda: phone.find_element(By.ID, "pairing").is_displayed()))
         check("unpaired phone shows no state", phone.find_element(By.ID, "battery").text in ("", "--"))
-        layout(phone, "phone-pairing-390x844")
+        layout(phone, "phone-pairing-390x844", OUT)
         phone.find_element(By.ID, "pair-code").send_keys("123456")
         phone.find_element(By.ID, "pair-go").click()
         check("no code shown: refused with the reason",
@@ -327,7 +218,7 @@ setTimeout(() => done('still open'), 5000);
         check("phone paired", wait_for(lambda: phone.find_element(By.ID, "remote").is_displayed()
                                        and re.fullmatch(r"\d+ %", text(phone, "#battery")), 5))
         check("the display lists the phone", wait_for(lambda: "Test phone" in text(hmi, "#phone-list")))
-        layout(phone, "phone-remote-390x844")
+        layout(phone, "phone-remote-390x844", OUT)
 
         # D-10: the seat is still raised from the posture checks
         check("raised: the phone shows why it cannot drive",
@@ -377,7 +268,7 @@ setTimeout(() => done({timeout: true}), 3000);
         check("one drive command accepted", first.get("ok") is True, json.dumps(first))
         gone = wait_for(lambda: "phone_forward" not in con.held(), 2, 0.005)
         dt = (time.monotonic() - t0) * 1000
-        check("no renewal: released by the lease (socket still open)", bool(gone) and 250 < dt < 300 + 50 + 150,
+        check("no renewal: released by the lease (socket still open)", bool(gone) and 150 < dt < 300 + 50 + 150,  # t0 is taken a Selenium round trip after the hold
               f"{dt:.0f} ms")
         check("the silent socket is still open", hmi.execute_script("return window.__silent.readyState") == 1)
         hmi.execute_script("window.__silent.close()")
@@ -437,8 +328,7 @@ setTimeout(() => done({timeout: true}), 3000);
         path = os.path.join(work, name)
         report = open(path).read() if os.path.exists(path) else ""
         check(f"no sanitizer report from the daemon ({name})", "Sanitizer" not in report, report[:2000])
-    print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
-    return 0 if not failures else 1
+    return summary()
 
 
 if __name__ == "__main__":

@@ -1,0 +1,142 @@
+"""What the browser tests share: a headless Chromium (Debian's, through
+chromedriver), checks that print one line each, polling with a deadline,
+the simulators' console sockets, and the layout check (no control overlaps
+another or leaves the screen, every text fits)."""
+import os
+import re
+import socket
+import tempfile
+import time
+
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+
+failures = []
+
+
+def check(name, cond, detail=""):
+    print(f"{'ok' if cond else 'FAIL'} {name} {detail}".rstrip(), flush=True)
+    if not cond:
+        failures.append(name)
+
+
+def free_port():
+    s = socket.socket()
+    s.bind(("127.0.0.1", 0))
+    p = s.getsockname()[1]
+    s.close()
+    return p
+
+
+def wait_for(fn, timeout=5.0, step=0.02):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        v = fn()
+        if v:
+            return v
+        time.sleep(step)
+    return fn()
+
+
+class Console:
+    """The simulator's console on its unix socket: the chair's physical side."""
+
+    def __init__(self, path):
+        self.s = socket.socket(socket.AF_UNIX)
+        self.s.connect(path)
+        self.s.settimeout(2)
+
+    def cmd(self, line):
+        self.s.sendall(line.encode() + b"\n")
+        time.sleep(0.15)
+        data = b""
+        try:
+            self.s.settimeout(0.2)
+            while True:
+                chunk = self.s.recv(65536)
+                if not chunk:
+                    break
+                data += chunk
+        except socket.timeout:
+            pass
+        return data.decode(errors="replace")
+
+    def ask(self, line):
+        """A one-line answer ("speed = 70 %")."""
+        self.s.settimeout(2)
+        self.s.sendall(line.encode() + b"\n")
+        data = b""
+        while not data.endswith(b"\n"):
+            data += self.s.recv(4096)
+        return data.decode(errors="replace").strip()
+
+    def held(self):
+        # Reads until the status's last line: a probe of a few ms, not a fixed wait.
+        self.s.settimeout(2)
+        self.s.sendall(b"status\n")
+        data = b""
+        while not re.search(rb"held commands:[^\n]*\n", data):
+            chunk = self.s.recv(65536)
+            if not chunk:
+                break
+            data += chunk
+        m = re.search(r"held commands:(.*)", data.decode(errors="replace"))
+        return m.group(1).strip() if m else "?"
+
+
+def browser(width, height):
+    o = webdriver.ChromeOptions()
+    udd = tempfile.mkdtemp(prefix='rtukit-chromium-')
+    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+              "--disable-background-networking", "--disable-component-update", "--disable-sync",
+              "--disable-dev-shm-usage", "--autoplay-policy=no-user-gesture-required",
+              f"--user-data-dir={udd}"]:
+        o.add_argument(a)
+    o.binary_location = "/usr/bin/chromium"
+    d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
+    d.set_window_size(width, height)
+    vw, vh = d.execute_script("return [innerWidth, innerHeight]")
+    d.set_window_size(width + (width - vw), height + (height - vh))
+    d.user_data_dir = udd
+    return d
+
+
+LAYOUT_JS = """
+const vis = (e) => { const r = e.getBoundingClientRect(); const s = getComputedStyle(e);
+  return r.width > 0 && r.height > 0 && s.visibility !== 'hidden' && !e.closest('.hidden'); };
+const controls = [...document.querySelectorAll('button, input')].filter(vis);
+const problems = [];
+for (let i = 0; i < controls.length; ++i) {
+  const a = controls[i].getBoundingClientRect();
+  const vertical = arguments[0];  // false: a page that scrolls down; only its width must fit
+  if (a.right > innerWidth + 0.5 || a.left < -0.5 || (vertical && (a.bottom > innerHeight + 0.5 || a.top < -0.5)))
+    problems.push('off screen: ' + (controls[i].id || controls[i].textContent.trim()));
+  for (let j = i + 1; j < controls.length; ++j) {
+    const b = controls[j].getBoundingClientRect();
+    if (a.left < b.right - 0.5 && b.left < a.right - 0.5 && a.top < b.bottom - 0.5 && b.top < a.bottom - 0.5)
+      problems.push('overlap: ' + controls[i].textContent.trim() + ' / ' + controls[j].textContent.trim());
+  }
+}
+for (const e of [...document.querySelectorAll('button, .value, .label, h1, h2, .banner, #code')].filter(vis)) {
+  if (e.scrollWidth > e.clientWidth + 1 || e.scrollHeight > e.clientHeight + 1)
+    problems.push('text does not fit: ' + (e.id || e.textContent.trim().slice(0, 30)));
+}
+return problems;
+"""
+
+
+def layout(d, name, out, scrolls=False):
+    """`scrolls`: the page may scroll down (a phone panel), so only its width
+    must fit the screen; a kiosk display must fit whole."""
+    problems = d.execute_script(LAYOUT_JS, not scrolls)
+    problems += [] if not scrolls else (
+        ["page scrolls sideways"] if d.execute_script("return document.documentElement.scrollWidth > innerWidth") else [])
+    d.save_screenshot(os.path.join(out, f"{name}.png"))
+    check(f"layout {name}", not problems, "; ".join(problems[:5]))
+
+
+
+
+def summary():
+    print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
+    return 0 if not failures else 1
