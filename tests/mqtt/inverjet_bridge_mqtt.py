@@ -92,7 +92,7 @@ def _connects(port):
 
 def sub(port, topics, count=None, timeout=3, auth=()):
     """Retained and live messages on `topics` for `timeout` s (or until `count`)."""
-    argv = ["mosquitto_sub", "-p", str(port), "-v", "-W", str(timeout), *auth]
+    argv = ["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-v", "-W", str(timeout), *auth]
     for t in topics:
         argv += ["-t", t]
     if count:
@@ -106,7 +106,7 @@ def sub(port, topics, count=None, timeout=3, auth=()):
 
 
 def pub(port, topic, payload, retain=False, auth=()):
-    argv = ["mosquitto_pub", "-p", str(port), "-t", topic, "-m", payload, "-q", "1", *auth]
+    argv = ["mosquitto_pub", "-h", "127.0.0.1", "-p", str(port), "-t", topic, "-m", payload, "-q", "1", *auth]
     if retain:
         argv.append("-r")
     return subprocess.run(argv, capture_output=True, text=True).returncode
@@ -142,21 +142,33 @@ def machine(work, name):
 ERR_DIR = tempfile.mkdtemp(prefix="rtukit-bridge-err-")
 
 
-def bridge(pty, port, mid, *extra):
+def bridge(pty, port, mid, *extra, scheme="mqtt"):
     # stderr kept: a sanitizer build (ASan, TSan) reports there.
     err = open(os.path.join(ERR_DIR, f"{mid}-{len(procs)}.err"), "w")
-    return start([RTUKIT, "inverjet", "bridge", "--port", pty, "--mqtt", f"mqtt://127.0.0.1:{port}", "--id", mid,
+    return start([RTUKIT, "inverjet", "bridge", "--port", pty, "--mqtt", f"{scheme}://127.0.0.1:{port}", "--id", mid,
                   "--poll-hz", "4", "--max-rate", "4", *extra], stderr=err)
 
 
 def command(port, mid, cmd, payload, auth=()):
-    """Publishes a command and returns the bridge's answer on .../result."""
-    out = subprocess.Popen(["mosquitto_sub", "-p", str(port), "-t", f"rtukit/inverjet/{mid}/result", "-C", "1", "-W",
-                            "5", *auth], stdout=subprocess.PIPE, text=True)
-    time.sleep(0.2)
-    pub(port, f"rtukit/inverjet/{mid}/set/{cmd}", payload, auth=auth)
-    line = out.communicate()[0].strip()
-    return json.loads(line) if line else None
+    """Publishes a command and returns the bridge's answer to it on .../result
+    (the first answer naming this command, and its id when the payload has one;
+    a late answer to an earlier command is skipped)."""
+    out = subprocess.Popen(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-t", f"rtukit/inverjet/{mid}/result",
+                            "-W", "5", *auth], stdout=subprocess.PIPE, text=True)
+    try:
+        time.sleep(0.2)
+        pub(port, f"rtukit/inverjet/{mid}/set/{cmd}", payload, auth=auth)
+        try:
+            want_id = json.loads(payload).get("id")
+        except (ValueError, AttributeError):
+            want_id = None
+        for line in out.stdout:
+            r = json.loads(line)
+            if r.get("command") == cmd and r.get("id") == want_id:
+                return r
+        return None
+    finally:
+        stop(out)
 
 
 # Home Assistant's MQTT discovery schema (the keys each component takes, as
@@ -191,12 +203,17 @@ def main():
 
         # a retained command left on the broker before the bridge comes up
         pub(port, "rtukit/inverjet/pool1/set/start", '{"mode":"free","speed":60}', retain=True)
+        refusal = subprocess.Popen(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-t",
+                                    "rtukit/inverjet/pool1/result", "-C", "1", "-W", "10"], stdout=subprocess.PIPE, text=True)
+        time.sleep(0.2)
         b = bridge(pty, port, "pool1")
         check("availability online", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online"))
         doc = wait_for(lambda: retained(port, "rtukit/inverjet/pool1/state"))
         state = json.loads(doc) if doc else {}
         check("retained state document", state.get("state") == "off" and state.get("speed") == 0
               and state.get("bus_v") == 311.0 and "versions" in state, doc)
+        answer = json.loads(refusal.communicate()[0] or "{}")
+        check("a retained command is refused", answer.get("ok") is False and "retained" in answer.get("error", ""), answer)
         check("a retained command is never run", con.ask("get state").startswith("state = off"), con.ask("get state"))
         pub(port, "rtukit/inverjet/pool1/set/start", "", retain=True)  # clear it
         check("per-value topics", retained(port, "rtukit/inverjet/pool1/value/bus_v") == "311.0")
@@ -331,6 +348,33 @@ def main():
         r = command(aport, "jetA", "start", '{"mode":"free","speed":70}', auth=authA)
         check("A's credentials command A", r and r["ok"] and wait_for(lambda: not conA.ask("get state").startswith("state = off")), r)
         check("A cannot read B's state", retained(aport, "rtukit/inverjet/jetB/state", authA) is None)
+
+        # ---- TLS to the broker (a CA of our own, the server certificate for 127.0.0.1)
+        ca_key, ca, key, csr, crt = (os.path.join(work, n) for n in ("ca.key", "ca.crt", "srv.key", "srv.csr", "srv.crt"))
+        ssl = lambda *a: subprocess.run(["openssl", *a], check=True, capture_output=True)  # noqa: E731
+        ssl("req", "-x509", "-newkey", "rsa:2048", "-nodes", "-keyout", ca_key, "-out", ca, "-days", "2",
+            "-subj", "/CN=rtukit test CA")
+        ssl("req", "-newkey", "rsa:2048", "-nodes", "-keyout", key, "-out", csr, "-subj", "/CN=127.0.0.1")
+        ext = os.path.join(work, "san.ext")
+        with open(ext, "w") as f:
+            f.write("subjectAltName=IP:127.0.0.1\n")
+        ssl("x509", "-req", "-in", csr, "-CA", ca, "-CAkey", ca_key, "-CAcreateserial", "-out", crt, "-days", "2",
+            "-extfile", ext)
+        for f_ in (key, crt, ca):
+            os.chmod(f_, 0o644)
+        tport = free_port()
+        Broker(work, tport, f"allow_anonymous true\ncafile {ca}\ncertfile {crt}\nkeyfile {key}")
+        ptyT, conT = machine(work, "jetT")
+        bridge(ptyT, tport, "tls1", "--tls-ca", ca, scheme="mqtts")
+        tls_sub = ("--cafile", ca)
+        check("TLS: the bridge is online through the encrypted link",
+              wait_for(lambda: retained(tport, "rtukit/inverjet/tls1/availability", tls_sub) == "online", 10))
+        check("TLS: a plain client is not served", retained(tport, "rtukit/inverjet/tls1/availability") is None)
+        ptyU, _ = machine(work, "jetU")
+        bridge(ptyU, tport, "tls2", scheme="mqtts")  # trusts only the system's CAs, not ours
+        time.sleep(2)
+        check("TLS: a bridge that does not trust the broker's certificate does not connect",
+              retained(tport, "rtukit/inverjet/tls2/availability", tls_sub) is None)
 
         # ---- 20 machines on one broker
         fport = free_port()

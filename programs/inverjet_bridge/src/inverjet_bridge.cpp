@@ -239,6 +239,11 @@ struct Machine {
   unsigned failures = 0;
   Clock::time_point next_poll{};
   Clock::time_point last_state_publish{};
+  Json pending_doc;  ///< a changed state held back by --max-rate
+  // Health, published on .../bridge every 10 s: is the bus keeping up?
+  uint64_t polls = 0, late_polls = 0, commands_run = 0;
+  double max_gap_ms = 0;
+  Clock::time_point last_poll{}, last_stats{};
   std::string last_state;
   std::map<std::string, std::string> last_values;
   bool state_pending = false;
@@ -382,10 +387,14 @@ struct Bridge::Impl {
 
   void publish_state(Machine& m, const Json& doc, Clock::time_point now) {
     const std::string text = doc.dump();
-    if (text == m.last_state) return;
+    if (text == m.last_state) {
+      m.state_pending = false;
+      return;
+    }
     const double min_gap = options.max_rate > 0 ? 1.0 / options.max_rate : 0;
     if (std::chrono::duration<double>(now - m.last_state_publish).count() < min_gap) {
-      m.state_pending = true;  // published at the next poll after the gap
+      m.state_pending = true;  // published by the loop once the gap has passed
+      m.pending_doc = doc;
       return;
     }
     m.last_state = text;
@@ -442,9 +451,29 @@ struct Bridge::Impl {
                                                : std::string(e.reason());
           }
           m.publish(m.base + "/result", result.dump(), false);
+          ++m.commands_run;
           if (!e) m.next_poll = now;  // show the effect at once
         }
-        if (now < m.next_poll && !m.state_pending) continue;
+        if (m.state_pending && now - m.last_state_publish >= std::chrono::duration<double>(1.0 / options.max_rate))
+          publish_state(m, Json(m.pending_doc), now);
+        if (now - m.last_stats >= std::chrono::seconds(10)) {
+          m.last_stats = now;
+          m.publish(m.base + "/bridge",
+                    Json{{"polls", m.polls},
+                         {"late_polls", m.late_polls},
+                         {"max_poll_gap_ms", std::lround(m.max_gap_ms)},
+                         {"commands", m.commands_run}}
+                        .dump(),
+                    false, 0);
+        }
+        if (now < m.next_poll) continue;
+        if (m.online && m.last_poll != Clock::time_point{}) {
+          const double gap = std::chrono::duration<double, std::milli>(now - m.last_poll).count();
+          m.max_gap_ms = std::max(m.max_gap_ms, gap);
+          if (gap > 1.5 * std::chrono::duration<double, std::milli>(period).count()) ++m.late_polls;
+        }
+        m.last_poll = now;
+        ++m.polls;
         const Result<ij::MachineStatus> s = m.client.status();
         if (!s) {
           // Offline: polled again after a back-off, so it costs the others
