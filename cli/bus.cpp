@@ -14,6 +14,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "rtukit/driver/virtual_bus.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -130,6 +131,7 @@ struct BusArgs {
   bool echo = false;
   uint64_t seed = 1;
   std::string tap;
+  bool overwrite = false;
   std::string name;
 };
 
@@ -149,7 +151,10 @@ int run_bus(const BusArgs& a) {
   o.line.seed = a.seed;
   std::shared_ptr<std::FILE> tap;
   if (!a.tap.empty()) {
-    tap.reset(std::fopen(a.tap.c_str(), "w"), [](std::FILE* f) {
+    // An earlier tap is replaced; any other file only with --overwrite.
+    Outcome<int> fd = io::create_output_file(a.tap, "# rtukit bus tap", a.overwrite);
+    if (!fd.ok()) throw Failure{exit_code(fd.error().error()), fmt::format("--tap {}", fd.error().reason())};
+    tap.reset(::fdopen(*fd, "w"), [](std::FILE* f) {
       if (f) std::fclose(f);
     });
     if (!tap) throw Failure{kIoError, fmt::format("--tap {}: cannot write", a.tap)};
@@ -179,8 +184,8 @@ int run_bus(const BusArgs& a) {
   if (tap_server) fmt::print("tap: rtukit sniff --bus {} ({})\n", a.name, bus_tap_socket(a.name));
   fmt::print("listening on {}\n", ports.front());
   std::fflush(stdout);
-  asio::signal_set signals(ctx, SIGINT, SIGTERM);
-  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   ctx.run();
   const BusLineStats s = (*bus)->stats();
   fmt::print(stderr, "bus: {} characters, {} collided, {} with bit errors, {} dropped, {} stray\n",
@@ -216,6 +221,7 @@ void add_bus_command(CLI::App& app, Action& action) {
         f->add_flag("--echo", a.echo, "a sender hears its own bytes (half-duplex adapters)");
         f->add_option("--seed", a.seed, "seed of the fault generator")->capture_default_str();
         cmd.add_option("--tap", a.tap, "write every character on the line, with its times, to this file");
+        cmd.add_flag("--overwrite", a.overwrite, "replace a --tap file that is not a tap");
         cmd.add_option("--name", a.name, "offer the tap live to `rtukit sniff --bus NAME`");
         examples(cmd, {"rtukit bus --ports 3 --links /tmp/bus0,/tmp/bus1,/tmp/bus2 --baud 9600 &",
                        "rtukit sim inverjet --listen /tmp/bus0 & rtukit sim rehand6600 --listen /tmp/bus1 "

@@ -1,6 +1,8 @@
 #include "common.hpp"
 
+#include <fcntl.h>
 #include <fmt/core.h>
+#include <poll.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -323,17 +325,75 @@ UnitId parse_unit(const std::string& text, bool tcp) {
 
 namespace {
 std::atomic<bool> g_interrupted{false};
+volatile std::sig_atomic_t g_output_broken = 0;
+
+// Called on SIGPIPE, also from a signal handler: only async-signal-safe
+// calls (poll, open, dup2, close). A pipe whose reader has gone polls as
+// POLLERR on its write end; such a stream is pointed at /dev/null.
+bool take_broken_output() {
+  bool broken = false;
+  for (int fd : {STDOUT_FILENO, STDERR_FILENO}) {
+    pollfd p{fd, POLLOUT, 0};
+    if (::poll(&p, 1, 0) != 1 || (p.revents & POLLERR) == 0) continue;
+    broken = true;
+    if (const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC); null >= 0) {
+      ::dup2(null, fd);
+      ::close(null);
+    }
+  }
+  if (broken) g_output_broken = 1;
+  return broken;
+}
+
+void on_stop_signal(int sig) {
+  if (sig != SIGPIPE || take_broken_output()) g_interrupted = true;
+}
+
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
+
+void rearm(asio::signal_set& signals, asio::io_context& ctx) {
+  signals.async_wait([&signals, &ctx](const std::error_code& ec, int sig) {
+    if (ec) return;
+    if (sig == SIGPIPE && !take_broken_output()) return rearm(signals, ctx);
+    ctx.stop();
+  });
+}
+}  // namespace
+
+void warn_if_exposed(const io::PortSpec& listen, std::string_view who) {
+  const std::string exposure = io::listener_exposure(listen);
+  if (exposure.empty()) return;
+  fmt::print(stderr,
+             "warning: {} listens on {} ({}): Modbus has no passwords, so anyone who can reach it reads and "
+             "writes the device; listen on tcp://127.0.0.1:PORT unless that is what you want\n",
+             who, exposure, listen.describe());
+}
+
+bool output_broken() {
+  // Also a write that failed with EPIPE before any handler saw the signal.
+  return g_output_broken != 0 || take_broken_output();
+}
+
+void catch_broken_output() {
+  std::signal(SIGPIPE, on_stop_signal);
+}
+
+void stop_on_signals(asio::signal_set& signals, asio::io_context& ctx) {
+  for (int sig : kStopSignals) signals.add(sig);
+  signals.add(SIGPIPE);  // while the loop runs; catch_broken_output's handler before and after
+  // Output broken while starting (`| head -n 1` took the first line): the
+  // loop returns at once and the server cleans up.
+  if (g_output_broken != 0) ctx.stop();
+  rearm(signals, ctx);
 }
 
 Interruptible::Interruptible() {
-  g_interrupted = false;
-  std::signal(SIGINT, [](int) { g_interrupted = true; });
-  std::signal(SIGTERM, [](int) { g_interrupted = true; });
+  g_interrupted = g_output_broken != 0;
+  for (int sig : kStopSignals) std::signal(sig, on_stop_signal);
 }
 
 Interruptible::~Interruptible() {
-  std::signal(SIGINT, SIG_DFL);
-  std::signal(SIGTERM, SIG_DFL);
+  for (int sig : kStopSignals) std::signal(sig, SIG_DFL);
 }
 
 bool Interruptible::interrupted() const {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <asio/io_context.hpp>
+#include <asio/signal_set.hpp>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -106,8 +108,36 @@ int exit_code(Error e);
 /// Throws Failure with one clear line: what failed, on which port/unit.
 [[noreturn]] void fail(Error e, std::string_view context);
 
-/// Ctrl-C and SIGTERM for commands that run until interrupted (watch, hold):
-/// while one exists, those signals set interrupted() instead of killing us.
+/// One warning line on stderr when a Modbus TCP listener is reachable from
+/// beyond this machine (0.0.0.0, [::] or another address that is not
+/// loopback): Modbus has no authentication, so whoever reaches it reads and
+/// writes the device. Nothing for a serial port, a pty or loopback.
+void warn_if_exposed(const io::PortSpec& listen, std::string_view who);
+
+/// The signals that end a command cleanly, as Ctrl-C does: SIGINT, SIGTERM,
+/// SIGHUP (its terminal or session closed) and SIGPIPE when it comes from the
+/// command's own standard output or error (`rtukit slave -v | head` after
+/// head has ended). A SIGPIPE from anything else (a socket whose peer left,
+/// in a library that writes without MSG_NOSIGNAL) ends nothing: the write
+/// fails with EPIPE and its code handles that. Servers then return from their
+/// loop and clean up (a pty's link removed, state saved).
+
+/// For servers on an Asio loop: `signals` is armed and stops `ctx` on one of
+/// those signals.
+void stop_on_signals(asio::signal_set& signals, asio::io_context& ctx);
+
+/// True once a standard output or error was found broken by a SIGPIPE: both
+/// then write to /dev/null, so the command's last words (statistics) cannot
+/// fail, and it exits 0 like any filter whose reader has had enough.
+bool output_broken();
+
+/// Called first in main: a SIGPIPE from our own output, at any time, marks
+/// it broken (above) and interrupts instead of killing the process.
+void catch_broken_output();
+
+/// The same signals for commands that run until interrupted (watch, hold,
+/// the daemons with their own threads): while one exists, they set
+/// interrupted() instead of killing us.
 class Interruptible {
  public:
   Interruptible();

@@ -27,8 +27,12 @@ int run_gateway(const GatewayArgs& a) {
   std::vector<io::PortSpec> listen;
   for (const std::string& l : a.listen) {
     Result<io::PortSpec> spec = io::parse_port(l, true);
-    if (!spec.ok() || spec->kind != io::PortSpec::Kind::tcp)
-      throw Failure{kUsage, fmt::format("--listen '{}': the gateway listens on tcp://HOST:PORT", l)};
+    if (!spec.ok() || !spec->is_tcp())
+      throw Failure{kUsage,
+                    fmt::format("--listen '{}': the gateway listens on tcp://HOST:PORT (Modbus TCP) or "
+                                "rtu+tcp://HOST:PORT (RTU frames over TCP)",
+                                l)};
+    warn_if_exposed(*spec, "the gateway");
     listen.push_back(*spec);
   }
   GatewayOptions o;
@@ -48,8 +52,8 @@ int run_gateway(const GatewayArgs& a) {
              a.cache_ms ? fmt::format(" (reads cached {} ms)", a.cache_ms) : std::string());
   fmt::print("listening on {}\n", (*gw)->where().front());
   std::fflush(stdout);
-  asio::signal_set signals(ctx, SIGINT, SIGTERM);
-  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   ctx.run();
   const GatewayStats s = (*gw)->stats();
   gw->reset();
@@ -69,7 +73,8 @@ void add_gateway_command(CLI::App& app, Action& action) {
       app, action, "gateway", "own a serial bus and share it with Modbus TCP clients",
       [](CLI::App& cmd, GatewayArgs& a) {
         cmd.add_option("--listen,-l", a.listen,
-                       "where TCP clients connect (repeatable; loopback unless told)")
+                       "where clients connect: tcp://HOST:PORT (Modbus TCP) or rtu+tcp://HOST:PORT (RTU "
+                       "frames over TCP); repeatable; loopback unless told")
             ->capture_default_str();
         cmd.add_flag("--read-only", a.read_only, "refuse every write with exception 01");
         cmd.add_option("--allow-units", a.allow_units,

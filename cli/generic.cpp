@@ -17,6 +17,7 @@
 #include "profiles.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -479,11 +480,13 @@ struct SlaveArgs {
 // {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...},
 //  "identification": {"vendor": "ACME", "product_code": "M-3", "revision": "2.1", "0x80": "..."}}
 void load_init(const std::string& path, MemoryBank& bank) {
-  std::ifstream in(path);
-  if (!in) throw Failure{kIoError, fmt::format("cannot read {}: {}", path, std::strerror(errno))};
+  Outcome<std::string> text = io::read_regular_file(path, 16 << 20);  // 4 tables of 64 K values, written out
+  if (!text.ok())
+    throw Failure{text.error().code() == Errc::io_error ? kIoError : kUsage,
+                  fmt::format("cannot read {}: {}", path, text.error().reason())};
   nlohmann::json j;
   try {
-    in >> j;
+    j = nlohmann::json::parse(*text);
   } catch (const nlohmann::json::exception& e) {
     throw Failure{kUsage, fmt::format("{}: not valid JSON: {}", path, e.what())};
   }
@@ -561,6 +564,7 @@ int run_slave(const SlaveArgs& a) {
     throw Failure{kUsage,
                   "--any-unit is for Modbus TCP (tcp://): on a serial line the unit address is the device's"};
   engine.set_answer_any_unit_over_tcp(a.any_unit);
+  warn_if_exposed(spec, "the slave");
   asio::io_context ctx;
   RequestLog log;
   if (a.verbose) {
@@ -576,8 +580,8 @@ int run_slave(const SlaveArgs& a) {
   for (const auto& u : a.units) fmt::print(" {}", parse_unit(u, true).value);
   fmt::print(")\n");
   std::fflush(stdout);
-  asio::signal_set signals(ctx, SIGINT, SIGTERM);
-  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   ctx.run();
   return kOk;
 }

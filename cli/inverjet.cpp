@@ -348,11 +348,11 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
 
 int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file) {
   const unsigned plan = parse_plan_number(n);
-  std::ifstream in(file);
-  if (!in) throw Failure{kUsage, fmt::format("cannot read plan file '{}'", file)};
-  std::stringstream text;
-  text << in.rdbuf();
-  Outcome<std::vector<ij::Segment>> segments = ij::parse_plan(text.str());
+  // A plan is 50 lines at most: a file much larger than that is not a plan.
+  Outcome<std::string> text = io::read_regular_file(file, 64 * 1024);
+  if (!text.ok())
+    throw Failure{kUsage, fmt::format("cannot read plan file '{}': {}", file, text.error().reason())};
+  Outcome<std::vector<ij::Segment>> segments = ij::parse_plan(*text);
   if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, segments.error().reason())};
   Session s(a);
   s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));

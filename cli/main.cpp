@@ -10,6 +10,7 @@
 
 int main(int argc, char** argv) {
   using namespace rtukit::cli;
+  catch_broken_output();
   CLI::App app{"rtukit: talk Modbus-RTU / Modbus TCP to real or simulated devices", "rtukit"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "rtukit " RTUKIT_VERSION " (" RTUKIT_GIT_REVISION ")");
@@ -72,12 +73,15 @@ int main(int argc, char** argv) {
     sub = chosen.empty() ? nullptr : chosen.front();
   }
   try {
-    return action ? action() : kUsage;
+    const int code = action ? action() : kUsage;
+    return output_broken() ? kOk : code;
   } catch (const Failure& f) {
+    if (output_broken()) return kOk;  // its reader ended first (`| head`): nothing is wrong
     fmt::print(stderr, "rtukit: {}\n", f.message);
     if (json_requested()) print_json(json_failure(f));
     return f.code;
   } catch (const std::exception& e) {
+    if (output_broken()) return kOk;  // a write that failed as its reader left
     fmt::print(stderr, "rtukit: {}\n", e.what());
     return kIoError;
   }

@@ -111,6 +111,7 @@ struct SimArgs {
   bool baud_given = false;
   std::string state_file;
   bool no_state = false;
+  bool force_state = false;
   double time_scale = 1.0;
   bool verbose = false;
   bool no_console = false;
@@ -126,6 +127,8 @@ void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile)
   cmd.add_option("--state-file", a.state_file,
                  "where persisted registers live (default: ~/.local/state/rtukit/DEVICE.json)");
   cmd.add_flag("--no-state", a.no_state, "keep persisted registers in memory only");
+  cmd.add_flag("--force-state", a.force_state,
+               "replace a --state-file that is not this device's state file (refused without it)");
   cmd.add_option("--time-scale", a.time_scale, "device seconds per real second (60: a minute per second)")
       ->capture_default_str();
   cmd.add_flag("-v,--verbose", a.verbose, "log each request and response in hex");
@@ -137,12 +140,14 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   const profile::Profile& profile = device.model->profile();
   profile::SimOptions o;
   o.listen = a.link.spec(/*listening=*/true);
+  warn_if_exposed(o.listen, fmt::format("the {} simulator", profile.name));
   if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, profile.link.unit_max));
   if (a.baud_given) o.baud = a.link.baud;
   bool persists = false;
   for (const profile::Row& r : profile.rows) persists = persists || r.has(profile::kPersisted);
   if (persists && !a.no_state)
     o.state_file = a.state_file.empty() ? profile::default_state_path(profile.name) : a.state_file;
+  o.force_state = a.force_state;
   o.time_scale = a.time_scale;
   o.notice = [](std::string_view line) {
     fmt::print("{}\n", line);
@@ -182,8 +187,8 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   std::fflush(stdout);
 
   ignore_tty_stops();
-  asio::signal_set signals(ctx, SIGINT, SIGTERM, SIGHUP);
-  signals.async_wait([&ctx](const std::error_code&, int) { ctx.stop(); });
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   std::unique_ptr<StdinConsole> console;
   if (!a.no_console) console = std::make_unique<StdinConsole>(ctx, on_line);
   ctx.run();

@@ -25,6 +25,7 @@
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/sniffer.hpp"
+#include "rtukit/io/atomic_file.hpp"
 #include "rtukit/io/serial_config.hpp"
 
 namespace rtukit::cli {
@@ -38,6 +39,7 @@ struct SniffArgs {
   std::vector<std::string> maps;     ///< FILE@U
   bool json = false;
   std::string pcap;
+  bool overwrite = false;
   unsigned seconds = 0;
 };
 
@@ -198,11 +200,17 @@ std::vector<std::string> flags_of(const SniffedTransaction& t, const Sniffer& s)
 // so `tshark -d udp.port==502,mbrtu` decodes it as Modbus RTU.
 class PcapWriter {
  public:
-  explicit PcapWriter(const std::string& path) : out_(path, std::ios::binary) {
+  // An existing capture (pcap's magic number first) is replaced; any other
+  // file only with --overwrite.
+  PcapWriter(const std::string& path, bool overwrite) {
+    const uint32_t header[] = {kMagic, 0x00040002, 0,
+                               0,      65535,      101};  // magic, v2.4, tz, sigfigs, snaplen, raw IP
+    const std::string_view magic(reinterpret_cast<const char*>(header), 4);
+    Outcome<int> fd = io::create_output_file(path, magic, overwrite);
+    if (!fd.ok()) throw Failure{exit_code(fd.error().error()), fmt::format("--pcap {}", fd.error().reason())};
+    out_.reset(::fdopen(*fd, "wb"));
     if (!out_) throw Failure{kIoError, fmt::format("--pcap {}: cannot write", path)};
-    const uint32_t header[] = {0xA1B2C3D4, 0x00040002, 0,
-                               0,          65535,      101};  // magic, v2.4, tz, sigfigs, snaplen, raw IP
-    out_.write(reinterpret_cast<const char*>(header), sizeof header);
+    write(header, sizeof header);
   }
   void frame(const SniffedFrame& f, bool from_master) {
     const size_t udp_len = 8 + f.bytes.size(), ip_len = 20 + udp_len;
@@ -225,13 +233,18 @@ class PcapWriter {
     const uint32_t record[] = {static_cast<uint32_t>(f.start_us / 1000000),
                                static_cast<uint32_t>(f.start_us % 1000000), static_cast<uint32_t>(p.size()),
                                static_cast<uint32_t>(p.size())};
-    out_.write(reinterpret_cast<const char*>(record), sizeof record);
-    out_.write(reinterpret_cast<const char*>(p.data()), static_cast<std::streamsize>(p.size()));
-    out_.flush();
+    write(record, sizeof record);
+    write(p.data(), p.size());
+    std::fflush(out_.get());
   }
 
  private:
-  std::ofstream out_;
+  static constexpr uint32_t kMagic = 0xA1B2C3D4;
+  void write(const void* data, size_t size) { std::fwrite(data, 1, size, out_.get()); }
+  struct Close {
+    void operator()(std::FILE* f) const { std::fclose(f); }
+  };
+  std::unique_ptr<std::FILE, Close> out_;
 };
 
 // Times are printed from `origin` (when sniffing started; 0 for a tap, whose times start with the bus).
@@ -297,13 +310,6 @@ void print_summary(const Sniffer& s, bool json) {
       100.0 * m.utilisation());
 }
 
-volatile std::sig_atomic_t g_stop = 0;
-
-void stop_on_signals() {
-  std::signal(SIGINT, [](int) { g_stop = 1; });
-  std::signal(SIGTERM, [](int) { g_stop = 1; });
-}
-
 // One character of a bus tap: exact times from the bus itself.
 void feed_tap(Sniffer& s, const BusCharacter& c) {
   s.flush(c.end_us);
@@ -333,15 +339,16 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
                                         "`rtukit bus --name {}`",
                                         a.bus, path, std::strerror(e), a.bus)};
   }
-  stop_on_signals();
+  const Interruptible interrupt;
   std::string buffer, header;
   std::unique_ptr<Sniffer> s;
-  std::unique_ptr<PcapWriter> pcap = a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap);
+  std::unique_ptr<PcapWriter> pcap =
+      a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap, a.overwrite);
   int64_t offset = 0;  // our clock minus the bus's
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   bool ended = false;
   char chunk[4096];
-  while (!g_stop && !ended && (!until || io::now_us() < until)) {
+  while (!interrupt.interrupted() && !ended && (!until || io::now_us() < until)) {
     pollfd p{fd, POLLIN, 0};
     if (::poll(&p, 1, 5) > 0) {
       const ssize_t n = ::read(fd, chunk, sizeof chunk);
@@ -391,7 +398,8 @@ int run_sniff(const SniffArgs& a) {
   Sniffer s(SnifferConfig{.baud = a.link.baud,
                           .bits_per_char = bits,
                           .response_timeout_us = static_cast<uint32_t>(a.link.timeout_ms) * 1000});
-  std::unique_ptr<PcapWriter> pcap = a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap);
+  std::unique_ptr<PcapWriter> pcap =
+      a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap, a.overwrite);
   if (!a.tap.empty()) {
     std::ifstream in(a.tap);
     if (!in) throw Failure{kIoError, fmt::format("--tap {}: cannot read", a.tap)};
@@ -415,7 +423,7 @@ int run_sniff(const SniffArgs& a) {
     throw Failure{kUsage, "sniff listens on a serial port or a bus port (/dev/ttyUSB0, /tmp/bus2)"};
   Result<int> fd = io::open_serial_port(spec.path, spec.serial);
   if (!fd.ok()) fail(fd.error(), "sniff " + spec.path);
-  stop_on_signals();
+  const Interruptible interrupt;
   fmt::print(stderr,
              "sniff: listening on {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n",
              spec.path, a.link.baud, ms(s.t15_us()), ms(s.t35_us()));
@@ -423,7 +431,7 @@ int run_sniff(const SniffArgs& a) {
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   const uint64_t origin = io::now_us();
   uint8_t buf[512];
-  while (!g_stop && (!until || io::now_us() < until)) {
+  while (!interrupt.interrupted() && (!until || io::now_us() < until)) {
     pollfd p{*fd, POLLIN, 0};
     const int ready = ::poll(&p, 1, 5);
     const uint64_t now = io::now_us();
@@ -455,6 +463,7 @@ void add_sniff_command(CLI::App& app, Action& action) {
         cmd.add_flag("--json", a.json, "one JSON document per transaction (docs/json.md)");
         cmd.add_option("--pcap", a.pcap,
                        "also write the frames to a pcap file (tshark -d udp.port==502,mbrtu)");
+        cmd.add_flag("--overwrite", a.overwrite, "replace a --pcap file that is not a capture");
         cmd.add_option("--seconds", a.seconds, "stop after this many seconds (0: at Ctrl-C)");
         a.link.add_to(cmd, false);
         // Listen-only: the port is optional (a tap file works too).

@@ -12,6 +12,7 @@
 #include <thread>
 
 #include "process.hpp"
+#include "rtukit/core/crc.hpp"
 #include "rtukit/driver/master.hpp"
 
 using namespace rtukit;
@@ -259,4 +260,64 @@ TEST_F(GatewayTest, MbpollAndPymodbusThroughTheGateway) {
   const RunResult p = run({"/usr/bin/python3", "-c", py});
   EXPECT_EQ(p.code, 0) << p.output;
   EXPECT_NE(p.output.find("values [7, 8]"), std::string::npos) << p.output;
+}
+
+// RTU frames over TCP (`--listen rtu+tcp://`): the clients of serial-minded
+// tools. No transaction ids, so answers come in the order of the requests,
+// the gateway's own answers (a unit not allowed, a cached read) included; a
+// frame with a bad CRC gets no answer, as on a line.
+TEST_F(GatewayTest, RtuOverTcpListener_AnswersInOrder_BadCrcIsSilent) {
+  const uint16_t rtu_port = free_tcp_port();
+  const std::string rtu_where = "rtu+tcp://127.0.0.1:" + std::to_string(rtu_port);
+  start({"--listen", rtu_where, "--allow-units", "1,21", "--cache-ms", "500"});
+  EXPECT_NE(gateway_->output().find(rtu_where), std::string::npos) << gateway_->output();
+  // Our master and the CLI speak rtu+tcp:// unchanged.
+  Master m(io::make_link(*io::parse_port(rtu_where, false)), MasterOptions{.response_timeout = 2000ms});
+  ASSERT_TRUE(m.write_single_register(UnitId{21}, 0x21, 4321).ok());
+  std::array<uint16_t, 1> reg{};
+  ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, reg).ok());
+  EXPECT_EQ(reg[0], 4321);
+  const RunResult r = run({kRtukit, "read", "--port", rtu_where, "--unit", "21", "0x21", "1"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("4321"), std::string::npos) << r.output;
+
+  // Raw: three requests in one write, a bad CRC in the middle, a refused one last.
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(rtu_port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const auto frame = [](std::vector<uint8_t> b) {
+    const uint16_t crc = rtukit::crc16(b);
+    b.push_back(static_cast<uint8_t>(crc));
+    b.push_back(static_cast<uint8_t>(crc >> 8));
+    return b;
+  };
+  std::vector<uint8_t> out = frame({21, 0x03, 0x00, 0x21, 0x00, 0x01});  // a read of 0x21 (queued)
+  std::vector<uint8_t> bad = frame({21, 0x06, 0x00, 0x21, 0x00, 0x07});  // a write, its CRC broken
+  bad.back() ^= 0xFF;
+  out.insert(out.end(), bad.begin(), bad.end());
+  const std::vector<uint8_t> refused = frame({5, 0x03, 0x00, 0x00, 0x00, 0x01});  // unit 5: not allowed
+  out.insert(out.end(), refused.begin(), refused.end());
+  ASSERT_EQ(::write(fd, out.data(), out.size()), static_cast<ssize_t>(out.size()));
+  std::vector<uint8_t> in;
+  const std::vector<uint8_t> want_read = frame({21, 0x03, 0x02, 0x10, 0xE1});  // 4321
+  const std::vector<uint8_t> want_refused = frame({5, 0x83, 0x0A});
+  eventually([&] {
+    uint8_t buf[256];
+    const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+    if (n > 0) in.insert(in.end(), buf, buf + n);
+    return in.size() >= want_read.size() + want_refused.size();
+  });
+  std::this_thread::sleep_for(300ms);  // anything more (an answer to the bad frame) would arrive now
+  uint8_t buf[256];
+  const ssize_t n = ::recv(fd, buf, sizeof buf, MSG_DONTWAIT);
+  if (n > 0) in.insert(in.end(), buf, buf + n);
+  ::close(fd);
+  std::vector<uint8_t> want = want_read;
+  want.insert(want.end(), want_refused.begin(), want_refused.end());
+  EXPECT_EQ(in, want);  // the read first, then the refusal; nothing for the bad frame
+  ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, reg).ok());
+  EXPECT_EQ(reg[0], 4321);  // the write with the bad CRC never reached the bus
 }

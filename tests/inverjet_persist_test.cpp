@@ -3,6 +3,7 @@
 // that loads as a mix of two saves.
 #include <gtest/gtest.h>
 #include <signal.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -61,11 +62,12 @@ struct LoadedSettings {
   bool from_file;
   std::string warning;
   Words settings;
+  bool foreign;
 };
 LoadedSettings load_settings(const std::string& path) {
   Machine m;
   const profile::LoadedState l = profile::load_state(path, kProfile, m.image());
-  return {l.from_file, l.warning, persisted(m)};
+  return {l.from_file, l.warning, persisted(m), l.foreign};
 }
 const Words kFactory = persisted(Machine{});
 
@@ -100,6 +102,7 @@ TEST(InverjetStateFile, Truncated_DefaultsWithWarning) {
     const LoadedSettings loaded = load_settings(dir / "state.json");
     EXPECT_FALSE(loaded.from_file) << cut;
     EXPECT_NE(loaded.warning.find("damaged"), std::string::npos) << cut;
+    EXPECT_FALSE(loaded.foreign) << cut;  // ours, cut short: saving may replace it
     EXPECT_EQ(loaded.settings, kFactory) << cut;
   }
 }
@@ -128,12 +131,52 @@ TEST(InverjetStateFile, OutOfRangeValue_Rejected) {
   EXPECT_NE(loaded.warning.find("range"), std::string::npos);
 }
 
-TEST(InverjetStateFile, NotOurs_Rejected) {
+TEST(InverjetStateFile, NotOurs_RejectedAsForeign) {
   TempDir dir;
-  write_text(dir / "state.json", "{\"hello\": 1}");
-  EXPECT_FALSE(load_settings(dir / "state.json").from_file);
-  write_text(dir / "state.json", std::string("\x00\x01\x02garbage", 10));
-  EXPECT_FALSE(load_settings(dir / "state.json").from_file);
+  const auto foreign = [&](const std::string& path) {
+    const LoadedSettings loaded = load_settings(path);
+    EXPECT_FALSE(loaded.from_file) << path;
+    EXPECT_TRUE(loaded.foreign) << path << ": " << loaded.warning;
+    EXPECT_NE(loaded.warning.find("not a inverjet state file"), std::string::npos) << loaded.warning;
+    EXPECT_EQ(loaded.settings, kFactory) << path;
+  };
+  write_text(dir / "other.json", "{\"hello\": 1}");  // another program's JSON
+  foreign(dir / "other.json");
+  write_text(dir / "other.json", "{\"format\": 5, \"device\": [\"inverjet\"]}");  // wrongly typed fields
+  foreign(dir / "other.json");
+  write_text(dir / "binary", std::string("\x00\x01\x02garbage", 10));
+  foreign(dir / "binary");
+  std::string text = settings_to_text(changed_settings(3));
+  text.replace(text.find("\"inverjet\""), 10, "\"rehand6600\"");  // another device's state
+  write_text(dir / "rehand.json", text);
+  foreign(dir / "rehand.json");
+  ASSERT_EQ(::mkdir((dir / "a-directory").c_str(), 0755), 0);
+  foreign(dir / "a-directory");
+  foreign("/dev/zero");  // read whole, it would never end
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0644), 0);
+  foreign(dir / "fifo");  // opened without blocking: no writer is waited for
+  write_text(dir / "big.json", "{");
+  ASSERT_EQ(::truncate((dir / "big.json").c_str(), 256ll << 20), 0);
+  foreign(dir / "big.json");  // 256 MiB (sparse): never read into memory
+  ASSERT_EQ(::symlink("/nonexistent/target", (dir / "dangling").c_str()), 0);
+  foreign(dir / "dangling");
+}
+
+TEST(InverjetStateFile, SaveNeverWritesThroughAPlantedSymlink) {
+  TempDir dir;
+  const std::string victim = dir / "victim.txt", path = dir / "state.json";
+  write_text(victim, "someone else's file\n");
+  // The temporary file's name is the state file's + ".tmp." + our pid: plant a link there.
+  ASSERT_EQ(::symlink(victim.c_str(), (path + ".tmp." + std::to_string(::getpid())).c_str()), 0);
+  ASSERT_FALSE(save_settings(path, changed_settings(5)));
+  EXPECT_EQ(test::read_file(victim), "someone else's file\n");
+  EXPECT_TRUE(load_settings(path).from_file);
+  // A link planted at the state file itself is replaced by the file, its target untouched.
+  ASSERT_EQ(::unlink(path.c_str()), 0);
+  ASSERT_EQ(::symlink(victim.c_str(), path.c_str()), 0);
+  ASSERT_FALSE(save_settings(path, changed_settings(6)));
+  EXPECT_EQ(test::read_file(victim), "someone else's file\n");
+  EXPECT_EQ(load_settings(path).settings, persisted(*changed_settings(6)));
 }
 
 // A child saves A, B, A, B... as fast as it can; we kill it (SIGKILL) at a

@@ -4,6 +4,7 @@
 // Device time runs scaled (--time-scale), so minutes pass in a second; tests
 // poll for conditions (eventually), never sleep for device time.
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -353,6 +354,7 @@ TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
       {{"inverjet", "plan", "set", "1", dir_ / "fast.csv"}, 2, "line 1: speed 101 % is out of range"},
       {{"inverjet", "plan", "set", "1", dir_ / "broken.json"}, 2, "not a valid JSON array"},
       {{"inverjet", "plan", "set", "1", dir_ / "missing.csv"}, 2, "cannot read plan file"},
+      {{"inverjet", "plan", "set", "1", "/dev/zero"}, 2, "not a regular file"},  // never read forever
       {{"inverjet", "plan", "show", "5"}, 2, "plan 5 is out of range 1..4"},
       {{"inverjet", "status", "--unit", "255"}, 2, "unit 255 is out of range 1..254"},
       {{"inverjet", "config", "baud", "115200"}, 2, "19200"},
@@ -368,6 +370,38 @@ TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
     EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;  // one line
   }
   EXPECT_EQ(status()["state"], 0);  // nothing was half-applied
+}
+
+// A --state-file that is not this device's state file (issue 13, files) is
+// never overwritten: the simulator refuses to start with one line and exit
+// 5, leaves the file as it was, and never blocks on a FIFO. --force-state
+// replaces it.
+TEST(InverjetSimStateFile, AFileThatIsNotOursIsRefused_ForceStateReplacesIt) {
+  TempDir dir;
+  const std::string other = dir / "settings.json", tty = dir / "tty";
+  const std::string theirs = "{\"theme\": \"dark\", \"volume\": 7}\n";
+  std::ofstream(other) << theirs;
+  ASSERT_EQ(::mkfifo((dir / "fifo").c_str(), 0644), 0);
+  const auto sim = [&](const std::string& state, std::vector<std::string> extra = {}) {
+    std::vector<std::string> argv{kRtukit,      "sim",          "inverjet",     "--listen",
+                                  "pty:" + tty, "--no-console", "--state-file", state};
+    argv.insert(argv.end(), extra.begin(), extra.end());
+    return argv;
+  };
+  for (const std::string& state : {other, dir / "fifo", std::string("/dev/null")}) {
+    const RunResult r = run(sim(state), 5000ms);
+    EXPECT_EQ(r.code, 5) << state << ": " << r.output;
+    EXPECT_NE(r.output.find("is not a inverjet state file"), std::string::npos) << r.output;
+    EXPECT_NE(r.output.find("--force-state"), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  EXPECT_EQ(read_file(other), theirs);
+  EXPECT_FALSE(path_exists(tty));  // refused before listening
+
+  Process forced(sim(other, {"--force-state"}));
+  ASSERT_TRUE(forced.wait_for_output("listening on")) << forced.output();
+  EXPECT_NE(forced.output().find("replacing it (--force-state)"), std::string::npos) << forced.output();
+  EXPECT_TRUE(eventually([&] { return read_file(other).find("\"rtukit-state\"") != std::string::npos; }));
 }
 
 TEST_F(InverjetSim, Cli_Registers_PrintsTheTable) {
@@ -447,7 +481,10 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
                 R"([{"speed":35,"end":120,"end_text":"02:00"},{"speed":45,"end":240,"end_text":"04:00"}])"));
   EXPECT_EQ(status("12")["state"], 0);  // D-12: a restart is a power-on
 
-  std::ofstream(dir_ / "state.json", std::ios::trunc) << "{\"format\": \"rtukit-inv";  // damaged
+  // Damaged: cut in half, as a failing disk leaves it. Still ours, so it is
+  // replaced (a file that is not ours is refused: InverjetSimStateFile).
+  const std::string saved = read_file(dir_ / "state.json");
+  std::ofstream(dir_ / "state.json", std::ios::trunc) << saved.substr(0, saved.size() / 2);
   start();
   EXPECT_NE(sim_->output().find("is damaged"), std::string::npos) << sim_->output();
   EXPECT_EQ(status("21")["state"], 0);  // factory settings: unit 21

@@ -6,11 +6,14 @@
 #include <deque>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <tuple>
 
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/core/pdu.hpp"
+#include "rtukit/core/rtu.hpp"
+#include "rtukit/io/link.hpp"
 #include "tcp_sessions.hpp"
 
 namespace rtukit {
@@ -89,6 +92,9 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
     uint16_t transaction;
     uint8_t unit;
     std::vector<uint8_t> pdu;
+    /// Already answered by the gateway (a refusal, a cache hit), queued only
+    /// to keep an RTU-over-TCP client's answers in the order of its requests.
+    std::optional<std::vector<uint8_t>> ready;
   };
   // A cached read: (unit, function, address, quantity).
   using CacheKey = std::tuple<uint8_t, uint8_t, uint16_t, uint16_t>;
@@ -105,9 +111,11 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
            options.allowed_units.end();
   }
 
-  // On the io thread: check, answer from the cache, or queue.
-  void on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client,
-                  std::span<const uint8_t> adu);
+  // On the io thread: check, answer from the cache, or queue. `ordered`:
+  // the client has no transaction ids (RTU over TCP), so even the answers
+  // the gateway gives at once go through its queue, behind its earlier requests.
+  void on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client, bool ordered,
+                  uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu);
   void forget(uint64_t client) {
     std::lock_guard lock(mutex);
     queues.erase(client);
@@ -118,6 +126,7 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   Master& bus;
   GatewayOptions options;
   std::vector<std::unique_ptr<TcpAcceptor>> acceptors;
+  std::vector<std::string> schemes;  // each acceptor's: "tcp://", "rtu+tcp://"
   std::thread thread;
 
   std::mutex mutex;  // everything below
@@ -130,17 +139,25 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   GatewayStats stats;
 };
 
-// One client connection: MBAP in, answers whenever the bus has them.
+// One client connection: Modbus TCP (MBAP) or RTU frames over TCP in,
+// answers whenever the bus has them.
 class GatewaySession final : public TcpSession {
  public:
   GatewaySession(asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared,
-                 std::shared_ptr<Gateway::Impl> gateway, uint64_t client)
-      : TcpSession(std::move(socket), std::move(shared)), gateway_(std::move(gateway)), client_(client) {}
+                 std::shared_ptr<Gateway::Impl> gateway, uint64_t client, Framing framing)
+      : TcpSession(std::move(socket), std::move(shared)),
+        gateway_(std::move(gateway)),
+        client_(client),
+        framing_(framing),
+        // TCP keeps frames apart by itself; a frame whose length cannot be
+        // predicted is closed by the next chunk or the silence floor.
+        framer_(FrameShape::request, RtuTiming{0, io::kLinuxSilenceFloorUs}) {}
 
   // Called with the answer's PDU for the request `transaction` to `unit`.
   void answer(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu, bool from_bus_thread) {
-    std::vector<uint8_t> adu(kMbapHeaderSize + pdu.size());
-    const Result<size_t> n = mbap_encode(transaction, unit, pdu, adu);
+    std::vector<uint8_t> adu(std::max(kMbapHeaderSize, size_t{3}) + pdu.size());
+    const Result<size_t> n =
+        framing_ == Framing::tcp ? mbap_encode(transaction, unit, pdu, adu) : rtu_encode(unit, pdu, adu);
     if (!n.ok()) return;
     adu.resize(*n);
     if (from_bus_thread)
@@ -149,28 +166,55 @@ class GatewaySession final : public TcpSession {
       queue(adu);
   }
 
+  /// Closes the connection (on the io thread).
+  void cut() { close(); }
+
  private:
   bool on_received(size_t n) override {
     auto self = std::static_pointer_cast<GatewaySession>(shared_from_this());
-    return each_mbap_adu(n, [&](std::span<const uint8_t> adu) { gateway_->on_request(self, client_, adu); });
+    if (framing_ == Framing::rtu) {
+      // A frame with a bad CRC is dropped, as a slave on the line would.
+      const uint64_t now = io::now_us();
+      for (size_t fed = 0; fed < n;) {
+        fed += framer_.feed({rx_.data() + fed, n - fed}, now);
+        while (const std::optional<RtuFrame> f = framer_.next(now))
+          gateway_->on_request(self, client_, /*ordered=*/true, 0, f->unit(), f->pdu());
+      }
+      return true;
+    }
+    return each_mbap_adu(n, [&](std::span<const uint8_t> adu) {
+      const MbapHeader h = mbap_header(adu);
+      gateway_->on_request(self, client_, /*ordered=*/false, h.transaction, h.unit, mbap_pdu(adu));
+    });
   }
   void on_closed() override { gateway_->forget(client_); }
 
   std::shared_ptr<Gateway::Impl> gateway_;
   uint64_t client_;
+  Framing framing_;
+  RtuFramer framer_;
 };
 
-void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client,
-                               std::span<const uint8_t> adu) {
-  const MbapHeader h = mbap_header(adu);
-  const std::span<const uint8_t> pdu = mbap_pdu(adu);
+void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client, bool ordered,
+                               uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
+  struct {
+    uint16_t transaction;
+    uint8_t unit;
+  } const h{transaction, unit};
   const uint8_t function = pdu[0];
+  // The gateway's own answer: at once, or behind the client's earlier requests.
+  const auto reply = [&](std::vector<uint8_t> answer) {
+    if (!ordered) return session->answer(h.transaction, h.unit, answer, false);
+    std::lock_guard lock(mutex);
+    queues[client].push_back(Job{session, h.transaction, h.unit, {}, std::move(answer)});
+    wake.notify_one();
+  };
   const auto refuse = [&](Errc e) {
     {
       std::lock_guard lock(mutex);
       ++stats.refused;
     }
-    session->answer(h.transaction, h.unit, exception_pdu(function, e), false);
+    reply(exception_pdu(function, e));
   };
   {
     std::lock_guard lock(mutex);
@@ -187,7 +231,8 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
   if (options.read_only && (is_write(function) || changes_line_state(*req)))
     return refuse(Errc::illegal_function);
   std::lock_guard lock(mutex);
-  if (options.cache.count() > 0 && is_read(function)) {
+  // An ordered client's cached read is served by the bus thread in its turn.
+  if (options.cache.count() > 0 && is_read(function) && !ordered) {
     const auto hit = cache.find(CacheKey{h.unit, function, req->address, req->quantity});
     if (hit != cache.end() && std::chrono::steady_clock::now() - hit->second.at < options.cache) {
       ++stats.cache_hits;
@@ -198,6 +243,9 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
   std::deque<Job>& q = queues[client];
   if (q.size() >= options.max_queued_per_client) {
     ++stats.refused;
+    // An ordered client past its limit is out of step: its answers could
+    // only come back out of order, so it is cut off.
+    if (ordered) return session->cut();
     session->answer(h.transaction, h.unit, exception_pdu(function, Errc::server_device_busy), false);
     return;
   }
@@ -240,7 +288,11 @@ void Gateway::Impl::run_bus() {
       it->second.pop_front();
     }
     const std::shared_ptr<GatewaySession> session = job.session.lock();
-    if (!session) continue;                               // the client left; its request needs no answer
+    if (!session) continue;  // the client left; its request needs no answer
+    if (job.ready) {
+      session->answer(job.transaction, job.unit, *job.ready, true);
+      continue;
+    }
     const Result<Request> req = decode_request(job.pdu);  // checked on arrival
     if (!req.ok()) continue;
     const bool write = is_write(req->function);
@@ -314,21 +366,26 @@ Outcome<std::unique_ptr<Gateway>> Gateway::start(asio::io_context& ctx, Master& 
   if (listen.empty()) return Status(Errc::invalid_argument, "the gateway needs a --listen tcp://HOST:PORT");
   auto impl = std::make_shared<Impl>(bus, std::move(options));
   for (const io::PortSpec& spec : listen) {
-    if (spec.kind != io::PortSpec::Kind::tcp)
-      return Status(Errc::invalid_argument, "the gateway listens on tcp://HOST:PORT (Modbus TCP)");
+    if (!spec.is_tcp())
+      return Status(
+          Errc::invalid_argument,
+          "the gateway listens on tcp://HOST:PORT (Modbus TCP) or rtu+tcp://HOST:PORT (RTU frames)");
+    const Framing framing = spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu;
     std::weak_ptr<Impl> weak = impl;
     auto acceptor = std::make_unique<TcpAcceptor>(
-        ctx, impl->options.server, [weak](asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared) {
+        ctx, impl->options.server,
+        [weak, framing](asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared) {
           std::shared_ptr<Impl> gw = weak.lock();
           uint64_t client = 0;
           {
             std::lock_guard lock(gw->mutex);
             client = gw->next_client++;
           }
-          return std::make_shared<GatewaySession>(std::move(socket), std::move(shared), gw, client);
+          return std::make_shared<GatewaySession>(std::move(socket), std::move(shared), gw, client, framing);
         });
     if (Status s = acceptor->listen(spec.host, spec.port)) return s;
     impl->acceptors.push_back(std::move(acceptor));
+    impl->schemes.push_back(framing == Framing::tcp ? "tcp://" : "rtu+tcp://");
   }
   impl->thread = std::thread([raw = impl.get()] { raw->run_bus(); });
   return std::unique_ptr<Gateway>(new Gateway(std::move(impl)));
@@ -336,7 +393,8 @@ Outcome<std::unique_ptr<Gateway>> Gateway::start(asio::io_context& ctx, Master& 
 
 std::vector<std::string> Gateway::where() const {
   std::vector<std::string> out;
-  for (const auto& a : impl_->acceptors) out.push_back("tcp://" + a->endpoint_text());
+  for (size_t i = 0; i < impl_->acceptors.size(); ++i)
+    out.push_back(impl_->schemes[i] + impl_->acceptors[i]->endpoint_text());
   return out;
 }
 

@@ -188,15 +188,15 @@ class TcpAcceptor {
     if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
     if (ec)
       return Status(Error(Errc::io_error, ec.value()),
-                    "cannot listen on " + host + ":" + std::to_string(port) + ": " + ec.message());
+                    "cannot listen on " + io::host_port_text(host, port) + ": " + ec.message());
     accept();
     return {};
   }
 
-  /// "127.0.0.1:1502".
+  /// "127.0.0.1:1502", "[::1]:1502".
   std::string endpoint_text() const {
     const auto ep = acceptor_.local_endpoint();
-    return ep.address().to_string() + ":" + std::to_string(ep.port());
+    return io::host_port_text(ep.address().to_string(), ep.port());
   }
   uint16_t port() const { return acceptor_.local_endpoint().port(); }
   ServerStats stats() const { return shared_->stats; }

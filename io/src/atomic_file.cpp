@@ -93,3 +93,31 @@ Outcome<std::string> read_regular_file(const std::string& path, size_t max_size)
 }
 
 }  // namespace rtukit::io
+
+namespace rtukit::io {
+
+Outcome<int> create_output_file(const std::string& path, std::string_view ours_prefix, bool overwrite) {
+  constexpr int kWrite = O_WRONLY | O_NOFOLLOW | O_CLOEXEC;
+  int fd = ::open(path.c_str(), kWrite | O_CREAT | O_EXCL, 0644);
+  if (fd >= 0) return fd;
+  if (errno != EEXIST) return fail("cannot create " + path, errno);
+  // Something is there: look before replacing it. O_NONBLOCK: a FIFO never
+  // blocks the look; O_NOFOLLOW: a symlink is refused, not followed.
+  const int look = ::open(path.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (look < 0) return fail(path + " exists and cannot be read", errno);
+  struct stat st {};
+  std::string head(ours_prefix.size(), '\0');
+  const bool regular = ::fstat(look, &st) == 0 && S_ISREG(st.st_mode);
+  const ssize_t got = regular ? ::read(look, head.data(), head.size()) : -1;
+  ::close(look);
+  if (!regular) return Status(Errc::refused, path + " exists and is not a regular file; not replaced");
+  const bool ours = got == static_cast<ssize_t>(ours_prefix.size()) && head == ours_prefix;
+  if (!ours && !overwrite)
+    return Status(Errc::refused,
+                  path + " exists and is not a file rtukit wrote; not replaced (--overwrite replaces it)");
+  fd = ::open(path.c_str(), kWrite | O_TRUNC);
+  if (fd < 0) return fail("cannot replace " + path, errno);
+  return fd;
+}
+
+}  // namespace rtukit::io

@@ -1,5 +1,6 @@
 #include "rtukit/io/port.hpp"
 
+#include <asio/ip/address.hpp>
 #include <charconv>
 #include <string>
 
@@ -20,13 +21,26 @@ std::string PortSpec::describe() const {
       return path + " " + std::to_string(serial.baud) + " " + std::to_string(serial.data_bits) +
              serial.parity + std::to_string(serial.stop_bits);
     case Kind::tcp:
-      return "tcp://" + host + ":" + std::to_string(port);
+      return "tcp://" + host_port_text(host, port);
     case Kind::rtu_tcp:
-      return "rtu+tcp://" + host + ":" + std::to_string(port);
+      return "rtu+tcp://" + host_port_text(host, port);
     case Kind::pty:
       return path.empty() ? "pty" : "pty:" + path;
   }
   return "?";
+}
+
+std::string host_port_text(std::string_view host, uint16_t port) {
+  const bool v6 = host.find(':') != std::string_view::npos && !host.starts_with("[");
+  return (v6 ? "[" + std::string(host) + "]" : std::string(host)) + ":" + std::to_string(port);
+}
+
+std::string listener_exposure(const PortSpec& spec) {
+  if (!spec.is_tcp() || spec.host.empty()) return {};
+  std::error_code ec;
+  const asio::ip::address a = asio::ip::make_address(spec.host, ec);
+  if (ec || a.is_loopback()) return {};  // a bad address is refused when listening, not here
+  return a.is_unspecified() ? "every network interface" : "the network";
 }
 
 namespace {

@@ -104,7 +104,14 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   bool loaded_from_file = false;
   if (!o.state_file.empty()) {
     const LoadedState loaded = load_state(o.state_file, profile, model.image());
-    if (!loaded.warning.empty()) notice("warning: " + loaded.warning);
+    if (loaded.foreign && !o.force_state)
+      return Status(Errc::refused, loaded.warning +
+                                       ": it is left untouched; choose another --state-file, or "
+                                       "--force-state to replace it");
+    if (loaded.foreign)
+      notice("warning: " + loaded.warning + "; replacing it (--force-state)");
+    else if (!loaded.warning.empty())
+      notice("warning: " + loaded.warning);
     loaded_from_file = loaded.from_file;
     model.restored();
   }

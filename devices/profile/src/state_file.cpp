@@ -111,21 +111,51 @@ Status state_from_text(const Profile& profile, std::string_view text, Image& ima
   return {};
 }
 
+namespace {
+
+// Whether a file that did not load is still ours (then saving may replace
+// it) or something else that happens to sit at the path. Ours: the JSON of
+// an rtukit state file of this device, or the first bytes of one (a file
+// cut short by a failing disk) as state_to_text writes them, its keys in
+// order: checksum, device, format, registers, version.
+bool is_ours(const Profile& profile, std::string_view text) {
+  const json file = json::parse(text, nullptr, /*allow_exceptions=*/false);
+  if (!file.is_discarded())
+    return file.is_object() && file.contains("format") && file["format"] == kFormat &&
+           file.contains("device") && file["device"] == std::string(profile.name);
+  constexpr std::string_view head = "{\n \"checksum\": \"0x";
+  // Cut short within those first bytes (empty, "{"): nothing to lose either.
+  if (!text.starts_with(head)) return head.starts_with(text);
+  const std::string device = "\n \"device\": \"" + std::string(profile.name) + "\"";
+  const size_t at = text.find("\n \"device\": \"");
+  // Cut before the device's name is complete: ours by its first bytes.
+  if (at == std::string_view::npos || text.size() < at + device.size()) return true;
+  return text.substr(at, device.size()) == device;
+}
+
+}  // namespace
+
 LoadedState load_state(const std::string& path, const Profile& profile, Image& image) {
   LoadedState loaded;
   struct stat st {};
-  if (::stat(path.c_str(), &st) != 0 && errno == ENOENT) {
+  if (::lstat(path.c_str(), &st) != 0 && errno == ENOENT) {
     loaded.warning = "no state file at " + path + "; starting with factory settings";
     return loaded;
   }
   Outcome<std::string> text = io::read_regular_file(path, kMaxFileSize);
   Status s = text.ok() ? state_from_text(profile, *text, image) : text.error();
-  if (!s.ok()) {
-    loaded.warning = "state file " + path + " is damaged (" + std::string(s.reason()) +
-                     "); starting with factory settings";
+  if (s.ok()) {
+    loaded.from_file = true;
     return loaded;
   }
-  loaded.from_file = true;
+  if (!text.ok() || !is_ours(profile, *text)) {
+    loaded.foreign = true;
+    loaded.warning = "state file " + path + " is not a " + std::string(profile.name) + " state file (" +
+                     std::string(s.reason()) + ")";
+    return loaded;
+  }
+  loaded.warning =
+      "state file " + path + " is damaged (" + std::string(s.reason()) + "); starting with factory settings";
   return loaded;
 }
 

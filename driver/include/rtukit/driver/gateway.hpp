@@ -63,10 +63,13 @@ struct GatewayStats {
 
 class Gateway {
  public:
-  /// Listens on every spec of `listen` (tcp:// only) and relays to `bus`,
-  /// which must outlive the gateway. Starts the bus thread. Errors as
-  /// SlaveListener::start (address in use, not an IP address); invalid_argument
-  /// for a listen spec that is not tcp://.
+  /// Listens on every spec of `listen` and relays to `bus`, which must
+  /// outlive the gateway. tcp:// takes Modbus TCP (MBAP, answers matched by
+  /// transaction id); rtu+tcp:// takes RTU frames (unit, PDU, CRC) over TCP,
+  /// answered in the order of the requests (a frame with a bad CRC gets no
+  /// answer, as on a line). Starts the bus thread. Errors as
+  /// SlaveListener::start (address in use, not an IP address);
+  /// invalid_argument for a listen spec that is not TCP.
   static Outcome<std::unique_ptr<Gateway>> start(asio::io_context& ctx, Master& bus,
                                                  std::span<const io::PortSpec> listen,
                                                  GatewayOptions options);
@@ -75,7 +78,7 @@ class Gateway {
   Gateway(const Gateway&) = delete;
   Gateway& operator=(const Gateway&) = delete;
 
-  /// Where clients connect: "tcp://127.0.0.1:1502", one per listener.
+  /// Where clients connect: "tcp://127.0.0.1:1502", "rtu+tcp://...", one per listener.
   std::vector<std::string> where() const;
   /// The first listener's TCP port (useful with port 0).
   uint16_t tcp_port() const;

@@ -25,4 +25,12 @@ Status write_file_atomically(const std::string& path, std::string_view content, 
 /// than N bytes"), with the reason.
 Outcome<std::string> read_regular_file(const std::string& path, size_t max_size);
 
+/// Opens `path` to write a file rtukit produces as a stream (a bus tap, a
+/// pcap capture): created if missing (mode 0644). An existing file is
+/// truncated only when it is ours, a regular file whose first bytes are
+/// `ours_prefix`, or when `overwrite` is set; never through a symlink, and
+/// never a FIFO, a device or a directory. Returns the file descriptor.
+/// Errors: refused ("exists and is not ..."), io_error with the OS reason.
+Outcome<int> create_output_file(const std::string& path, std::string_view ours_prefix, bool overwrite);
+
 }  // namespace rtukit::io

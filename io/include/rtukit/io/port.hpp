@@ -49,6 +49,15 @@ struct PortSpec {
   bool is_tcp() const noexcept { return kind == Kind::tcp || kind == Kind::rtu_tcp; }
 };
 
+/// "HOST:PORT" as parse_port reads it back: an IPv6 address in brackets
+/// ("[::1]:1502"), so a printed address can be pasted into --port.
+std::string host_port_text(std::string_view host, uint16_t port);
+
+/// For a TCP listener: what it exposes, or empty when it binds loopback only
+/// (an empty host is 127.0.0.1). "every network interface" for 0.0.0.0 and
+/// ::, "the network" for any other address that is not loopback.
+std::string listener_exposure(const PortSpec& spec);
+
 /// Parses the port syntax above. `listening` allows `pty`. Errors:
 /// invalid_argument, with a one-line reason (Error::reason()).
 Result<PortSpec> parse_port(std::string_view text, bool listening);

@@ -53,7 +53,10 @@ struct SimOptions {
   std::optional<uint8_t> unit;   ///< overrides the stored / default address
   std::optional<uint32_t> baud;  ///< overrides the stored / default baud rate
   std::string state_file;        ///< empty: no state file (persisted rows live in memory)
-  double time_scale = 1.0;       ///< device seconds per real second, (0, 100000]
+  /// Replace a file at `state_file` that is not this device's state file.
+  /// Without it, start() refuses such a file (Errc::refused) and leaves it alone.
+  bool force_state = false;
+  double time_scale = 1.0;  ///< device seconds per real second, (0, 100000]
   std::chrono::milliseconds tick{20};
   RequestLog log;                                ///< every request/response, for -v
   ServerOptions server;                          ///< connection limits, turnaround (slave_server.hpp)

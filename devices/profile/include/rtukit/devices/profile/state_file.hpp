@@ -31,9 +31,18 @@ Status state_from_text(const Profile& profile, std::string_view text, Image& ima
 
 struct LoadedState {
   bool from_file = false;
-  std::string warning;  ///< why the defaults are used (missing, damaged...), else empty
+  /// The path holds something that is not this device's state file (another
+  /// program's file, another device's state, a directory, a FIFO, a device
+  /// node, a file far larger than a state file): it must not be overwritten.
+  bool foreign = false;
+  std::string warning;  ///< why the defaults are used (missing, damaged, foreign...), else empty
 };
-/// Never fails: a missing or damaged file leaves the image's defaults and says why.
+/// Never fails: a missing, damaged or foreign file leaves the image's
+/// defaults and says why. A file of ours that is damaged (a bad checksum, a
+/// value out of range, truncated) is `warning` only: saving replaces it. A
+/// file that is not ours is `foreign`: the caller must not save over it.
+/// Never blocks (a FIFO is not opened for reading) and never reads more than
+/// 1 MiB.
 LoadedState load_state(const std::string& path, const Profile& profile, Image& image);
 
 /// Writes the persisted rows atomically (creating the directory). Errors: io_error.
