@@ -223,8 +223,10 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
   const Result<Request> req = decode_request(pdu);
   if (!req.ok()) {
     // A function the gateway does not relay, or a request no device could
-    // take: the same exception a slave gives. A PDU too short: dropped.
-    if (req.error().is_exception()) refuse(req.error().code());
+    // take: the same exception a slave gives. A PDU too short for its
+    // function's fields (the MBAP length says it is whole): 03, as a slave
+    // over Modbus TCP answers; before, it was dropped and the client waited.
+    refuse(req.error().is_exception() ? req.error().code() : Errc::illegal_data_value);
     return;
   }
   if (!allowed(h.unit)) return refuse(Errc::gateway_path_unavailable);

@@ -232,12 +232,14 @@ class EngineSession final : public TcpSession {
         engine_(engine),
         framing_(framing),
         log_(log),
-        rtu_(engine, timing, log_) {}  // the session's own copy: it may outlive the server
+        rtu_(engine, timing, log_),  // the session's own copy: it may outlive the server
+        silence_(executor()) {}
 
  private:
   bool on_received(size_t n) override {
     if (framing_ == Framing::rtu) {
       rtu_.on_bytes({rx_.data(), n}, io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
+      arm_silence();
       return true;
     }
     return each_mbap_adu(n, [this](std::span<const uint8_t> adu) {
@@ -249,10 +251,30 @@ class EngineSession final : public TcpSession {
     });
   }
 
+  // A frame whose length its function does not tell (an unknown function
+  // code, a byte count that disagrees with the bytes sent) ends at silence,
+  // as on a pty. Without this timer it was answered only when the client
+  // sent something more: a client waiting for its exception timed out.
+  void arm_silence() {
+    const auto deadline = rtu_.framer().silence_deadline();
+    if (!deadline) return;
+    const uint64_t now = io::now_us();
+    silence_.expires_after(std::chrono::microseconds(*deadline > now ? *deadline - now : 0) +
+                           std::chrono::microseconds(100));
+    auto self = shared_from_this();
+    silence_.async_wait([this, self](const std::error_code& ec) {
+      if (ec || closed()) return;
+      rtu_.drain(io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
+      send_queued();
+    });
+  }
+  void on_closed() override { silence_.cancel(); }
+
   SlaveEngine& engine_;
   Framing framing_;
   RequestLog log_;
   RtuResponder rtu_;
+  asio::steady_timer silence_;
 };
 
 class TcpServer final : public SlaveListener {

@@ -106,6 +106,10 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   }
   /// Called once when the connection closes (the gateway drops its queue).
   virtual void on_closed() {}
+  /// Sends what queue() added, outside a read (a timer's answer).
+  void send_queued() { flush(); }
+  /// The executor of the connection's loop (for a session's own timers).
+  asio::any_io_executor executor() { return socket_.get_executor(); }
   bool closed() const { return closed_; }
 
   std::array<uint8_t, 2 * kMaxMbapAduSize> rx_{};

@@ -109,7 +109,7 @@ class SlaveEngine {
     uint32_t exceptions = 0;  ///< exception responses sent
     uint32_t broadcasts = 0;  ///< broadcast requests received
     uint32_t ignored = 0;     ///< frames for units we do not host
-    uint32_t malformed = 0;   ///< requests dropped without an answer
+    uint32_t malformed = 0;   ///< requests dropped without an answer (RTU)
   };
 
   /// Hosts `bank` at `unit` (1..255). The bank must outlive the engine.
@@ -133,7 +133,8 @@ class SlaveEngine {
   /// on Modbus TCP units 0 and 0xFF address the first unit (a TCP device
   /// addressed directly), and no frame quirk applies. Writes the response PDU to
   /// `out` (>= 253 bytes). Silent for a broadcast, another unit's frame, or a
-  /// malformed request.
+  /// malformed request on RTU (too short for its function's fields: a
+  /// truncated frame); over Modbus TCP such a request gets 03.
   Handled handle_pdu(UnitId unit, std::span<const uint8_t> pdu, std::span<uint8_t> out,
                      Framing framing = Framing::rtu) noexcept;
 
