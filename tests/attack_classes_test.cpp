@@ -126,6 +126,7 @@ const Target kTargets[] = {
     {"slave_tcp", kSlave, Via::tcp, 1, 0x20, 0x64, 9999, 2, true, false, {{0x20, 2}, {9999, 1}}},
     {"slave_rtu_over_tcp", kSlave, Via::rtu_tcp, 1, 0x20, 0x64, 9999, 2, true, false, {{0x20, 2}, {9999, 1}}},
     {"gateway", kSlave, Via::tcp, 1, 0x20, 0x64, 9999, 2, true, true, {{0x20, 2}, {9999, 1}}},
+    {"gateway_rtu_over_tcp", kSlave, Via::rtu_tcp, 1, 0x20, 0x64, 9999, 2, true, true, {{0x20, 2}, {9999, 1}}},
     {"inverjet_pty", kInverjet, Via::pty, 21, 0x80, 0x64, 0x83, 2, false, false, {{0x80, 4}}},
     {"inverjet_tcp", kInverjet, Via::tcp, 21, 0x80, 0x64, 0x83, 2, false, false, {{0x80, 4}}},
     {"rehand6600_pty", kRehand, Via::pty, 1, 0x61, 1, 0x5F, 3, false, false, {{0x0D, 6}}},

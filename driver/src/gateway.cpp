@@ -151,7 +151,8 @@ class GatewaySession final : public TcpSession {
         framing_(framing),
         // TCP keeps frames apart by itself; a frame whose length cannot be
         // predicted is closed by the next chunk or the silence floor.
-        framer_(FrameShape::request, RtuTiming{0, io::kLinuxSilenceFloorUs}) {}
+        framer_(FrameShape::request, RtuTiming{0, io::kLinuxSilenceFloorUs}),
+        silence_(executor()) {}
 
   // Called with the answer's PDU for the request `transaction` to `unit`.
   void answer(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu, bool from_bus_thread) {
@@ -173,13 +174,12 @@ class GatewaySession final : public TcpSession {
   bool on_received(size_t n) override {
     auto self = std::static_pointer_cast<GatewaySession>(shared_from_this());
     if (framing_ == Framing::rtu) {
-      // A frame with a bad CRC is dropped, as a slave on the line would.
       const uint64_t now = io::now_us();
       for (size_t fed = 0; fed < n;) {
         fed += framer_.feed({rx_.data() + fed, n - fed}, now);
-        while (const std::optional<RtuFrame> f = framer_.next(now))
-          gateway_->on_request(self, client_, /*ordered=*/true, 0, f->unit(), f->pdu());
+        take_frames(now);
       }
+      arm_silence();
       return true;
     }
     return each_mbap_adu(n, [&](std::span<const uint8_t> adu) {
@@ -187,12 +187,39 @@ class GatewaySession final : public TcpSession {
       gateway_->on_request(self, client_, /*ordered=*/false, h.transaction, h.unit, mbap_pdu(adu));
     });
   }
-  void on_closed() override { gateway_->forget(client_); }
+  void on_closed() override {
+    silence_.cancel();
+    gateway_->forget(client_);
+  }
+
+  // Every whole frame to the gateway; one with a bad CRC is dropped, as a
+  // slave on the line would drop it.
+  void take_frames(uint64_t now) {
+    auto self = std::static_pointer_cast<GatewaySession>(shared_from_this());
+    while (const std::optional<RtuFrame> f = framer_.next(now))
+      gateway_->on_request(self, client_, /*ordered=*/true, 0, f->unit(), f->pdu());
+  }
+
+  // A frame whose length its function does not tell (an unknown function, a
+  // byte count that disagrees with its bytes) ends at silence, as on a line.
+  void arm_silence() {
+    const std::optional<uint64_t> deadline = framer_.silence_deadline();
+    if (!deadline) return;
+    const uint64_t now = io::now_us();
+    silence_.expires_after(std::chrono::microseconds(*deadline > now ? *deadline - now : 0) +
+                           std::chrono::microseconds(100));
+    silence_.async_wait([this, self = shared_from_this()](const std::error_code& ec) {
+      if (ec || closed()) return;
+      take_frames(io::now_us());
+      send_queued();
+    });
+  }
 
   std::shared_ptr<Gateway::Impl> gateway_;
   uint64_t client_;
   Framing framing_;
   RtuFramer framer_;
+  asio::steady_timer silence_;
 };
 
 void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client, bool ordered,
