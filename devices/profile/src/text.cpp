@@ -116,6 +116,29 @@ const Row* find_row(const RegisterMap& map, std::string_view typed) {
   return nullptr;
 }
 
+size_t valid_utf8_prefix(std::string_view s) noexcept {
+  constexpr uint32_t kMin[] = {0, 0, 0x80, 0x800, 0x10000};  // shortest form of each length
+  size_t i = 0;
+  while (i < s.size()) {
+    const auto c = static_cast<uint8_t>(s[i]);
+    const size_t n = c < 0x80             ? 1
+                     : (c & 0xE0) == 0xC0 ? 2
+                     : (c & 0xF0) == 0xE0 ? 3
+                     : (c & 0xF8) == 0xF0 ? 4
+                                          : 0;
+    if (n == 0 || n > s.size() - i) return i;
+    uint32_t cp = n == 1 ? c : c & (0x7Fu >> n);
+    for (size_t k = 1; k < n; ++k) {
+      const auto d = static_cast<uint8_t>(s[i + k]);
+      if ((d & 0xC0) != 0x80) return i;
+      cp = cp << 6 | (d & 0x3Fu);
+    }
+    if (cp < kMin[n] || cp > 0x10FFFF || (cp >= 0xD800 && cp <= 0xDFFF)) return i;
+    i += n;
+  }
+  return i;
+}
+
 std::string format_mm_ss(unsigned seconds) {
   return fmt::format("{:02}:{:02}", seconds / 60, seconds % 60);
 }

@@ -7,6 +7,7 @@
 #include <fmt/core.h>
 #include <mosquitto.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
@@ -58,6 +59,29 @@ std::optional<uint16_t> small_number(const Json& v) {
   return std::nullopt;
 }
 
+// Client text quoted in a reason: at most `max` bytes of whole UTF-8
+// characters, bytes that are not UTF-8 as '?'. Reasons go into JSON result
+// documents, and nlohmann::json::dump() throws on invalid UTF-8: a topic,
+// payload or op with a stray byte, or a cut through a character, ended the
+// bridge's or the panel's bus thread (found by fuzz_mqtt_command).
+std::string quoted(std::string_view s, size_t max) {
+  std::string out;
+  while (!s.empty() && out.size() < max) {
+    const size_t valid = profile::valid_utf8_prefix(s);
+    if (valid == 0) {
+      out += '?';
+      s.remove_prefix(1);
+      continue;
+    }
+    std::string_view piece = s.substr(0, std::min(valid, max - out.size()));
+    piece = piece.substr(0, profile::valid_utf8_prefix(piece));  // never half a character
+    if (piece.empty()) break;
+    out += piece;
+    s.remove_prefix(piece.size());
+  }
+  return out;
+}
+
 bool valid_topic_level(const std::string& id) {
   return !id.empty() && id.size() <= 64 && id.find_first_of("/+#") == std::string::npos &&
          id.find_first_of(" \t\n") == std::string::npos;
@@ -101,6 +125,24 @@ rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
   return {};
 }
 
+rtukit::Status mqtt_command_body(std::string_view payload, bool retained, double now_s, unsigned max_age_s,
+                                 Json& body) {
+  // Stale: a retained command, or one stamped too long ago. Never run.
+  if (retained) return rtukit::Status(Errc::refused, "stale: a retained command is never run");
+  body = Json::parse(payload, nullptr, false);
+  if (body.is_object() && body.contains("ts") && body["ts"].is_number()) {
+    double ts = body["ts"].get<double>();
+    if (ts > 1e12) ts /= 1000;  // milliseconds
+    const double age = now_s - ts;
+    if (age > max_age_s)
+      return rtukit::Status(Errc::refused,
+                            fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, max_age_s));
+  }
+  // Not JSON (a button's "PRESS", a bare number): the payload as a string.
+  if (body.is_discarded()) body = Json(std::string(payload));
+  return {};
+}
+
 rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, const Json& body, Json& result) {
   const std::string name(name_view);
   const auto refuse = [](std::string why) {
@@ -119,11 +161,15 @@ rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, 
     // Home Assistant's select: "Plan 1".."Plan 4" starts that plan.
     const std::string v = body.is_string() ? body.get<std::string>() : body.dump();
     if (v.size() != 6 || v.rfind("Plan ", 0) != 0 || v[5] < '1' || v[5] > '4')
-      return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", v.substr(0, 20)));
+      return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", quoted(v, 20)));
     return client.start_plan(static_cast<unsigned>(v[5] - '0'));
   }
   if (name == "start") {
     if (!body.is_object()) return client.start_free_from_memory();  // a button's "PRESS"
+    // value() throws on a "mode" that is not text ({"mode": 1}), which ended
+    // the bridge's or the panel's bus thread (found by fuzz_mqtt_command).
+    if (body.contains("mode") && !body["mode"].is_string())
+      return refuse("start: mode must be free, timer or plan");
     const std::string mode = body.value("mode", "free");
     if (mode == "free") {
       if (!body.contains("speed")) return client.start_free_from_memory();
@@ -150,7 +196,7 @@ rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, 
       if (!from || *from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
       return client.start_plan(*plan, static_cast<uint16_t>(*from));
     }
-    return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", mode.substr(0, 20)));
+    return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", quoted(mode, 20)));
   }
   if (name == "plan") {
     if (!body.is_object() || !body.contains("segments") || !body["segments"].is_array())
@@ -177,7 +223,7 @@ rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, 
     result["segments"] = segments.size();
     return {};
   }
-  return refuse(fmt::format("unknown command '{}'", name.substr(0, 40)));
+  return refuse(fmt::format("unknown command '{}'", quoted(name, 40)));
 }
 
 
@@ -297,19 +343,11 @@ struct Bridge::Impl {
   // ---------------------------------------------------------- the bus side (bridge thread)
 
   rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
-    const Json body = Json::parse(c.payload, nullptr, false);
-    // Stale: a retained command, or one stamped too long ago. Never run.
-    if (c.retained) return rtukit::Status(Errc::refused, "stale: a retained command is never run");
-    if (body.is_object() && body.contains("ts") && body["ts"].is_number()) {
-      double ts = body["ts"].get<double>();
-      if (ts > 1e12) ts /= 1000;  // milliseconds
-      const double age = static_cast<double>(std::time(nullptr)) - ts;
-      if (age > options.max_age_s)
-        return rtukit::Status(Errc::refused,
-                              fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, options.max_age_s));
-    }
-    // Not JSON (a button's "PRESS", a bare number): the payload as a string.
-    return inverjet_command(m.client, c.name, body.is_discarded() ? Json(c.payload) : body, result);
+    Json body;
+    if (rtukit::Status e = mqtt_command_body(c.payload, c.retained, static_cast<double>(std::time(nullptr)),
+                                             options.max_age_s, body))
+      return e;
+    return inverjet_command(m.client, c.name, body, result);
   }
 
   void publish_discovery(Machine& m) {

@@ -21,6 +21,7 @@
 
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
+#include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
 
@@ -34,7 +35,7 @@ using Json = nlohmann::json;
 constexpr auto kCodeLifetime = std::chrono::minutes(2);
 constexpr int kCodeAttempts = 5;
 
-enum class Role { display, phone };
+using Role = HostRole;
 
 struct Client {
   web::SocketPtr socket;
@@ -43,25 +44,6 @@ struct Client {
   std::string token, name;
   std::set<uint16_t> holds;  ///< commands this client holds (released when it goes)
 };
-
-std::optional<uint16_t> direction_register(std::string_view dir) {
-  if (dir == "forward") return rh::reg::kPhoneForward;
-  if (dir == "reverse") return rh::reg::kPhoneReverse;
-  if (dir == "left") return rh::reg::kPhoneLeft;
-  if (dir == "right") return rh::reg::kPhoneRight;
-  return std::nullopt;
-}
-
-bool is_posture(uint16_t a) {
-  return a >= rh::reg::kStandSit && a <= rh::reg::kPlateTilt;
-}
-
-// A JSON value as the text profile::parse_value reads ("up", "2", "outdoor").
-std::optional<std::string> value_text(const Json& v) {
-  if (v.is_string()) return v.get<std::string>();
-  if (v.is_number_integer()) return std::to_string(v.get<int64_t>());
-  return std::nullopt;
-}
 
 // This machine's first non-loopback IPv4 address, for a URL a phone can open.
 std::string first_lan_address() {
@@ -197,16 +179,14 @@ struct HostDaemon::Impl {
     auto it = clients.find(s->id());
     if (it == clients.end()) return;
     Client& c = it->second;
-    const Json m = Json::parse(text, nullptr, false);
-    if (m.is_discarded() || !m.is_object() || !m.contains("op") || !m["op"].is_string()) {
+    const HostMessage m = parse_host_message(text, c.role, c.paired);
+    if (!m.envelope) {
       s->send(Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
       return;
     }
-    const std::string op = m["op"].get<std::string>();
-    Json result{{"type", "result"}, {"op", op}};
-    if (m.contains("id")) result["id"] = m["id"];
-    const rtukit::Status e =
-        c.role == Role::display ? display_command(c, op, m) : phone_command(c, op, m, result);
+    Json result{{"type", "result"}, {"op", m.op}};
+    if (m.id) result["id"] = *m.id;
+    const rtukit::Status e = m.command ? run(c, *m.command, result) : m.command.error();
     result["ok"] = !e;
     if (e) result["error"] = std::string(e.reason());
     s->send(result.dump());
@@ -214,20 +194,6 @@ struct HostDaemon::Impl {
 
   static rtukit::Status refuse(std::string reason) {
     return rtukit::Status(Errc::refused, std::move(reason));
-  }
-  static rtukit::Status bad(std::string reason) {
-    return rtukit::Status(Errc::invalid_argument, std::move(reason));
-  }
-
-  // A command row by its key, checked to be one of `allowed`.
-  static rtukit::Outcome<const rh::Register*> command_row(const Json& m,
-                                                          bool (*allowed)(const rh::Register&)) {
-    if (!m.contains("command") || !m["command"].is_string()) return bad("\"command\" must be a register key");
-    const std::string key = m["command"].get<std::string>();
-    const rh::Register* r = rh::find_register(key);
-    if (!r || rh::table_of(*r) != rh::Table::command || !allowed(*r))
-      return bad(fmt::format("'{}' is not a command this page may send", key));
-    return r;
   }
 
   rtukit::Status hold_for(Client& c, uint16_t address, uint16_t value) {
@@ -242,147 +208,101 @@ struct HostDaemon::Impl {
     return {};
   }
 
-  rtukit::Status display_command(Client& c, const std::string& op, const Json& m) {
-    if (op == "hold" || op == "release") {
-      auto row = command_row(m, [](const rh::Register& r) {
-        return r.role == profile::Role::hold && (is_posture(r.address) || r.address == rh::reg::kAntiPinch);
-      });
-      if (!row) return row.error();
-      const rh::Register& r = **row;
-      if (op == "release") return release_for(c, r.address);
-      const std::optional<std::string> v = m.contains("value") ? value_text(m["value"]) : std::nullopt;
-      if (!v) return bad("\"value\" must be a name or a number");
-      const Outcome<int64_t> raw = profile::parse_value(r, *v);
-      if (!raw) return bad(std::string(raw.error().reason()));
-      if (*raw == 0) return release_for(c, r.address);
-      return hold_for(c, r.address, static_cast<uint16_t>(*raw));
-    }
-    if (op == "pulse") {
-      auto row = command_row(m, [](const rh::Register& r) { return r.address == rh::reg::kLight; });
-      if (!row) return row.error();
-      return host.pulse((*row)->address);
-    }
-    if (op == "set") {
-      if (!m.contains("key") || !m["key"].is_string())
-        return bad("\"key\" must be drive_mode or speed_level");
-      const std::string key = m["key"].get<std::string>();
-      const rh::Register* r = rh::find_register(key);
-      if (!r || (r->address != rh::reg::kDriveMode && r->address != rh::reg::kSpeedLevel))
-        return bad(fmt::format("'{}' is not a setting (drive_mode, speed_level)", key));
-      const std::optional<std::string> v = m.contains("value") ? value_text(m["value"]) : std::nullopt;
-      if (!v) return bad("\"value\" must be a name or a number");
-      const Outcome<int64_t> raw = profile::parse_value(*r, *v);
-      if (!raw) return bad(std::string(raw.error().reason()));
-      const auto value = static_cast<uint16_t>(*raw);
-      const rtukit::Status e =
-          r->address == rh::reg::kDriveMode ? host.set_drive_mode(value) : host.set_speed_level(value);
-      if (e) return e;
-      (r->address == rh::reg::kDriveMode ? drive_mode : speed_level) = value;
-      broadcast_state();
-      return {};
-    }
-    if (op == "one_touch") {
-      const std::string v = m.value("value", "");
-      if (v == "stop") {
-        end_one_touch();
-        return {};
-      }
-      if (v != "stand" && v != "sit") return bad("\"value\" must be stand, sit or stop");
-      if (one_touch.value) end_one_touch();
-      const uint16_t value = v == "stand" ? 1 : 2;
-      if (rtukit::Status e = host.hold(rh::reg::kStandSit, value)) return e;
-      one_touch = {value, c.socket->id(), Clock::now(), false};
-      broadcast_state();
-      return {};
-    }
-    if (op == "pair_start") {
-      std::uniform_int_distribution<int> digits(0, 999999);
-      code = {fmt::format("{:06d}", digits(random)), Clock::now() + kCodeLifetime, 0};
-      broadcast_state();
-      return {};
-    }
-    if (op == "pair_cancel") {
-      code = {};
-      broadcast_state();
-      return {};
-    }
-    if (op == "revoke") {
-      if (!m.contains("client") || !m["client"].is_number_unsigned())
-        return bad("\"client\" must be a client id");
-      auto it = clients.find(m["client"].get<uint64_t>());
-      if (it == clients.end() || it->second.role != Role::phone) return bad("no such phone");
-      if (rtukit::Status e = pairing.remove(it->second.token)) return e;
-      web::SocketPtr s = it->second.socket;
-      s->close("revoked by the display");
-      closed(s);  // its holds go now, not when the close completes
-      return {};
-    }
-    return bad(fmt::format("unknown command '{}'", op));
-  }
-
-  rtukit::Status phone_command(Client& c, const std::string& op, const Json& m, Json& result) {
-    if (op == "pair") {
-      if (c.paired) return {};
-      const std::string given = m.value("code", "");
-      if (code.code.empty() || Clock::now() > code.until)
-        return refuse("no pairing code is shown: ask the display for one");
-      if (given != code.code) {
-        if (++code.attempts >= kCodeAttempts) code = {};  // guessing: the code is gone
-        broadcast_state();
-        return refuse("wrong code");
-      }
-      code = {};
-      Outcome<std::string> token = pairing.add(m.value("name", ""));
-      if (!token) return token.error();
-      c.token = *token;
-      c.paired = true;
-      c.name = pairing.name_of(c.token);
-      result["token"] = c.token;
-      result["name"] = c.name;
-      c.socket->send(state_json().dump());
-      broadcast_state();
-      return {};
-    }
-    if (!c.paired) return refuse("not paired: enter the code the display shows");
-    if (op == "drive") {
-      const std::string dir = m.value("dir", "");
-      if (dir == "none" || dir.empty()) {
-        for (uint16_t a = rh::reg::kPhoneForward; a <= rh::reg::kPhoneRight; ++a)
-          if (c.holds.count(a)) (void)release_for(c, a);
-        if (driver == c.socket->id()) driver.reset();
+  // Runs a checked command (parse_host_message decided that `c` may send it).
+  rtukit::Status run(Client& c, const HostCommand& k, Json& result) {
+    using Kind = HostCommand::Kind;
+    switch (k.kind) {
+      case Kind::hold:
+        return hold_for(c, k.address, k.value);
+      case Kind::release:
+        return release_for(c, k.address);
+      case Kind::pulse:
+        return host.pulse(k.address);
+      case Kind::set: {
+        const bool mode = k.address == rh::reg::kDriveMode;
+        if (rtukit::Status e = mode ? host.set_drive_mode(k.value) : host.set_speed_level(k.value)) return e;
+        (mode ? drive_mode : speed_level) = k.value;
         broadcast_state();
         return {};
       }
-      const std::optional<uint16_t> a = direction_register(dir);
-      if (!a) return bad("\"dir\" must be forward, reverse, left, right or none");
-      if (driver && *driver != c.socket->id()) {
-        auto other = clients.find(*driver);
-        return refuse(
-            fmt::format("{} is driving", other != clients.end() ? other->second.name : "another phone"));
-      }
-      for (uint16_t b = rh::reg::kPhoneForward; b <= rh::reg::kPhoneRight; ++b)
-        if (b != *a && c.holds.count(b)) (void)release_for(c, b);
-      if (rtukit::Status e = hold_for(c, *a, 1)) return e;
-      if (driver != c.socket->id()) {
-        driver = c.socket->id();
+      case Kind::one_touch:
+        if (k.value == 0) {
+          end_one_touch();
+          return {};
+        }
+        if (one_touch.value) end_one_touch();
+        if (rtukit::Status e = host.hold(rh::reg::kStandSit, k.value)) return e;
+        one_touch = {k.value, c.socket->id(), Clock::now(), false};
         broadcast_state();
+        return {};
+      case Kind::pair_start: {
+        std::uniform_int_distribution<int> digits(0, 999999);
+        code = {fmt::format("{:06d}", digits(random)), Clock::now() + kCodeLifetime, 0};
+        broadcast_state();
+        return {};
       }
-      return {};
+      case Kind::pair_cancel:
+        code = {};
+        broadcast_state();
+        return {};
+      case Kind::revoke: {
+        auto it = clients.find(k.client);
+        if (it == clients.end() || it->second.role != Role::phone)
+          return rtukit::Status(Errc::invalid_argument, "no such phone");
+        if (rtukit::Status e = pairing.remove(it->second.token)) return e;
+        web::SocketPtr s = it->second.socket;
+        s->close("revoked by the display");
+        closed(s);  // its holds go now, not when the close completes
+        return {};
+      }
+      case Kind::pair: {
+        if (c.paired) return {};
+        if (code.code.empty() || Clock::now() > code.until)
+          return refuse("no pairing code is shown: ask the display for one");
+        if (k.code != code.code) {
+          if (++code.attempts >= kCodeAttempts) code = {};  // guessing: the code is gone
+          broadcast_state();
+          return refuse("wrong code");
+        }
+        code = {};
+        Outcome<std::string> token = pairing.add(k.name);
+        if (!token) return token.error();
+        c.token = *token;
+        c.paired = true;
+        c.name = pairing.name_of(c.token);
+        result["token"] = c.token;
+        result["name"] = c.name;
+        c.socket->send(state_json().dump());
+        broadcast_state();
+        return {};
+      }
+      case Kind::drive: {
+        if (k.address == 0) {
+          for (uint16_t a = rh::reg::kPhoneForward; a <= rh::reg::kPhoneRight; ++a)
+            if (c.holds.count(a)) (void)release_for(c, a);
+          if (driver == c.socket->id()) driver.reset();
+          broadcast_state();
+          return {};
+        }
+        if (driver && *driver != c.socket->id()) {
+          auto other = clients.find(*driver);
+          return refuse(
+              fmt::format("{} is driving", other != clients.end() ? other->second.name : "another phone"));
+        }
+        for (uint16_t b = rh::reg::kPhoneForward; b <= rh::reg::kPhoneRight; ++b)
+          if (b != k.address && c.holds.count(b)) (void)release_for(c, b);
+        if (rtukit::Status e = hold_for(c, k.address, 1)) return e;
+        if (driver != c.socket->id()) {
+          driver = c.socket->id();
+          broadcast_state();
+        }
+        return {};
+      }
+      case Kind::horn:
+        if (k.value) return hold_for(c, rh::reg::kPhoneHorn, 1);
+        return release_for(c, rh::reg::kPhoneHorn);
     }
-    if (op == "horn") {
-      if (m.value("on", false)) return hold_for(c, rh::reg::kPhoneHorn, 1);
-      return release_for(c, rh::reg::kPhoneHorn);
-    }
-    if (op == "pulse") {
-      const std::string what = m.value("command", "");
-      const uint16_t a = what == "light"          ? rh::reg::kPhoneLight
-                         : what == "left_signal"  ? rh::reg::kPhoneLeftSignal
-                         : what == "right_signal" ? rh::reg::kPhoneRightSignal
-                                                  : 0;
-      if (!a) return bad("\"command\" must be light, left_signal or right_signal");
-      return host.pulse(a);
-    }
-    return bad(fmt::format("unknown command '{}'", op));
+    return {};
   }
 
   void end_one_touch() {

@@ -65,6 +65,16 @@ nlohmann::json machine_state_json(const inverjet::MachineStatus& s);
 rtukit::Status inverjet_command(inverjet::Client& client, std::string_view name, const nlohmann::json& body,
                                 nlohmann::json& result);
 
+/// The body of a command message on .../set/<name>, for inverjet_command:
+/// the payload's JSON, or the payload as a JSON string when it is not JSON (a
+/// button's "PRESS"). Stale commands are refused before anything runs: a
+/// retained message, or one whose "ts" (seconds, or milliseconds, since the
+/// epoch) is more than `max_age_s` before `now_s`. Errors: refused with the
+/// reason ("stale: ..."). Pure: the bridge passes the time (and the fuzzer
+/// any payload).
+rtukit::Status mqtt_command_body(std::string_view payload, bool retained, double now_s, unsigned max_age_s,
+                                 nlohmann::json& body);
+
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.
 rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o);

@@ -49,6 +49,13 @@ nlohmann::json value_json(const Row& row, int64_t raw);
 /// mm:ss durations), "text": format_value, "raw": the register value}.
 nlohmann::ordered_json entry_json(const Row& row, int64_t raw);
 
+/// Length of the longest prefix of `s` that is valid UTF-8 in whole
+/// characters (no overlong forms, surrogates or code points past U+10FFFF):
+/// s.size() when all of it is. Text that goes into JSON must be valid UTF-8
+/// (nlohmann::json::dump() throws otherwise), so outside text is checked with
+/// this before it is kept or quoted.
+size_t valid_utf8_prefix(std::string_view s) noexcept;
+
 /// mm:ss for a number of seconds ("30:00", "99:59").
 std::string format_mm_ss(unsigned seconds);
 /// "mm:ss", "m:ss" or plain seconds. Errors: invalid_argument.
