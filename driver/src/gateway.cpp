@@ -253,7 +253,9 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     // take: the same exception a slave gives. A PDU too short for its
     // function's fields (the MBAP length says it is whole): 03, as a slave
     // over Modbus TCP answers; before, it was dropped and the client waited.
-    refuse(req.error().is_exception() ? req.error().code() : Errc::illegal_data_value);
+    // RTU frames (`ordered`): a truncated frame, dropped as the line drops it.
+    if (req.error().is_exception() || !ordered)
+      refuse(req.error().is_exception() ? req.error().code() : Errc::illegal_data_value);
     return;
   }
   if (!allowed(h.unit)) return refuse(Errc::gateway_path_unavailable);
