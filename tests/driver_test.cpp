@@ -389,7 +389,10 @@ TEST(SerialLink, NonStandardBaudAndParity_ConfigureThroughTermios2) {
   spec->serial.stop_bits = 2;
   Master master(io::make_link(*spec));
   uint16_t r = 0;
-  EXPECT_TRUE(master.read_holding_registers(UnitId{1}, 0, {&r, 1}).ok());
+  const Error e = master.read_holding_registers(UnitId{1}, 0, {&r, 1});
+  if (e.os_error() == ENOSYS)  // qemu-user (the aarch64 build's tests): only the standard rates
+    GTEST_SKIP() << "no termios2 here: a rate that is not a Bxxx constant cannot be set";
+  EXPECT_TRUE(e.ok()) << e.name();
   // Exclusive: a second opener of the same port is refused, even as root.
   Master second(io::make_link(*spec));
   const Error busy = second.open();

@@ -51,11 +51,49 @@ speed_t standard_rate(uint32_t baud) {
   }
 }
 
+// termios2 where the kernel takes it; the classic TCGETS/TCSETS where it
+// does not (qemu-user, which runs the aarch64 build's tests, has no
+// termios2): the same flags, and the standard rates, which is all a pty or a
+// UART at 1200..921600 baud needs. A non-standard rate there is refused.
+bool no_termios2(int err) {
+  return err == ENOSYS || err == ENOTTY || err == EINVAL;
+}
+
+int get_termios(int fd, struct termios2& tio) {
+  if (ioctl(fd, TCGETS2, &tio) == 0) return 0;
+  if (!no_termios2(errno)) return -1;
+  struct termios old {};
+  if (ioctl(fd, TCGETS, &old) != 0) return -1;
+  tio = {};
+  tio.c_iflag = old.c_iflag;
+  tio.c_oflag = old.c_oflag;
+  tio.c_cflag = old.c_cflag;
+  tio.c_lflag = old.c_lflag;
+  tio.c_line = old.c_line;
+  for (size_t i = 0; i < sizeof old.c_cc && i < sizeof tio.c_cc; ++i) tio.c_cc[i] = old.c_cc[i];
+  return 0;
+}
+
+int set_termios(int fd, const struct termios2& tio) {
+  if (ioctl(fd, TCSETS2, &tio) == 0) return 0;
+  if (!no_termios2(errno)) return -1;
+  const int err = errno;
+  if ((tio.c_cflag & CBAUD) == BOTHER) return errno = err, -1;  // a rate only termios2 can set
+  struct termios old {};
+  old.c_iflag = tio.c_iflag;
+  old.c_oflag = tio.c_oflag;
+  old.c_cflag = tio.c_cflag;
+  old.c_lflag = tio.c_lflag;
+  old.c_line = tio.c_line;
+  for (size_t i = 0; i < sizeof old.c_cc && i < sizeof tio.c_cc; ++i) old.c_cc[i] = tio.c_cc[i];
+  return ioctl(fd, TCSETS, &old);
+}
+
 }  // namespace
 
 Error make_raw(int fd) {
   struct termios2 tio {};
-  if (ioctl(fd, TCGETS2, &tio) != 0) return os_error();
+  if (get_termios(fd, tio) != 0) return os_error();
   tio.c_iflag &=
       ~static_cast<tcflag_t>(IGNBRK | BRKINT | PARMRK | ISTRIP | INLCR | IGNCR | ICRNL | IXON | IXOFF);
   tio.c_oflag &= ~static_cast<tcflag_t>(OPOST);
@@ -63,7 +101,7 @@ Error make_raw(int fd) {
   tio.c_cflag |= CREAD | CLOCAL;
   tio.c_cc[VMIN] = 1;
   tio.c_cc[VTIME] = 0;
-  if (ioctl(fd, TCSETS2, &tio) != 0) return os_error();
+  if (set_termios(fd, tio) != 0) return os_error();
   return {};
 }
 
@@ -78,7 +116,7 @@ Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& s) {
   if (Error e = make_raw(fd)) return e;
 
   struct termios2 tio {};
-  if (ioctl(fd, TCGETS2, &tio) != 0) return os_error();
+  if (get_termios(fd, tio) != 0) return os_error();
   tio.c_cflag &= ~static_cast<tcflag_t>(CSIZE | PARENB | PARODD | CSTOPB | CRTSCTS | CBAUD);
   tio.c_cflag |= (s.data_bits == 7 ? CS7 : CS8) | CREAD | CLOCAL;
   if (s.parity != 'N') tio.c_cflag |= PARENB;
@@ -94,7 +132,7 @@ Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& s) {
     tio.c_cflag |= BOTHER;
     tio.c_ispeed = tio.c_ospeed = s.baud;
   }
-  if (ioctl(fd, TCSETS2, &tio) != 0) return os_error();
+  if (set_termios(fd, tio) != 0) return os_error();
 
   if (s.rs485.enabled) {
     struct serial_rs485 rs {};
