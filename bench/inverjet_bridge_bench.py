@@ -190,6 +190,9 @@ def run(n):
                 pubs[i].stdin.flush()
                 if wait_for(lambda: f"speed = {speed} %" in consoles[i].ask("get speed"), 3, 0.0):
                     command.append((time.monotonic() - t0) * 1000)
+                if os.environ.get("BENCH_DEBUG"):
+                    print(f"jet{i:03d} rep {rep}: change {change[-1] if t1 else None} command {command[-1]}",
+                          file=sys.stderr)
         t_end = time.monotonic()
         time.sleep(10.5)  # every bridge publishes its poll health every 10 s
         msgs_per_s = sub.count(t_start, t_end) / (t_end - t_start)

@@ -284,6 +284,7 @@ struct Machine {
   bool online = false;
   unsigned failures = 0;
   Clock::time_point next_poll{};
+  bool poll_now = false;  ///< a command ran: poll at once, off the regular schedule
   Clock::time_point last_state_publish{};
   Json pending_doc;  ///< a changed state held back by --max-rate
   // Health, published on .../bridge every 10 s: is the bus keeping up?
@@ -423,20 +424,29 @@ struct Bridge::Impl {
             {"options", Json::array({"Plan 1", "Plan 2", "Plan 3", "Plan 4"})}});
   }
 
-  void publish_state(Machine& m, const Json& doc, Clock::time_point now) {
+  // `command_effect`: the poll right after a command, published at once and
+  // not counted by --max-rate. Counting it shifted the regular publishes by
+  // up to a period behind their polls (a change waited 0.9 s at 2 Hz).
+  // --max-rate as the gap between two documents. A poll's timing jitters by a
+  // few ms: a regular poll at the rate limit is not held back a whole period
+  // for being 1 ms early.
+  std::chrono::duration<double> min_publish_gap() const {
+    return std::chrono::duration<double>(options.max_rate > 0 ? std::max(0.0, 1.0 / options.max_rate - 0.025) : 0);
+  }
+
+  void publish_state(Machine& m, const Json& doc, Clock::time_point now, bool command_effect = false) {
     const std::string text = doc.dump();
     if (text == m.last_state) {
       m.state_pending = false;
       return;
     }
-    const double min_gap = options.max_rate > 0 ? 1.0 / options.max_rate : 0;
-    if (std::chrono::duration<double>(now - m.last_state_publish).count() < min_gap) {
+    if (!command_effect && now - m.last_state_publish < min_publish_gap()) {
       m.state_pending = true;  // published by the loop once the gap has passed
       m.pending_doc = doc;
       return;
     }
     m.last_state = text;
-    m.last_state_publish = now;
+    if (!command_effect) m.last_state_publish = now;
     m.state_pending = false;
     m.publish(m.base + "/state", text, true);
     for (const char* key : {"mode", "state", "speed", "time", "remaining_s", "elapsed_s", "mosfet_c",
@@ -490,9 +500,9 @@ struct Bridge::Impl {
           }
           m.publish(m.base + "/result", result.dump(), false);
           ++m.commands_run;
-          if (!e) m.next_poll = now;  // show the effect at once
+          if (!e) m.poll_now = true;  // show the effect at once
         }
-        if (m.state_pending && now - m.last_state_publish >= std::chrono::duration<double>(1.0 / options.max_rate))
+        if (m.state_pending && now - m.last_state_publish >= min_publish_gap())
           publish_state(m, Json(m.pending_doc), now);
         if (now - m.last_stats >= std::chrono::seconds(10)) {
           m.last_stats = now;
@@ -504,7 +514,9 @@ struct Bridge::Impl {
                         .dump(),
                     false, 0);
         }
-        if (now < m.next_poll) continue;
+        if (now < m.next_poll && !m.poll_now) continue;
+        const bool command_effect = now < m.next_poll;  // an extra poll: the schedule stays
+        m.poll_now = false;
         if (m.online && m.last_poll != Clock::time_point{}) {
           const double gap = std::chrono::duration<double, std::milli>(now - m.last_poll).count();
           m.max_gap_ms = std::max(m.max_gap_ms, gap);
@@ -524,8 +536,8 @@ struct Bridge::Impl {
         }
         m.failures = 0;
         set_online(m, true);
-        publish_state(m, machine_state_json(*s), now);
-        m.next_poll = now + period;
+        publish_state(m, machine_state_json(*s), now, command_effect);
+        if (!command_effect) m.next_poll = now + period;
       }
       lock.lock();
       wake.wait_for(lock, std::chrono::milliseconds(20), [this] { return stopping; });
