@@ -34,32 +34,12 @@ import tempfile
 import threading
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
+from pyhelpers import connects, free_port, pct, wait_for  # noqa: E402
+
 RTUKIT = sys.argv[1]
 SIZES = [int(x) for x in sys.argv[sys.argv.index("--sizes") + 1].split(",")] if "--sizes" in sys.argv else [1, 20, 100]
 HZ = os.sysconf("SC_CLK_TCK")
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-def wait_for(fn, timeout=10.0, step=0.01):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        v = fn()
-        if v:
-            return v
-        time.sleep(step)
-    return fn()
-
-
-def pct(xs, p):
-    xs = sorted(xs)
-    return xs[min(len(xs) - 1, int(round(p / 100.0 * (len(xs) - 1))))] if xs else float("nan")
 
 
 def cpu_seconds(pid):
@@ -137,7 +117,7 @@ def run(n):
     procs = [subprocess.Popen(["mosquitto", "-c", conf], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
     bridges, consoles = [], []
     try:
-        wait_for(lambda: _connects(port))
+        wait_for(lambda: connects(port), 10)
         for i in range(n):
             pty, con = os.path.join(work, f"jet{i}"), os.path.join(work, f"jet{i}.sock")
             procs.append(subprocess.Popen([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state",
@@ -218,14 +198,6 @@ def run(n):
                 p.wait(5)
             except subprocess.TimeoutExpired:
                 p.kill()
-
-
-def _connects(port):
-    try:
-        socket.create_connection(("127.0.0.1", port), 0.2).close()
-        return True
-    except OSError:
-        return False
 
 
 def main():

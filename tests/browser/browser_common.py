@@ -4,9 +4,13 @@ the simulators' console sockets, and the layout check (no control overlaps
 another or leaves the screen, every text fits)."""
 import os
 import re
+import sys
 import socket
 import tempfile
 import time
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pyhelpers import free_port, wait_for  # noqa: E402,F401 (the browser tests take them from here)
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -18,24 +22,6 @@ def check(name, cond, detail=""):
     print(f"{'ok' if cond else 'FAIL'} {name} {detail}".rstrip(), flush=True)
     if not cond:
         failures.append(name)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-def wait_for(fn, timeout=5.0, step=0.02):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        v = fn()
-        if v:
-            return v
-        time.sleep(step)
-    return fn()
 
 
 class Console:

@@ -17,6 +17,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pyhelpers import connects, free_port, wait_for  # noqa: E402
+
 RTUKIT = sys.argv[1]
 failures = []
 procs = []
@@ -26,24 +29,6 @@ def check(name, cond, detail=""):
     print(f"{'ok' if cond else 'FAIL'} {name} {detail if not cond else ''}".rstrip(), flush=True)
     if not cond:
         failures.append(name)
-
-
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    p = s.getsockname()[1]
-    s.close()
-    return p
-
-
-def wait_for(fn, timeout=5.0, step=0.05):
-    end = time.monotonic() + timeout
-    while time.monotonic() < end:
-        v = fn()
-        if v:
-            return v
-        time.sleep(step)
-    return fn()
 
 
 def start(argv, **kw):
@@ -75,19 +60,11 @@ class Broker:
 
     def start(self):
         self.p = start(["mosquitto", "-c", self.conf])
-        wait_for(lambda: _connects(self.port))
+        wait_for(lambda: connects(self.port))
 
     def restart(self):
         stop(self.p)
         self.start()
-
-
-def _connects(port):
-    try:
-        socket.create_connection(("127.0.0.1", port), 0.2).close()
-        return True
-    except OSError:
-        return False
 
 
 def sub(port, topics, count=None, timeout=3, auth=()):
