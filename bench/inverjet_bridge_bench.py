@@ -35,7 +35,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import connects, free_port, pct, wait_for  # noqa: E402
+from pyhelpers import Console, connects, free_port, pct, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 SIZES = [int(x) for x in sys.argv[sys.argv.index("--sizes") + 1].split(",")] if "--sizes" in sys.argv else [1, 20, 100]
@@ -52,20 +52,6 @@ def rss_mib(pid):
         if line.startswith("VmRSS:"):
             return int(line.split()[1]) / 1024
     return 0
-
-
-class Console:
-    def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
-
-    def ask(self, line):
-        self.s.sendall(line.encode() + b"\n")
-        data = b""
-        while not data.endswith(b"\n"):
-            data += self.s.recv(4096)
-        return data.decode().strip()
 
 
 class Subscriber:

@@ -25,7 +25,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import free_port, pct, wait_for  # noqa: E402
+from pyhelpers import Console, free_port, pct, wait_for  # noqa: E402
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -37,20 +37,6 @@ TOKEN = "0123456789abcdef0123456789abcdef"
 
 def now_ms():
     return time.time() * 1000.0
-
-
-class Console:
-    def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
-
-    def ask(self, line):
-        self.s.sendall(line.encode() + b"\n")
-        data = b""
-        while not data.endswith(b"\n"):
-            data += self.s.recv(4096)
-        return data.decode()
 
 
 OBSERVE_JS = """

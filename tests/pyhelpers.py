@@ -38,3 +38,20 @@ def pct(xs, p):
     """The p-th percentile of xs (nearest rank); nan when empty."""
     xs = sorted(xs)
     return xs[min(len(xs) - 1, int(round(p / 100.0 * (len(xs) - 1))))] if xs else float("nan")
+
+
+class Console:
+    """A simulator's console on its unix socket (`--console unix:PATH`): one
+    line in, one line of answer out."""
+
+    def __init__(self, path):
+        self.s = socket.socket(socket.AF_UNIX)
+        self.s.connect(path)
+        self.s.settimeout(2)
+
+    def ask(self, line):
+        self.s.sendall(line.encode() + b"\n")
+        data = b""
+        while not data.endswith(b"\n"):
+            data += self.s.recv(4096)
+        return data.decode().strip()

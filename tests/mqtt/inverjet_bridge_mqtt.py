@@ -18,7 +18,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import connects, free_port, wait_for  # noqa: E402
+from pyhelpers import Console, connects, free_port, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 failures = []
@@ -92,20 +92,6 @@ def pub(port, topic, payload, retain=False, auth=()):
 def retained(port, topic, auth=()):
     msgs = sub(port, [topic], count=1, timeout=2, auth=auth)
     return msgs[0][1] if msgs else None
-
-
-class Console:
-    def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
-
-    def ask(self, line):
-        self.s.sendall(line.encode() + b"\n")
-        data = b""
-        while not data.endswith(b"\n"):
-            data += self.s.recv(4096)
-        return data.decode().strip()
 
 
 def machine(work, name):
