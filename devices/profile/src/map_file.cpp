@@ -21,6 +21,14 @@
 namespace rtukit::profile {
 namespace {
 
+// C0 controls and DEL, but for tab and line ends: neither YAML nor JSON
+// allows them raw in a document, and yaml-cpp passes them through.
+bool is_control(char c) {
+  const auto b = static_cast<uint8_t>(c);
+  return (b < 0x20 && c != '\t' && c != '\n' && c != '\r') || b == 0x7F;
+}
+
+
 constexpr size_t kMaxMapFile = 4 << 20;
 
 constexpr Space kSpaces[] = {Space::holding, Space::input, Space::coil, Space::discrete};
@@ -82,7 +90,16 @@ class Reader {
 
   std::string text(const YAML::Node& n, std::string_view field) const {
     if (!n.IsScalar()) fail(n, fmt::format("{} must be text", field));
-    return n.Scalar();
+    // Every text of a map is one line (a name, a title, a unit, a label). A
+    // control character in it, raw or as an escape ("\0", "\r"), cut it short
+    // or changed it when the map was exported again (found by fuzz_map_file).
+    const std::string& s = n.Scalar();
+    const auto bad = std::find_if(s.begin(), s.end(), [](char c) {
+      return static_cast<uint8_t>(c) < 0x20 || static_cast<uint8_t>(c) == 0x7F;
+    });
+    if (bad != s.end())
+      fail(n, fmt::format("{}: control character 0x{:02X} in the text", field, static_cast<uint8_t>(*bad)));
+    return s;
   }
 
   template <class E, size_t N, class NameOf>
@@ -186,6 +203,11 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
     const auto line = 1 + std::count(text.begin(), text.begin() + static_cast<std::ptrdiff_t>(valid), '\n');
     return Status(Errc::invalid_argument, fmt::format("{}:{}: not UTF-8 text (byte 0x{:02X})", source, line,
                                                       static_cast<uint8_t>(text[valid])));
+  }
+  if (const auto bad = std::find_if(text.begin(), text.end(), is_control); bad != text.end()) {
+    const auto line = 1 + std::count(text.begin(), bad, '\n');
+    return Status(Errc::invalid_argument, fmt::format("{}:{}: control character 0x{:02X}", source, line,
+                                                      static_cast<uint8_t>(*bad)));
   }
   try {
     YAML::Node doc;
