@@ -65,6 +65,13 @@ struct Rig {
     EXPECT_FALSE(server->start());
     port = server->ports().at(0);
   }
+  // The server's thread stops first (TSan saw its ticker read `sockets` as
+  // they were freed), then the sockets go while their io_context still
+  // exists (a Beast stream outliving it is a use after free), then the server.
+  ~Rig() {
+    server->stop();
+    sockets.clear();
+  }
   std::unique_ptr<Server> server;
   std::vector<SocketPtr> sockets;  // server thread only
   std::atomic<int> closed{0};
