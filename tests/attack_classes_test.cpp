@@ -126,7 +126,17 @@ const Target kTargets[] = {
     {"slave_tcp", kSlave, Via::tcp, 1, 0x20, 0x64, 9999, 2, true, false, {{0x20, 2}, {9999, 1}}},
     {"slave_rtu_over_tcp", kSlave, Via::rtu_tcp, 1, 0x20, 0x64, 9999, 2, true, false, {{0x20, 2}, {9999, 1}}},
     {"gateway", kSlave, Via::tcp, 1, 0x20, 0x64, 9999, 2, true, true, {{0x20, 2}, {9999, 1}}},
-    {"gateway_rtu_over_tcp", kSlave, Via::rtu_tcp, 1, 0x20, 0x64, 9999, 2, true, true, {{0x20, 2}, {9999, 1}}},
+    {"gateway_rtu_over_tcp",
+     kSlave,
+     Via::rtu_tcp,
+     1,
+     0x20,
+     0x64,
+     9999,
+     2,
+     true,
+     true,
+     {{0x20, 2}, {9999, 1}}},
     {"inverjet_pty", kInverjet, Via::pty, 21, 0x80, 0x64, 0x83, 2, false, false, {{0x80, 4}}},
     {"inverjet_tcp", kInverjet, Via::tcp, 21, 0x80, 0x64, 0x83, 2, false, false, {{0x80, 4}}},
     {"rehand6600_pty", kRehand, Via::pty, 1, 0x61, 1, 0x5F, 3, false, false, {{0x0D, 6}}},
@@ -168,19 +178,6 @@ std::vector<uint8_t> pdu_for(const std::string& text, const Target& t) {
 }
 
 // ---------------------------------------------------------------- raw bytes
-
-int connect_to(uint16_t port) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(port);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 struct Reply {
   std::vector<uint8_t> bytes;

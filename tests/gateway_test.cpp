@@ -153,12 +153,8 @@ TEST_F(GatewayTest, ManyClientsAtOnce_EachGetsItsOwnAnswers) {
 // at most one of the greedy client's requests per turn.
 TEST_F(GatewayTest, FairBetweenClients) {
   start({"--max-queued", "64", "--delay", "20"});  // a slow bus: 30 requests take 0.6 s
-  const int greedy = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(port_);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(greedy, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const int greedy = connect_to(port_);
+  ASSERT_GE(greedy, 0);
   std::vector<uint8_t> burst;
   for (uint16_t i = 0; i < 30; ++i) {
     const uint8_t req[] = {
@@ -282,12 +278,8 @@ TEST_F(GatewayTest, RtuOverTcpListener_AnswersInOrder_BadCrcIsSilent) {
   EXPECT_NE(r.output.find("4321"), std::string::npos) << r.output;
 
   // Raw: three requests in one write, a bad CRC in the middle, a refused one last.
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(rtu_port);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  ASSERT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a), 0);
+  const int fd = connect_to(rtu_port);
+  ASSERT_GE(fd, 0);
   const auto frame = [](std::vector<uint8_t> b) {
     const uint16_t crc = rtukit::crc16(b);
     b.push_back(static_cast<uint8_t>(crc));

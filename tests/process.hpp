@@ -60,6 +60,22 @@ class TempDir {
   std::string path_;
 };
 
+/// A TCP connection to 127.0.0.1:port (its file descriptor), -1 if refused.
+/// `rcvbuf`: a small receive buffer, for a client that stops reading.
+inline int connect_to(uint16_t port, int rcvbuf = 0) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (rcvbuf) ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  sockaddr_in a{};
+  a.sin_family = AF_INET;
+  a.sin_port = htons(port);
+  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
 /// A TCP port on 127.0.0.1 nobody listens on right now.
 inline uint16_t free_tcp_port() {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);

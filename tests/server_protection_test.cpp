@@ -24,6 +24,7 @@
 
 using namespace rtukit;
 using namespace std::chrono_literals;
+using test::connect_to;
 using test::eventually;
 using test::Process;
 using test::TempDir;
@@ -82,20 +83,6 @@ class Server {
   std::atomic<uint64_t> ticks_{0};
   std::thread thread_;
 };
-
-int connect_to(uint16_t port, int rcvbuf = 0) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (rcvbuf) ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
-  sockaddr_in a{};
-  a.sin_family = AF_INET;
-  a.sin_port = htons(port);
-  a.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) != 0) {
-    ::close(fd);
-    return -1;
-  }
-  return fd;
-}
 
 // The attack: ~200 KB of FC03 x125 requests in 0.3 s, never reading a byte
 // of the (much larger) answers.

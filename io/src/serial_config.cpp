@@ -59,18 +59,24 @@ bool no_termios2(int err) {
   return err == ENOSYS || err == ENOTTY || err == EINVAL;
 }
 
+// The fields termios and termios2 share (termios2 adds the two speeds).
+template <class From, class To>
+void copy_flags(const From& from, To& to) {
+  to.c_iflag = from.c_iflag;
+  to.c_oflag = from.c_oflag;
+  to.c_cflag = from.c_cflag;
+  to.c_lflag = from.c_lflag;
+  to.c_line = from.c_line;
+  for (size_t i = 0; i < sizeof from.c_cc && i < sizeof to.c_cc; ++i) to.c_cc[i] = from.c_cc[i];
+}
+
 int get_termios(int fd, struct termios2& tio) {
   if (ioctl(fd, TCGETS2, &tio) == 0) return 0;
   if (!no_termios2(errno)) return -1;
   struct termios old {};
   if (ioctl(fd, TCGETS, &old) != 0) return -1;
   tio = {};
-  tio.c_iflag = old.c_iflag;
-  tio.c_oflag = old.c_oflag;
-  tio.c_cflag = old.c_cflag;
-  tio.c_lflag = old.c_lflag;
-  tio.c_line = old.c_line;
-  for (size_t i = 0; i < sizeof old.c_cc && i < sizeof tio.c_cc; ++i) tio.c_cc[i] = old.c_cc[i];
+  copy_flags(old, tio);
   return 0;
 }
 
@@ -80,12 +86,7 @@ int set_termios(int fd, const struct termios2& tio) {
   const int err = errno;
   if ((tio.c_cflag & CBAUD) == BOTHER) return errno = err, -1;  // a rate only termios2 can set
   struct termios old {};
-  old.c_iflag = tio.c_iflag;
-  old.c_oflag = tio.c_oflag;
-  old.c_cflag = tio.c_cflag;
-  old.c_lflag = tio.c_lflag;
-  old.c_line = tio.c_line;
-  for (size_t i = 0; i < sizeof old.c_cc && i < sizeof tio.c_cc; ++i) old.c_cc[i] = tio.c_cc[i];
+  copy_flags(tio, old);
   return ioctl(fd, TCSETS, &old);
 }
 
