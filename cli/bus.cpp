@@ -10,6 +10,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstring>
+#include <functional>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -186,6 +187,28 @@ int run_bus(const BusArgs& a) {
   std::fflush(stdout);
   asio::signal_set signals(ctx);
   stop_on_signals(signals, ctx);
+  // A test engineer's switches, at run time: SIGUSR1 pulls the cable out
+  // (nothing passes) and puts it back; SIGUSR2 stops the configured faults
+  // (a clean line) and starts them again.
+  asio::signal_set switches(ctx, SIGUSR1, SIGUSR2);
+  struct {
+    bool cut = false, quiet = false;
+  } line_state;
+  std::function<void()> await_switch = [&] {
+    switches.async_wait([&](const std::error_code& ec, int sig) {
+      if (ec) return;
+      if (sig == SIGUSR1) line_state.cut = !line_state.cut;
+      if (sig == SIGUSR2) line_state.quiet = !line_state.quiet;
+      BusConfig faults = line_state.quiet ? BusConfig{} : o.line;
+      if (line_state.cut) faults.drop_rate = 1;
+      (*bus)->set_faults(faults);
+      fmt::print("bus: {}{}\n", line_state.cut ? "line cut: nothing passes" : "line connected",
+                 line_state.quiet ? ", faults off" : "");
+      std::fflush(stdout);
+      await_switch();
+    });
+  };
+  await_switch();
   ctx.run();
   const BusLineStats s = (*bus)->stats();
   fmt::print(stderr, "bus: {} characters, {} collided, {} with bit errors, {} dropped, {} stray\n",
@@ -228,7 +251,9 @@ void add_bus_command(CLI::App& app, Action& action) {
                        "--baud 9600 &",
                        "rtukit read --port /tmp/bus2 --unit 21 0x21 4",
                        "rtukit bus --ports 2 --links /tmp/a,/tmp/b --ber 1e-4 --latency-ms 16 --seed 7",
-                       "rtukit bus --ports 2 --links /tmp/a,/tmp/b --name lab & rtukit sniff --bus lab"});
+                       "rtukit bus --ports 2 --links /tmp/a,/tmp/b --name lab & rtukit sniff --bus lab",
+                       "kill -USR1 %1   # cut the line (nothing passes); again: connected",
+                       "kill -USR2 %1   # stop the faults (a clean line); again: faults back"});
       },
       [](const BusArgs& a) { return run_bus(a); });
 }

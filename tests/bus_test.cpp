@@ -120,6 +120,77 @@ TEST(BusLine, Faults_BitErrorsDropsStrayLatency_AllSeeded) {
   for (const auto& x : drain(late)) EXPECT_EQ(x.at_us % 16000, 0u);
 }
 
+// Faults switched at run time: noise that stops, a cable pulled out and put
+// back. The rate and the seed stay; only what happens to the next characters
+// changes.
+TEST(BusLine, FaultsChangeAtRunTime) {
+  const std::vector<uint8_t> frame(50, 0x00);
+  BusLine line(2, {.baud = 19200, .bit_error_rate = 1.0, .seed = 3});
+  line.write(0, frame, 0);
+  for (uint8_t b : bytes_for(drain(line), 1)) EXPECT_EQ(b, 0xFF);
+
+  line.set_faults({});  // the noise stops
+  line.write(0, frame, 100'000);
+  EXPECT_EQ(bytes_for(drain(line), 1), frame);
+
+  line.set_faults({.drop_rate = 1.0});  // the cable is out
+  line.write(0, frame, 200'000);
+  EXPECT_TRUE(drain(line).empty());
+
+  line.set_faults({.drop_rate = 7.0, .echo = true});  // back, with an echo; the rate is clamped
+  EXPECT_EQ(line.config().drop_rate, 1.0);
+  line.set_faults({.echo = true});
+  line.write(0, frame, 300'000);
+  const auto d = drain(line);
+  EXPECT_EQ(bytes_for(d, 1), frame);
+  EXPECT_EQ(bytes_for(d, 0), frame);
+  EXPECT_EQ(line.config().baud, 19200u);  // the line's rate never changes
+  EXPECT_EQ(line.stats().dropped, 50u);
+}
+
+// `rtukit bus` takes its switches as signals: SIGUSR1 cuts the line and
+// connects it again, SIGUSR2 stops the configured faults and starts them again.
+TEST(VirtualBus, SignalsCutTheLineAndStopTheFaults) {
+  TempDir dir;
+  Process bus({kRtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
+               "19200", "--ber", "0.5"});
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet(
+      {kRtukit, "sim", "inverjet", "--listen", dir / "dev", "--baud", "19200", "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  Master m(io::make_link(*io::parse_port(dir / "host", false)),
+           MasterOptions{.response_timeout = 200ms, .retries = 1});
+  std::array<uint16_t, 4> regs{};
+  const auto reads = [&] {
+    int ok = 0;
+    for (int i = 0; i < 5; ++i) ok += m.read_holding_registers(UnitId{21}, 0x21, regs).ok() ? 1 : 0;
+    return ok;
+  };
+  EXPECT_EQ(reads(), 0);  // half the bits flipped: nothing gets through
+
+  ::kill(bus.pid(), SIGUSR2);
+  ASSERT_TRUE(bus.wait_for_output("line connected, faults off")) << bus.output();
+  EXPECT_EQ(reads(), 5);
+
+  ::kill(bus.pid(), SIGUSR1);
+  ASSERT_TRUE(bus.wait_for_output("line cut: nothing passes, faults off")) << bus.output();
+  EXPECT_EQ(reads(), 0);
+  EXPECT_EQ(m.write_single_register(UnitId{21}, 0x80, 40), Errc::timeout);
+
+  ::kill(bus.pid(), SIGUSR1);
+  ASSERT_TRUE(eventually([&] {
+    return bus.output().rfind("line connected, faults off") > bus.output().find("line cut");
+  })) << bus.output();
+  EXPECT_EQ(reads(), 5);
+  std::array<uint16_t, 1> free_speed{};
+  ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x80, free_speed).ok());
+  EXPECT_EQ(free_speed[0], 50);  // the write sent while the cable was out never arrived
+
+  ::kill(bus.pid(), SIGUSR2);
+  ASSERT_TRUE(eventually([&] { return bus.output().ends_with("line connected\n"); })) << bus.output();
+  EXPECT_EQ(reads(), 0);
+}
+
 // The ptys for real: 100 bytes written on one port arrive on another 104 ms
 // (+- 2 %) later, as on a 9600 8N1 line.
 TEST(VirtualBus, PtysArePacedForReal) {

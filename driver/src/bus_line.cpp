@@ -9,16 +9,29 @@ uint64_t ceil_div(uint64_t a, uint64_t b) {
   return (a + b - 1) / b;
 }
 
+void clamp_rates(BusConfig& c) {
+  const auto clamp01 = [](double& p) { p = std::clamp(p, 0.0, 1.0); };
+  clamp01(c.bit_error_rate);
+  clamp01(c.drop_rate);
+  clamp01(c.stray_rate);
+}
+
 }  // namespace
 
 BusLine::BusLine(unsigned ports, BusConfig config)
     : config_(config), next_free_ns_(std::max(1U, ports), 0), rng_(config.seed) {
-  const auto clamp01 = [](double& p) { p = std::clamp(p, 0.0, 1.0); };
-  clamp01(config_.bit_error_rate);
-  clamp01(config_.drop_rate);
-  clamp01(config_.stray_rate);
+  clamp_rates(config_);
   config_.baud = std::max(1U, config_.baud);
   char_ns_ = uint64_t{config_.bits_per_char} * 1'000'000'000ULL / config_.baud;
+}
+
+void BusLine::set_faults(const BusConfig& faults) {
+  config_.bit_error_rate = faults.bit_error_rate;
+  config_.drop_rate = faults.drop_rate;
+  config_.stray_rate = faults.stray_rate;
+  config_.latency_us = faults.latency_us;
+  config_.echo = faults.echo;
+  clamp_rates(config_);
 }
 
 bool BusLine::chance(double p) {

@@ -134,6 +134,11 @@ std::vector<std::string> VirtualBus::ports() const {
   return out;
 }
 
+void VirtualBus::set_faults(const BusConfig& faults) {
+  Impl* impl = impl_.get();
+  asio::post(impl->ctx, [impl, faults] { impl->line.set_faults(faults); });
+}
+
 BusLineStats VirtualBus::stats() const {
   return impl_->line.stats();
 }

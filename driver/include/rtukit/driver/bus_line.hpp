@@ -82,6 +82,16 @@ class BusLine {
   /// character that finished to `tap` (if given).
   void advance(uint64_t now_us, std::vector<BusDelivery>& out, std::vector<BusCharacter>* tap = nullptr);
 
+  /// Changes the faults from now on, as a noise burst that ends or a cable
+  /// pulled out and put back would: bit errors, drops, stray bytes, latency
+  /// and echo are taken from `faults` (rates clamped to 0..1); the baud rate,
+  /// the character size and the generator stay. A character finishing after
+  /// this call gets the new faults; deliveries already scheduled keep their
+  /// time.
+  void set_faults(const BusConfig& faults);
+  /// The configuration in effect (rates clamped).
+  const BusConfig& config() const noexcept { return config_; }
+
   /// One character's time on the line, in nanoseconds.
   uint64_t char_ns() const noexcept { return char_ns_; }
   const BusLineStats& stats() const noexcept { return stats_; }

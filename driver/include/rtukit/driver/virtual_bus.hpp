@@ -41,6 +41,11 @@ class VirtualBus {
   VirtualBus(const VirtualBus&) = delete;
   VirtualBus& operator=(const VirtualBus&) = delete;
 
+  /// Changes the line's faults from now on (BusLine::set_faults): noise
+  /// that stops, a cable pulled (drop_rate 1: nothing passes) and put back.
+  /// Safe from any thread: the change is posted to the bus's io_context.
+  void set_faults(const BusConfig& faults);
+
   /// What clients open: the link if one was given, else /dev/pts/N.
   std::vector<std::string> ports() const;
   BusLineStats stats() const;
