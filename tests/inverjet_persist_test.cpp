@@ -7,6 +7,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <filesystem>
 #include <fstream>
 #include <random>
 
@@ -181,13 +182,23 @@ TEST(InverjetStateFile, SaveNeverWritesThroughAPlantedSymlink) {
 
 // A child saves A, B, A, B... as fast as it can; we kill it (SIGKILL) at a
 // random moment, 40 times. The file must always load, and be exactly A or B.
+// A kill between creating the temporary file and the rename leaves that file
+// behind; the next save removes it (its process is gone), so kills never
+// pile files up.
 TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
   TempDir dir;
   const std::string path = dir / "state.json";
   const auto a = changed_settings(1);
   const auto b = changed_settings(2);
   ASSERT_FALSE(save_settings(path, a));
+  const auto temporaries = [&] {
+    unsigned n = 0;
+    for (const auto& e : std::filesystem::directory_iterator(dir.path()))
+      n += e.path().filename().string().starts_with("state.json.tmp.") ? 1 : 0;
+    return n;
+  };
   std::mt19937 rng(12345);
+  unsigned killed_mid_save = 0;
   for (int round = 0; round < 40; ++round) {
     const pid_t child = ::fork();
     ASSERT_GE(child, 0);
@@ -201,10 +212,16 @@ TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
     const LoadedSettings loaded = load_settings(path);
     ASSERT_TRUE(loaded.from_file) << "round " << round << ": " << loaded.warning;
     ASSERT_TRUE(loaded.settings == persisted(*a) || loaded.settings == persisted(*b)) << "round " << round;
+    // At most the one this child left: earlier ones were removed by its saves.
+    const unsigned left = temporaries();
+    ASSERT_LE(left, 1u) << "round " << round;
+    killed_mid_save += left;
   }
-  // Proof that kills landed mid-save: temporary files left behind by them.
-  const test::RunResult ls = test::run({"sh", "-c", "ls '" + dir.path() + "' | grep -c tmp"});
-  EXPECT_GT(std::atoi(ls.output.c_str()), 0) << ls.output;
+  // Proof that kills landed mid-save (each left its temporary file)...
+  EXPECT_GT(killed_mid_save, 0u);
+  // ...and that a save cleans up after a killed writer.
+  ASSERT_FALSE(save_settings(path, a));
+  EXPECT_EQ(temporaries(), 0u);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 #include "rtukit/io/atomic_file.hpp"
 
+#include <dirent.h>
 #include <fcntl.h>
+#include <signal.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -16,6 +18,32 @@ void make_parents(const std::string& path) {
     ::mkdir(path.substr(0, at).c_str(), 0755);
 }
 
+// Temporary files `<name>.tmp.<pid>` next to `path` whose process is gone:
+// a writer killed between creating its temporary file and the rename (a
+// power cut, SIGKILL) leaves one behind; without this, a device killed a
+// thousand times would collect a thousand. Only regular files of ours with
+// that exact name are removed (unlink never follows a symlink).
+void remove_stale_temporaries(const std::string& dir, const std::string& name) {
+  DIR* d = ::opendir(dir.c_str());
+  if (!d) return;
+  const std::string prefix = name + ".tmp.";
+  while (const dirent* e = ::readdir(d)) {
+    const std::string entry = e->d_name;
+    if (!entry.starts_with(prefix) || entry.size() == prefix.size() || entry.size() > prefix.size() + 9)
+      continue;
+    const std::string digits = entry.substr(prefix.size());
+    if (digits.find_first_not_of("0123456789") != std::string::npos) continue;
+    const auto pid = static_cast<pid_t>(std::stol(digits));
+    if (pid <= 0 || pid == ::getpid() || ::kill(pid, 0) == 0 || errno != ESRCH) continue;
+    struct stat st {};
+    if (::fstatat(::dirfd(d), e->d_name, &st, AT_SYMLINK_NOFOLLOW) != 0 || !S_ISREG(st.st_mode) ||
+        st.st_uid != ::geteuid())
+      continue;
+    ::unlinkat(::dirfd(d), e->d_name, 0);
+  }
+  ::closedir(d);
+}
+
 Status fail(const std::string& what, int err) {
   return Status(Error(Errc::io_error, err), what + ": " + std::strerror(err));
 }
@@ -24,6 +52,9 @@ Status fail(const std::string& what, int err) {
 
 Status write_file_atomically(const std::string& path, std::string_view content, unsigned mode) {
   make_parents(path);
+  const size_t slash = path.rfind('/');
+  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
+  remove_stale_temporaries(dir, slash == std::string::npos ? path : path.substr(slash + 1));
   // Per process, so two writers never share a temporary file. A leftover of
   // ours (a crash) is removed; unlink never follows a planted symlink, and
   // O_EXCL | O_NOFOLLOW never writes through one.
@@ -54,8 +85,6 @@ Status write_file_atomically(const std::string& path, std::string_view content, 
     return fail("cannot replace " + path, err);
   }
   // And the rename itself must survive a power cut.
-  const size_t slash = path.rfind('/');
-  const std::string dir = slash == std::string::npos ? "." : slash == 0 ? "/" : path.substr(0, slash);
   if (const int dfd = ::open(dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC); dfd >= 0) {
     ::fsync(dfd);
     ::close(dfd);

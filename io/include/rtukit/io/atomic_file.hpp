@@ -15,8 +15,10 @@ namespace rtukit::io {
 /// created; the temporary file is created exclusively and never through a
 /// symlink), flushes it (fsync), renames it over `path` (atomic on POSIX file
 /// systems) and flushes the directory. The file gets `mode` (0600 for
-/// secrets). Errors: io_error with the OS error and a one-line reason. A
-/// failed write leaves `path` untouched.
+/// secrets). Temporary files of `path` left by writers that were killed
+/// (`<name>.tmp.<pid>` of a process that no longer exists) are removed.
+/// Errors: io_error with the OS error and a one-line reason. A failed write
+/// leaves `path` untouched.
 Status write_file_atomically(const std::string& path, std::string_view content, unsigned mode = 0644);
 
 /// Reads a small regular file whole. Never blocks on a FIFO, never reads a
