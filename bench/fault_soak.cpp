@@ -19,7 +19,8 @@
 //   - recovery: failed transactions after the faults stopped (the target is
 //     none after the first).
 //
-//   build/default/bench/fault_soak [--device inverjet|rehand6600] [--fault noise|drop|stray|latency|echo]
+//   build/default/bench/fault_soak [--device inverjet|rehand6600]... [--fault
+//   noise|drop|stray|latency|echo]...
 //                                  [--transactions N] [--ber R] [--seed S]
 // Exit status: 0 when every check held, 1 otherwise, 2 on bad usage.
 #include <signal.h>
@@ -322,7 +323,9 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
     ++rep.failed;
     rep.longest_failure_run = std::max(rep.longest_failure_run, ++run);
   }
-  // The noise stops (the cable is put back, the adapter fixed).
+  // The noise stops (the cable is put back, the adapter fixed). Not an
+  // adapter's echo: that is how the adapter is built.
+  if (faults.echo_ports) after = 0;
   (*bus)->set_faults({});
   for (uint64_t i = 1; i <= after; ++i) {
     ++rep.after;
@@ -388,13 +391,18 @@ int main(int argc, char** argv) {
       faults{"noise", "drop", "stray", "latency", "echo"};
   uint64_t transactions = 0, seed = 1, after = 500;
   double ber = 1e-3;
+  bool device_given = false, fault_given = false;  // repeatable options: the first replaces the default
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     const bool has = i + 1 < argc;
     if (a == "--device" && has) {
-      devices = {argv[++i]};
+      if (!device_given) devices.clear();
+      device_given = true;
+      devices.push_back(argv[++i]);
     } else if (a == "--fault" && has) {
-      faults = {argv[++i]};
+      if (!fault_given) faults.clear();
+      fault_given = true;
+      faults.push_back(argv[++i]);
     } else if (a == "--transactions" && has) {
       transactions = std::stoull(argv[++i]);
     } else if (a == "--ber" && has) {
@@ -438,7 +446,7 @@ int main(int argc, char** argv) {
       } else if (f == "latency") {
         c.latency_us = 16000;
       } else if (f == "echo") {
-        c.echo = true;
+        c.echo_ports = 1U << 1;  // the master's adapter (port 1) echoes; the device's transceiver does not
       } else {
         std::fprintf(stderr, "unknown fault %s\n", f.c_str());
         return 2;

@@ -130,6 +130,7 @@ struct BusArgs {
   unsigned stop_bits = 1;
   double ber = 0, drop = 0, stray = 0, latency_ms = 0;
   bool echo = false;
+  std::vector<unsigned> echo_ports;
   uint64_t seed = 1;
   std::string tap;
   bool overwrite = false;
@@ -149,6 +150,11 @@ int run_bus(const BusArgs& a) {
   o.line.stray_rate = a.stray;
   o.line.latency_us = static_cast<uint32_t>(a.latency_ms * 1000);
   o.line.echo = a.echo;
+  for (unsigned p : a.echo_ports) {
+    if (p >= a.ports)
+      throw Failure{kUsage, fmt::format("--echo-port {}: the bus has ports 0..{}", p, a.ports - 1)};
+    o.line.echo_ports |= 1U << p;
+  }
   o.line.seed = a.seed;
   std::shared_ptr<std::FILE> tap;
   if (!a.tap.empty()) {
@@ -179,7 +185,10 @@ int run_bus(const BusArgs& a) {
   started = bus->get();
   if (tap_server) tap_server->listen(a.name);
   fmt::print("bus: {} ports at {} baud, {} bits a character ({:.0f} us){}\n", a.ports, a.baud,
-             o.line.bits_per_char, 1e6 * o.line.bits_per_char / a.baud, a.echo ? ", echo" : "");
+             o.line.bits_per_char, 1e6 * o.line.bits_per_char / a.baud,
+             a.echo                  ? ", echo"
+             : !a.echo_ports.empty() ? ", echo on some ports"
+                                     : "");
   const std::vector<std::string> ports = (*bus)->ports();
   for (size_t i = 0; i < ports.size(); ++i) fmt::print("port {}: {}\n", i, ports[i]);
   if (tap_server) fmt::print("tap: rtukit sniff --bus {} ({})\n", a.name, bus_tap_socket(a.name));
@@ -241,7 +250,9 @@ void add_bus_command(CLI::App& app, Action& action) {
             ->check(CLI::Range(0.0, 1.0));
         f->add_option("--latency-ms", a.latency_ms, "deliver in ticks of this many ms (a USB adapter: 16)")
             ->check(CLI::Range(0.0, 1000.0));
-        f->add_flag("--echo", a.echo, "a sender hears its own bytes (half-duplex adapters)");
+        f->add_flag("--echo", a.echo, "every sender hears its own bytes (half-duplex adapters)");
+        f->add_option("--echo-port", a.echo_ports,
+                      "only this port hears its own bytes (a master's echoing adapter); repeatable");
         f->add_option("--seed", a.seed, "seed of the fault generator")->capture_default_str();
         cmd.add_option("--tap", a.tap, "write every character on the line, with its times, to this file");
         cmd.add_flag("--overwrite", a.overwrite, "replace a --tap file that is not a tap");

@@ -64,6 +64,14 @@ TEST(BusLine, EveryOtherPortHearsIt_EchoAlsoTheSender) {
   BusLine echo(2, {.baud = 19200, .echo = true});
   echo.write(0, req, 0);
   EXPECT_EQ(bytes_for(drain(echo), 0).size(), 4u);
+  // Only the master's adapter echoes (port 1): the device on port 0 does not hear itself.
+  BusLine adapter(2, {.baud = 19200, .echo_ports = 1U << 1});
+  adapter.write(1, req, 0);
+  EXPECT_EQ(bytes_for(drain(adapter), 1).size(), 4u);
+  adapter.write(0, req, 10'000);
+  const auto heard = drain(adapter);
+  EXPECT_EQ(bytes_for(heard, 0).size(), 0u);
+  EXPECT_EQ(bytes_for(heard, 1).size(), 4u);
 }
 
 TEST(BusLine, TwoSendersAtOnceCollide_OneAfterTheOtherDoNot) {

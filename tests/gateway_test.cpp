@@ -1,6 +1,8 @@
 // `rtukit gateway` as installers run it: a generic slave on a pty stands for
 // the serial bus (units 1 and 21), the gateway owns that pty, and clients
 // come over Modbus TCP: our Master, the rtukit CLI, mbpoll and pymodbus.
+#include "rtukit/driver/gateway.hpp"
+
 #include <arpa/inet.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
@@ -59,6 +61,35 @@ class GatewayTest : public ::testing::Test {
 };
 
 }  // namespace
+
+// The checks every request passes on arrival, without a session or a bus.
+TEST(GatewayAdmission, CodecThenUnitThenReadOnly) {
+  using A = GatewayAdmission::Action;
+  const std::vector<uint8_t> read = {0x03, 0x00, 0x21, 0x00, 0x04}, write = {0x06, 0x00, 0x80, 0x00, 0x32},
+                             restart = {0x08, 0x00, 0x01, 0x00, 0x00}, echo = {0x08, 0x00, 0x00, 0x12, 0x34},
+                             short_read = {0x03, 0x00}, unknown = {0x41, 0x00};
+  const GatewayOptions open{}, read_only{.read_only = true}, listed{.allowed_units = {21}};
+
+  const GatewayAdmission relayed = admit_gateway_request(open, 21, read, false);
+  EXPECT_EQ(relayed.action, A::relay);
+  EXPECT_EQ(relayed.request.address, 0x21);
+  EXPECT_EQ(relayed.request.quantity, 4);
+  EXPECT_EQ(admit_gateway_request(open, 248, read, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(open, 0, write, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(listed, 22, read, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(listed, 21, write, false).action, A::relay);
+  EXPECT_EQ(admit_gateway_request(read_only, 21, write, false).exception, Errc::illegal_function);
+  EXPECT_EQ(admit_gateway_request(read_only, 21, restart, false).exception, Errc::illegal_function);
+  EXPECT_EQ(admit_gateway_request(read_only, 21, echo, false).action, A::relay);
+  EXPECT_EQ(admit_gateway_request(read_only, 21, read, false).action, A::relay);
+  // Too short for its function: 03 to an MBAP client (its length said whole), dropped as an RTU frame.
+  EXPECT_EQ(admit_gateway_request(open, 21, short_read, false).exception, Errc::illegal_data_value);
+  EXPECT_EQ(admit_gateway_request(open, 21, short_read, true).action, A::drop);
+  // A function not relayed: 01 both ways.
+  EXPECT_EQ(admit_gateway_request(open, 21, unknown, true).exception, Errc::illegal_function);
+  EXPECT_TRUE(gateway_counts_as_write(0x17));
+  EXPECT_FALSE(gateway_counts_as_write(0x03));
+}
 
 TEST_F(GatewayTest, RelaysReadsWritesAndTheDevicesOwnExceptions) {
   start();

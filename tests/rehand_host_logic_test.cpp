@@ -208,5 +208,60 @@ TEST(RehandHostLogic, LinkLossDropsEveryHold_D8) {
   EXPECT_EQ(rig.logic.held(reg::kPhoneForward), 0);
 }
 
+// A press whose write failed (a timeout: the controller may have executed
+// it before the answer was lost) is undone, and 0 is written after the next
+// poll: any doubt about motion, stop.
+TEST(RehandHostLogic, APressWhoseWriteFailedIsUndone_AndZeroedAfterTheNextPoll) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
+  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, /*written=*/false));
+  EXPECT_EQ(rig.logic.held(reg::kSeatLift), 0);
+  EXPECT_FALSE(rig.logic.dropped(reg::kSeatLift));  // not a stop: the UI may press again
+  auto writes = rig.cycle();
+  ASSERT_EQ(writes.size(), 1u);
+  EXPECT_EQ(writes[0].address, reg::kSeatLift);
+  EXPECT_EQ(writes[0].value, 0);
+  EXPECT_TRUE(rig.cycle().empty());  // once
+  // Pressed again before that poll: the new press is rewritten, no 0.
+  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
+  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, false));
+  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
+  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, true));
+  writes = rig.cycle();
+  ASSERT_EQ(writes.size(), 1u);
+  EXPECT_EQ(writes[0].value, 1);
+}
+
+// The link is lost while a press's write is on the bus: the stop wins (D-8).
+// The failed write must not clear the "dropped" mark, or the finger still on
+// the button would press again by itself once the link is back.
+TEST(RehandHostLogic, ALinkLossDuringThePressWriteWins_D8) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
+  for (int i = 0; i < 3; ++i) rig.cycle(Errc::timeout);  // meanwhile, on the poll thread
+  ASSERT_EQ(rig.logic.active_error(), kMasterCommunicationError);
+  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, /*written=*/false));
+  EXPECT_TRUE(rig.logic.dropped(reg::kSeatLift));
+  // The same when the write got through just before the stop: the caller is told to write 0.
+  Rig other;
+  other.connect();
+  other.cycle();
+  ASSERT_TRUE(other.logic.hold(reg::kSeatLift, 1, other.t));
+  other.table1[reg::kErrorCode] = 0x1093;
+  other.cycle();
+  EXPECT_TRUE(other.logic.press_settled(reg::kSeatLift, 1, /*written=*/true));
+  EXPECT_TRUE(other.logic.dropped(reg::kSeatLift));
+  // A press that went through and is still held: nothing to undo.
+  Rig fine;
+  fine.connect();
+  fine.cycle();
+  ASSERT_TRUE(fine.logic.hold(reg::kSeatLift, 1, fine.t));
+  EXPECT_FALSE(fine.logic.press_settled(reg::kSeatLift, 1, true));
+}
+
 }  // namespace
 }  // namespace rtukit::rehand6600

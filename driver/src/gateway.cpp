@@ -17,14 +17,19 @@
 #include "tcp_sessions.hpp"
 
 namespace rtukit {
-namespace {
 
-bool is_write(uint8_t function) {
+bool gateway_counts_as_write(uint8_t function) {
   return function == fc(Function::write_single_coil) || function == fc(Function::write_single_register) ||
          function == fc(Function::write_multiple_coils) ||
          function == fc(Function::write_multiple_registers) ||
          function == fc(Function::mask_write_register) ||
          function == fc(Function::read_write_multiple_registers);  // it writes before it reads
+}
+
+namespace {
+
+bool is_write(uint8_t function) {
+  return gateway_counts_as_write(function);
 }
 
 // FC08 sub-functions that change the device's line state: restart (and
@@ -104,12 +109,6 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   };
 
   Impl(Master& m, GatewayOptions o) : bus(m), options(std::move(o)) {}
-
-  bool allowed(uint8_t unit) const {
-    if (options.allowed_units.empty()) return unit >= 1 && unit <= 247;
-    return std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
-           options.allowed_units.end();
-  }
 
   // On the io thread: check, answer from the cache, or queue. `ordered`:
   // the client has no transaction ids (RTU over TCP), so even the answers
@@ -222,6 +221,30 @@ class GatewaySession final : public TcpSession {
   asio::steady_timer silence_;
 };
 
+GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t unit,
+                                       std::span<const uint8_t> pdu, bool ordered) {
+  using Action = GatewayAdmission::Action;
+  const Result<Request> req = decode_request(pdu);
+  if (!req.ok()) {
+    // A function the gateway does not relay, or a request no device could
+    // take: the same exception a slave gives. A PDU too short for its
+    // function's fields (the MBAP length says it is whole): 03, as a slave
+    // over Modbus TCP answers; before, it was dropped and the client waited.
+    // RTU frames (`ordered`): a truncated frame, dropped as the line drops it.
+    if (req.error().is_exception()) return {Action::refuse, req.error().code(), {}};
+    if (!ordered) return {Action::refuse, Errc::illegal_data_value, {}};
+    return {Action::drop, Errc::ok, {}};
+  }
+  const bool allowed = options.allowed_units.empty()
+                           ? unit >= 1 && unit <= 247
+                           : std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
+                                 options.allowed_units.end();
+  if (!allowed) return {Action::refuse, Errc::gateway_path_unavailable, {}};
+  if (options.read_only && (is_write(req->function) || changes_line_state(*req)))
+    return {Action::refuse, Errc::illegal_function, {}};
+  return {Action::relay, Errc::ok, *req};
+}
+
 void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, uint64_t client, bool ordered,
                                uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu) {
   struct {
@@ -247,20 +270,10 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     std::lock_guard lock(mutex);
     ++stats.requests;
   }
-  const Result<Request> req = decode_request(pdu);
-  if (!req.ok()) {
-    // A function the gateway does not relay, or a request no device could
-    // take: the same exception a slave gives. A PDU too short for its
-    // function's fields (the MBAP length says it is whole): 03, as a slave
-    // over Modbus TCP answers; before, it was dropped and the client waited.
-    // RTU frames (`ordered`): a truncated frame, dropped as the line drops it.
-    if (req.error().is_exception() || !ordered)
-      refuse(req.error().is_exception() ? req.error().code() : Errc::illegal_data_value);
-    return;
-  }
-  if (!allowed(h.unit)) return refuse(Errc::gateway_path_unavailable);
-  if (options.read_only && (is_write(function) || changes_line_state(*req)))
-    return refuse(Errc::illegal_function);
+  const GatewayAdmission admission = admit_gateway_request(options, h.unit, pdu, ordered);
+  if (admission.action == GatewayAdmission::Action::drop) return;
+  if (admission.action == GatewayAdmission::Action::refuse) return refuse(admission.exception);
+  const Request* req = &admission.request;
   std::lock_guard lock(mutex);
   // An ordered client's cached read is served by the bus thread in its turn.
   if (options.cache.count() > 0 && is_read(function) && !ordered) {

@@ -4,6 +4,7 @@
 
 #include <fmt/core.h>
 
+#include <utility>
 #include <vector>
 
 #include "rtukit/devices/profile/text.hpp"
@@ -180,8 +181,10 @@ void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words)
   // controller holds exactly what the UI holds even after its watchdog fired.
   for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
     Lease& l = holds_[i];
-    if (l.value == 0) continue;
     const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (std::exchange(l.zero_pending, false) && l.value == 0)
+      queue_.push_back(Request{Request::Kind::write, address, 0});
+    if (l.value == 0) continue;
     const bool expired = now >= l.until;
     queue_.push_back(Request{Request::Kind::write, address, expired ? uint16_t{0} : l.value});
     if (expired) {
@@ -221,6 +224,14 @@ bool HostLogic::hold(uint16_t command, uint16_t value, TimePoint now) {
   const bool changed = l.value != value;
   l = {value, now + options_.lease};
   return changed;
+}
+
+bool HostLogic::press_settled(uint16_t command, uint16_t value, bool written) {
+  Lease& l = holds_[command - reg::kCommandFirst];
+  if (written) return l.value != value;
+  if (!l.dropped) l = {};
+  l.zero_pending = true;
+  return false;
 }
 
 void HostLogic::release(uint16_t command) {
@@ -356,12 +367,23 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
     changed = logic_.hold(command, value, Clock::now());
   }
   if (!changed) return {};
-  Error e = write_command(command, value);
-  if (e) {
+  const Error e = write_command(command, value);
+  bool stopped_meanwhile = false;
+  {
+    // While the write was on the bus a stop may have dropped the hold (an
+    // error, the link lost: D-8) or the UI released it. Before, a failed
+    // write cleared the lease and with it the "dropped" mark, so the next
+    // renewal of a finger that stayed down through a link loss pressed
+    // again by itself (found by bench/rehand_link_soak.py).
     std::lock_guard lock(mutex_);
-    logic_.release(command);
-    return rtukit::Status(e, failure_text(e));
+    stopped_meanwhile = logic_.press_settled(command, value, e.ok());
   }
+  if (stopped_meanwhile) (void)write_command(command, 0);  // any doubt about motion: stop
+  if (e) return rtukit::Status(e, failure_text(e));
+  if (stopped_meanwhile)
+    return rtukit::Status(
+        Errc::refused,
+        fmt::format("{} was stopped while it was being pressed: release and press again", r->key));
   return {};
 }
 

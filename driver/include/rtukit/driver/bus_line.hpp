@@ -14,7 +14,8 @@
 //   - stray bytes in the silence after a transmission (noise between frames),
 //   - delivery latency (a USB adapter's latency timer: received bytes reach
 //     the reader only at multiples of `latency_us`),
-//   - echo (the sender hears its own characters, as half-duplex adapters do).
+//   - echo (the sender hears its own characters, as half-duplex adapters do;
+//     every port, or only the ports in `echo_ports`).
 //
 //   rtukit::BusLine line(3, {.baud = 9600, .bits_per_char = 10});
 //   line.write(0, request, now_us);
@@ -37,7 +38,10 @@ struct BusConfig {
   double drop_rate = 0;       ///< per character, 0..1
   double stray_rate = 0;      ///< per transmission end: a stray byte 5 characters later
   uint32_t latency_us = 0;    ///< deliveries rounded up to multiples of this (0: at once)
-  bool echo = false;          ///< the sender receives its own characters too
+  bool echo = false;          ///< every sender receives its own characters too
+  /// Only these ports (bit N: port N) hear their own characters: a master's
+  /// half-duplex USB adapter echoes, a device's transceiver usually does not.
+  uint32_t echo_ports = 0;
   uint64_t seed = 1;
 };
 

@@ -61,6 +61,32 @@ struct GatewayStats {
   uint64_t bus_down = 0;          ///< 0x0A: the bus failed
 };
 
+/// What the gateway does with one request as it arrives, before its queues
+/// and cache: the checks of the request path, pure (no session, no bus, no
+/// clock), so they can be fuzzed and tested alone.
+struct GatewayAdmission {
+  enum class Action {
+    relay,   ///< queue it for the bus (or answer it from the cache)
+    refuse,  ///< answer `exception` at once; nothing reaches the bus
+    drop,    ///< no answer: an RTU frame too short for its function, as a line drops it
+  };
+  Action action = Action::drop;
+  Errc exception = Errc::ok;  ///< refuse: 01, 02, 03, 04 (the codec's), 0A (unit not allowed)
+  Request request{};          ///< relay: the decoded request
+};
+
+/// Decides for a request `pdu` (function code first, at least 1 byte) to
+/// `unit`. `ordered`: it came as an RTU frame (rtu+tcp://), whose truncated
+/// PDUs are dropped; an MBAP request's length says it is whole, so a short
+/// PDU gets 03. Order of the checks: the codec (a function not relayed: 01;
+/// fields out of range: 02/03), the unit allow-list (0A), read-only (01 for
+/// every write and every FC08 that changes the device's line state).
+GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t unit,
+                                       std::span<const uint8_t> pdu, bool ordered);
+
+/// True for the functions that change a device's data (FC05, 06, 0F, 10, 16, 17).
+bool gateway_counts_as_write(uint8_t function);
+
 class Gateway {
  public:
   /// Listens on every spec of `listen` and relays to `bus`, which must

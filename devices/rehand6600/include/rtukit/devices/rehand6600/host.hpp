@@ -133,6 +133,14 @@ class HostLogic {
   /// Holds `command` at `value` until `now` + lease. True when the value
   /// changed (the caller writes it at once).
   bool hold(uint16_t command, uint16_t value, TimePoint now);
+  /// The write of a new press (hold() returned true) finished, `written` or
+  /// not. True: write 0 to `command` now, because the lease was dropped by a
+  /// stop (D-8) or released while the write was on the bus, so the
+  /// controller would hold a value nobody holds. A write that failed undoes
+  /// the press (a dropped one stays dropped until the UI releases it) and,
+  /// since a lost answer may follow an executed write, 0 is written after
+  /// the next poll: any doubt about motion, stop.
+  bool press_settled(uint16_t command, uint16_t value, bool written);
   /// Releases a hold, and lets a hold dropped by a stop be pressed again.
   void release(uint16_t command);
   uint16_t held(uint16_t command) const { return holds_[command - reg::kCommandFirst].value; }
@@ -169,6 +177,7 @@ class HostLogic {
     uint16_t value = 0;
     TimePoint until{};
     bool dropped = false;
+    bool zero_pending = false;  ///< a press whose write failed: 0 is written after the next poll
   };
   void drop_holds(bool write_zero);
   std::array<Lease, reg::kCommandCount> holds_{};
