@@ -8,8 +8,10 @@ line; SIGUSR1 to the bus cuts the line and connects it again. Each cycle:
   1. a display (WebSocket) holds "seat lift up", renewing it every 100 ms as
      a finger on the button does, and the chair's seat_lift register reads
      "up" (the simulator's console);
-  2. the line is cut while the finger stays down: the daemon must raise
-     1010 (error_raised) and the chair stop;
+  2. the line is cut while the finger stays down (every other cycle: the
+     finger lifted, the line cut, the button pressed while the line is dead,
+     before the daemon noticed): the daemon must raise 1010 (error_raised)
+     and the chair stop;
   3. the line comes back, the finger still down: the daemon must clear 1010
      (error_cleared), refuse the renewals ("release and press again", D-8)
      and the chair's seat_lift must stay "off" for a whole second: no held
@@ -136,7 +138,12 @@ def main():
             d.hold_for(3, until=lifting)
             if not lifting():
                 failures.append(f"cycle {cycle}: the hold did not reach the chair")
-            # 2. the cable out, the finger still down
+            # 2. the cable out, the finger still down; every other cycle the
+            #    finger is lifted first and pressed while the line is dead,
+            #    before the daemon noticed (its press fails on the bus)
+            if cycle % 2:
+                d.send({"op": "release", "command": "seat_lift"})
+                d.pump(0.15)
             cut = time.monotonic()
             bus.send_signal(signal.SIGUSR1)
             d.hold_for(5, until=lambda: d.event_since(cut, "error_raised", MASTER_ERROR))

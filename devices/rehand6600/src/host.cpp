@@ -229,8 +229,10 @@ bool HostLogic::hold(uint16_t command, uint16_t value, TimePoint now) {
 bool HostLogic::press_settled(uint16_t command, uint16_t value, bool written) {
   Lease& l = holds_[command - reg::kCommandFirst];
   if (written) return l.value != value;
-  if (!l.dropped) l = {};
-  l.zero_pending = true;
+  // Not written: the press is refused until the UI releases it, as after a
+  // stop. A finger that stays down must not press again by itself on the
+  // next renewal, once the link (or the controller) answers again.
+  l = {.dropped = true, .zero_pending = true};
   return false;
 }
 

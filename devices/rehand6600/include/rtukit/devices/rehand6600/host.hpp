@@ -136,10 +136,11 @@ class HostLogic {
   /// The write of a new press (hold() returned true) finished, `written` or
   /// not. True: write 0 to `command` now, because the lease was dropped by a
   /// stop (D-8) or released while the write was on the bus, so the
-  /// controller would hold a value nobody holds. A write that failed undoes
-  /// the press (a dropped one stays dropped until the UI releases it) and,
-  /// since a lost answer may follow an executed write, 0 is written after
-  /// the next poll: any doubt about motion, stop.
+  /// controller would hold a value nobody holds. A write that failed drops
+  /// the press as a stop does (refused until the UI releases it: a finger
+  /// that stayed down never presses again by itself) and, since a lost
+  /// answer may follow an executed write, 0 is written after the next poll:
+  /// any doubt about motion, stop.
   bool press_settled(uint16_t command, uint16_t value, bool written);
   /// Releases a hold, and lets a hold dropped by a stop be pressed again.
   void release(uint16_t command);
