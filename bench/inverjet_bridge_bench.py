@@ -25,8 +25,6 @@ Prints a Markdown table for bench/README.md.
 import json
 import os
 import random
-import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -35,7 +33,7 @@ import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, connects, free_port, pct, wait_for  # noqa: E402
+from pyhelpers import Console, connects, free_port, pct, stop_processes, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 SIZES = [int(x) for x in sys.argv[sys.argv.index("--sizes") + 1].split(",")] if "--sizes" in sys.argv else [1, 20, 100]
@@ -176,14 +174,7 @@ def run(n):
         return dict(n=n, samples=len(sample) * 10, change=change, command=command, msgs=msgs_per_s, cpu=statistics.mean(cpu),
                     rss=statistics.mean(rss), late=late, gap=worst_gap, polls=polls, reporting=len(health))
     finally:
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-        for p in procs:
-            try:
-                p.wait(5)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_processes(procs)
 
 
 def main():

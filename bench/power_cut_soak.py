@@ -124,8 +124,15 @@ def main():
     p.kill()
     p.wait()
     new = old
-    loaded_old = loaded_new = mixed = warnings = answered = mid_save = 0
-    most_temporaries = 0
+    counts = {"old": 0, "new": 0, "mixed": 0}
+    warnings = answered = mid_save = most_temporaries = 0
+
+    def loaded(got, cycle):
+        kind = "new" if got == new else "old" if got == old else "mixed"
+        counts[kind] += 1
+        if kind == "mixed":
+            print(f"cycle {cycle}: loaded {got}, expected {old} or {new}", file=sys.stderr)
+
     t0 = time.monotonic()
     for cycle in range(CYCLES):
         p, lines = start(state, port)
@@ -135,13 +142,7 @@ def main():
             print(f"cycle {cycle}: {bad}", file=sys.stderr)
         s = connect(port)
         got = read_settings(s)
-        if got == new:
-            loaded_new += 1
-        elif got == old:
-            loaded_old += 1
-        else:
-            mixed += 1
-            print(f"cycle {cycle}: loaded {got}, expected {old} or {new}", file=sys.stderr)
+        loaded(got, cycle)
         old = got
         new = (rng.randint(0, 100), rng.randint(0, 5999), rng.randint(0, 100), rng.randint(0, 5999))
         while new == old:
@@ -163,12 +164,7 @@ def main():
     p, lines = start(state, port)
     s = connect(port)
     got = read_settings(s)
-    if got == new:
-        loaded_new += 1
-    elif got == old:
-        loaded_old += 1
-    else:
-        mixed += 1
+    loaded(got, CYCLES)
     s.sendall(write_request(old if got != old else new))
     recv_adu(s)
     s.close()
@@ -181,9 +177,9 @@ def main():
     print("| kills | restarts: old settings | new settings | a mix | a warning or error | answered before the kill "
           "| killed inside the save (temporary file left) | most temporary files at once | left at the end | time |")
     print("|---|---|---|---|---|---|---|---|---|---|")
-    print(f"| {CYCLES} | {loaded_old} | {loaded_new} | {mixed} | {warnings} | {answered} | {mid_save} | "
+    print(f"| {CYCLES} | {counts['old']} | {counts['new']} | {counts['mixed']} | {warnings} | {answered} | {mid_save} | "
           f"{most_temporaries} | {left_at_end} | {seconds:.0f} s |")
-    ok = mixed == 0 and warnings == 0 and left_at_end == 0 and most_temporaries <= 1
+    ok = counts["mixed"] == 0 and warnings == 0 and left_at_end == 0 and most_temporaries <= 1
     return 0 if ok else 1
 
 

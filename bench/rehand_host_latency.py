@@ -15,8 +15,6 @@ Prints a Markdown table for bench/README.md. Not a test: figures, no verdict.
 """
 import json
 import os
-import signal
-import socket
 import statistics
 import subprocess
 import sys
@@ -25,7 +23,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, free_port, pct, wait_for  # noqa: E402
+from pyhelpers import Console, free_port, pct, stop_processes, wait_for  # noqa: E402
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -133,9 +131,7 @@ def run(pages):
         return page, polled, release
     finally:
         d.quit()
-        for p in reversed(procs):
-            p.send_signal(signal.SIGTERM)
-            p.wait(5)
+        stop_processes(procs)
 
 
 def main():

@@ -35,7 +35,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, WebSocket, free_port, pct, wait_for  # noqa: E402
+from pyhelpers import Console, WebSocket, free_port, pct, stop_processes, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 MASTER_ERROR = 0x1010  # "1010 Master Error": error codes are hex (table 3)
@@ -91,8 +91,17 @@ class Display:
         self.pump(0.05)
         return [self.results.get(i) for i in ids]
 
-    def event_since(self, t, name, code=None):
-        return any(at >= t and m["event"] == name and (code is None or m.get("code") == code) for at, m in self.events)
+    def switch_line(self, bus, event):
+        """Cuts or connects the line (SIGUSR1 to the bus), the finger still
+        down; returns the milliseconds until the daemon sent `event` for
+        1010, or None when it did not within 5 s."""
+        t = time.monotonic()
+        bus.send_signal(signal.SIGUSR1)
+        seen = lambda: next((at for at, m in self.events
+                             if at >= t and m["event"] == event and m.get("code") == MASTER_ERROR), None)
+        self.hold_for(5, until=lambda: seen() is not None)
+        at = seen()
+        return None if at is None else 1000 * (at - t)
 
 
 def main():
@@ -144,24 +153,20 @@ def main():
             if cycle % 2:
                 d.send({"op": "release", "command": "seat_lift"})
                 d.pump(0.15)
-            cut = time.monotonic()
-            bus.send_signal(signal.SIGUSR1)
-            d.hold_for(5, until=lambda: d.event_since(cut, "error_raised", MASTER_ERROR))
-            if not d.event_since(cut, "error_raised", MASTER_ERROR):
+            raised = d.switch_line(bus, "error_raised")
+            if raised is None:
                 failures.append(f"cycle {cycle}: no 1010 after the cut")
             else:
-                raised_ms.append(1000 * (next(at for at, m in d.events if at >= cut and m["event"] == "error_raised") - cut))
+                raised_ms.append(raised)
             d.hold_for(0.3)
             if lifting():
                 failures.append(f"cycle {cycle}: the chair kept lifting with the line cut")
             # 3. the cable back, the finger still down: 1010 cleared, nothing moves
-            back = time.monotonic()
-            bus.send_signal(signal.SIGUSR1)
-            d.hold_for(5, until=lambda: d.event_since(back, "error_cleared", MASTER_ERROR))
-            if not d.event_since(back, "error_cleared", MASTER_ERROR):
+            cleared = d.switch_line(bus, "error_cleared")
+            if cleared is None:
                 failures.append(f"cycle {cycle}: 1010 not cleared after the line came back")
             else:
-                cleared_ms.append(1000 * (next(at for at, m in d.events if at >= back and m["event"] == "error_cleared") - back))
+                cleared_ms.append(cleared)
             moved = False
             end = time.monotonic() + 1.0
             while time.monotonic() < end:
@@ -189,13 +194,7 @@ def main():
         seconds = time.monotonic() - t0
         d.ws.close()
     finally:
-        for p in reversed(procs):
-            p.send_signal(signal.SIGTERM)
-            try:
-                p.wait(5)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                p.wait()
+        stop_processes(procs)
 
     for f in failures[:20]:
         print(f, file=sys.stderr)

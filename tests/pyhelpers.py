@@ -134,3 +134,19 @@ class WebSocket:
         except OSError:
             pass
         self.s.close()
+
+
+def stop_processes(procs, timeout=5.0):
+    """Stops what a test or bench started, last started first: SIGTERM (a
+    server ends cleanly: pty link removed, state saved), then SIGKILL for one
+    that has not ended within `timeout`."""
+    import signal
+    import subprocess
+    for p in reversed(procs):
+        if p.poll() is None:
+            p.send_signal(signal.SIGTERM)
+            try:
+                p.wait(timeout)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()

@@ -10,7 +10,7 @@ import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import free_port, wait_for  # noqa: E402,F401 (the browser tests take them from here)
+from pyhelpers import free_port, stop_processes, wait_for  # noqa: E402,F401 (the browser tests take them from here)
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service

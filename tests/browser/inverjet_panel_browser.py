@@ -11,13 +11,12 @@ import signal
 import subprocess
 import sys
 import tempfile
-import time
 
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, free_port, layout, summary, wait_for  # noqa: E402
+from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, wait_for  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 os.makedirs(OUT, exist_ok=True)
@@ -135,13 +134,7 @@ setTimeout(() => done(null), 3000);""")
                 d.quit()
             except Exception:
                 pass
-        for p in reversed(procs):
-            if p.poll() is None:
-                p.send_signal(signal.SIGTERM)
-                try:
-                    p.wait(5)
-                except subprocess.TimeoutExpired:
-                    p.kill()
+        stop_processes(procs)
     return summary()
 
 

@@ -11,7 +11,6 @@ import json
 import os
 import re
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
@@ -23,7 +22,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, failures, free_port, layout, summary, wait_for  # noqa: E402
+from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, wait_for  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 os.makedirs(OUT, exist_ok=True)
@@ -317,12 +316,7 @@ setTimeout(() => done({timeout: true}), 3000);
                 d.quit()
             except Exception:
                 pass
-        for p in reversed(procs):
-            p.send_signal(signal.SIGTERM)
-            try:
-                p.wait(5)
-            except subprocess.TimeoutExpired:
-                p.kill()
+        stop_processes(procs)
     # A sanitizer build (ASan, TSan) reports on the daemon's stderr.
     for name in ("host1.err", "host2.err"):
         path = os.path.join(work, name)
