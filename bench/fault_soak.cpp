@@ -266,9 +266,12 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
   o.quirks = t.profile->quirks;
   o.fc10_without_byte_count = t.profile->quirks.fc10_without_byte_count;
   std::set<Bytes> sent;
-  Bytes last_request;
+  Bytes last_request, last_received;
   o.trace = [&](const TraceEvent& e) {
-    if (e.direction != TraceEvent::Direction::sent) return;
+    if (e.direction == TraceEvent::Direction::received) {
+      last_received.assign(e.bytes.begin(), e.bytes.end());
+      return;
+    }
     last_request.assign(e.bytes.begin(), e.bytes.end());
     sent.insert(last_request);
   };
@@ -281,6 +284,8 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
     Bytes request;
     std::vector<uint16_t> values;
     bool write;
+    Bytes received;  // every byte the master read during the accepted attempt
+    uint64_t index;  // the transaction's number
   };
   std::vector<Accepted> accepted;
   std::mt19937_64 rng(seed);
@@ -303,7 +308,9 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
         e = m.write_multiple_registers(unit, op.address, op.values);
         break;
     }
-    if (e.ok()) accepted.push_back({last_request, std::move(values), op.kind >= Op::write_single});
+    if (e.ok())
+      accepted.push_back({last_request, std::move(values), op.kind >= Op::write_single, last_received,
+                          rep.transactions + rep.after});
     return e;
   };
   const auto t0 = std::chrono::steady_clock::now();
@@ -376,10 +383,19 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
       continue;
     }
     auto it = answers.find({a.request, a.values});
-    if (it == answers.end() || it->second == 0)
-      ++rep.corrupted_values;
-    else
+    if (it != answers.end() && it->second > 0) {
       --it->second;
+      continue;
+    }
+    // What the master took, and what the simulator answered to that request.
+    if (++rep.corrupted_values <= 5) {
+      std::string sim_answers;
+      for (const Served& s : served)
+        if (s.rx == a.request) sim_answers += "\n    sim answered: " + hex(s.tx);
+      std::fprintf(stderr, "corrupted value accepted, transaction %llu: request %s\n    master read: %s%s\n",
+                   static_cast<unsigned long long>(a.index), hex(a.request).c_str(), hex(a.received).c_str(),
+                   sim_answers.c_str());
+    }
   }
   return rep;
 }

@@ -57,11 +57,38 @@ TEST(MasterOnVirtualTime, RetriesAfterTimeouts_ThenSucceeds) {
   EXPECT_EQ(s.requests, 3U);
   EXPECT_EQ(s.timeouts, 2U);
   EXPECT_EQ(s.retries, 2U);
-  // Two full timeouts passed on the clock, then the answer after 2 ms.
+  // Two full timeouts passed on the clock, each followed by 20 ms of quiet
+  // line (where a late answer would be dropped), then the answer after 2 ms.
   ASSERT_EQ(rig.arrivals.size(), 3U);
-  EXPECT_EQ(rig.arrivals[1] - rig.arrivals[0], 1000ms);
-  EXPECT_EQ(rig.arrivals[2] - rig.arrivals[1], 1000ms);
-  EXPECT_EQ(rig.clock.now() - t0, 2002ms);
+  EXPECT_EQ(rig.arrivals[1] - rig.arrivals[0], 1020ms);
+  EXPECT_EQ(rig.arrivals[2] - rig.arrivals[1], 1020ms);
+  EXPECT_EQ(rig.clock.now() - t0, 2042ms);
+}
+
+// A device that answers after the master gave up: its answer must never be
+// taken for the next request's, which has the same shape (one register) and
+// would otherwise report register 3's value as register 4's.
+TEST(MasterOnVirtualTime, ALateAnswerIsNeverTakenForTheNextRequest) {
+  ManualClock clock;
+  MemoryBank bank{100};
+  bank.holding[3] = 33;
+  bank.holding[4] = 44;
+  SlaveEngine engine;
+  (void)engine.add_unit(UnitId{1}, bank);
+  unsigned calls = 0;
+  auto link = std::make_unique<MemoryLink>(clock, [&](std::span<const uint8_t> request) {
+    std::array<uint8_t, kMaxRtuAduSize> out{};
+    const size_t n = engine.handle_rtu(request, out).length;
+    // The first answer comes 10 ms after the master's 100-ms timeout.
+    return MemoryLink::Reply{{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)},
+                             calls++ ? 2ms : 110ms};
+  });
+  Master master(std::move(link), {.response_timeout = 100ms, .clock = &clock});
+  uint16_t r = 0;
+  EXPECT_EQ(master.read_holding_registers(UnitId{1}, 3, {&r, 1}).code(), Errc::timeout);
+  ASSERT_TRUE(master.read_holding_registers(UnitId{1}, 4, {&r, 1}).ok());
+  EXPECT_EQ(r, 44);
+  EXPECT_EQ(calls, 2U);
 }
 
 TEST(MasterOnVirtualTime, SilentUnit_TimesOutAfterEveryRetry) {

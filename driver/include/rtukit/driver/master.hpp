@@ -169,6 +169,7 @@ class Master {
                         const std::function<void(const Response&)>& on_response);
   void trace_received(const Result<Response>& r, io::Clock::time_point sent_at);
   Result<Response> receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline);
+  void drain_late_answer();
   Result<Response> receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline);
 
   std::unique_ptr<io::Link> link_;

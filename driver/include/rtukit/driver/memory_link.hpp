@@ -65,9 +65,12 @@ class MemoryLink final : public io::Link {
     return n;
   }
 
+  /// Drops what has arrived by now. An answer still on its way arrives
+  /// later, as on a line: flushing the input cannot stop a late answer.
   void discard_input() noexcept override {
     std::lock_guard lock(mutex_);
-    pending_.clear();
+    const auto now = clock_.now();
+    std::erase_if(pending_, [now](const Pending& p) { return p.at <= now; });
   }
   Framing framing() const noexcept override { return framing_; }
   RtuTiming timing() const noexcept override { return {}; }
