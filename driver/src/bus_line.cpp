@@ -110,7 +110,7 @@ void BusLine::finish(const InAir& c, std::vector<BusCharacter>* tap) {
     uint64_t at = ceil_div(c.end_ns, 1000);
     if (config_.latency_us) at = ceil_div(at, config_.latency_us) * config_.latency_us;
     for (unsigned p = 0; p < next_free_ns_.size(); ++p) {
-      const bool hears_itself = config_.echo || (p < 32 && (config_.echo_ports >> p & 1U) != 0);
+      const bool hears_itself = config_.echo || (p < 32 && ((config_.echo_ports >> p) & 1U) != 0);
       if (static_cast<int>(p) == c.sender && !hears_itself) continue;
       const BusDelivery d{p, ch.heard, at};
       const auto pos = std::upper_bound(outbox_.begin(), outbox_.end(), at,
