@@ -375,7 +375,13 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
       if (const std::optional<BusCharacter> c = parse_tap_line(line)) feed_tap(*s, *c);
     }
     if (s) {
-      s->flush(static_cast<uint64_t>(std::max<int64_t>(0, static_cast<int64_t>(io::now_us()) - offset)));
+      // Close frames only as far as the tap has surely arrived: a busy bus
+      // process (or one under emulation) publishes a character some time
+      // after the line time it carries, and closing a frame at the bus's
+      // present would cut it into garbage before its last characters come.
+      constexpr int64_t kTapLagUs = 200'000;
+      s->flush(static_cast<uint64_t>(
+          std::max<int64_t>(0, static_cast<int64_t>(io::now_us()) - offset - kTapLagUs)));
       report(a, *s, profiles, pcap.get());
     }
   }
