@@ -235,6 +235,17 @@ TEST(RehandHostLogic, APressWhoseWriteFailedIsDropped_AndZeroedAfterTheNextPoll)
   writes = rig.cycle();
   ASSERT_EQ(writes.size(), 1u);
   EXPECT_EQ(writes[0].value, 1);
+  // Released while a press's write was on the bus, and the write failed: the
+  // UI already let go, so the next press is not refused; a 0 still follows.
+  rig.logic.release(reg::kSeatLift);
+  ASSERT_TRUE(rig.logic.hold(reg::kBackrest, 1, rig.t));
+  rig.logic.release(reg::kBackrest);
+  EXPECT_FALSE(rig.logic.press_settled(reg::kBackrest, 1, /*written=*/false));
+  EXPECT_FALSE(rig.logic.dropped(reg::kBackrest));
+  writes = rig.cycle();
+  ASSERT_EQ(writes.size(), 1u);
+  EXPECT_EQ(writes[0].address, reg::kBackrest);
+  EXPECT_EQ(writes[0].value, 0);
 }
 
 // The link is lost while a press's write is on the bus: the stop wins (D-8).

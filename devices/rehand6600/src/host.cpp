@@ -232,7 +232,12 @@ bool HostLogic::press_settled(uint16_t command, uint16_t value, bool written) {
   // Not written: the press is refused until the UI releases it, as after a
   // stop. A finger that stays down must not press again by itself on the
   // next renewal, once the link (or the controller) answers again.
-  l = {.dropped = true, .zero_pending = true};
+  // Released (or pressed with another value) meanwhile: that is the UI's
+  // newer word; only the possibly executed write is undone.
+  if (l.value == value || l.dropped)
+    l = {.dropped = true, .zero_pending = true};
+  else
+    l.zero_pending = true;
   return false;
 }
 

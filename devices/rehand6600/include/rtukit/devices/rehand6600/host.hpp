@@ -140,7 +140,8 @@ class HostLogic {
   /// the press as a stop does (refused until the UI releases it: a finger
   /// that stayed down never presses again by itself) and, since a lost
   /// answer may follow an executed write, 0 is written after the next poll:
-  /// any doubt about motion, stop.
+  /// any doubt about motion, stop. (A press the UI released while its write
+  /// was on the bus is not dropped: the UI already let go.)
   bool press_settled(uint16_t command, uint16_t value, bool written);
   /// Releases a hold, and lets a hold dropped by a stop be pressed again.
   void release(uint16_t command);
