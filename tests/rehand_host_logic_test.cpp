@@ -61,6 +61,15 @@ struct Rig {
     }
     return writes;
   }
+  // The writes due now (target changes, one-shots), answered.
+  std::vector<HostLogic::Request> flush() {
+    std::vector<HostLogic::Request> writes;
+    while (auto w = logic.next(t)) {
+      if (w->kind == Kind::write) writes.push_back(*w);
+      answer(*w);
+    }
+    return writes;
+  }
   bool has(Event::Type type, uint16_t code = 0) {
     for (const Event& e : logic.take_events())
       if (e.type == type && (code == 0 || e.code == code || e.address == code)) return true;
@@ -117,32 +126,52 @@ TEST(RehandHostLogic, ThreeFailedPollsRaise1010_ThenTheHandshakeRecovers) {
   EXPECT_TRUE(rig.has(Event::Type::error_cleared, kMasterCommunicationError));
 }
 
-TEST(RehandHostLogic, HeldCommandRewrittenEveryPoll_ReleasedWhenTheLeaseRunsOut) {
+// A target (what the session wants held) is written at once, before the
+// next poll, then again after every poll; a target set to 0 is written once.
+TEST(RehandHostLogic, ATargetIsWrittenAtOnce_ThenAfterEveryPoll_ZeroOnce) {
   Rig rig;
   rig.connect();
   rig.cycle();
-  const auto held_at = rig.t;
-  EXPECT_TRUE(rig.logic.hold(reg::kSeatLift, 1, held_at));   // the caller writes it now
-  EXPECT_FALSE(rig.logic.hold(reg::kSeatLift, 1, held_at));  // renewing: no new write
-  auto writes = rig.cycle();                                 // +50 ms
-  ASSERT_EQ(writes.size(), 1U);
-  EXPECT_EQ(writes[0].address, reg::kSeatLift);
-  EXPECT_EQ(writes[0].value, 1);
-  // Not renewed: the first poll at or after held_at + 300 ms writes 0.
-  while (rig.logic.wake_at() < held_at + 300ms) {
-    writes = rig.cycle();
+  rig.logic.set_target(reg::kSeatLift, 1);
+  rig.logic.set_target(reg::kSeatLift, 1);  // unchanged: nothing more
+  EXPECT_LT(rig.logic.wake_at(), rig.t + 1ms) << "a change waits for no poll";
+  auto now = rig.flush();
+  ASSERT_EQ(now.size(), 1U);
+  EXPECT_EQ(now[0].address, reg::kSeatLift);
+  EXPECT_EQ(now[0].value, 1);
+  for (int i = 0; i < 3; ++i) {
+    auto writes = rig.cycle();
     ASSERT_EQ(writes.size(), 1U);
     EXPECT_EQ(writes[0].value, 1);
   }
-  (void)rig.logic.take_events();
-  writes = rig.cycle();
-  ASSERT_EQ(writes.size(), 1U);
+  rig.logic.set_target(reg::kSeatLift, 0);
+  now = rig.flush();
+  ASSERT_EQ(now.size(), 1U);
+  EXPECT_EQ(now[0].value, 0);
+  EXPECT_TRUE(rig.cycle().empty());
+}
+
+// The newest word wins, and target changes go before one-shots.
+TEST(RehandHostLogic, AnUnsentChangeIsReplaced_OneShotsWaitBehindTargets_TheQueueIsBounded) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  ASSERT_TRUE(rig.logic.enqueue(reg::kLight, 1, 7));
+  rig.logic.set_target(reg::kSeatLift, 1);
+  rig.logic.set_target(reg::kSeatLift, 0);
+  rig.logic.set_target(reg::kAntiPinch, 1);
+  const auto writes = rig.flush();
+  ASSERT_EQ(writes.size(), 3U);  // seat_lift's 1 never left: only its newest word, 0
   EXPECT_EQ(writes[0].address, reg::kSeatLift);
   EXPECT_EQ(writes[0].value, 0);
-  EXPECT_EQ(rig.t - held_at, 300ms);
-  EXPECT_TRUE(rig.has(Event::Type::released, reg::kSeatLift));
-  EXPECT_EQ(rig.logic.held(reg::kSeatLift), 0);
-  EXPECT_TRUE(rig.cycle().empty());
+  EXPECT_EQ(writes[1].address, reg::kAntiPinch);
+  EXPECT_EQ(writes[2].address, reg::kLight);
+  const auto results = rig.logic.take_results();
+  ASSERT_EQ(results.size(), 1U);
+  EXPECT_EQ(results[0].first, 7U);
+  EXPECT_TRUE(results[0].second.ok());
+  for (size_t i = 0; i < HostLogic::kQueueLimit; ++i) ASSERT_TRUE(rig.logic.enqueue(reg::kLight, 1, 100 + i));
+  EXPECT_FALSE(rig.logic.enqueue(reg::kLight, 1, 999)) << "a full queue refuses";
 }
 
 TEST(RehandHostLogic, PollEvents_ChangesEdgesAndLocalErrors) {
@@ -170,111 +199,55 @@ TEST(RehandHostLogic, PollEvents_ChangesEdgesAndLocalErrors) {
   EXPECT_FALSE(rig.has(Event::Type::horn));
 }
 
-// D-8 on the host's side: an error drops every hold (and writes 0), and a
-// dropped hold stays refused until the UI releases it, so a finger that
-// stayed on the button through a fault restarts nothing when it clears.
-TEST(RehandHostLogic, AnErrorDropsEveryHold_UntilTheUiReleasesIt_D8) {
+// D-8 on the host's side: an error clears every target and writes 0 at
+// once; the session ends the presses, so nothing is written again.
+TEST(RehandHostLogic, AnErrorClearsEveryTarget_AndWritesZero_D8) {
   Rig rig;
   rig.connect();
   rig.cycle();
-  rig.logic.hold(reg::kLegRotate, 1, rig.t);
+  rig.logic.set_target(reg::kLegRotate, 1);
+  rig.flush();
+  rig.table1[reg::kErrorCode] = 0x1093;
   auto writes = rig.cycle();
   ASSERT_EQ(writes.size(), 1u);
-  EXPECT_EQ(writes[0].value, 1);
-  rig.logic.take_events();
-  rig.table1[reg::kErrorCode] = 0x1093;
-  writes = rig.cycle();
-  ASSERT_EQ(writes.size(), 1u);  // the hold written to 0 at once
   EXPECT_EQ(writes[0].address, reg::kLegRotate);
   EXPECT_EQ(writes[0].value, 0);
-  EXPECT_TRUE(rig.logic.dropped(reg::kLegRotate));
-  EXPECT_EQ(rig.logic.held(reg::kLegRotate), 0);
+  EXPECT_EQ(rig.logic.target(reg::kLegRotate), 0);
   rig.table1[reg::kErrorCode] = 0;
   EXPECT_TRUE(rig.cycle().empty());  // cleared: nothing written, nothing moves
-  EXPECT_TRUE(rig.logic.dropped(reg::kLegRotate));
-  rig.logic.release(reg::kLegRotate);  // the finger lifted
-  EXPECT_FALSE(rig.logic.dropped(reg::kLegRotate));
 }
 
-TEST(RehandHostLogic, LinkLossDropsEveryHold_D8) {
+TEST(RehandHostLogic, LinkLossClearsEveryTarget_AndFailsQueuedOneShots) {
   Rig rig;
   rig.connect();
   rig.cycle();
-  rig.logic.hold(reg::kPhoneForward, 1, rig.t);
-  rig.cycle();
+  rig.logic.set_target(reg::kPhoneForward, 1);
+  rig.flush();
   for (int i = 0; i < 3; ++i) rig.cycle(Errc::timeout);
   EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError);
-  EXPECT_TRUE(rig.logic.dropped(reg::kPhoneForward));
-  EXPECT_EQ(rig.logic.held(reg::kPhoneForward), 0);
+  EXPECT_EQ(rig.logic.target(reg::kPhoneForward), 0);
+  EXPECT_FALSE(rig.logic.enqueue(reg::kLight, 1, 6)) << "nothing is queued for a link that is down";
 }
 
-// A press whose write failed (a timeout: the controller may have executed
-// it before the answer was lost) is dropped as a stop drops it, and 0 is
-// written after the next poll: any doubt about motion, stop. The finger
-// still on the button does not press again by itself (a link that died
-// before 1010 was raised, then came back): the UI must release first.
-TEST(RehandHostLogic, APressWhoseWriteFailedIsDropped_AndZeroedAfterTheNextPoll) {
+// A target write that fails (a timeout: the controller may have executed it
+// before the answer was lost) says so, and 0 is written after the next
+// poll: any doubt about motion, stop.
+TEST(RehandHostLogic, AFailedTargetWriteIsReported_AndZeroedAfterTheNextPoll) {
   Rig rig;
   rig.connect();
   rig.cycle();
-  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
-  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, /*written=*/false));
-  EXPECT_EQ(rig.logic.held(reg::kSeatLift), 0);
-  EXPECT_TRUE(rig.logic.dropped(reg::kSeatLift));
+  rig.logic.set_target(reg::kSeatLift, 1);
+  auto w = rig.logic.next(rig.t);
+  ASSERT_TRUE(w.has_value());
+  rig.logic.on_result(rig.t, Errc::timeout);
+  EXPECT_TRUE(rig.has(Event::Type::write_failed, reg::kSeatLift));
+  rig.logic.set_target(reg::kSeatLift, 0);  // the session ended the press
+  EXPECT_TRUE(rig.flush().size() <= 1u);
   auto writes = rig.cycle();
   ASSERT_EQ(writes.size(), 1u);
   EXPECT_EQ(writes[0].address, reg::kSeatLift);
   EXPECT_EQ(writes[0].value, 0);
   EXPECT_TRUE(rig.cycle().empty());  // once
-  EXPECT_TRUE(rig.logic.dropped(reg::kSeatLift));
-  // Released and pressed again: held and rewritten as usual.
-  rig.logic.release(reg::kSeatLift);
-  EXPECT_FALSE(rig.logic.dropped(reg::kSeatLift));
-  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
-  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, true));
-  writes = rig.cycle();
-  ASSERT_EQ(writes.size(), 1u);
-  EXPECT_EQ(writes[0].value, 1);
-  // Released while a press's write was on the bus, and the write failed: the
-  // UI already let go, so the next press is not refused; a 0 still follows.
-  rig.logic.release(reg::kSeatLift);
-  ASSERT_TRUE(rig.logic.hold(reg::kBackrest, 1, rig.t));
-  rig.logic.release(reg::kBackrest);
-  EXPECT_FALSE(rig.logic.press_settled(reg::kBackrest, 1, /*written=*/false));
-  EXPECT_FALSE(rig.logic.dropped(reg::kBackrest));
-  writes = rig.cycle();
-  ASSERT_EQ(writes.size(), 1u);
-  EXPECT_EQ(writes[0].address, reg::kBackrest);
-  EXPECT_EQ(writes[0].value, 0);
-}
-
-// The link is lost while a press's write is on the bus: the stop wins (D-8).
-// The failed write must not clear the "dropped" mark, or the finger still on
-// the button would press again by itself once the link is back.
-TEST(RehandHostLogic, ALinkLossDuringThePressWriteWins_D8) {
-  Rig rig;
-  rig.connect();
-  rig.cycle();
-  ASSERT_TRUE(rig.logic.hold(reg::kSeatLift, 1, rig.t));
-  for (int i = 0; i < 3; ++i) rig.cycle(Errc::timeout);  // meanwhile, on the poll thread
-  ASSERT_EQ(rig.logic.active_error(), kMasterCommunicationError);
-  EXPECT_FALSE(rig.logic.press_settled(reg::kSeatLift, 1, /*written=*/false));
-  EXPECT_TRUE(rig.logic.dropped(reg::kSeatLift));
-  // The same when the write got through just before the stop: the caller is told to write 0.
-  Rig other;
-  other.connect();
-  other.cycle();
-  ASSERT_TRUE(other.logic.hold(reg::kSeatLift, 1, other.t));
-  other.table1[reg::kErrorCode] = 0x1093;
-  other.cycle();
-  EXPECT_TRUE(other.logic.press_settled(reg::kSeatLift, 1, /*written=*/true));
-  EXPECT_TRUE(other.logic.dropped(reg::kSeatLift));
-  // A press that went through and is still held: nothing to undo.
-  Rig fine;
-  fine.connect();
-  fine.cycle();
-  ASSERT_TRUE(fine.logic.hold(reg::kSeatLift, 1, fine.t));
-  EXPECT_FALSE(fine.logic.press_settled(reg::kSeatLift, 1, true));
 }
 
 }  // namespace

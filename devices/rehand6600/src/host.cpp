@@ -20,10 +20,6 @@ std::string failure_text(Error e) {
   return std::string(e.name());
 }
 
-bool is_phone_drive(uint16_t a) {
-  return a >= reg::kPhoneForward && a <= reg::kPhoneRight;
-}
-
 }  // namespace
 
 Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
@@ -31,7 +27,10 @@ Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
       master_(std::move(link), MasterOptions{.response_timeout = options.response_timeout,
                                              .quirks = kProfile.quirks,
                                              .trace = options.trace}),
-      logic_(options) {}
+      logic_(options),
+      session_(SessionOptions{.lease = options.lease}) {
+  session_.join(kLocalClient, ClientKind::tool);
+}
 
 Host::~Host() {
   stop();
@@ -49,23 +48,25 @@ void Host::start() {
 
 void Host::stop() {
   if (!thread_.joinable()) return;
-  // Safety: nothing stays held when the host goes away.
-  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
-    bool held = false;
-    {
-      std::lock_guard lock(mutex_);
-      held = logic_.held(command) != 0;
-      logic_.release(command);
-    }
-    if (held) (void)write_command(command, 0);  // best effort: the controller's watchdog is the backstop
-  }
+  // Safety: nothing stays held when the host goes away. The worker is told
+  // to stop first, so the zeros below are the last writes.
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
   }
   cv_.notify_all();
   thread_.join();
+  std::vector<uint16_t> held;
+  {
+    std::lock_guard lock(mutex_);
+    session_.stop_all(Clock::now());
+    for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+      const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+      if (logic_.target(command) != 0) held.push_back(command);
+    }
+  }
+  // Best effort: the controller's watchdog is the backstop.
+  for (uint16_t command : held) (void)write_command(command, 0);
 }
 
 void Host::emit(const Event& e) {
@@ -76,25 +77,35 @@ void Host::emit(const Event& e) {
 
 std::optional<HostLogic::Request> HostLogic::next(TimePoint now) {
   if (in_flight_) return std::nullopt;
+  // What the session changed goes first: a press or a release waits for no poll.
+  if (connected_ && !urgent_.empty()) {
+    in_flight_ = urgent_.front();
+    urgent_.pop_front();
+    return in_flight_;
+  }
   if (phase_ == Phase::holds) {
     if (queue_.empty()) {
       phase_ = Phase::poll;
       next_at_ = cycle_start_ + period();
       return std::nullopt;
     }
-    Request r = queue_.front();
+    in_flight_ = queue_.front();
     queue_.erase(queue_.begin());
-    in_flight_ = true;
-    return r;
+    return in_flight_;
   }
   if (phase_ == Phase::write_ready) {
-    in_flight_ = true;
-    return Request{Request::Kind::write, reg::kHostReady, 1};
+    in_flight_ = Request{Request::Kind::write, reg::kHostReady, 1};
+    return in_flight_;
   }
   if (now < next_at_) return std::nullopt;
   cycle_start_ = now;
-  in_flight_ = true;
-  return Request{phase_ == Phase::poll ? Request::Kind::poll : Request::Kind::read_device_id};
+  in_flight_ = Request{phase_ == Phase::poll ? Request::Kind::poll : Request::Kind::read_device_id};
+  return in_flight_;
+}
+
+HostLogic::TimePoint HostLogic::wake_at() const noexcept {
+  if (!in_flight_ && connected_ && !urgent_.empty()) return TimePoint::min();
+  return next_at_;
 }
 
 HostLogic::TimePoint::duration HostLogic::period() const noexcept {
@@ -103,7 +114,17 @@ HostLogic::TimePoint::duration HostLogic::period() const noexcept {
 }
 
 void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> words) {
-  in_flight_ = false;
+  const std::optional<Request> done = std::exchange(in_flight_, std::nullopt);
+  if (done && done->kind == Request::Kind::write && done->address != reg::kHostReady) {
+    if (done->ticket) results_.emplace_back(done->ticket, e);
+    if (e && done->target && done->value != 0) {
+      // The controller may or may not hold it: the session ends the press,
+      // and 0 follows after the next poll.
+      targets_[done->address - reg::kCommandFirst].zero_pending = true;
+      events_.push_back(Event{Event::Type::write_failed, done->address, 0, done->value, 0, failure_text(e)});
+    }
+    return;  // a write says nothing about the link's phase: the next poll does
+  }
   switch (phase_) {
     case Phase::read_id:
       if (e) {
@@ -143,6 +164,7 @@ void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> word
 }
 
 void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words) {
+  (void)now;
   next_at_ = cycle_start_ + period();
   if (e || words.size() != reg::kStatusCount) {
     if (!e) e = Errc::unexpected_response;
@@ -176,21 +198,24 @@ void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words)
   next.valid = true;
   next.sequence = prev.sequence + 1;
   snapshot_ = next;
-  if (raised) drop_holds(true);
-  // Expired leases are released; live ones are written again, so the
-  // controller holds exactly what the UI holds even after its watchdog fired.
-  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-    Lease& l = holds_[i];
-    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
-    if (std::exchange(l.zero_pending, false) && l.value == 0)
-      queue_.push_back(Request{Request::Kind::write, address, 0});
-    if (l.value == 0) continue;
-    const bool expired = now >= l.until;
-    queue_.push_back(Request{Request::Kind::write, address, expired ? uint16_t{0} : l.value});
-    if (expired) {
-      l = {};
-      events_.push_back(Event{Event::Type::released, address});
+  if (raised) {
+    // D-8: the controller stopped; nothing it held is written again. The
+    // session ends every press when it hears of the error.
+    for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+      Target& t = targets_[i];
+      if (t.value != 0) t = {.value = 0, .zero_pending = true};
     }
+    urgent_.erase(std::remove_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return r.target; }),
+                  urgent_.end());
+  }
+  // Live targets are written again, so the controller holds exactly what
+  // the session wants even after its watchdog fired.
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    Target& t = targets_[i];
+    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (std::exchange(t.zero_pending, false) && t.value == 0)
+      queue_.push_back(Request{Request::Kind::write, address, 0});
+    if (t.value != 0) queue_.push_back(Request{Request::Kind::write, address, t.value});
   }
   phase_ = Phase::holds;
 }
@@ -201,48 +226,44 @@ void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
   failures_ = 0;
   phase_ = Phase::read_id;
   queue_.clear();
+  // Nothing to write to: the controller's watchdog stops what it held, and
+  // the session ends every press when it hears of 1010 (D-8).
+  for (Target& t : targets_) t = {};
+  fail_queued(cause);
   if (!comm_error_) {
     comm_error_ = true;
     events_.push_back(Event{Event::Type::error_raised, 0, 0, 0, kMasterCommunicationError, reason});
   }
-  drop_holds(false);  // nothing to write to: the controller's watchdog stops it
 }
 
-void HostLogic::drop_holds(bool write_zero) {
-  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-    Lease& l = holds_[i];
-    if (l.value == 0) continue;
-    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
-    if (write_zero) queue_.push_back(Request{Request::Kind::write, address, 0});
-    l = {.dropped = true};
-    events_.push_back(Event{Event::Type::released, address});
-  }
+void HostLogic::fail_queued(Error e) {
+  for (const Request& r : urgent_)
+    if (r.ticket) results_.emplace_back(r.ticket, e);
+  urgent_.clear();
 }
 
-bool HostLogic::hold(uint16_t command, uint16_t value, TimePoint now) {
-  Lease& l = holds_[command - reg::kCommandFirst];
-  const bool changed = l.value != value;
-  l = {value, now + options_.lease};
-  return changed;
+void HostLogic::set_target(uint16_t command, uint16_t value) {
+  Target& t = targets_[command - reg::kCommandFirst];
+  if (t.value == value) return;
+  t.value = value;
+  if (!connected_) return;  // the first poll after the handshake writes it
+  // The newest word wins: an unsent change of the same command is replaced.
+  urgent_.erase(std::remove_if(urgent_.begin(), urgent_.end(),
+                               [&](const Request& r) { return r.target && r.address == command; }),
+                urgent_.end());
+  // Target changes go before one-shots: a release waits for no pulse.
+  const auto first_oneshot =
+      std::find_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; });
+  urgent_.insert(first_oneshot, Request{Request::Kind::write, command, value, 0, true});
 }
 
-bool HostLogic::press_settled(uint16_t command, uint16_t value, bool written) {
-  Lease& l = holds_[command - reg::kCommandFirst];
-  if (written) return l.value != value;
-  // Not written: the press is refused until the UI releases it, as after a
-  // stop. A finger that stays down must not press again by itself on the
-  // next renewal, once the link (or the controller) answers again.
-  // Released (or pressed with another value) meanwhile: that is the UI's
-  // newer word; only the possibly executed write is undone.
-  if (l.value == value || l.dropped)
-    l = {.dropped = true, .zero_pending = true};
-  else
-    l.zero_pending = true;
-  return false;
-}
-
-void HostLogic::release(uint16_t command) {
-  holds_[command - reg::kCommandFirst] = {};
+bool HostLogic::enqueue(uint16_t address, uint16_t value, uint64_t ticket) {
+  if (!connected_) return false;
+  const size_t oneshots =
+      static_cast<size_t>(std::count_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; }));
+  if (oneshots >= kQueueLimit) return false;
+  urgent_.push_back(Request{Request::Kind::write, address, value, ticket, false});
+  return true;
 }
 
 uint16_t HostLogic::active_error() const noexcept {
@@ -252,18 +273,59 @@ uint16_t HostLogic::active_error() const noexcept {
 
 // ---------------------------------------------------------------- Host: the logic on a thread
 
+void Host::sync(HostLogic::TimePoint now) {
+  session_.tick(now);
+  // The stop command first: when a phone is lost, the controller brakes
+  // hard before anything else is written.
+  logic_.set_target(reg::kAntiPinch, session_.wanted(reg::kAntiPinch));
+  for (const Register& r : registers()) {
+    if (r.role != Role::hold || r.address == reg::kHostReady || r.address == reg::kAntiPinch) continue;
+    logic_.set_target(r.address, session_.wanted(r.address));
+  }
+}
+
+std::vector<Event> Host::collect() {
+  std::vector<Event> out = logic_.take_events();
+  for (const Session::Event& s : session_.take_events()) {
+    using T = Session::Event::Type;
+    Event e(s.type == T::press_ended         ? Event::Type::released
+            : s.type == T::emergency_started ? Event::Type::emergency_started
+            : s.type == T::emergency_ended   ? Event::Type::emergency_ended
+                                             : Event::Type::driver_changed,
+            s.command, 0, 0, 0, s.reason);
+    e.client = s.client;
+    e.press = s.press;
+    e.emergency = s.emergency;
+    out.push_back(std::move(e));
+  }
+  for (const auto& [ticket, error] : logic_.take_results()) {
+    finished_.emplace_back(ticket, error);
+    if (finished_.size() > 64) finished_.pop_front();
+  }
+  return out;
+}
+
 void Host::run() {
   for (;;) {
     std::optional<HostLogic::Request> request;
+    std::vector<Event> events;
     {
       std::unique_lock lock(mutex_);
       if (stopping_) return;
+      work_ = false;
+      sync(Clock::now());
       request = logic_.next(Clock::now());
-      if (!request) {
-        cv_.wait_until(lock, logic_.wake_at(), [this] { return stopping_; });
+      events = collect();
+      if (!request && events.empty()) {
+        auto wake = logic_.wake_at();
+        if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
+        cv_.wait_until(lock, wake, [this] { return stopping_ || work_; });
         continue;
       }
     }
+    cv_.notify_all();
+    for (const Event& ev : events) emit(ev);
+    if (!request) continue;
     std::array<uint16_t, reg::kStatusCount> words{};
     size_t n = 0;
     Error e;
@@ -280,11 +342,16 @@ void Host::run() {
         e = write_command(request->address, request->value);
         break;
     }
-    std::vector<Event> events;
     {
       std::lock_guard lock(mutex_);
-      logic_.on_result(Clock::now(), e, std::span<const uint16_t>(words.data(), e ? 0 : n));
+      const auto now = Clock::now();
+      logic_.on_result(now, e, std::span<const uint16_t>(words.data(), e ? 0 : n));
       events = logic_.take_events();
+      for (const Event& ev : events)
+        if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
+      session_.on_status(logic_.snapshot(), logic_.active_error(), now);
+      sync(now);
+      for (Event& ev : collect()) events.push_back(std::move(ev));
     }
     cv_.notify_all();
     for (const Event& ev : events) emit(ev);
@@ -322,76 +389,160 @@ bool Host::wait_poll(std::chrono::milliseconds timeout) const {
   return cv_.wait_for(lock, timeout, [&] { return logic_.snapshot().sequence > seen; });
 }
 
-rtukit::Status Host::check_ui_rules(const Register& r, uint16_t value) const {
-  const auto refuse = [](std::string reason) { return rtukit::Status(Errc::refused, std::move(reason)); };
-  if (value == 0) return {};
-  const uint16_t error = active_error();
-  if (error) {
-    return refuse(
-        error == kMasterCommunicationError && !connected()
-            ? fmt::format("{}: no communication with the controller; only releasing is possible",
-                          error_text(error))
-            : fmt::format("error overlay active ({}); only releasing is possible", error_text(error)));
+// ---------------------------------------------------------------- the session, from any thread
+
+void Host::join(ClientId client, ClientKind kind) {
+  std::lock_guard lock(mutex_);
+  session_.join(client, kind);
+}
+
+void Host::leave(ClientId client) {
+  {
+    std::lock_guard lock(mutex_);
+    session_.leave(client, Clock::now());
+    work_ = true;
   }
-  if (is_phone_drive(r.address)) {
-    const Snapshot s = snapshot();
-    if (s.charging()) return refuse("no driving while charging");
-    if (!s.clutch_drive()) return refuse("no driving with the clutch in push (free-wheel) mode");
-    bool phone_holding = false;
-    {
-      std::lock_guard lock(mutex_);
-      for (uint16_t a = reg::kPhoneForward; a <= reg::kPhoneRight; ++a)
-        phone_holding = phone_holding || logic_.held(a) != 0;
+  cv_.notify_all();
+}
+
+rtukit::Status Host::press(ClientId client, uint16_t command, uint16_t value, PressId id) {
+  rtukit::Status e;
+  {
+    std::lock_guard lock(mutex_);
+    e = session_.press(client, command, value, id, Clock::now());
+    work_ = true;
+  }
+  cv_.notify_all();
+  return e;
+}
+
+rtukit::Status Host::renew(ClientId client, PressId id) {
+  rtukit::Status e;
+  {
+    std::lock_guard lock(mutex_);
+    e = session_.renew(client, id, Clock::now());
+    work_ = true;
+  }
+  cv_.notify_all();
+  return e;
+}
+
+void Host::release_press(ClientId client, PressId id) {
+  {
+    std::lock_guard lock(mutex_);
+    session_.release(client, id, Clock::now());
+    work_ = true;
+  }
+  cv_.notify_all();
+}
+
+void Host::stop_all() {
+  {
+    std::lock_guard lock(mutex_);
+    session_.stop_all(Clock::now());
+    work_ = true;
+  }
+  cv_.notify_all();
+}
+
+rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket) {
+  {
+    std::lock_guard lock(mutex_);
+    if (rtukit::Status e = session_.check_command(client, command, value)) return e;
+    const Register& r = *find_register(command);
+    const uint64_t t = next_ticket_++;
+    const bool pulse = r.role == Role::pulse;
+    // A pulse is two writes with one ticket: its outcome is the last one's.
+    if (pulse && logic_.enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0)) {
+      if (!logic_.enqueue(command, 0, t)) return rtukit::Status(Errc::refused, "the controller's queue is full");
+    } else if (pulse || !logic_.enqueue(command, value, t)) {
+      return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
+                                                              : "no communication with the controller");
     }
-    if (!phone_holding && !s.is_static()) return refuse("phone drive only while the chair is static");
-    if (s[reg::kActuatorPosition] > 0 || s[reg::kActuatorPosition + 2] > 0)
-      return refuse("no phone driving while the chair is not fully seated");
+    if (ticket) *ticket = t;
+    work_ = true;
   }
-  if ((r.address == reg::kStandSit || r.address == reg::kSeatLift) && value == 1 && snapshot().charging())
-    return refuse("no standing up or raising the seat while charging");
+  cv_.notify_all();
   return {};
 }
 
-Error Host::write_command(uint16_t address, uint16_t value) {
-  return master_.write_single_register(options_.unit, address, value);
+rtukit::Status Host::send(ClientId client, uint16_t command, uint16_t value) {
+  return queue(client, command, value, nullptr);
 }
+
+rtukit::Status Host::wait_ticket(uint64_t ticket) {
+  std::unique_lock lock(mutex_);
+  std::optional<Error> result;
+  const bool done = cv_.wait_for(lock, options_.response_timeout * 10 + std::chrono::seconds(1), [&] {
+    for (const auto& [t, e] : finished_)
+      if (t == ticket) {
+        result = e;
+        return true;
+      }
+    return stopping_;
+  });
+  if (!done || !result) return rtukit::Status(Errc::timeout, "the write was not confirmed");
+  if (*result) return rtukit::Status(*result, failure_text(*result));
+  return {};
+}
+
+Disabled Host::disabled() const {
+  std::lock_guard lock(mutex_);
+  return session_.disabled();
+}
+
+std::vector<Session::Press> Host::presses() const {
+  std::lock_guard lock(mutex_);
+  return session_.presses();
+}
+
+std::optional<Host::ClientId> Host::driver() const {
+  std::lock_guard lock(mutex_);
+  return session_.driver();
+}
+
+bool Host::emergency() const {
+  std::lock_guard lock(mutex_);
+  return session_.emergency();
+}
+
+bool Host::near_obstacle() const {
+  std::lock_guard lock(mutex_);
+  return session_.near_obstacle();
+}
+
+// ---------------------------------------------------------------- blocking helpers (the CLI)
 
 rtukit::Status Host::hold(uint16_t command, uint16_t value) {
   const Register* r = find_register(command);
   if (!r || r->role != Role::hold || command == reg::kHostReady)
     return rtukit::Status(Errc::invalid_argument, fmt::format("0x{:04X} is not a hold command", command));
-  if (check_value(*r, value) != Errc::ok)
-    return rtukit::Status(Errc::invalid_argument,
-                          fmt::format("{}: value {} is not one of its values", r->key, value));
   if (value == 0) return release(command);
-  if (rtukit::Status e = check_ui_rules(*r, value)) return e;
-  bool changed = false;
+  rtukit::Status e;
   {
     std::lock_guard lock(mutex_);
-    if (logic_.dropped(command))
-      return rtukit::Status(Errc::refused,
-                            fmt::format("{} was stopped by an error (D-8): release and press again", r->key));
-    changed = logic_.hold(command, value, Clock::now());
+    PressId& mine = local_press_[command - reg::kCommandFirst];
+    const auto now = Clock::now();
+    const bool live = mine != 0 && std::any_of(session_.presses().begin(), session_.presses().end(),
+                                               [&](const Session::Press& p) {
+                                                 return p.client == kLocalClient && p.id == mine && p.value == value;
+                                               });
+    if (live) {
+      e = session_.renew(kLocalClient, mine, now);
+    } else if (mine != 0) {
+      // Ended by the session (a lapse, an error, D-8): refused until the
+      // caller releases, so nothing presses again by itself.
+      e = rtukit::Status(Errc::refused,
+                         fmt::format("{} was stopped (the lease ran out, or an error: D-8): release and press again",
+                                     r->key));
+    } else {
+      e = session_.press(kLocalClient, command, value, ++local_last_, now);
+      if (!e) mine = local_last_;
+    }
+    work_ = true;
   }
-  if (!changed) return {};
-  const Error e = write_command(command, value);
-  bool stopped_meanwhile = false;
-  {
-    // While the write was on the bus a stop may have dropped the hold (an
-    // error, the link lost: D-8) or the UI released it. Before, a failed
-    // write cleared the lease and with it the "dropped" mark, so the next
-    // renewal of a finger that stayed down through a link loss pressed
-    // again by itself (found by bench/rehand_link_soak.py).
-    std::lock_guard lock(mutex_);
-    stopped_meanwhile = logic_.press_settled(command, value, e.ok());
-  }
-  if (stopped_meanwhile) (void)write_command(command, 0);  // any doubt about motion: stop
-  if (e) return rtukit::Status(e, failure_text(e));
-  if (stopped_meanwhile)
-    return rtukit::Status(
-        Errc::refused,
-        fmt::format("{} was stopped while it was being pressed: release and press again", r->key));
-  return {};
+  cv_.notify_all();
+  return e;
 }
 
 Error Host::release(uint16_t command) {
@@ -399,41 +550,47 @@ Error Host::release(uint16_t command) {
     return Errc::invalid_argument;
   {
     std::lock_guard lock(mutex_);
-    logic_.release(command);
+    PressId& mine = local_press_[command - reg::kCommandFirst];
+    if (mine) session_.release(kLocalClient, mine, Clock::now());
+    mine = 0;
+    work_ = true;
   }
-  return write_command(command, 0);
+  cv_.notify_all();
+  return {};
 }
 
 rtukit::Status Host::pulse(uint16_t command) {
   const Register* r = find_register(command);
   if (!r || r->role != Role::pulse)
     return rtukit::Status(Errc::invalid_argument, fmt::format("0x{:04X} is not a pulse command", command));
-  const uint16_t on = command == reg::kPhoneLight ? 2 : 1;  // the seed's value for phone lighting
-  if (rtukit::Status e = check_ui_rules(*r, on)) return e;
-  if (Error e = write_command(command, on)) return rtukit::Status(e, failure_text(e));
-  if (Error e = write_command(command, 0)) return rtukit::Status(e, failure_text(e));
-  return {};
+  uint64_t ticket = 0;
+  if (rtukit::Status e = queue(kLocalClient, command, 1, &ticket)) return e;
+  return wait_ticket(ticket);
 }
 
-// A setting: the value checked against its row, then the UI rules.
 rtukit::Status Host::set_drive_mode(uint16_t mode) {
   const Register& r = *find_register(reg::kDriveMode);
   if (rtukit::Status e = profile::check_argument(r, mode)) return e;
-  if (rtukit::Status e = check_ui_rules(r, mode)) return e;
-  if (Error e = write_command(reg::kDriveMode, mode)) return rtukit::Status(e, failure_text(e));
-  return {};
+  uint64_t ticket = 0;
+  if (rtukit::Status e = queue(kLocalClient, reg::kDriveMode, mode, &ticket)) return e;
+  return wait_ticket(ticket);
 }
 
 rtukit::Status Host::set_speed_level(uint16_t level) {
   const Register& r = *find_register(reg::kSpeedLevel);
   if (rtukit::Status e = profile::check_argument(r, level)) return e;
-  if (rtukit::Status e = check_ui_rules(r, level)) return e;
-  if (Error e = write_command(reg::kSpeedLevel, level)) return rtukit::Status(e, failure_text(e));
-  return {};
+  uint64_t ticket = 0;
+  if (rtukit::Status e = queue(kLocalClient, reg::kSpeedLevel, level, &ticket)) return e;
+  return wait_ticket(ticket);
 }
 
 Error Host::set_host_fault(uint16_t code) {
+  // Allowed during an overlay: the host reports its own fault.
   return write_command(reg::kHostFault, code);
+}
+
+Error Host::write_command(uint16_t address, uint16_t value) {
+  return master_.write_single_register(options_.unit, address, value);
 }
 
 }  // namespace rtukit::rehand6600

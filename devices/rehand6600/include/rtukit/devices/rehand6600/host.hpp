@@ -7,16 +7,16 @@
 //  - Polling: table 1 (48 registers, one FC03) at `poll_hz`; each poll gives a
 //    consistent Snapshot and change events. `failures_to_error` consecutive
 //    failures raise 1010 and go back to the handshake; recovery clears it.
-//  - Commands: hold(command, value) keeps a hold-type command active under a
-//    lease: the UI must renew it (call hold again) within `lease`, else the
-//    library releases it (writes 0) by itself. The held value is rewritten
-//    every poll, so the controller's watchdog (D-5) never sees a stale hold.
-//    pulse() writes 1 then 0. Settings: drive mode, speed level, host fault.
-//  - UI rules, enforced with a reason: no driving while charging or in push,
-//    phone drive only while static, nothing but releasing (and reporting a
-//    host fault) while an error overlay is active (local 0x0026 or 1010).
-//  - D-8: raising an error drops every hold; a dropped hold is refused until
-//    the UI releases it, so nothing restarts when the error clears.
+//  - Commands: every client (the HMI, a phone, the CLI) speaks through the
+//    Session (session.hpp), the one place of the rules: presses under a
+//    300-ms lease, loss of a phone = emergency stop, the UI rules, D-8. The
+//    host writes what the session wants: a change at once, every held value
+//    again after each poll (so the controller's watchdog, D-5, never sees a
+//    stale hold). Pulses write 1 then 0; settings: drive mode, speed level,
+//    host fault.
+//  - The web thread never waits for the bus: press(), send() and the rest
+//    check with the session under a short lock and return; the bus worker
+//    writes. One-shot writes wait in a bounded queue (a full one refuses).
 //
 //   rtukit::rehand6600::Host host(rtukit::io::make_link(spec));
 //   host.on_event([](const rtukit::rehand6600::Event& e) { ... });  // on the host's thread
@@ -24,7 +24,7 @@
 //   if (rtukit::Status e = host.hold(rtukit::rehand6600::reg::kSeatLift, 1)) { ... e.reason() ... }
 //
 // The decisions (handshake and its retry, polling, 1010 after N failures,
-// leases, events) are `HostLogic`, sans-IO: it says which request to send
+// writing targets, events) are `HostLogic`, sans-IO: it says which request to send
 // when and what each result means, on whatever clock the caller passes, so
 // it is tested on virtual time. `Host` is the thin thread that runs it over
 // a Master.
@@ -33,6 +33,7 @@
 #include <array>
 #include <chrono>
 #include <condition_variable>
+#include <deque>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -45,6 +46,8 @@
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/devices/rehand6600/session.hpp"
+#include "rtukit/devices/rehand6600/snapshot.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
@@ -62,23 +65,6 @@ struct HostOptions {
   std::function<void(const TraceEvent&)> trace;
 };
 
-/// Table 1 as one consistent reading.
-struct Snapshot {
-  std::array<uint16_t, reg::kStatusCount> regs{};
-  bool valid = false;  ///< false until the first successful poll
-  uint64_t sequence = 0;
-
-  uint16_t operator[](uint16_t address) const noexcept { return regs[address]; }
-  unsigned battery() const noexcept { return regs[reg::kBattery]; }
-  bool charging() const noexcept { return regs[reg::kCharging] != 0; }
-  unsigned speed_kmh() const noexcept { return regs[reg::kSpeed]; }
-  double speed_mph() const noexcept { return regs[reg::kSpeed] * 0.621371; }
-  bool clutch_drive() const noexcept { return regs[reg::kClutch] == 1; }
-  uint16_t motion() const noexcept { return regs[reg::kMotion]; }
-  bool is_static() const noexcept { return regs[reg::kMotion] == 1 && regs[reg::kSpeed] == 0; }
-  uint16_t error_code() const noexcept { return regs[reg::kErrorCode]; }
-};
-
 struct Event {
   enum class Type : uint8_t {
     connected,      ///< handshake succeeded
@@ -87,7 +73,11 @@ struct Event {
     view,           ///< rising edge of 0x0024: show the 360-degree view
     error_raised,   ///< code = the error (local 0x0026 or 1010)
     error_cleared,  ///< code = the error that went away
-    released,       ///< the library released a hold whose lease ran out (address)
+    released,       ///< press `press` of `client` on `address` ended (`reason`; `emergency`: by the stop command)
+    emergency_started,  ///< a phone lost control: the controller's stop command (0x006A) is held
+    emergency_ended,    ///< the chair is still: 0x006A released
+    driver_changed,     ///< `client` drives now (0: nobody)
+    write_failed,       ///< a one-shot write (pulse, setting) to `address` failed (`reason`)
   };
   Event(Type t, uint16_t address_ = 0, uint16_t before_ = 0, uint16_t value_ = 0, uint16_t code_ = 0,
         std::string reason_ = {})
@@ -98,23 +88,33 @@ struct Event {
   uint16_t value = 0;
   uint16_t code = 0;
   std::string reason;  ///< for error_raised: why (e.g. "device ID 0x69, expected 0x68", "timeout")
+  uint64_t client = 0;  ///< released, driver_changed: the session's client
+  uint64_t press = 0;   ///< released: the press
+  bool emergency = false;
 };
 
-/// The host controller's decisions, sans-IO. Not thread-safe (Host locks it).
+/// The host controller's bus decisions, sans-IO: when to send which request
+/// and what each result means. What the controller must hold comes from the
+/// Session (set_target); this type writes it. Not thread-safe (Host locks it).
 class HostLogic {
  public:
   using TimePoint = std::chrono::steady_clock::time_point;
+  /// One-shot writes waiting at most; more are refused (the web thread
+  /// never waits for the bus).
+  static constexpr size_t kQueueLimit = 16;
 
   /// A request the logic wants sent.
   struct Request {
     enum class Kind : uint8_t {
       read_device_id,  ///< FC03 0x0000 x1
       poll,            ///< FC03 0x0000 x48 (table 1)
-      write,           ///< FC06 `address` = `value` (boot complete, held commands)
+      write,           ///< FC06 `address` = `value` (boot complete, held commands, one-shots)
     };
     Kind kind;
     uint16_t address = 0;
     uint16_t value = 0;
+    uint64_t ticket = 0;  ///< a one-shot write's ticket (0: not one)
+    bool target = false;  ///< a change of a target, written at once
   };
 
   explicit HostLogic(const HostOptions& options) : options_(options) {}
@@ -125,30 +125,27 @@ class HostLogic {
   /// words read (1 for the device ID, 48 for a poll).
   void on_result(TimePoint now, Error e, std::span<const uint16_t> words = {});
   /// When next() has something to do again.
-  TimePoint wake_at() const noexcept { return next_at_; }
+  TimePoint wake_at() const noexcept;
   /// Events since the last call, in order.
   std::vector<Event> take_events() { return std::exchange(events_, {}); }
 
-  // ---- leases (hold-type commands the UI keeps alive) ----
-  /// Holds `command` at `value` until `now` + lease. True when the value
-  /// changed (the caller writes it at once).
-  bool hold(uint16_t command, uint16_t value, TimePoint now);
-  /// The write of a new press (hold() returned true) finished, `written` or
-  /// not. True: write 0 to `command` now, because the lease was dropped by a
-  /// stop (D-8) or released while the write was on the bus, so the
-  /// controller would hold a value nobody holds. A write that failed drops
-  /// the press as a stop does (refused until the UI releases it: a finger
-  /// that stayed down never presses again by itself) and, since a lost
-  /// answer may follow an executed write, 0 is written after the next poll:
-  /// any doubt about motion, stop. (A press the UI released while its write
-  /// was on the bus is not dropped: the UI already let go.)
-  bool press_settled(uint16_t command, uint16_t value, bool written);
-  /// Releases a hold, and lets a hold dropped by a stop be pressed again.
-  void release(uint16_t command);
-  uint16_t held(uint16_t command) const { return holds_[command - reg::kCommandFirst].value; }
-  /// D-8: every hold is dropped when an error (local or 1010) is raised; a
-  /// dropped hold is refused until the UI releases it (a new press).
-  bool dropped(uint16_t command) const { return holds_[command - reg::kCommandFirst].dropped; }
+  // ---- what the controller holds ----
+  /// The value the controller must hold at hold-type `command` (the
+  /// Session's wanted()). A change is written at once, before the next poll;
+  /// every non-zero target is written again after each poll, so the
+  /// controller holds exactly what the session wants even after its
+  /// watchdog fired. A target write that fails raises write_failed (the
+  /// session ends that press) and 0 is written after the next poll: a lost
+  /// answer may follow an executed write, and any doubt about motion: stop.
+  void set_target(uint16_t command, uint16_t value);
+  uint16_t target(uint16_t command) const { return targets_[command - reg::kCommandFirst].value; }
+  /// Queues a one-shot write (a pulse's edge, a setting), sent after the
+  /// pending target changes. False: kQueueLimit writes wait already, or the
+  /// link is down (nothing would be written). Its outcome comes back from
+  /// take_results().
+  bool enqueue(uint16_t address, uint16_t value, uint64_t ticket);
+  /// Finished one-shot writes: (ticket, error) in order.
+  std::vector<std::pair<uint64_t, Error>> take_results() { return std::exchange(results_, {}); }
 
   // ---- what the controller looks like ----
   const Snapshot& snapshot() const noexcept { return snapshot_; }
@@ -162,31 +159,40 @@ class HostLogic {
   TimePoint::duration period() const noexcept;
   void raise_comm_error(Error cause, const std::string& reason);
   void on_poll(TimePoint now, Error e, std::span<const uint16_t> words);
+  void fail_queued(Error e);
 
   HostOptions options_;
   Phase phase_ = Phase::read_id;
   TimePoint next_at_{};
   TimePoint cycle_start_{};
-  bool in_flight_ = false;
-  std::vector<Request> queue_;  ///< the held commands of this cycle, to write
+  std::optional<Request> in_flight_;
+  std::vector<Request> queue_;    ///< the held commands of this cycle, to write again
+  std::deque<Request> urgent_;    ///< target changes, then one-shots: before the next poll
+  std::vector<std::pair<uint64_t, Error>> results_;
   std::vector<Event> events_;
   bool connected_ = false;
   bool comm_error_ = false;
   unsigned failures_ = 0;
   rtukit::Status last_failure_;
   Snapshot snapshot_{};
-  struct Lease {
+  struct Target {
     uint16_t value = 0;
-    TimePoint until{};
-    bool dropped = false;
-    bool zero_pending = false;  ///< a press whose write failed: 0 is written after the next poll
+    bool zero_pending = false;  ///< a target write failed: 0 is written after the next poll
   };
-  void drop_holds(bool write_zero);
-  std::array<Lease, reg::kCommandCount> holds_{};
+  std::array<Target, reg::kCommandCount> targets_{};
 };
 
+/// The host controller: HostLogic and the Session on one bus worker thread.
+/// Every public function is thread-safe and none waits for the bus except
+/// the ones that say so (the CLI's blocking helpers): commands are checked
+/// by the session at once and written by the worker.
 class Host {
  public:
+  using ClientId = Session::ClientId;
+  using PressId = Session::PressId;
+  /// The client the blocking helpers (hold, release, pulse, set_*) speak as: a tool.
+  static constexpr ClientId kLocalClient = ~ClientId{0};
+
   /// Takes the link (opened by the host's thread).
   explicit Host(std::unique_ptr<io::Link> link, HostOptions options = {});
   ~Host();  ///< stops the thread (releasing every hold first)
@@ -211,20 +217,40 @@ class Host {
   /// Blocks until a poll newer than the current snapshot arrived (or timeout).
   bool wait_poll(std::chrono::milliseconds timeout) const;
 
-  /// Holds a hold-type command (posture 0x0062..0x0068, anti-pinch, phone
-  /// drive 0x006E..0x0071, phone horn, SOS) at `value` for one lease; call
-  /// again to renew. Errors, with their reason: invalid_argument (not a hold
-  /// command, a value not listed), refused (a UI rule: the error overlay,
-  /// charging, the chair moving), or the write's error.
+  // ---- the session (session.hpp): never waits for the bus ----
+  void join(ClientId client, ClientKind kind);
+  void leave(ClientId client);
+  /// Session::press; the write follows at once on the bus worker.
+  rtukit::Status press(ClientId client, uint16_t command, uint16_t value, PressId id);
+  rtukit::Status renew(ClientId client, PressId id);
+  void release_press(ClientId client, PressId id);
+  /// Every press of every client ends (the display's Stop button).
+  void stop_all();
+  /// A pulse (1 then 0; 2 for 0x0075 as the seed does) or a setting from
+  /// `client`, checked by the session and queued for the bus worker.
+  /// Errors: the session's (invalid_argument, refused), busy (the queue is
+  /// full: refused with the reason). A write that fails later raises
+  /// Event::write_failed.
+  rtukit::Status send(ClientId client, uint16_t command, uint16_t value);
+  Disabled disabled() const;
+  std::vector<Session::Press> presses() const;
+  std::optional<ClientId> driver() const;
+  bool emergency() const;
+  bool near_obstacle() const;
+
+  // ---- blocking helpers for local tools (the CLI), as kLocalClient ----
+  /// Holds a hold-type command at `value` for one lease: the first call
+  /// presses, later calls renew. A press the session ended (a lapse, an
+  /// error, D-8) is refused until release(). Errors: invalid_argument,
+  /// refused, with their reason.
   rtukit::Status hold(uint16_t command, uint16_t value);
-  /// Releases a hold now (writes 0). Always allowed.
+  /// Releases a hold (the finger lifted). Always allowed.
   Error release(uint16_t command);
-  /// A pulse command (0x0061, 0x0072, 0x0073, 0x0075): writes 1 (2 for
-  /// 0x0075, as the seed does), then 0.
+  /// A pulse command (0x0061, 0x0072, 0x0073, 0x0075), waiting for both writes.
   rtukit::Status pulse(uint16_t command);
-  rtukit::Status set_drive_mode(uint16_t mode);    ///< 1 normal, 2 indoor, 3 outdoor
-  rtukit::Status set_speed_level(uint16_t level);  ///< 1..5
-  Error set_host_fault(uint16_t code);             ///< 0 = none; allowed during an overlay
+  rtukit::Status set_drive_mode(uint16_t mode);    ///< 1 normal, 2 indoor, 3 outdoor; waits for the write
+  rtukit::Status set_speed_level(uint16_t level);  ///< 1..5; waits for the write
+  Error set_host_fault(uint16_t code);             ///< 0 = none; allowed during an overlay; waits
 
   const HostOptions& options() const noexcept { return options_; }
   std::string describe() const { return master_.describe(); }
@@ -232,7 +258,10 @@ class Host {
  private:
   void run();
   void emit(const Event& e);
-  rtukit::Status check_ui_rules(const Register& r, uint16_t value) const;
+  void sync(HostLogic::TimePoint now);  ///< under the lock: the session's wanted values become targets
+  std::vector<Event> collect();         ///< under the lock: the logic's and the session's events
+  rtukit::Status queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket);
+  rtukit::Status wait_ticket(uint64_t ticket);
   Error write_command(uint16_t address, uint16_t value);
 
   HostOptions options_;
@@ -240,10 +269,16 @@ class Host {
   std::function<void(const Event&)> handler_;
   std::thread thread_;
 
-  mutable std::mutex mutex_;  ///< guards logic_ and stopping_
+  mutable std::mutex mutex_;  ///< guards everything below
   mutable std::condition_variable cv_;
   bool stopping_ = false;
+  bool work_ = false;  ///< a command arrived: the worker looks again
   HostLogic logic_;
+  Session session_;
+  uint64_t next_ticket_ = 1;
+  std::deque<std::pair<uint64_t, Error>> finished_;  ///< the last one-shot outcomes, for wait_ticket
+  std::array<PressId, reg::kCommandCount> local_press_{};  ///< kLocalClient's press per command (0: none)
+  PressId local_last_ = 0;
 };
 
 }  // namespace rtukit::rehand6600
