@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The documented long fuzzing run (docs/reliability.md, "Fuzzing"): builds the
 # `fuzz` preset, then runs every libFuzzer target for SECONDS each (default
-# 300; 14 targets x 300 s = 70 CPU-minutes), one after the other on one core,
+# 300; 15 targets x 300 s = 75 CPU-minutes), one after the other on one core,
 # each from a copy of its seed corpus (fuzz/corpus/<target>/). Prints per
 # target the executions, coverage (cov:) and features (ft:) from libFuzzer's
 # final stats and whether it found anything (a crash, a leak, a sanitizer
@@ -14,7 +14,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 targets=(fuzz_rtu_framer fuzz_slave_engine fuzz_pdu_codec fuzz_mbap fuzz_master_response
-         fuzz_inverjet_machine fuzz_rehand_chair fuzz_device_engine fuzz_map_file fuzz_plan_file
+         fuzz_inverjet_machine fuzz_rehand_chair fuzz_rehand_session fuzz_device_engine fuzz_map_file fuzz_plan_file
          fuzz_state_file fuzz_mqtt_command fuzz_host_message fuzz_gateway_request)
 
 if [ "${1:-}" = "--list" ]; then

@@ -100,7 +100,9 @@ class Session {
   explicit Session(SessionOptions options = {}) : options_(options) {}
 
   /// A client connected (a display page, an authenticated phone, a tool).
-  /// Joining again with the same id changes nothing.
+  /// Precondition: `client` is new for each connection (ids are never
+  /// reused: a press id is new only within its client). Joining again with
+  /// the same id while joined changes nothing.
   void join(ClientId client, ClientKind kind);
   /// The client is gone (socket closed, link dropped, forgotten). A phone's
   /// live presses are a loss of control (emergency stop); a display's end.
