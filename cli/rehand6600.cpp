@@ -33,6 +33,8 @@ struct ChairArgs {
   std::vector<std::string> phone;       ///< host: phone listeners
   std::string pairing_file;             ///< host: paired phones
   std::string phone_url;                ///< host: what phones open (QR code)
+  std::string tls_cert, tls_key;        ///< host: the phone listener's certificate
+  std::vector<std::string> host_names;  ///< host: names phones may use for the chair
   std::string unit = "1";
   bool json = false;
   bool mph = false;
@@ -368,6 +370,9 @@ int run_host(const ChairArgs& a) {
   o.mph = a.mph;
   o.pairing_file = a.pairing_file;
   o.phone_url = a.phone_url;
+  o.tls_cert = a.tls_cert;
+  o.tls_key = a.tls_key;
+  o.host_names = a.host_names;
   if (o.pairing_file.empty()) {
     const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=
     const char* home = std::getenv("HOME");
@@ -378,18 +383,6 @@ int run_host(const ChairArgs& a) {
   o.host.unit = unit_of(a);
   o.host.response_timeout = std::chrono::milliseconds(a.link.timeout_ms);
   o.host.trace = a.link.tracer();
-  for (const std::string& l : a.phone) {
-    if (!web::is_loopback(l))
-      fmt::print(stderr,
-                 "warning: phones connect on {} from the network: they need pairing, and the link is plain "
-                 "HTTP (see docs/rehand6600.md, security)\n",
-                 l);
-  }
-  if (!web::is_loopback(a.http))
-    fmt::print(stderr,
-               "warning: the display listener {} is reachable from the network: anyone who reaches it "
-               "controls the chair's display functions\n",
-               a.http);
   programs::HostDaemon daemon(io::make_link(a.link.spec(false)), o);
   const Interruptible interrupt;
   if (rtukit::Status e = daemon.start())
@@ -397,7 +390,9 @@ int run_host(const ChairArgs& a) {
                   fmt::format("rehand6600 host: {}", e.reason())};
   const auto urls = daemon.urls();
   fmt::print("rehand6600 host: display {}  (open it in the kiosk browser)\n", urls[0]);
-  for (size_t i = 1; i < urls.size(); ++i) fmt::print("rehand6600 host: phones {}/phone\n", urls[i]);
+  for (size_t i = 1; i < urls.size(); ++i) fmt::print("rehand6600 host: phones {}/  (TLS)\n", urls[i]);
+  if (!daemon.fingerprint().empty())
+    fmt::print("rehand6600 host: phone certificate SHA-256 {}\n", daemon.fingerprint());
   fmt::print("rehand6600 host: pairing store {}\n", o.pairing_file);
   std::fflush(stdout);
   while (interrupt.sleep(std::chrono::milliseconds(200))) {
@@ -485,10 +480,18 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
       "the RK3588 host daemon: owns the UART, serves the touch HMI and the phone remote",
       [&](CLI::App& cmd, ChairArgs& a) {
         add_link(cmd, a, true);
-        cmd.add_option("--http", a.http, "the display's listener (HOST:PORT; loopback: the kiosk browser)")
+        cmd.add_option("--http", a.http,
+                       "the display's listener (HOST:PORT), loopback only: the kiosk browser on this board")
             ->capture_default_str();
         cmd.add_option("--phone", a.phone,
-                       "a listener for phones (HOST:PORT, repeatable), e.g. 0.0.0.0:8443");
+                       "a TLS listener for phones (HOST:PORT, repeatable), e.g. 0.0.0.0:8443 on the chair's hotspot");
+        cmd.add_option("--tls-cert", a.tls_cert,
+                       "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
+        cmd.add_option("--tls-key", a.tls_key, "its private key, PEM (with --tls-cert)");
+        cmd.add_option("--host-name", a.host_names,
+                       "a name phones may use for the chair besides its IP address (repeatable), e.g. chair.local");
+        cmd.add_option("--phone-url", a.phone_url,
+                       "what phones open, for the pairing QR code (default https://<this machine's address>:PORT)");
         cmd.add_option(
             "--pairing-file", a.pairing_file,
             "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");

@@ -151,6 +151,24 @@ TEST(RehandHostLogic, ATargetIsWrittenAtOnce_ThenAfterEveryPoll_ZeroOnce) {
   EXPECT_TRUE(rig.cycle().empty());
 }
 
+// A release that comes between a poll and its rewrites is not undone by a
+// rewrite of the old value (found by the attack test: 0x006A held on).
+TEST(RehandHostLogic, ARewriteAfterAPollWritesTheTargetOfNow_NotOfThePoll) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  rig.logic.set_target(reg::kSeatLift, 1);
+  rig.flush();
+  rig.t = rig.logic.wake_at();
+  const auto poll = rig.due();
+  ASSERT_EQ(poll.kind, Kind::poll);
+  rig.answer(poll);  // the rewrite of seat_lift = 1 is queued now
+  rig.logic.set_target(reg::kSeatLift, 0);  // the finger lifts
+  const auto writes = rig.flush();
+  ASSERT_EQ(writes.size(), 1U) << "the 0, and no stale 1 after it";
+  EXPECT_EQ(writes[0].value, 0);
+}
+
 // The newest word wins, and target changes go before one-shots.
 TEST(RehandHostLogic, AnUnsentChangeIsReplaced_OneShotsWaitBehindTargets_TheQueueIsBounded) {
   Rig rig;

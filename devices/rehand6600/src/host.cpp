@@ -83,14 +83,22 @@ std::optional<HostLogic::Request> HostLogic::next(TimePoint now) {
     urgent_.pop_front();
     return in_flight_;
   }
-  if (phase_ == Phase::holds) {
+  while (phase_ == Phase::holds) {
     if (queue_.empty()) {
       phase_ = Phase::poll;
       next_at_ = cycle_start_ + period();
       return std::nullopt;
     }
-    in_flight_ = queue_.front();
+    Request r = queue_.front();
     queue_.erase(queue_.begin());
+    // The rewrite says what the target is now, not at the poll: a release
+    // that came meanwhile was written at once, and an old 1 written after
+    // it would hold the command again with no finger down.
+    if (r.value != 0) {
+      r.value = targets_[r.address - reg::kCommandFirst].value;
+      if (r.value == 0) continue;
+    }
+    in_flight_ = r;
     return in_flight_;
   }
   if (phase_ == Phase::write_ready) {

@@ -1,12 +1,18 @@
-// The pairing store. Tokens are secrets: the file is 0600 and replaced
-// atomically, so a power cut leaves the old or the new list of phones.
-#include <fcntl.h>
+// The pairing store. A token is a secret the phone keeps; the file keeps
+// only its SHA-256 (a copy of the file, or a look over a shoulder at it,
+// drives nothing), and a presented token is compared with every stored hash
+// in constant time. The file is 0600 and replaced atomically, so a power cut
+// leaves the old or the new list of phones.
 #include <fmt/chrono.h>
 #include <fmt/core.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <sys/random.h>
 #include <unistd.h>
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <chrono>
 #include <nlohmann/json.hpp>
 
@@ -17,25 +23,41 @@ namespace rtukit::programs {
 namespace {
 
 constexpr size_t kMaxFile = 256 * 1024;
-constexpr std::string_view kFormat = "rtukit rehand6600 pairing 1";
+constexpr std::string_view kFormat = "rtukit rehand6600 pairing 2";
+constexpr std::string_view kFormatV1 = "rtukit rehand6600 pairing 1";  // tokens in the clear: hashed on load
 
-std::string random_token() {
-  std::array<unsigned char, 16> bytes{};
-  const int fd = ::open("/dev/urandom", O_RDONLY | O_CLOEXEC);
-  size_t got = 0;
-  while (fd >= 0 && got < bytes.size()) {
-    const ssize_t n = ::read(fd, bytes.data() + got, bytes.size() - got);
-    if (n <= 0) break;
-    got += static_cast<size_t>(n);
-  }
-  if (fd >= 0) ::close(fd);
-  if (got != bytes.size()) return {};
+std::string hex(const unsigned char* data, size_t n) {
   std::string out;
-  for (unsigned char b : bytes) out += fmt::format("{:02x}", b);
+  out.reserve(n * 2);
+  for (size_t i = 0; i < n; ++i) out += fmt::format("{:02x}", data[i]);
   return out;
 }
 
 }  // namespace
+
+bool random_bytes(unsigned char* out, size_t n) {
+  size_t got = 0;
+  while (got < n) {
+    const ssize_t r = ::getrandom(out + got, n - got, 0);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) return false;
+    got += static_cast<size_t>(r);
+  }
+  return true;
+}
+
+std::string sha256_hex(std::string_view text) {
+  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+  unsigned int n = 0;
+  if (EVP_Digest(text.data(), text.size(), digest.data(), &n, EVP_sha256(), nullptr) != 1) return {};
+  return hex(digest.data(), n);
+}
+
+std::string random_hex(size_t bytes) {
+  std::array<unsigned char, 64> b{};
+  if (bytes > b.size() || !random_bytes(b.data(), bytes)) return {};
+  return hex(b.data(), bytes);
+}
 
 rtukit::Status PairingStore::load() {
   phones_.clear();
@@ -47,19 +69,45 @@ rtukit::Status PairingStore::load() {
     return text.error();
   }
   const nlohmann::json doc = nlohmann::json::parse(*text, nullptr, false);
-  if (doc.is_discarded() || !doc.is_object() || doc.value("format", "") != kFormat ||
+  const std::string format = doc.is_object() ? doc.value("format", "") : "";
+  if (doc.is_discarded() || !doc.is_object() || (format != kFormat && format != kFormatV1) ||
       !doc.contains("phones") || !doc["phones"].is_array()) {
     writable_ = false;  // not ours: never overwritten
     return rtukit::Status(
         Errc::invalid_argument,
         fmt::format("{}: not an rtukit pairing file; move it away or choose another path", path_));
   }
+  const bool v1 = format == kFormatV1;
+  const int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
+                          std::chrono::system_clock::now().time_since_epoch())
+                          .count();
   for (const nlohmann::json& p : doc["phones"]) {
-    if (!p.is_object() || !p.contains("token") || !p["token"].is_string() ||
-        p["token"].get<std::string>().size() != 32)
-      continue;  // a damaged entry pairs nothing
-    phones_.push_back({p["token"].get<std::string>(), p.value("name", "phone"), p.value("paired_at", "")});
+    if (!p.is_object()) continue;
+    PairedPhone phone;
+    const auto text_of = [&](const char* key) {
+      return p.contains(key) && p[key].is_string() ? p[key].get<std::string>() : std::string();
+    };
+    if (v1) {
+      const std::string token = text_of("token");
+      if (token.size() != 32) continue;  // a damaged entry pairs nothing
+      phone.token_hash = sha256_hex(token);
+      phone.id = random_hex(6);
+      phone.last_contact = now;  // the 30-day clock starts with this version
+    } else {
+      phone.token_hash = text_of("token_sha256");
+      phone.id = text_of("id");
+      if (phone.token_hash.size() != 64 || phone.id.empty()) continue;
+      phone.last_contact = p.contains("last_contact") && p["last_contact"].is_number_integer()
+                               ? p["last_contact"].get<int64_t>()
+                               : now;
+    }
+    phone.name = text_of("name");
+    if (phone.name.empty()) phone.name = "phone";
+    phone.paired_at = text_of("paired_at");
+    phone.code = text_of("code");
+    phones_.push_back(std::move(phone));
   }
+  if (v1) return save();  // the clear tokens leave the disk now
   return {};
 }
 
@@ -70,48 +118,97 @@ rtukit::Status PairingStore::save() const {
   nlohmann::ordered_json doc;
   doc["format"] = kFormat;
   doc["phones"] = nlohmann::json::array();
-  for (const Phone& p : phones_)
-    doc["phones"].push_back({{"token", p.token}, {"name", p.name}, {"paired_at", p.paired_at}});
+  for (const PairedPhone& p : phones_)
+    doc["phones"].push_back({{"id", p.id},
+                             {"token_sha256", p.token_hash},
+                             {"name", p.name},
+                             {"code", p.code},
+                             {"paired_at", p.paired_at},
+                             {"last_contact", p.last_contact}});
   return io::write_file_atomically(path_, doc.dump(2) + "\n", 0600);
 }
 
-rtukit::Outcome<std::string> PairingStore::add(std::string name) {
-  std::string token = random_token();
-  if (token.empty()) return rtukit::Status(Errc::io_error, "no random numbers (/dev/urandom)");
+rtukit::Outcome<PairingStore::Added> PairingStore::add(std::string name, std::string code, int64_t now) {
+  Added added{random_hex(6), random_hex(32)};  // a 256-bit token
+  if (added.id.empty() || added.token.empty())
+    return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
+  // Printable and short: the display shows it.
+  name.erase(std::remove_if(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }),
+             name.end());
   if (name.empty() || name.size() > 40) name = fmt::format("phone {}", phones_.size() + 1);
-  const auto now = std::chrono::system_clock::now();
-  phones_.push_back(
-      {token, name,
-       fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(now)))});
+  const auto t = std::chrono::system_clock::time_point(std::chrono::seconds(now));
+  phones_.push_back({added.id, sha256_hex(added.token), name, std::move(code),
+                     fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))),
+                     now});
   if (rtukit::Status e = save()) {
     phones_.pop_back();
     return e;
   }
-  return token;
+  return added;
 }
 
-bool PairingStore::contains(const std::string& token) const {
-  return !token.empty() &&
-         std::any_of(phones_.begin(), phones_.end(), [&](const Phone& p) { return p.token == token; });
+std::optional<std::string> PairingStore::find(std::string_view token) const {
+  if (token.empty()) return std::nullopt;
+  const std::string hash = sha256_hex(token);
+  if (hash.size() != 64) return std::nullopt;
+  std::optional<std::string> found;
+  // Every entry is compared, each in constant time: how long this takes
+  // says nothing about which hash, or how much of it, matched.
+  for (const PairedPhone& p : phones_) {
+    if (p.token_hash.size() == hash.size() && CRYPTO_memcmp(p.token_hash.data(), hash.data(), hash.size()) == 0)
+      found = p.id;
+  }
+  return found;
 }
 
-std::string PairingStore::name_of(const std::string& token) const {
-  for (const Phone& p : phones_)
-    if (p.token == token) return p.name;
+const PairedPhone* PairingStore::phone(std::string_view id) const {
+  for (const PairedPhone& p : phones_)
+    if (p.id == id) return &p;
+  return nullptr;
+}
+
+rtukit::Status PairingStore::touch(std::string_view id, int64_t now) {
+  for (PairedPhone& p : phones_) {
+    if (p.id != id) continue;
+    p.last_contact = now;
+    return save();
+  }
   return {};
 }
 
-rtukit::Status PairingStore::remove(const std::string& token) {
-  const auto it =
-      std::find_if(phones_.begin(), phones_.end(), [&](const Phone& p) { return p.token == token; });
-  if (it == phones_.end()) return {};
-  const Phone removed = *it;
+rtukit::Status PairingStore::remove(std::string_view id) {
+  const auto it = std::find_if(phones_.begin(), phones_.end(), [&](const PairedPhone& p) { return p.id == id; });
+  if (it == phones_.end()) return rtukit::Status(Errc::invalid_argument, "no such phone");
+  const PairedPhone removed = *it;
   phones_.erase(it);
   if (rtukit::Status e = save()) {
     phones_.push_back(removed);
     return e;
   }
   return {};
+}
+
+rtukit::Status PairingStore::remove_all() {
+  std::vector<PairedPhone> before = std::move(phones_);
+  phones_.clear();
+  if (rtukit::Status e = save()) {
+    phones_ = std::move(before);
+    return e;
+  }
+  return {};
+}
+
+std::vector<PairedPhone> PairingStore::expire(int64_t now, int64_t max_age_s) {
+  std::vector<PairedPhone> gone;
+  std::vector<PairedPhone> kept;
+  for (PairedPhone& p : phones_) (now - p.last_contact > max_age_s ? gone : kept).push_back(std::move(p));
+  phones_ = std::move(kept);
+  if (!gone.empty() && save()) {
+    // Not saved: keep them, the file still has them.
+    for (PairedPhone& p : gone) phones_.push_back(std::move(p));
+    gone.clear();
+  }
+  return gone;
 }
 
 }  // namespace rtukit::programs

@@ -1,29 +1,33 @@
-// The host daemon: the host controller on its own thread (polls, leases,
-// 1010), the web server on another. They meet in two places only: the
-// server thread calls the Host's thread-safe commands, and the Host's
-// events are posted to the server thread. Neither waits for a client.
+// The host daemon: the host controller on its own thread (polls, the
+// session's rules, writes), the web server on another. They meet in two
+// places only: the server thread calls the Host's thread-safe functions,
+// none of which waits for the bus, and the Host's events are posted to the
+// server thread.
 #include "rtukit/programs/rehand_host.hpp"
 
 #include <arpa/inet.h>
+#include <fmt/chrono.h>
 #include <fmt/core.h>
 #include <ifaddrs.h>
 #include <netinet/in.h>
+#include <openssl/crypto.h>
 #include <qrencode.h>
 
 #include <atomic>
-#include <cstring>
 #include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
-#include <random>
-#include <set>
 
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
+#include "rtukit/web/tls.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -31,19 +35,34 @@ namespace {
 namespace rh = rehand6600;
 using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
+using Role = HostRole;
 
 constexpr auto kCodeLifetime = std::chrono::minutes(2);
-constexpr int kCodeAttempts = 5;
-
-using Role = HostRole;
+constexpr int kCodeGuesses = 3;                  ///< wrong codes before the code is replaced
+constexpr int kWrongPerAddress = 10;             ///< wrong codes or tokens per source address...
+constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
 
 struct Client {
   web::SocketPtr socket;
   Role role = Role::display;
-  bool paired = false;
-  std::string token, name;
-  std::set<uint16_t> holds;  ///< commands this client holds (released when it goes)
+  bool authenticated = false;  ///< a display always; a phone once it sent a good token or code
+  std::string phone;           ///< the paired phone's id
+  Clock::time_point opened{};
 };
+
+int64_t unix_now() {
+  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string local_time(int64_t unix_seconds, const char* format) {
+  const std::time_t t = unix_seconds;
+  std::tm tm{};
+  ::localtime_r(&t, &tm);
+  char out[64] = {};
+  std::strftime(out, sizeof out, format, &tm);
+  return out;
+}
 
 // This machine's first non-loopback IPv4 address, for a URL a phone can open.
 std::string first_lan_address() {
@@ -79,21 +98,54 @@ std::string qr_svg(const std::string& text) {
       n + 8, path);
 }
 
+// A six-digit code from the OS random source, uniform (rejection sampling).
+std::string random_code() {
+  for (;;) {
+    uint32_t r = 0;
+    if (!random_bytes(reinterpret_cast<unsigned char*>(&r), sizeof r)) return {};
+    if (r >= 4294000000U) continue;  // 4294000000 is a multiple of 10^6
+    return fmt::format("{:06d}", r % 1000000U);
+  }
+}
+
+// Which posture each command moves: its status register and actuators (table 1).
+struct PostureRows {
+  uint16_t command, status;
+  std::array<int, 3> actuators;  ///< 1-based, 0 = none
+};
+constexpr PostureRows kPostures[] = {
+    {rh::reg::kStandSit, rh::reg::kStandStatus, {1, 2, 4}},
+    {rh::reg::kSeatLift, rh::reg::kSeatLiftStatus, {1, 0, 0}},
+    {rh::reg::kBackrest, rh::reg::kBackrestStatus, {2, 0, 0}},
+    {rh::reg::kSeatTilt, rh::reg::kSeatTiltStatus, {3, 0, 0}},
+    {rh::reg::kLegRotate, rh::reg::kLegRestStatus, {4, 0, 0}},
+    {rh::reg::kLegExtend, rh::reg::kLegRestStatus, {5, 0, 0}},
+    {rh::reg::kPlateTilt, 0, {6, 0, 0}},
+};
+
+std::string key_of(uint16_t address) {
+  const rh::Register* r = rh::find_register(address);
+  return r ? std::string(r->key) : std::string();
+}
+
+std::string choice(uint16_t address, uint16_t value) {
+  const rh::Register* r = rh::find_register(address);
+  return r ? std::string(profile::name_of(*r, value)) : std::to_string(value);
+}
+
 }  // namespace
 
 struct HostDaemon::Impl {
   Impl(std::unique_ptr<io::Link> link, HostDaemonOptions o)
-      : options(std::move(o)),
-        host(std::move(link), options.host),
-        pairing(options.pairing_file),
-        server(listen_list(options), handlers()) {}
-
-  static web::ServerOptions listen_list(const HostDaemonOptions& o) {
-    web::ServerOptions s;
-    s.listen.push_back(o.http);
-    for (const std::string& p : o.phone) s.listen.push_back(p);
-    return s;
+      : options(std::move(o)), host(std::move(link), options.host), pairing(options.pairing_file) {
+    if (!options.log)
+      options.log = [](const std::string& line) {
+        fmt::print(stderr, "{} rehand6600 host: {}\n", local_time(unix_now(), "%Y-%m-%d %H:%M:%S"), line);
+        std::fflush(stderr);
+      };
   }
+
+  void log(const std::string& line) const { options.log(line); }
 
   web::Handlers handlers() {
     web::Handlers h;
@@ -114,17 +166,18 @@ struct HostDaemon::Impl {
     std::string path = r.path;
     if (path == "/") path = display_listener ? "/rehand/hmi.html" : "/rehand/phone.html";
     if (path == "/phone") path = "/rehand/phone.html";
-    if (path == "/api/state") {
-      if (!display_listener && !pairing.contains(r.param("token")))
-        return {.status = 401, .body = R"({"error":"not paired"})"};
-      return {.body = state_json().dump()};
-    }
     if (path == "/healthz") return {.body = Json{{"connected", host.connected()}}.dump()};
-    if (path == "/api/pair/qr.svg" && display_listener) {
-      // The phone's address with the code: scanning it opens the phone page
-      // with the code filled in.
+    // The display's own endpoints: the state and the pairing QR code exist
+    // on the loopback listener only. A phone sees the state on its
+    // authenticated WebSocket, and nothing tells a stranger whether a code
+    // is showing.
+    if (display_listener && path == "/api/state") return {.body = state_json(true).dump()};
+    if (display_listener && path == "/api/pair/qr.svg") {
       if (code.code.empty()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
-      return {.content_type = "image/svg+xml", .body = qr_svg(fmt::format("{}/?code={}", phone_url, code.code))};
+      // The code and the certificate's fingerprint in the fragment: never
+      // sent to a server, never in a log; the page reads and removes it.
+      return {.content_type = "image/svg+xml",
+              .body = qr_svg(fmt::format("{}/#code={}&fp={}", phone_url, code.code, fingerprint))};
     }
     if (auto a = web::asset_response(path)) return *a;
     return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
@@ -132,54 +185,51 @@ struct HostDaemon::Impl {
 
   std::optional<web::HttpResponse> upgrade(const web::HttpRequest& r) {
     if (r.path != "/ws") return web::HttpResponse{.status = 404, .body = R"({"error":"no such endpoint"})"};
-    const std::string role = r.param("role");
-    if (role == "display" && r.listener != 0)
-      return web::HttpResponse{.status = 403,
-                               .body = R"({"error":"the display connects on the display's listener"})"};
-    if (role != "display" && role != "phone")
-      return web::HttpResponse{.status = 400, .body = R"({"error":"role must be display or phone"})"};
+    if (r.query.find("token") != std::string::npos)
+      return web::HttpResponse{.status = 400,
+                               .body = R"({"error":"no credential in a URL: authenticate in the first message"})"};
     return std::nullopt;
   }
 
   // ------------------------------------------------------------ WebSocket
 
   void opened(const web::SocketPtr& s) {
-    Client c{.socket = s};
-    c.role = s->request().param("role") == "display" ? Role::display : Role::phone;
-    if (c.role == Role::phone) {
-      c.token = s->request().param("token");
-      c.paired = pairing.contains(c.token);
-      c.name = c.paired ? pairing.name_of(c.token) : "";
-    }
-    const Client& added = clients.emplace(s->id(), std::move(c)).first->second;
-    Json hello{{"type", "hello"},
-               {"role", added.role == Role::display ? "display" : "phone"},
-               {"paired", added.role == Role::display || added.paired},
-               {"client", s->id()},
-               {"lease_ms", options.host.lease.count()},
-               {"mph", options.mph}};
-    s->send(hello.dump());
-    if (added.role == Role::display || added.paired) s->send(state_json().dump());
-    if (added.role == Role::phone && added.paired) broadcast_state();  // the display lists it
+    Client c{.socket = s, .opened = Clock::now()};
+    c.role = s->request().listener == 0 ? Role::display : Role::phone;
+    c.authenticated = c.role == Role::display;
+    clients.emplace(s->id(), c);
+    if (c.role == Role::display) host.join(s->id(), rh::ClientKind::display);
+    s->send(Json{{"type", "hello"},
+                 {"role", c.role == Role::display ? "display" : "phone"},
+                 {"authenticated", c.authenticated},
+                 {"client", s->id()},
+                 {"lease_ms", options.host.lease.count()},
+                 {"auth_timeout_ms", std::chrono::milliseconds(options.auth_timeout).count()},
+                 {"mph", options.mph}}
+                .dump());
+    if (c.role == Role::display) s->send(state_json(true).dump());
   }
 
   void closed(const web::SocketPtr& s) {
     auto it = clients.find(s->id());
     if (it == clients.end()) return;
-    // Dead-man: whatever this client held stops now, not at the lease's end.
-    for (uint16_t a : it->second.holds) (void)host.release(a);
-    if (driver == s->id()) driver.reset();
-    if (one_touch.value && one_touch.owner == s->id()) end_one_touch();
-    const bool was_phone = it->second.role == Role::phone && it->second.paired;
+    // The session decides what losing this client means: a phone that was
+    // driving is a loss of control (the stop command), anything else ends.
+    host.leave(s->id());
+    const Client c = it->second;
     clients.erase(it);
-    if (was_phone) broadcast_state();
+    if (c.role == Role::phone && c.authenticated) {
+      (void)pairing.touch(c.phone, unix_now());
+      log(fmt::format("phone '{}' ({}) disconnected from {}", name_of(c.phone), c.phone, s->peer_address()));
+      broadcast_state();
+    }
   }
 
   void message(const web::SocketPtr& s, std::string_view text) {
     auto it = clients.find(s->id());
     if (it == clients.end()) return;
     Client& c = it->second;
-    const HostMessage m = parse_host_message(text, c.role, c.paired);
+    const HostMessage m = parse_host_message(text, c.role, c.authenticated);
     if (!m.envelope) {
       s->send(Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
       return;
@@ -192,52 +242,79 @@ struct HostDaemon::Impl {
     s->send(result.dump());
   }
 
-  static rtukit::Status refuse(std::string reason) {
-    return rtukit::Status(Errc::refused, std::move(reason));
+  static rtukit::Status refuse(std::string reason) { return rtukit::Status(Errc::refused, std::move(reason)); }
+
+  // Wrong codes and tokens from one address, per minute: guessing is slow.
+  bool too_many_wrong(const std::string& address) {
+    auto& w = wrong[address];
+    if (Clock::now() - w.since > kWrongWindow) w = {Clock::now(), 0};
+    return w.count >= kWrongPerAddress;
+  }
+  void count_wrong(const std::string& address) { ++wrong[address].count; }
+
+  std::string name_of(const std::string& phone) const {
+    const PairedPhone* p = pairing.phone(phone);
+    return p ? p->name : "a forgotten phone";
   }
 
-  rtukit::Status hold_for(Client& c, uint16_t address, uint16_t value) {
-    if (rtukit::Status e = host.hold(address, value)) return e;
-    c.holds.insert(address);
-    return {};
+  // A phone is in: one connection per phone, the newest wins.
+  void admit_phone(Client& c, const std::string& phone) {
+    for (auto& [id, other] : clients) {
+      if (id == c.socket->id() || other.phone != phone) continue;
+      other.socket->close("replaced by a new connection");
+      host.leave(id);  // at once, not when the close completes
+      other.phone.clear();
+      other.authenticated = false;
+      broadcast({{"type", "event"}, {"event", "replaced"}, {"phone", phone}, {"name", name_of(phone)}});
+      log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(phone), phone));
+    }
+    c.authenticated = true;
+    c.phone = phone;
+    host.join(c.socket->id(), rh::ClientKind::phone);
+    (void)pairing.touch(phone, unix_now());
   }
 
-  rtukit::Status release_for(Client& c, uint16_t address) {
-    c.holds.erase(address);
-    if (Error e = host.release(address)) return rtukit::Status(e, fmt::format("release: {}", e.name()));
-    return {};
+  // Closes every connection of `phone` (forgotten): its presses end now.
+  void drop_phone(const std::string& phone, const std::string& why) {
+    for (auto& [id, c] : clients) {
+      if (c.phone != phone) continue;
+      c.socket->close(why);
+      host.leave(id);
+      c.phone.clear();
+      c.authenticated = false;
+    }
   }
 
-  // Runs a checked command (parse_host_message decided that `c` may send it).
+  // Runs a checked command (parse_host_message decided that `c` may send it;
+  // the session decides whether the chair may do it now).
   rtukit::Status run(Client& c, const HostCommand& k, Json& result) {
     using Kind = HostCommand::Kind;
+    const uint64_t me = c.socket->id();
     switch (k.kind) {
-      case Kind::hold:
-        return hold_for(c, k.address, k.value);
+      case Kind::press:
+        return host.press(me, k.address, k.value, k.press);
+      case Kind::renew:
+        return host.renew(me, k.press);
       case Kind::release:
-        return release_for(c, k.address);
+        host.release_press(me, k.press);
+        return {};
+      case Kind::stop:
+        host.stop_all();
+        log("the display's Stop button: every command released");
+        return {};
       case Kind::pulse:
-        return host.pulse(k.address);
+        return host.send(me, k.address, 1);
       case Kind::set: {
-        const bool mode = k.address == rh::reg::kDriveMode;
-        if (rtukit::Status e = mode ? host.set_drive_mode(k.value) : host.set_speed_level(k.value)) return e;
-        (mode ? drive_mode : speed_level) = k.value;
+        if (rtukit::Status e = host.send(me, k.address, k.value)) return e;
+        (k.address == rh::reg::kDriveMode ? drive_mode : speed_level) = k.value;
         broadcast_state();
         return {};
       }
-      case Kind::one_touch:
-        if (k.value == 0) {
-          end_one_touch();
-          return {};
-        }
-        if (one_touch.value) end_one_touch();
-        if (rtukit::Status e = host.hold(rh::reg::kStandSit, k.value)) return e;
-        one_touch = {k.value, c.socket->id(), Clock::now(), false};
-        broadcast_state();
-        return {};
       case Kind::pair_start: {
-        std::uniform_int_distribution<int> digits(0, 999999);
-        code = {fmt::format("{:06d}", digits(random)), Clock::now() + kCodeLifetime, 0};
+        std::string fresh = random_code();
+        if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
+        code = {std::move(fresh), Clock::now() + kCodeLifetime, 0};
+        log("pairing code shown on the display");
         broadcast_state();
         return {};
       }
@@ -245,95 +322,109 @@ struct HostDaemon::Impl {
         code = {};
         broadcast_state();
         return {};
-      case Kind::revoke: {
-        auto it = clients.find(k.client);
-        if (it == clients.end() || it->second.role != Role::phone)
-          return rtukit::Status(Errc::invalid_argument, "no such phone");
-        if (rtukit::Status e = pairing.remove(it->second.token)) return e;
-        web::SocketPtr s = it->second.socket;
-        s->close("revoked by the display");
-        closed(s);  // its holds go now, not when the close completes
-        return {};
-      }
-      case Kind::pair: {
-        if (c.paired) return {};
-        if (code.code.empty() || Clock::now() > code.until)
-          return refuse("no pairing code is shown: ask the display for one");
-        if (k.code != code.code) {
-          if (++code.attempts >= kCodeAttempts) code = {};  // guessing: the code is gone
-          broadcast_state();
-          return refuse("wrong code");
-        }
-        code = {};
-        Outcome<std::string> token = pairing.add(k.name);
-        if (!token) return token.error();
-        c.token = *token;
-        c.paired = true;
-        c.name = pairing.name_of(c.token);
-        result["token"] = c.token;
-        result["name"] = c.name;
-        c.socket->send(state_json().dump());
+      case Kind::forget: {
+        const std::string name = name_of(k.phone);
+        if (rtukit::Status e = pairing.remove(k.phone)) return e;
+        drop_phone(k.phone, "this phone was forgotten by the display");
+        log(fmt::format("phone '{}' ({}) forgotten by the display", name, k.phone));
         broadcast_state();
         return {};
       }
-      case Kind::drive: {
-        if (k.address == 0) {
-          for (uint16_t a = rh::reg::kPhoneForward; a <= rh::reg::kPhoneRight; ++a)
-            if (c.holds.count(a)) (void)release_for(c, a);
-          if (driver == c.socket->id()) driver.reset();
-          broadcast_state();
-          return {};
-        }
-        if (driver && *driver != c.socket->id()) {
-          auto other = clients.find(*driver);
-          return refuse(
-              fmt::format("{} is driving", other != clients.end() ? other->second.name : "another phone"));
-        }
-        for (uint16_t b = rh::reg::kPhoneForward; b <= rh::reg::kPhoneRight; ++b)
-          if (b != k.address && c.holds.count(b)) (void)release_for(c, b);
-        if (rtukit::Status e = hold_for(c, k.address, 1)) return e;
-        if (driver != c.socket->id()) {
-          driver = c.socket->id();
-          broadcast_state();
-        }
+      case Kind::forget_all: {
+        std::vector<std::string> ids;
+        for (const PairedPhone& p : pairing.phones()) ids.push_back(p.id);
+        if (rtukit::Status e = pairing.remove_all()) return e;
+        for (const std::string& id : ids) drop_phone(id, "every phone was forgotten by the display");
+        log(fmt::format("every phone forgotten by the display ({})", ids.size()));
+        broadcast_state();
         return {};
       }
-      case Kind::horn:
-        if (k.value) return hold_for(c, rh::reg::kPhoneHorn, 1);
-        return release_for(c, rh::reg::kPhoneHorn);
+      case Kind::auth: {
+        const std::string& from = c.socket->peer_address();
+        if (too_many_wrong(from)) return refuse("too many wrong tokens or codes from this address: wait a minute");
+        const std::optional<std::string> phone = pairing.find(k.token);
+        if (!phone) {
+          count_wrong(from);
+          return refuse("not paired: this phone is unknown or was forgotten; pair again with the display's code");
+        }
+        admit_phone(c, *phone);
+        result["phone"] = *phone;
+        result["name"] = name_of(*phone);
+        result["client"] = me;
+        log(fmt::format("phone '{}' ({}) connected from {}", name_of(*phone), *phone, from));
+        c.socket->send(state_json(false).dump());
+        broadcast_state();
+        return {};
+      }
+      case Kind::pair: {
+        const std::string& from = c.socket->peer_address();
+        if (too_many_wrong(from)) return refuse("too many wrong tokens or codes from this address: wait a minute");
+        // One answer for "no code shown", "expired" and "wrong": nothing a
+        // stranger can probe tells whether a code is showing.
+        if (code.code.empty() || Clock::now() > code.until || k.code.size() != code.code.size() ||
+            CRYPTO_memcmp(k.code.data(), code.code.data(), code.code.size()) != 0) {
+          count_wrong(from);
+          if (!code.code.empty() && ++code.guesses >= kCodeGuesses) {
+            // Guessed at: a new code replaces it, so the owner can still pair.
+            code = {random_code(), Clock::now() + kCodeLifetime, 0};
+            log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
+            broadcast_state();
+          }
+          return refuse("wrong or expired code: enter the code the display shows now");
+        }
+        const std::string used = code.code;
+        code = {};
+        Outcome<PairingStore::Added> added = pairing.add(k.name, used, unix_now());
+        if (!added) return added.error();
+        admit_phone(c, added->id);
+        result["token"] = added->token;
+        result["phone"] = added->id;
+        result["name"] = name_of(added->id);
+        result["client"] = me;
+        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(added->id), added->id,
+                        from));
+        c.socket->send(state_json(false).dump());
+        broadcast_state();
+        return {};
+      }
     }
     return {};
   }
 
-  void end_one_touch() {
-    if (!one_touch.value) return;
-    one_touch = {};
-    (void)host.release(rh::reg::kStandSit);
-    broadcast_state();
-  }
-
-  // Every 50 ms on the server thread: the one-touch stand/sit runs until the
-  // chair reports it done, the pairing code expires.
+  // Every 50 ms on the server thread: unauthenticated phones time out, the
+  // pairing code expires, the state follows the clock (last contact).
   void tick() {
-    if (one_touch.value) {
-      const rh::Snapshot s = host.snapshot();
-      const bool moving = s[rh::reg::kStandStatus] != 0;
-      if (moving) one_touch.moved = true;
-      if ((one_touch.moved && !moving) ||
-          (!one_touch.moved && Clock::now() - one_touch.started > std::chrono::seconds(1)))
-        end_one_touch();
-      else if (host.hold(rh::reg::kStandSit, one_touch.value))
-        end_one_touch();  // refused (an error, D-8): it ends here
+    const auto now = Clock::now();
+    for (auto& [id, c] : clients) {
+      if (c.role == Role::phone && !c.authenticated && now - c.opened > options.auth_timeout &&
+          c.socket->is_open())
+        c.socket->close("authentication timeout");
     }
-    if (!code.code.empty() && Clock::now() > code.until) {
+    if (!code.code.empty() && now > code.until) {
       code = {};
       broadcast_state();
     }
+    if (now - last_expiry_check > std::chrono::minutes(1)) {
+      last_expiry_check = now;
+      for (const PairedPhone& p : pairing.expire(unix_now(), options.pairing_max_age.count())) {
+        drop_phone(p.id, "this pairing expired");
+        log(fmt::format("phone '{}' ({}) forgotten: unused for more than {} days", p.name, p.id,
+                        options.pairing_max_age.count() / 86400));
+      }
+    }
+    const rh::Snapshot s = host.snapshot();
+    if (host.connected() && s.valid && s.sequence != last_sequence) {
+      last_sequence = s.sequence;
+      last_contact = std::chrono::system_clock::now();
+    }
+    const bool near = host.near_obstacle();
+    if (near && !near_obstacle) broadcast({{"type", "event"}, {"event", "near_obstacle"}});
+    near_obstacle = near;
   }
 
   // ------------------------------------------------------------ state
 
-  Json state_json() {
+  Json state_json(bool for_display) {
     const rh::Snapshot s = host.snapshot();
     const uint16_t error = host.active_error();
     Json values = Json::object(), text = Json::object();
@@ -342,52 +433,92 @@ struct HostDaemon::Impl {
       values[std::string(r.key)] = s[r.address];
       text[std::string(r.key)] = rh::format_value(r, s[r.address]);
     }
+    const bool live = host.connected() && s.valid;
+    const int64_t contact_ms =
+        last_contact ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
+                     : 0;
+    Json postures = Json::array();
+    for (const PostureRows& p : kPostures) {
+      Json actuators = Json::array();
+      for (int n : p.actuators) {
+        if (n == 0) continue;
+        const auto state_reg = static_cast<uint16_t>(rh::reg::kActuatorState + n - 1);
+        actuators.push_back({{"n", n},
+                             {"state", choice(state_reg, s[state_reg])},
+                             {"position", s[static_cast<uint16_t>(rh::reg::kActuatorPosition + n - 1)]}});
+      }
+      postures.push_back({{"key", key_of(p.command)},
+                          {"status", p.status ? choice(p.status, s[p.status]) : "still"},
+                          {"actuators", actuators}});
+    }
+    // Stand/sit moves actuators 1, 2 and 4 towards standing: its progress.
+    const int stand_progress = (s[rh::reg::kActuatorPosition] + s[rh::reg::kActuatorPosition + 1] +
+                                s[rh::reg::kActuatorPosition + 3]) /
+                               30;
+    Json presses = Json::array();
+    for (const rh::Session::Press& p : host.presses()) {
+      auto owner = clients.find(p.client);
+      const bool phone = owner != clients.end() && owner->second.role == Role::phone;
+      presses.push_back({{"command", key_of(p.command)},
+                         {"value", p.value},
+                         {"owner", phone ? name_of(owner->second.phone) : "display"}});
+    }
+    const rh::Disabled d = host.disabled();
+    std::string driver;
+    if (const auto id = host.driver()) {
+      if (auto it = clients.find(*id); it != clients.end()) driver = it->second.phone;
+    }
     Json st{{"type", "state"},
-            {"connected", host.connected() && s.valid},
+            {"connected", live},
+            {"last_contact", contact_ms ? local_time(contact_ms / 1000, "%H:%M:%S") : ""},
+            {"last_contact_ms", contact_ms},
             {"error", error},
             {"error_text", error ? rh::error_text(error) : ""},
             {"values", values},
             {"text", text},
-            {"drive_mode", profile::name_of(*rh::find_register(rh::reg::kDriveMode), drive_mode)},
+            {"drive_mode", choice(rh::reg::kDriveMode, drive_mode)},
             {"speed_level", speed_level},
-            {"one_touch", one_touch.value == 1   ? "stand"
-                          : one_touch.value == 2 ? "sit"
-                                                 : ""}};
-    // Why a control is disabled, as the UI rules say (empty: allowed).
-    const std::string overlay = error ? fmt::format("{} is active", rh::error_text(error)) : "";
-    const bool seated = s[rh::reg::kActuatorPosition] == 0 && s[rh::reg::kActuatorPosition + 2] == 0;
-    std::string drive = overlay;
-    if (drive.empty() && s.charging()) drive = "no driving while charging";
-    if (drive.empty() && !s.clutch_drive()) drive = "no driving with the clutch in push";
-    if (drive.empty() && !seated) drive = "no phone driving while the chair is not fully seated";
-    if (drive.empty() && !s.is_static() && !driver) drive = "phone drive only while the chair is static";
-    std::string raise = overlay;
-    if (raise.empty() && s.charging()) raise = "no standing up or raising the seat while charging";
-    st["disabled"] = {{"all", overlay}, {"drive", drive}, {"raise", raise}};
+            {"postures", postures},
+            {"stand_progress", std::min(100, stand_progress)},
+            {"distances",
+             {{"front", s[rh::reg::kDistanceFront]},
+              {"rear", s[rh::reg::kDistanceFront + 1]},
+              {"left", s[rh::reg::kDistanceFront + 2]},
+              {"right", s[rh::reg::kDistanceFront + 3]}}},
+            {"near_obstacle", host.near_obstacle()},
+            {"emergency", host.emergency()},
+            {"presses", presses},
+            {"disabled", {{"all", d.all}, {"drive", d.drive}, {"raise", d.raise}}},
+            {"driver", driver}};
+    if (!for_display) return st;
+    st["pairing_code"] = code.code;
+    st["pairing_seconds"] =
+        code.code.empty() ? 0 : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
+    st["fingerprint"] = fingerprint;
     Json phones = Json::array();
-    for (const auto& [id, c] : clients)
-      if (c.role == Role::phone && c.paired)
-        phones.push_back({{"client", id}, {"name", c.name}, {"driving", driver == id}});
+    for (const PairedPhone& p : pairing.phones()) {
+      bool connected = false;
+      for (const auto& [id, c] : clients) connected = connected || (c.authenticated && c.phone == p.id);
+      phones.push_back({{"phone", p.id},
+                        {"name", p.name},
+                        {"paired_code", p.code},
+                        {"connected", connected},
+                        {"driving", !driver.empty() && driver == p.id},
+                        {"last_contact", local_time(p.last_contact, "%Y-%m-%d %H:%M:%S")}});
+    }
     st["phones"] = phones;
-    st["paired_phones"] = pairing.size();
     return st;
   }
 
-  // The state goes to every display and paired phone; the pairing code to
-  // displays only.
+  // The state goes to every display and authenticated phone; the pairing
+  // code, the fingerprint and the phone list to displays only.
   void broadcast_state() {
-    Json st = state_json();
-    const std::string for_phones = st.dump();
-    st["pairing_code"] = code.code;
-    st["pairing_seconds"] =
-        code.code.empty()
-            ? 0
-            : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
-    const std::string for_displays = st.dump();
+    const std::string for_phones = state_json(false).dump();
+    const std::string for_displays = state_json(true).dump();
     for (auto& [id, c] : clients) {
       if (c.role == Role::display)
         c.socket->send(for_displays);
-      else if (c.paired)
+      else if (c.authenticated)
         c.socket->send(for_phones);
     }
   }
@@ -395,7 +526,7 @@ struct HostDaemon::Impl {
   void broadcast(const Json& j) {
     const std::string text = j.dump();
     for (auto& [id, c] : clients)
-      if (c.role == Role::display || c.paired) c.socket->send(text);
+      if (c.authenticated) c.socket->send(text);
   }
 
   // On the server thread: what the host controller reported.
@@ -404,8 +535,8 @@ struct HostDaemon::Impl {
     switch (e.type) {
       case T::connected:
         // The controller may have rebooted to its defaults: give it ours.
-        (void)host.set_drive_mode(drive_mode);
-        (void)host.set_speed_level(speed_level);
+        (void)host.send(rh::Host::kLocalClient, rh::reg::kDriveMode, drive_mode);
+        (void)host.send(rh::Host::kLocalClient, rh::reg::kSpeedLevel, speed_level);
         broadcast_state();
         break;
       case T::horn:
@@ -416,9 +547,9 @@ struct HostDaemon::Impl {
         break;
       case T::error_raised:
       case T::error_cleared:
-        if (e.type == T::error_raised) one_touch = {};  // the host dropped it (D-8)
-        for (auto& [id, c] : clients) c.holds.clear();
-        if (e.type == T::error_raised) driver.reset();
+        if (e.code == rh::kMasterCommunicationError)
+          log(e.type == T::error_raised ? fmt::format("link to the controller lost: {}", e.reason)
+                                        : "link to the controller recovered");
         broadcast({{"type", "event"},
                    {"event", e.type == T::error_raised ? "error_raised" : "error_cleared"},
                    {"code", e.code},
@@ -427,11 +558,31 @@ struct HostDaemon::Impl {
         broadcast_state();
         break;
       case T::released: {
-        const rh::Register* r = rh::find_register(e.address);
-        for (auto& [id, c] : clients) c.holds.erase(e.address);
-        broadcast({{"type", "event"}, {"event", "released"}, {"command", r ? std::string(r->key) : ""}});
+        // The owner hears why its press ended (a lapse, an error, Stop).
+        if (auto it = clients.find(e.client); it != clients.end())
+          it->second.socket->send(Json{{"type", "event"},
+                                       {"event", "released"},
+                                       {"command", key_of(e.address)},
+                                       {"press", e.press},
+                                       {"reason", e.reason},
+                                       {"emergency", e.emergency}}
+                                      .dump());
+        broadcast_state();
         break;
       }
+      case T::emergency_started:
+      case T::emergency_ended:
+        log(e.type == T::emergency_started ? "a phone lost control: emergency stop (0x006A)"
+                                           : "the chair is still: emergency stop released");
+        broadcast({{"type", "event"}, {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"}});
+        broadcast_state();
+        break;
+      case T::driver_changed:
+        broadcast_state();
+        break;
+      case T::write_failed:
+        broadcast({{"type", "event"}, {"event", "write_failed"}, {"command", key_of(e.address)}, {"reason", e.reason}});
+        break;
       case T::changed:
         break;
     }
@@ -440,25 +591,26 @@ struct HostDaemon::Impl {
   HostDaemonOptions options;
   rh::Host host;
   PairingStore pairing;
-  web::Server server;
+  std::unique_ptr<web::Server> server;
   std::atomic<bool> flush_pending{false};
   // Server-thread state.
   std::map<uint64_t, Client> clients;
-  std::optional<uint64_t> driver;
   uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
-  struct OneTouch {
-    uint16_t value = 0;
-    uint64_t owner = 0;
-    Clock::time_point started{};
-    bool moved = false;
-  } one_touch;
   struct Code {
     std::string code;
     Clock::time_point until{};
-    int attempts = 0;
+    int guesses = 0;
   } code;
-  std::mt19937 random{std::random_device{}()};
-  std::string phone_url;  ///< set by start(), read on the server thread after
+  struct Wrong {
+    Clock::time_point since{};
+    int count = 0;
+  };
+  std::map<std::string, Wrong> wrong;  ///< per source address
+  std::optional<std::chrono::system_clock::time_point> last_contact;
+  uint64_t last_sequence = 0;
+  bool near_obstacle = false;
+  Clock::time_point last_expiry_check{};
+  std::string phone_url, fingerprint, cert_path;  ///< set by start(), read on the server thread after
   bool started = false;
 };
 
@@ -471,33 +623,62 @@ HostDaemon::~HostDaemon() {
 
 rtukit::Status HostDaemon::start() {
   Impl& d = *impl_;
-  if (d.options.pairing_file.empty()) return rtukit::Status(Errc::invalid_argument, "no pairing file given");
+  const HostDaemonOptions& o = d.options;
+  const auto bad = [](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
+  if (o.pairing_file.empty()) return bad("no pairing file given");
+  if (!web::is_loopback(o.http))
+    return bad(fmt::format("the display listener {} must be a loopback address (127.0.0.1:PORT): it has no "
+                           "authentication, only the kiosk browser on this board may reach it",
+                           o.http));
+  if (o.tls_cert.empty() != o.tls_key.empty()) return bad("--tls-cert and --tls-key go together");
   if (rtukit::Status e = d.pairing.load()) return e;
+  web::ServerOptions so;
+  so.listen.push_back(web::Listener::from(o.http));
+  if (!o.phone.empty()) {
+    const std::filesystem::path beside = std::filesystem::path(o.pairing_file).parent_path();
+    d.cert_path = o.tls_cert.empty() ? (beside / "rehand6600-phone.crt").string() : o.tls_cert;
+    const std::string key = o.tls_key.empty() ? (beside / "rehand6600-phone.key").string() : o.tls_key;
+    if (rtukit::Status e = web::ensure_self_signed(d.cert_path, key, first_lan_address())) return e;
+    Outcome<std::string> fp = web::certificate_fingerprint(d.cert_path);
+    if (!fp) return fp.error();
+    d.fingerprint = *fp;
+    for (const std::string& p : o.phone) {
+      web::Listener l = web::Listener::from(p);
+      l.tls = web::TlsFiles{d.cert_path, key};
+      l.max_connections = 16;
+      l.max_per_source = 4;
+      l.host_names = o.host_names;
+      so.listen.push_back(std::move(l));
+    }
+  }
+  d.server = std::make_unique<web::Server>(std::move(so), d.handlers());
   d.host.on_event([&d](const rh::Event& e) {
     if (e.type == rh::Event::Type::changed) {
       // One state message per poll, however many registers changed.
       if (!d.flush_pending.exchange(true))
-        d.server.post([&d] {
+        d.server->post([&d] {
           d.flush_pending = false;
           d.broadcast_state();
         });
       return;
     }
-    d.server.post([&d, e] { d.host_event(e); });
+    d.server->post([&d, e] { d.host_event(e); });
   });
-  d.server.every(50, [&d] { d.tick(); });
-  if (rtukit::Status e = d.server.start()) return e;
-  d.phone_url = d.options.phone_url;
-  if (d.phone_url.empty() && !d.options.phone.empty()) {
-    std::string url = web::url_of(d.options.phone[0], d.server.ports()[1]);
+  d.server->every(50, [&d] { d.tick(); });
+  if (rtukit::Status e = d.server->start()) return e;
+  d.phone_url = o.phone_url;
+  if (d.phone_url.empty() && !o.phone.empty()) {
+    std::string url = urls()[1];
     for (const char* any : {"0.0.0.0", "[::]"}) {
-      if (const size_t at = url.find(any); at != std::string::npos) url.replace(at, std::strlen(any), first_lan_address());
+      if (const size_t at = url.find(any); at != std::string::npos)
+        url.replace(at, std::strlen(any), first_lan_address());
     }
     d.phone_url = url;
   }
-  if (d.phone_url.empty()) d.phone_url = web::url_of(d.options.http, d.server.ports()[0]);
   d.host.start();
   d.started = true;
+  d.log(fmt::format("started: display {}, {} phone listener(s), {} paired phone(s)", o.http, o.phone.size(),
+                    d.pairing.size()));
   return {};
 }
 
@@ -506,19 +687,31 @@ void HostDaemon::stop() {
   if (!d.started) return;
   d.started = false;
   d.host.stop();  // releases every hold first
-  d.server.stop();
+  d.server->stop();
+  d.log("stopped: every command released");
 }
 
 std::vector<uint16_t> HostDaemon::ports() const {
-  return impl_->server.ports();
+  return impl_->server ? impl_->server->ports() : std::vector<uint16_t>{};
 }
 
 std::vector<std::string> HostDaemon::urls() const {
   std::vector<std::string> out;
-  const auto ports = impl_->server.ports();
-  for (size_t i = 0; i < ports.size(); ++i)
-    out.push_back(web::url_of(i == 0 ? impl_->options.http : impl_->options.phone[i - 1], ports[i]));
+  const auto p = ports();
+  for (size_t i = 0; i < p.size(); ++i) {
+    std::string url = web::url_of(i == 0 ? impl_->options.http : impl_->options.phone[i - 1], p[i]);
+    if (i > 0 && url.starts_with("http://")) url.replace(0, 4, "https");
+    out.push_back(std::move(url));
+  }
   return out;
+}
+
+std::string HostDaemon::fingerprint() const {
+  return impl_->fingerprint;
+}
+
+std::string HostDaemon::certificate() const {
+  return impl_->cert_path;
 }
 
 }  // namespace rtukit::programs

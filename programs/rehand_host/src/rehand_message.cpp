@@ -30,16 +30,11 @@ HostCommand command(Kind kind, uint16_t address = 0, uint16_t value = 0) {
   return c;
 }
 
-std::optional<uint16_t> direction_register(std::string_view dir) {
-  if (dir == "forward") return rh::reg::kPhoneForward;
-  if (dir == "reverse") return rh::reg::kPhoneReverse;
-  if (dir == "left") return rh::reg::kPhoneLeft;
-  if (dir == "right") return rh::reg::kPhoneRight;
-  return std::nullopt;
-}
-
 bool is_posture(uint16_t a) {
   return a >= rh::reg::kStandSit && a <= rh::reg::kPlateTilt;
+}
+bool is_phone_drive(uint16_t a) {
+  return a >= rh::reg::kPhoneForward && a <= rh::reg::kPhoneRight;
 }
 
 // A JSON value as the text profile::parse_value reads ("up", "2", "outdoor").
@@ -75,18 +70,42 @@ rtukit::Outcome<uint16_t> row_value(const Json& m, const rh::Register& r) {
   return static_cast<uint16_t>(*raw);
 }
 
-rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& m) {
-  if (op == "hold" || op == "release") {
-    auto row = command_row(m, [](const rh::Register& r) {
-      return r.role == profile::Role::hold && (is_posture(r.address) || r.address == rh::reg::kAntiPinch);
-    });
-    if (!row) return row.error();
-    const rh::Register& r = **row;
-    if (op == "release") return command(Kind::release, r.address);
-    const rtukit::Outcome<uint16_t> value = row_value(m, r);
-    if (!value) return value.error();
-    return command(*value == 0 ? Kind::release : Kind::hold, r.address, *value);
+// "press": a press id, a positive integer.
+rtukit::Outcome<uint64_t> press_id(const Json& m) {
+  if (!m.contains("press") || !m["press"].is_number_unsigned() || m["press"].get<uint64_t>() == 0 ||
+      m["press"].get<uint64_t>() > (uint64_t{1} << 53))
+    return bad("\"press\" must be a press id (a positive integer, new for each press)");
+  return m["press"].get<uint64_t>();
+}
+
+rtukit::Outcome<HostCommand> press_command(const std::string& op, const Json& m, HostRole role) {
+  const rtukit::Outcome<uint64_t> id = press_id(m);
+  if (!id) return id.error();
+  if (op != "press") {
+    HostCommand c = command(op == "renew" ? Kind::renew : Kind::release);
+    c.press = *id;
+    return c;
   }
+  auto row = role == HostRole::display ? command_row(m,
+                                                     [](const rh::Register& r) {
+                                                       return is_posture(r.address) ||
+                                                              r.address == rh::reg::kAntiPinch;
+                                                     })
+                                       : command_row(m, [](const rh::Register& r) {
+                                           return is_phone_drive(r.address) || r.address == rh::reg::kPhoneHorn;
+                                         });
+  if (!row) return row.error();
+  const rtukit::Outcome<uint16_t> value = row_value(m, **row);
+  if (!value) return value.error();
+  if (*value == 0) return bad("\"value\" must not be 0 (off): a press holds a command; lift with release");
+  HostCommand c = command(Kind::press, (*row)->address, *value);
+  c.press = *id;
+  return c;
+}
+
+rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& m) {
+  if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::display);
+  if (op == "stop") return command(Kind::stop);
   if (op == "pulse") {
     auto row = command_row(m, [](const rh::Register& r) { return r.address == rh::reg::kLight; });
     if (!row) return row.error();
@@ -102,71 +121,61 @@ rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& 
     if (!value) return value.error();
     return command(Kind::set, r->address, *value);
   }
-  if (op == "one_touch") {
-    const std::optional<std::string> v = text_field(m, "value");
-    if (v == "stop") return command(Kind::one_touch, rh::reg::kStandSit, 0);
-    if (v != "stand" && v != "sit") return bad("\"value\" must be stand, sit or stop");
-    return command(Kind::one_touch, rh::reg::kStandSit, v == "stand" ? 1 : 2);
-  }
   if (op == "pair_start") return command(Kind::pair_start);
   if (op == "pair_cancel") return command(Kind::pair_cancel);
-  if (op == "revoke") {
-    if (!m.contains("client") || !m["client"].is_number_unsigned())
-      return bad("\"client\" must be a client id");
-    HostCommand c = command(Kind::revoke);
-    c.client = m["client"].get<uint64_t>();
+  if (op == "forget") {
+    const std::optional<std::string> phone = text_field(m, "phone");
+    if (!phone || phone->empty() || phone->size() > 64) return bad("\"phone\" must be a phone id");
+    HostCommand c = command(Kind::forget);
+    c.phone = *phone;
     return c;
   }
+  if (op == "forget_all") return command(Kind::forget_all);
   return bad(fmt::format("unknown command '{}'", op));
 }
 
-rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m, bool paired) {
-  if (op == "pair") {
-    HostCommand c = command(Kind::pair);
-    if (paired) return c;  // paired already: nothing to check, nothing to do
+rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m, bool authenticated) {
+  if (op == "auth" || op == "pair") {
+    if (authenticated) return bad("this connection is authenticated already");
+    if (op == "auth") {
+      const std::optional<std::string> token = text_field(m, "token");
+      if (!token || token->empty() || token->size() > 128) return bad("\"token\" must be the token this phone got");
+      HostCommand c = command(Kind::auth);
+      c.token = *token;
+      return c;
+    }
     const std::optional<std::string> code = text_field(m, "code");
     const std::optional<std::string> name = text_field(m, "name");
-    if (!code) return bad("\"code\" must be the code the display shows");
-    if (!name) return bad("\"name\" must be text");
+    if (!code || code->size() > 16) return bad("\"code\" must be the code the display shows");
+    if (!name || name->size() > 200) return bad("\"name\" must be text");
+    HostCommand c = command(Kind::pair);
     c.code = *code;
     c.name = *name;
     return c;
   }
-  if (!paired) return refuse("not paired: enter the code the display shows");
-  if (op == "drive") {
-    const std::optional<std::string> dir = text_field(m, "dir");
-    if (dir && (dir->empty() || *dir == "none")) return command(Kind::drive, 0);
-    const std::optional<uint16_t> a = dir ? direction_register(*dir) : std::nullopt;
-    if (!a) return bad("\"dir\" must be forward, reverse, left, right or none");
-    return command(Kind::drive, *a);
-  }
-  if (op == "horn") {
-    if (m.contains("on") && !m["on"].is_boolean()) return bad("\"on\" must be true or false");
-    const bool on = m.contains("on") && m["on"].get<bool>();
-    return command(Kind::horn, rh::reg::kPhoneHorn, on ? 1 : 0);
-  }
+  if (!authenticated) return refuse("not paired: authenticate first, or pair with the code the display shows");
+  if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::phone);
   if (op == "pulse") {
-    const std::string what = text_field(m, "command").value_or("");
-    const uint16_t a = what == "light"          ? rh::reg::kPhoneLight
-                       : what == "left_signal"  ? rh::reg::kPhoneLeftSignal
-                       : what == "right_signal" ? rh::reg::kPhoneRightSignal
-                                                : 0;
-    if (!a) return bad("\"command\" must be light, left_signal or right_signal");
-    return command(Kind::pulse, a);
+    auto row = command_row(m, [](const rh::Register& r) {
+      return r.address == rh::reg::kPhoneLight || r.address == rh::reg::kPhoneLeftSignal ||
+             r.address == rh::reg::kPhoneRightSignal;
+    });
+    if (!row) return row.error();
+    return command(Kind::pulse, (*row)->address);
   }
   return bad(fmt::format("unknown command '{}'", op));
 }
 
 }  // namespace
 
-HostMessage parse_host_message(std::string_view text, HostRole role, bool paired) {
+HostMessage parse_host_message(std::string_view text, HostRole role, bool authenticated) {
   HostMessage out;
   const Json m = Json::parse(text, nullptr, /*allow_exceptions=*/false);
   if (m.is_discarded() || !m.is_object() || !m.contains("op") || !m["op"].is_string()) return out;
   out.envelope = true;
   out.op = m["op"].get<std::string>();
   if (m.contains("id")) out.id = m["id"];
-  out.command = role == HostRole::display ? display_command(out.op, m) : phone_command(out.op, m, paired);
+  out.command = role == HostRole::display ? display_command(out.op, m) : phone_command(out.op, m, authenticated);
   return out;
 }
 

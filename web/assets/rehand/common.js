@@ -1,86 +1,244 @@
-// Shared by the HMI and the phone page: the WebSocket to the host daemon,
-// reconnecting, and press-and-hold buttons (the dead-man rule: a command is
-// held only while a finger is down, the page is visible and the socket is open).
+// Shared by the touch HMI and the phone page: the WebSocket to the host
+// daemon (docs/rehand6600-remote.md), press-and-hold buttons, and the small
+// helpers both pages format values with.
+//
+// The dead-man rule lives here: a hold-type command is a *press* that is alive
+// only while a finger is down, the page is visible and focused, and the socket
+// is open. Every pointer-down starts a new press with a new id; the page
+// renews it every 100 ms (the daemon's lease is 300 ms) and releases it the
+// moment any of those conditions goes away. A press the daemon ended is never
+// restarted by the page: the user lifts the finger and presses again.
 'use strict';
 
-export function connect(query, onMessage, onStatus) {
-  let ws = null;
-  let nextId = 1;
-  const pending = new Map();
-  const api = {
-    send(op, fields = {}) {
-      if (!ws || ws.readyState !== WebSocket.OPEN) return Promise.resolve({ ok: false, error: 'no connection to the host' });
-      const id = nextId++;
-      ws.send(JSON.stringify({ op, id, ...fields }));
-      return new Promise((resolve) => pending.set(id, resolve));
-    },
-    open() { return ws && ws.readyState === WebSocket.OPEN; },
-    close() { if (ws) ws.close(); },
-    onclose: [],
-  };
-  function open() {
-    const proto = location.protocol === 'https:' ? 'wss:' : 'ws:';
-    ws = new WebSocket(`${proto}//${location.host}/ws?${query()}`);
-    ws.onopen = () => onStatus(true);
-    ws.onmessage = (ev) => {
-      let m;
-      try { m = JSON.parse(ev.data); } catch { return; }
-      if (m.type === 'result' && pending.has(m.id)) {
-        pending.get(m.id)(m);
-        pending.delete(m.id);
-      }
-      onMessage(m);
-    };
-    ws.onclose = () => {
-      onStatus(false);
-      for (const [, resolve] of pending) resolve({ ok: false, error: 'connection lost' });
-      pending.clear();
-      for (const f of api.onclose) f();
-      setTimeout(open, 1000);
-    };
-  }
-  open();
-  return api;
+export const RENEW_MS = 100;
+// A press or renewal unanswered this long means the link is not carrying our
+// renewals (the daemon answers each one at once): the daemon's 300-ms lease has
+// ended the press anyway, so the page ends it too instead of pretending.
+export const PRESS_ANSWER_TIMEOUT_MS = 1500;
+const RECONNECT_MS = 1000;
+
+export function $(selector) { return document.querySelector(selector); }
+export function $$(selector) { return [...document.querySelectorAll(selector)]; }
+
+// hh:mm:ss of a Date, in the chair's local time, as the daemon's last_contact.
+export function clockTime(date) {
+  const two = (n) => String(n).padStart(2, '0');
+  return `${two(date.getHours())}:${two(date.getMinutes())}:${two(date.getSeconds())}`;
 }
 
-// A press-and-hold button: `start()` on pointer down and every `renewMs`
-// while held; `stop()` on pointer up, cancel, leaving the button, the page
-// hidden or the socket closing. Returns a function that releases it.
-export function holdButton(el, api, start, stop, renewMs = 100) {
-  let timer = null;
-  const release = () => {
-    if (timer === null) return;
-    clearInterval(timer);
-    timer = null;
-    el.classList.remove('held');
-    stop();
-  };
-  el.addEventListener('pointerdown', (ev) => {
-    if (el.disabled || timer !== null) return;
-    ev.preventDefault();
-    try { el.setPointerCapture(ev.pointerId); } catch { /* synthetic events */ }
-    el.classList.add('held');
-    start();
-    timer = setInterval(start, renewMs);
-  });
-  for (const t of ['pointerup', 'pointercancel', 'pointerleave', 'lostpointercapture']) el.addEventListener(t, release);
-  el.addEventListener('contextmenu', (ev) => ev.preventDefault());
-  document.addEventListener('visibilitychange', () => { if (document.hidden) release(); });
-  window.addEventListener('pagehide', release);
-  window.addEventListener('blur', release);
-  api.onclose.push(release);
-  return release;
+// The speed register holds km/h; mph is a display choice only.
+export function formatSpeed(kmh, mph) {
+  if (typeof kmh !== 'number') return '--';
+  return mph ? `${(kmh * 0.621371).toFixed(1)} mph` : `${kmh} km/h`;
 }
 
-export function $(sel) { return document.querySelector(sel); }
+// "forward-left (6)" -> "forward-left": the register's number is for engineers.
+export function motionText(state) {
+  const text = state && state.text && state.text.motion;
+  return typeof text === 'string' ? text.replace(/ \(\d+\)$/, '') : '--';
+}
 
 export function beep(ms = 300) {
   try {
     const ctx = new (window.AudioContext || window.webkitAudioContext)();
-    const o = ctx.createOscillator();
-    o.frequency.value = 440;
-    o.connect(ctx.destination);
-    o.start();
-    setTimeout(() => { o.stop(); ctx.close(); }, ms);
+    const tone = ctx.createOscillator();
+    tone.frequency.value = 440;
+    tone.connect(ctx.destination);
+    tone.start();
+    setTimeout(() => { tone.stop(); ctx.close(); }, ms);
   } catch { /* no audio device */ }
+}
+
+// ---------------------------------------------------------------- WebSocket
+
+// One WebSocket to `path` on this page's own host: wss when the page came over
+// https (the phone listener is TLS only), ws on the display's loopback.
+//   onMessage(message)       every JSON message (results included)
+//   onOpen()                 the socket opened (the phone authenticates here)
+//   onClose(event)           the socket closed: event.reason is the daemon's
+//   shouldReconnect(event)   false keeps it closed (a replaced phone, a phone
+//                            that has not paired yet); default: always retry
+// Returns { send, isOpen, reopen, close, lastMessageAt }.
+export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}, shouldReconnect = () => true }) {
+  let socket = null;
+  let nextRequestId = 1;
+  let reconnectTimer = null;
+  const pending = new Map();  // request id -> { resolve, timer }
+
+  const link = {
+    lastMessageAt: null,  // Date of the last message: "no contact since" when the socket is down
+
+    // Sends {op, id, ...fields}; resolves with the daemon's result, or with
+    // {ok:false} when the socket is not open, closes before the answer, or
+    // (with timeoutMs) the answer does not come in time.
+    send(op, fields = {}, { timeoutMs = 0 } = {}) {
+      if (!link.isOpen()) return Promise.resolve({ ok: false, error: 'no connection to the chair' });
+      const id = nextRequestId++;
+      socket.send(JSON.stringify({ op, id, ...fields }));
+      return new Promise((resolve) => {
+        const entry = { resolve, timer: null };
+        if (timeoutMs > 0) {
+          entry.timer = setTimeout(() => {
+            pending.delete(id);
+            resolve({ ok: false, error: 'no answer from the chair', unanswered: true });
+          }, timeoutMs);
+        }
+        pending.set(id, entry);
+      });
+    },
+    isOpen() { return socket !== null && socket.readyState === WebSocket.OPEN; },
+    // Opens a new socket now unless one is open or opening (the phone's "Pair"
+    // and "Use this page again" buttons).
+    reopen() {
+      if (socket && (socket.readyState === WebSocket.OPEN || socket.readyState === WebSocket.CONNECTING)) return;
+      clearTimeout(reconnectTimer);
+      open();
+    },
+    close() { if (socket) socket.close(); },
+  };
+
+  function settleAll(result) {
+    for (const [, entry] of pending) { clearTimeout(entry.timer); entry.resolve(result); }
+    pending.clear();
+  }
+
+  function open() {
+    const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
+    const ws = new WebSocket(`${scheme}//${location.host}${path}`);
+    socket = ws;
+    ws.onopen = () => { if (socket === ws) onOpen(); };
+    ws.onmessage = (event) => {
+      if (socket !== ws) return;
+      let message;
+      try { message = JSON.parse(event.data); } catch { return; }
+      link.lastMessageAt = new Date();
+      if (message.type === 'result' && pending.has(message.id)) {
+        const entry = pending.get(message.id);
+        pending.delete(message.id);
+        clearTimeout(entry.timer);
+        entry.resolve(message);
+      }
+      onMessage(message);
+    };
+    ws.onclose = (event) => {
+      if (socket !== ws) return;
+      settleAll({ ok: false, error: 'connection to the chair lost' });
+      // Before anything else: every press of this page ends with its socket
+      // (the daemon drops them too; the page must not show them as held).
+      endAllPresses('connection to the chair lost');
+      onClose(event);
+      if (shouldReconnect(event)) reconnectTimer = setTimeout(open, RECONNECT_MS);
+    };
+  }
+  open();
+  return link;
+}
+
+// ---------------------------------------------------------------- presses
+
+// Press ids: one counter for the whole page that only grows, so a late answer
+// or renewal can never be taken for a newer press (the daemon requires ids to
+// grow on one connection).
+let lastPressId = 0;
+const holdButtons = new Set();
+
+// A press-and-hold button for one command and value.
+//   onEnded(reason)  the daemon refused or ended the press while the finger
+//                    was down (or the socket closed): show the reason
+// The button gets class "held" while its press is alive and "ended" while the
+// finger is still down on a press that is over (lift and press again).
+export function holdButton(el, link, { command, value, onEnded = () => {} }) {
+  const button = {
+    el, command, value,
+    press: 0,            // the live press's id, 0 when none
+    fingerDown: false,   // a pointer is down on the button (its press may have ended)
+    pointerId: null,
+    renewTimer: null,
+    wantsDisabled: false,  // setControlEnabled(false) came while the finger was down
+
+    start(event) {
+      if (el.disabled || button.fingerDown) return;
+      event.preventDefault();
+      button.fingerDown = true;
+      button.pointerId = event.pointerId;
+      // Capture: the pointer-up reaches this button even when the finger
+      // slides off it (pointerleave still fires and releases).
+      try { el.setPointerCapture(event.pointerId); } catch { /* synthetic events */ }
+      const press = ++lastPressId;
+      button.press = press;
+      el.classList.remove('ended');
+      el.classList.add('held');
+      const answered = (result) => { if (button.press === press && !result.ok) button.end(result.error || 'refused'); };
+      link.send('press', { command, value, press }, { timeoutMs: PRESS_ANSWER_TIMEOUT_MS }).then(answered);
+      button.renewTimer = setInterval(() => {
+        link.send('renew', { press }, { timeoutMs: PRESS_ANSWER_TIMEOUT_MS }).then(answered);
+      }, RENEW_MS);
+    },
+
+    // Ends the live press (if any). `reason`: why it ended without the finger
+    // lifting; null for a normal release.
+    end(reason) {
+      if (!button.press) return;
+      const press = button.press;
+      button.press = 0;
+      clearInterval(button.renewTimer);
+      button.renewTimer = null;
+      el.classList.remove('held');
+      // Always tell the daemon, even after a refusal: releasing is always
+      // allowed and never starts anything, and it leaves no doubt.
+      link.send('release', { press });
+      if (reason !== null) {
+        if (button.fingerDown) el.classList.add('ended');
+        onEnded(reason);
+      }
+    },
+
+    // The finger lifted, the pointer was cancelled or left the button.
+    lift() { if (button.fingerDown) button.forgetFinger(); },
+
+    // Releases the press and forgets the finger; a disable that waited for
+    // the finger applies now.
+    forgetFinger() {
+      button.fingerDown = false;
+      button.pointerId = null;
+      el.classList.remove('ended');
+      button.end(null);
+      if (button.wantsDisabled) el.disabled = true;
+    },
+  };
+  el.addEventListener('pointerdown', button.start);
+  for (const type of ['pointerup', 'pointercancel', 'pointerleave', 'lostpointercapture']) {
+    el.addEventListener(type, (event) => { if (event.pointerId === button.pointerId) button.lift(); });
+  }
+  el.addEventListener('contextmenu', (event) => event.preventDefault());  // a long press is not a right-click
+  holdButtons.add(button);
+  return button;
+}
+
+// Ends every press of this page at once (Stop, the socket closing). The
+// fingers may still be down: their buttons show "ended" until lifted.
+export function endAllPresses(reason) {
+  for (const button of holdButtons) button.end(reason);
+}
+
+// The page hidden, left or unfocused: the pointer-up may never come, so the
+// buttons forget their fingers too (else they would ignore the next touch).
+function abandonAllPresses() {
+  for (const button of holdButtons) button.forgetFinger();
+}
+document.addEventListener('visibilitychange', () => { if (document.hidden) abandonAllPresses(); });
+window.addEventListener('pagehide', abandonAllPresses);
+window.addEventListener('blur', abandonAllPresses);
+
+// Enables or disables a control. A hold button with a finger on it is
+// disabled only when the finger lifts: a disabled button gets no pointer-up,
+// and its press must still be released (and the daemon ends a press it
+// refuses anyway, which the button then shows as "ended").
+export function setControlEnabled(el, enabled) {
+  const button = [...holdButtons].find((b) => b.el === el);
+  if (button) {
+    button.wantsDisabled = !enabled;
+    if (button.fingerDown) return;
+  }
+  el.disabled = !enabled;
 }

@@ -1,62 +1,235 @@
-// The phone remote. Driving is a dead-man: a direction is held only while a
-// finger is down, the page visible and the socket alive; the daemon's lease
-// (300 ms) stops the chair when the renewals stop coming.
+// The phone remote (docs/rehand6600-remote.md). No credential ever goes in a
+// URL: the page opens /ws and authenticates with its first message, or pairs
+// on that same socket. Driving is a dead-man: a direction is pressed only
+// while a finger is down, the page visible and the socket alive; the daemon's
+// 300-ms lease stops the chair when the renewals stop coming.
 'use strict';
-import { connect, holdButton, $ } from '/rehand/common.js';
+import { $, $$, clockTime, connect, formatSpeed, holdButton, motionText, setControlEnabled } from '/rehand/common.js';
+import { buildChairView, showDistances } from '/rehand/distances.js';
 
-const KEY = 'rtukit-rehand6600-token';
-let token = localStorage.getItem(KEY) || '';
+const TOKEN_KEY = 'rtukit-rehand6600-token';
+const REPLACED_REASON = 'replaced by a new connection';  // the daemon's close reason
+const NOTICE_MS = 4000;  // how long a refusal stays shown over the standing reason
+
+let token = localStorage.getItem(TOKEN_KEY) || '';
+let me = { phone: '', name: '' };  // this phone, as the daemon names it
+let authenticated = false;         // the open socket is authenticated (auth or pair answered ok)
+let replaced = false;              // another page of this phone took over: stay closed
+let pendingPair = null;            // { code, name, retried } to send once the socket is open
+let state = null;
+let stateIsFresh = false;          // the state came on the socket that is open now
 let mph = false;
-let api = null;
+let refusal = { text: '', at: 0 };
 
-function onMessage(m) {
-  if (m.type === 'hello') {
-    mph = m.mph;
-    $('#pairing').classList.toggle('hidden', m.paired);
-    $('#remote').classList.toggle('hidden', !m.paired);
-    if (!m.paired && token) { localStorage.removeItem(KEY); token = ''; $('#pair-reason').textContent = 'This phone is no longer paired.'; }
-    return;
-  }
-  if (m.type === 'state') return render(m);
-  if (m.type === 'result' && m.op === 'pair') {
-    if (!m.ok) { $('#pair-reason').textContent = m.error; return; }
-    token = m.token;
-    localStorage.setItem(KEY, token);
-    $('#pairing').classList.add('hidden');
-    $('#remote').classList.remove('hidden');
-    api.close();  // reconnect with the token
-    return;
-  }
-  if (m.type === 'result' && !m.ok && m.error) $('#reason').textContent = m.error;
-}
-
-function render(s) {
-  const v = s.values;
-  $('#battery').textContent = `${v.battery} %`;
-  $('#speed').textContent = mph ? `${(v.speed * 0.621371).toFixed(1)} mph` : `${v.speed} km/h`;
-  $('#motion').textContent = s.text.motion.replace(/ \(\d+\)$/, '');
-  const me = s.phones.find((p) => p.driving);
-  $('#who').textContent = me ? `${me.name} is driving` : `${s.phones.length} phone(s) connected`;
-  const why = s.error ? `${s.error_text}: every function is disabled` : s.disabled.drive;
-  $('#reason').textContent = why || '';
-  for (const b of document.querySelectorAll('#pad button')) b.disabled = !!why && !b.classList.contains('held');
-  for (const b of ['#horn', '#light', '#left-signal', '#right-signal']) $(b).disabled = !!s.error;
-}
-
-api = connect(() => `role=phone&token=${encodeURIComponent(token)}`, onMessage, (up) => {
-  if (!up) $('#reason').textContent = 'no connection to the chair';
+const link = connect({
+  path: '/ws',
+  onOpen,
+  onMessage,
+  onClose,
+  // Without a token there is nothing to reconnect for: the pairing form
+  // opens a socket when the user asks to pair. A replaced page stays closed.
+  shouldReconnect: () => !!token && !replaced,
 });
 
-// Opened from the display's QR code: the code is in the address.
-const fromQr = new URLSearchParams(location.search).get('code');
-if (fromQr) $('#pair-code').value = fromQr;
-$('#pair-go').onclick = () => api.send('pair', { code: $('#pair-code').value.trim(), name: $('#pair-name').value.trim() });
-for (const b of document.querySelectorAll('#pad button')) {
-  holdButton(b, api, () => api.send('drive', { dir: b.dataset.dir }).then((r) => {
-    if (!r.ok) $('#reason').textContent = r.error;
-  }), () => api.send('drive', { dir: 'none' }));
+// ---------------------------------------------------------------- the socket
+
+function onOpen() {
+  authenticated = false;
+  if (pendingPair) sendPair();
+  else if (token) sendAuth();
+  render();
 }
-holdButton($('#horn'), api, () => api.send('horn', { on: true }), () => api.send('horn', { on: false }));
-$('#light').onclick = () => api.send('pulse', { command: 'light' });
-$('#left-signal').onclick = () => api.send('pulse', { command: 'left_signal' });
-$('#right-signal').onclick = () => api.send('pulse', { command: 'right_signal' });
+
+// A refusal is the daemon's own answer; a local failure (socket closed before
+// the answer) is not, and must not cost the phone its pairing.
+const refusedByDaemon = (r) => r.type === 'result' && !r.ok;
+
+function sendAuth() {
+  link.send('auth', { token }).then((r) => {
+    if (r.ok) {
+      authenticated = true;
+      me = { phone: r.phone || '', name: r.name || '' };
+      showScreen('remote');
+      render();
+    } else if (refusedByDaemon(r)) {
+      forgetToken(`This phone is no longer paired (${r.error || 'refused'}). Pair it again with a new code from the display.`);
+    }
+  });
+}
+
+function sendPair() {
+  const request = pendingPair;
+  pendingPair = null;
+  $('#pair-go').disabled = true;
+  $('#pair-reason').textContent = 'Pairing…';
+  link.send('pair', { code: request.code, name: request.name }).then((r) => {
+    $('#pair-go').disabled = false;
+    if (r.ok && r.token) {
+      token = r.token;
+      localStorage.setItem(TOKEN_KEY, token);
+      authenticated = true;  // this same socket now commands the chair
+      me = { phone: r.phone || '', name: r.name || request.name };
+      $('#pair-reason').textContent = '';
+      showScreen('remote');
+      render();
+    } else if (!refusedByDaemon(r) && !request.retried) {
+      // The socket closed under the request (the daemon closes a socket
+      // that has not authenticated within 5 s): once more on a new one.
+      pendingPair = { ...request, retried: true };
+      link.reopen();
+    } else {
+      $('#pair-reason').textContent = r.error || 'Pairing refused.';
+    }
+  });
+}
+
+function onClose(event) {
+  authenticated = false;
+  stateIsFresh = false;
+  if (event.reason === REPLACED_REASON) becomeReplaced();
+  else if (token && /not paired|unknown token|forgotten/i.test(event.reason || '')) {
+    forgetToken(`This phone is no longer paired (${event.reason}). Pair it again with a new code from the display.`);
+  }
+  render();
+}
+
+function forgetToken(why) {
+  token = '';
+  localStorage.removeItem(TOKEN_KEY);
+  authenticated = false;
+  state = null;
+  stateIsFresh = false;
+  $('#pair-reason').textContent = why;
+  showScreen('pairing');
+}
+
+function becomeReplaced() {
+  replaced = true;
+  showScreen('replaced');
+}
+
+function onMessage(m) {
+  if (typeof m.mph === 'boolean') mph = m.mph;  // the daemon's --mph, if it says
+  if (m.type === 'state') {
+    state = m;
+    stateIsFresh = true;
+    render();
+  } else if (m.type === 'event') {
+    if (m.event === 'replaced') {
+      becomeReplaced();
+      link.close();
+    } else if (m.event === 'released') {
+      showRefusal(m.reason || m.error || 'released: lift the finger and press again');
+    }
+  } else if (m.type === 'error' && m.error) {
+    showRefusal(m.error);
+  }
+}
+
+// ---------------------------------------------------------------- rendering
+
+function showScreen(name) {
+  for (const screen of ['pairing', 'replaced', 'remote']) $(`#${screen}`).classList.toggle('hidden', screen !== name);
+}
+
+function isLost() { return !link.isOpen() || !authenticated || !stateIsFresh || !state || !state.connected; }
+
+function lastContact() {
+  if (state && !state.connected && state.last_contact) return state.last_contact;
+  return link.lastMessageAt ? clockTime(link.lastMessageAt) : '';
+}
+
+function render() {
+  const lost = isLost();
+  document.body.classList.toggle('lost', lost);
+  $('#lost-since').textContent = lastContact() || 'this page opened';
+  const everConnected = link.lastMessageAt !== null;
+  $('#lost-why').textContent = !link.isOpen() && everConnected ? 'This phone has no connection to the chair. Reconnecting…'
+    : !link.isOpen() || !authenticated ? 'Connecting to the chair…'
+      : !stateIsFresh || !state ? 'Waiting for the chair…'
+        : 'The chair\'s display has no contact with its controller.';
+
+  const s = state;
+  const v = (s && s.values) || {};
+  $('#battery').textContent = typeof v.battery === 'number' ? `${v.battery} %` : '--';
+  $('#speed').textContent = formatSpeed(v.speed, mph);
+  $('#motion').textContent = s ? motionText(s) : '--';
+  showDistances($('#distances'), s && s.distances, !lost);
+
+  const disabled = (s && s.disabled) || {};
+  const errorOn = !!(s && s.error);
+  const allOff = lost || errorOn || !!disabled.all;
+  const driveOff = allOff || !!disabled.drive;
+  for (const b of $$('#pad button')) setControlEnabled(b, !driveOff);
+  setControlEnabled($('#horn'), !allOff);
+  for (const b of $$('#light, #left-signal, #right-signal')) b.disabled = allOff;
+
+  // The reason: an error first, then a fresh refusal of what the user just
+  // did, then why driving is off. Empty when the phone may drive.
+  const recent = refusal.text && Date.now() - refusal.at < NOTICE_MS;
+  $('#reason').textContent = lost ? ''
+    : errorOn ? `${s.error_text}: every function is disabled`
+      : recent ? refusal.text
+        : disabled.drive || '';
+
+  const driving = s && s.driver ? (s.driver === me.phone ? 'you are driving' : 'another phone is driving') : '';
+  $('#who').textContent = [me.name && `Paired as ${me.name}`, driving].filter(Boolean).join(' · ');
+}
+
+function showRefusal(text) {
+  refusal = { text, at: Date.now() };
+  render();
+  setTimeout(render, NOTICE_MS + 50);  // then the standing reason again
+}
+
+// ---------------------------------------------------------------- controls
+
+for (const b of $$('#pad button')) holdButton(b, link, { command: b.dataset.cmd, value: 1, onEnded: showRefusal });
+holdButton($('#horn'), link, { command: 'phone_horn', value: 1, onEnded: showRefusal });
+
+function pulse(command) {
+  link.send('pulse', { command }).then((r) => { if (refusedByDaemon(r)) showRefusal(r.error || `${command} refused`); });
+}
+$('#light').addEventListener('click', () => pulse('phone_light'));
+$('#left-signal').addEventListener('click', () => pulse('phone_left_signal'));
+$('#right-signal').addEventListener('click', () => pulse('phone_right_signal'));
+
+$('#pair-go').addEventListener('click', () => {
+  const code = $('#pair-code').value.replace(/\D/g, '');
+  if (!/^\d{6}$/.test(code)) {
+    $('#pair-reason').textContent = 'Enter the 6 digits the display shows.';
+    return;
+  }
+  pendingPair = { code, name: $('#pair-name').value.trim() || 'Phone', retried: false };
+  if (link.isOpen() && !authenticated) sendPair();
+  else link.reopen();  // onOpen sends it as the socket's first message
+});
+
+$('#reconnect').addEventListener('click', () => {
+  replaced = false;
+  showScreen(token ? 'remote' : 'pairing');
+  link.reopen();
+});
+
+// Opened from the display's QR code: the one-time code and the certificate's
+// fingerprint are in the address's fragment, which the browser never sends
+// to a server. Read once, then removed from the address bar and history.
+function readFragment() {
+  if (!location.hash) return;
+  const fromQr = new URLSearchParams(location.hash.slice(1));
+  const codeFromQr = fromQr.get('code');
+  if (codeFromQr) $('#pair-code').value = codeFromQr.replace(/\D/g, '').slice(0, 6);
+  const fingerprintFromQr = fromQr.get('fp');
+  if (fingerprintFromQr && $('#pair-fingerprint')) {
+    $('#pair-fingerprint').textContent =
+      `The display's certificate is SHA-256 ${fingerprintFromQr}: compare it with your browser's (the padlock).`;
+  }
+  history.replaceState(null, '', location.pathname);
+}
+readFragment();
+// Scanned again while the page is open: only the fragment changes.
+window.addEventListener('hashchange', readFragment);
+
+buildChairView($('#distances'));
+showScreen(token ? 'remote' : 'pairing');
+render();

@@ -3,23 +3,29 @@
 // and the phone remote (web/assets/rehand/) and their JSON API over HTTP and
 // WebSocket (docs/rehand6600.md, "The host daemon").
 //
-// Who may do what:
-//  - the display: WebSocket /ws?role=display on the --http listener (loopback
-//    by default: the kiosk browser on the same board). Everything but phone
-//    driving; it shows the pairing code and can revoke a phone.
-//  - a phone: /ws?role=phone&token=T on any listener. Without a valid token
-//    it may only pair (a one-time code the display shows); with one it sees
-//    the state and may drive under the seed's phone rules (dead-man, one
-//    driver at a time, lease 300 ms), horn, light and turn signals.
+// Who may do what (docs/rehand6600-remote.md; threats: docs/security.md):
+//  - the display: WebSocket /ws on the --http listener, loopback only (the
+//    kiosk browser on the same board). Postures, settings, the Stop button;
+//    it shows the pairing code and the certificate's fingerprint, lists
+//    every paired phone and forgets them.
+//  - a phone: WebSocket /ws on a phone listener, TLS only. Its first message
+//    authenticates it (a token, never in a URL) or pairs it (the one-time
+//    code the display shows); then it drives under the session's rules.
 //
-// Every command is answered on its own connection ({"type":"result"}); a
-// refused one changes nothing. The poll loop and the leases run on the
-// host controller's thread and never wait for a client.
+// Every rule about who may command what, and for how long, is the host
+// controller's Session (rehand6600/session.hpp); this daemon only carries
+// messages to it. Every command is answered on its own connection
+// ({"type":"result"}); a refused one changes nothing. The web thread never
+// waits for the bus: the host controller's worker writes.
 #pragma once
 
+#include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
+#include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "rtukit/devices/rehand6600/host.hpp"
@@ -28,45 +34,83 @@
 
 namespace rtukit::programs {
 
+/// One paired phone as the store keeps it: never its token, only the token's SHA-256.
+struct PairedPhone {
+  std::string id;          ///< 12 hex digits, random: how the display names it in "forget"
+  std::string token_hash;  ///< SHA-256 of the token, hex
+  std::string name;        ///< as the phone asked, shown on the display
+  std::string code;        ///< the pairing code it paired with (the display user saw it)
+  std::string paired_at;   ///< UTC, ISO 8601
+  int64_t last_contact = 0;  ///< Unix seconds of its last connection
+};
+
 /// Paired phones, in a JSON file written atomically (a temporary file
 /// created exclusively beside it, fsync, rename), mode 0600. A file that is
 /// not ours (not a regular file, too large, another program's JSON) is never
-/// overwritten: load() says why.
+/// overwritten: load() says why. Tokens are stored as SHA-256 hashes and
+/// compared in constant time; a file of the first format (tokens in the
+/// clear) is converted on load.
 class PairingStore {
  public:
   explicit PairingStore(std::string path) : path_(std::move(path)) {}
   /// Reads the file; a missing file is an empty store. Errors: io_error /
   /// invalid_argument with the reason (the store is then read-only).
   rtukit::Status load();
-  /// A new 128-bit token for `name`, saved before it is returned. Errors:
-  /// the save's, with the reason.
-  rtukit::Outcome<std::string> add(std::string name);
-  bool contains(const std::string& token) const;
-  std::string name_of(const std::string& token) const;
-  rtukit::Status remove(const std::string& token);
+  struct Added {
+    std::string id, token;  ///< the token (256 bits, hex) goes to the phone once and is never stored
+  };
+  /// A new phone named `name` that paired with `code` at `now` (Unix s),
+  /// saved before it is returned. Errors: the save's, with the reason.
+  rtukit::Outcome<Added> add(std::string name, std::string code, int64_t now);
+  /// The phone whose token this is, or nullopt.
+  std::optional<std::string> find(std::string_view token) const;
+  const PairedPhone* phone(std::string_view id) const;
+  /// Records a contact (saved). Unknown ids are ignored.
+  rtukit::Status touch(std::string_view id, int64_t now);
+  /// Forgets a phone. Errors: invalid_argument (no such phone), the save's.
+  rtukit::Status remove(std::string_view id);
+  rtukit::Status remove_all();
+  /// Forgets the phones not seen for more than `max_age_s`; returns them.
+  std::vector<PairedPhone> expire(int64_t now, int64_t max_age_s);
+  const std::vector<PairedPhone>& phones() const noexcept { return phones_; }
   size_t size() const noexcept { return phones_.size(); }
   const std::string& path() const noexcept { return path_; }
 
  private:
   rtukit::Status save() const;
-  struct Phone {
-    std::string token, name, paired_at;
-  };
   std::string path_;
-  std::vector<Phone> phones_;
+  std::vector<PairedPhone> phones_;
   bool writable_ = true;
 };
 
+/// `n` bytes from the OS random source (getrandom); false when it fails.
+bool random_bytes(unsigned char* out, size_t n);
+/// SHA-256 of `text`, lower-case hex.
+std::string sha256_hex(std::string_view text);
+
 struct HostDaemonOptions {
-  std::string http = "127.0.0.1:8080";  ///< the display's listener
-  std::vector<std::string> phone;       ///< phone listeners ("0.0.0.0:8443")
-  std::string pairing_file;             ///< required
-  /// What phones open ("http://192.168.4.1:8443"), for the pairing QR code.
+  /// The display's listener: loopback only (the kiosk browser on the board);
+  /// start() refuses any other address.
+  std::string http = "127.0.0.1:8080";
+  /// Phone listeners ("0.0.0.0:8443"): TLS only.
+  std::vector<std::string> phone;
+  std::string pairing_file;  ///< required
+  /// The phone listener's certificate and key (PEM). Both empty: created at
+  /// first start beside the pairing file (rehand6600-phone.crt/.key, 0600).
+  std::string tls_cert, tls_key;
+  /// Names phones may use for the chair besides its IP addresses ("chair.local").
+  std::vector<std::string> host_names;
+  /// What phones open ("https://192.168.4.1:8443"), for the pairing QR code.
   /// Empty: the first phone listener, with this machine's first non-loopback
   /// IPv4 address for 0.0.0.0.
   std::string phone_url;
+  std::chrono::seconds pairing_max_age{std::chrono::hours(24 * 30)};  ///< unused this long: forgotten
+  std::chrono::seconds auth_timeout{5};  ///< a phone socket that has not authenticated by then is closed
   rehand6600::HostOptions host;
   bool mph = false;  ///< show speed in mph
+  /// One line per security-relevant event (pairing, forgetting, link loss and
+  /// recovery, emergency stops, shutdown), without the timestamp. Default: stderr with one.
+  std::function<void(const std::string&)> log;
 };
 
 class HostDaemon {
@@ -76,15 +120,22 @@ class HostDaemon {
   HostDaemon(const HostDaemon&) = delete;
   HostDaemon& operator=(const HostDaemon&) = delete;
 
-  /// Loads the pairing store, binds the listeners, starts the host
-  /// controller. Errors: the store's or the listeners', with the reason.
+  /// Loads the pairing store, makes (or checks) the phone certificate, binds
+  /// the listeners, starts the host controller. Errors: invalid_argument (a
+  /// display listener that is not loopback, half a certificate pair, an
+  /// address that does not parse), the store's, the certificate's or the
+  /// listeners', with the reason.
   rtukit::Status start();
   /// Releases every hold, stops the host controller and the server.
   void stop();
   /// Bound ports: the display's first, then the phones'.
   std::vector<uint16_t> ports() const;
-  /// "http://127.0.0.1:8080" for each listener.
+  /// "http://127.0.0.1:8080", then "https://..." for each phone listener.
   std::vector<std::string> urls() const;
+  /// The phone certificate's SHA-256 fingerprint ("AB:CD:..."), after start().
+  std::string fingerprint() const;
+  /// The certificate's path, after start() (tests pin it in the browser).
+  std::string certificate() const;
 
  private:
   struct Impl;

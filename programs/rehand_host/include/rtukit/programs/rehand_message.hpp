@@ -6,8 +6,10 @@
 //
 // Contract: a command returned is one `role` may send (a display never
 // drives, a phone never holds posture commands or changes settings, a phone
-// that has not paired may only pair); its register is one of that command's
-// and its value one the register accepts. Never throws, whatever the text.
+// that has not authenticated may only authenticate or pair); its register is
+// one of that command's and its value one the register accepts. Whether the
+// chair may do it now is the Session's (rehand6600/session.hpp). Never
+// throws, whatever the text.
 #pragma once
 
 #include <cstdint>
@@ -22,26 +24,27 @@ namespace rtukit::programs {
 
 enum class HostRole { display, phone };
 
-/// What a checked message asks for.
+/// What a checked message asks for (docs/rehand6600-remote.md).
 struct HostCommand {
   enum class Kind {
-    hold,         ///< display: hold `address` (posture or anti-pinch) at `value` (non-zero), leased
-    release,      ///< display: release `address`
+    press,        ///< start press `press` of hold command `address` at `value` (non-zero)
+    renew,        ///< keep press `press` alive
+    release,      ///< end press `press` (the finger lifted)
+    stop,         ///< display: end every press of every client (the Stop button)
     pulse,        ///< pulse `address` (display: the light; phone: light, turn signals)
     set,          ///< display: `value` into `address` (drive_mode or speed_level)
-    one_touch,    ///< display: stand (`value` 1) or sit (2) until done; 0 stops it
     pair_start,   ///< display: show a pairing code
     pair_cancel,  ///< display: withdraw the code
-    revoke,       ///< display: unpair phone `client`
+    forget,       ///< display: unpair phone `phone`
+    forget_all,   ///< display: unpair every phone
+    auth,         ///< phone: authenticate with `token`
     pair,         ///< phone: pair with `code`, named `name`
-    drive,        ///< phone: drive towards `address` (a phone direction); 0 stops driving
-    horn,         ///< phone: the horn on (`value` 1) or off (0)
   };
   Kind kind = Kind::pair_cancel;
   uint16_t address = 0;
   uint16_t value = 0;
-  uint64_t client = 0;
-  std::string code, name;
+  uint64_t press = 0;
+  std::string code, name, token, phone;
 };
 
 /// A message as a client sent it.
@@ -51,13 +54,14 @@ struct HostMessage {
   std::string op;
   std::optional<nlohmann::json> id;  ///< "id", echoed in the result
   /// Errors: invalid_argument (a field missing, of the wrong type or value;
-  /// an unknown op), refused (a phone that has not paired), with the reason
-  /// the client is told.
+  /// an unknown op), refused (a phone that has not authenticated), with the
+  /// reason the client is told.
   rtukit::Outcome<HostCommand> command = HostCommand{};
 };
 
-/// Parses and checks `text` from a client of `role`; `paired`: a phone that
-/// has paired (a display always may).
-HostMessage parse_host_message(std::string_view text, HostRole role, bool paired);
+/// Parses and checks `text` from a client of `role`; `authenticated`: a
+/// phone that has authenticated or paired on this connection (a display
+/// always is). An unauthenticated phone may only send auth or pair.
+HostMessage parse_host_message(std::string_view text, HostRole role, bool authenticated);
 
 }  // namespace rtukit::programs

@@ -1,0 +1,344 @@
+#!/usr/bin/python3
+"""Every attack on the Rehand 6600 host daemon we know of, replayed against
+`rtukit rehand6600 host` on loopback with the simulated controller on a pty,
+as an attacker on the chair's Wi-Fi and a web page in the kiosk browser
+would (docs/security.md, "How each finding was closed"). Each check failed on
+the daemon before the trusted-remote work and passes now.
+
+Usage: rehand_host_attacks.py RTUKIT
+Prints one line per check ("ok NAME ..." / "FAIL NAME ..."); exits 1 when a
+check failed. Starts what it needs and stops it by PID.
+"""
+import json
+import os
+import shutil
+import socket
+import ssl
+import subprocess
+import sys
+import tempfile
+import time
+import urllib.error
+import urllib.request
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, ".."))
+sys.path.insert(0, os.path.join(HERE, "..", "browser"))
+from pyhelpers import START_DEADLINE, WebSocket, connect_tcp, free_port, stop_processes, wait_for  # noqa: E402
+from browser_common import Console, check, summary  # noqa: E402
+
+RTUKIT = sys.argv[1]
+
+
+def http_status(port, path, headers=None, tls=False, host=None):
+    """The status of a GET (403, 404, 200...), or the error's text."""
+    url = f"{'https' if tls else 'http'}://127.0.0.1:{port}{path}"
+    req = urllib.request.Request(url, headers=headers or {})
+    if host:
+        req.add_header("Host", host)
+    ctx = None
+    if tls:
+        ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+        ctx.check_hostname = False
+        ctx.verify_mode = ssl.CERT_NONE
+    try:
+        with urllib.request.urlopen(req, timeout=10, context=ctx) as r:
+            return r.status
+    except urllib.error.HTTPError as e:
+        return e.code
+    except Exception as e:  # noqa: BLE001 (a refusal without an answer is a result here)
+        return str(e)
+
+
+def refused(fn):
+    """The OSError text fn() raised, or '' when it did not."""
+    try:
+        fn()
+        return ""
+    except OSError as e:
+        return str(e) or type(e).__name__
+
+
+def state(display_port):
+    with urllib.request.urlopen(f"http://127.0.0.1:{display_port}/api/state", timeout=10) as r:
+        return json.load(r)
+
+
+def display_request(display_port, message):
+    """One command from a display connection of its own (a socket the test
+    does not read for a while would miss the server's pings and be closed)."""
+    ws = WebSocket(display_port, "/ws?role=display")
+    try:
+        return ws.request(message)
+    finally:
+        ws.close()
+
+
+def next_message(ws, kind, timeout=10.0, **match):
+    """The next message of `kind` ("state", "event"...) whose fields match."""
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        text = ws.recv(max(0.01, end - time.monotonic()))
+        if text is None:
+            return None
+        m = json.loads(text)
+        if m.get("type") == kind and all(m.get(k) == v for k, v in match.items()):
+            return m
+    return None
+
+
+def main():
+    work = tempfile.mkdtemp(prefix="rtukit-attacks-")
+    pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
+    display_port, phone_port = free_port(), free_port()
+    procs, sockets = [], []
+    try:
+        # ---- the display listener is loopback only: anything else is refused at start
+        r = subprocess.run([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"0.0.0.0:{display_port}",
+                            "--pairing-file", os.path.join(work, "p0.json")], capture_output=True, text=True,
+                           timeout=60)
+        check("a non-loopback display listener is refused at start (exit 2, one line)",
+              r.returncode == 2 and "loopback" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
+              f"exit {r.returncode}: {r.stderr.strip()}")
+
+        sim = subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
+                                "--console", f"unix:{console_path}"], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+        procs.append(sim)
+        con = Console(console_path)
+        log_path = os.path.join(work, "host.log")
+        host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{display_port}",
+                                 "--phone", f"127.0.0.1:{phone_port}", "--pairing-file",
+                                 os.path.join(work, "pairing.json")], stdout=subprocess.DEVNULL,
+                                stderr=open(log_path, "w"))
+        procs.append(host)
+        connect_tcp(display_port).close()
+        connect_tcp(phone_port).close()
+        check("the daemon connects to the controller", bool(wait_for(lambda: state(display_port)["connected"],
+                                                                       START_DEADLINE)))
+
+        # ---- the phone channel is TLS only; nothing of it in cleartext
+        s = connect_tcp(phone_port, io_timeout=10)
+        s.sendall(f"GET /healthz HTTP/1.1\r\nHost: 127.0.0.1:{phone_port}\r\n\r\n".encode())
+        try:
+            answer = s.recv(4096)
+        except OSError:
+            answer = b""
+        s.close()
+        check("cleartext HTTP on the phone listener gets no answer", not answer.startswith(b"HTTP/"),
+              repr(answer[:60]))
+        check("the phone listener speaks TLS", http_status(phone_port, "/healthz", tls=True) == 200)
+
+        # ---- Origin and Host, both listeners (RFC 6455 10.2, DNS rebinding)
+        for name, port, tls in (("display", display_port, False), ("phone", phone_port, True)):
+            scheme = "https" if tls else "http"
+            why = refused(lambda: WebSocket(port, "/ws?role=display", tls=tls,
+                                            headers={"Origin": "http://evil.example"}))
+            check(f"{name}: a WebSocket from a foreign Origin is refused", "403" in why, why)
+            why = refused(lambda: WebSocket(port, "/ws", tls=tls, host_header=f"evil.example:{port}"))
+            check(f"{name}: a rebinding Host is refused", "403" in why, why)
+            check(f"{name}: an API request from a foreign Origin is refused",
+                  http_status(port, "/healthz", {"Origin": "http://evil.example"}, tls) == 403)
+            ok = WebSocket(port, "/ws?role=display" if not tls else "/ws", tls=tls,
+                           headers={"Origin": f"{scheme}://127.0.0.1:{port}"})
+            check(f"{name}: the page's own origin is accepted", ok.recv(10) is not None)
+            ok.close()
+
+        # ---- the display: no pairing from a web page, no credential in a URL
+        why = refused(lambda: WebSocket(phone_port, "/ws?role=phone&token=00112233445566778899aabbccddeeff", tls=True))
+        check("a token in a URL is refused", "400" in why, why)
+        check("the pairing QR code is not on the phone listener",
+              http_status(phone_port, "/api/pair/qr.svg", tls=True) == 404)
+        check("the state is not on the phone listener without authentication",
+              http_status(phone_port, "/api/state", tls=True) == 404)
+
+        # ---- pairing: nothing tells a stranger whether a code is showing
+        probe = WebSocket(phone_port, "/ws", tls=True)
+        no_code = probe.request({"op": "pair", "code": "000000", "name": "x"})
+        display_request(display_port, {"op": "pair_start"})
+        code = wait_for(lambda: state(display_port)["pairing_code"], 10) or ""
+        wrong = str((int(code) + 1) % 1000000).zfill(6) if code else "000000"
+        with_code = probe.request({"op": "pair", "code": wrong, "name": "x"})
+        check("a wrong code and no code get the same answer",
+              no_code and with_code and no_code.get("error") == with_code.get("error") and not with_code.get("ok"),
+              f"{no_code} / {with_code}")
+        probe.close()
+        # The owner pairs with the code the display shows.
+        phone = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(phone)
+        paired = phone.request({"op": "pair", "code": code, "name": "Anna's phone"})
+        check("the owner pairs with the display's code", bool(paired and paired.get("ok") and paired.get("token")),
+              json.dumps(paired))
+        token = (paired or {}).get("token", "")
+        store = json.load(open(os.path.join(work, "pairing.json")))
+        check("the pairing file keeps no token, only its hash",
+              token and token not in json.dumps(store) and len(store["phones"][0]["token_sha256"]) == 64)
+
+        # ---- unauthenticated sockets: 5 s, then closed
+        idle = WebSocket(phone_port, "/ws", tls=True, timeout=15)
+        t0 = time.monotonic()
+        try:
+            while idle.recv(15) is not None:
+                pass
+            closed_after = None
+        except OSError:
+            closed_after = time.monotonic() - t0
+        check("an unauthenticated socket is closed after 5 s", closed_after is not None and 4 < closed_after < 12,
+              f"{closed_after} s, {idle.close_reason}")
+
+        # ---- a replayed token: one connection per phone, the newest wins
+        wait_for(lambda: state(display_port)["values"]["speed"] == 0 and state(display_port)["values"]["motion"] == 1)
+        first = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(first)
+        check("the phone authenticates in its first message", (first.request({"op": "auth", "token": token}) or {}).get("ok"))
+        second = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(second)
+        check("a second connection with the same token is accepted", (second.request({"op": "auth", "token": token}) or {}).get("ok"))
+        try:
+            while first.recv(5) is not None:
+                pass
+            first_reason = None
+        except OSError:
+            first_reason = first.close_reason
+        check("...and closes the first one", first_reason == "replaced by a new connection", str(first_reason))
+        phone.close()  # the pairing socket of the same phone was replaced too
+
+        # ---- dead-man: a lapsed press never restarts, at any renewal rate
+        press = second.request({"op": "press", "command": "phone_forward", "value": 1, "press": 1})
+        check("a phone press drives", bool(press and press.get("ok")) and bool(wait_for(
+            lambda: "phone_forward=1" in con.held(), 5)), json.dumps(press))
+        # No renewal: the lease ends the press, with the stop command (a lost phone).
+        gone = wait_for(lambda: "phone_forward" not in con.held(), 5, 0.01)
+        check("a press that is not renewed ends within the lease", bool(gone))
+        events = [next_message(second, "event", 5, event="released")]
+        check("...as a loss of control (the stop command, D-12)", events[0] is not None and events[0].get("emergency"),
+              json.dumps(events[0]))
+        wait_for(lambda: not state(display_port)["emergency"], 10)
+        late = second.request({"op": "renew", "press": 1})
+        check("a late renewal is refused", late is not None and not late.get("ok") and "ended" in late.get("error", ""),
+              json.dumps(late))
+        time.sleep(0.3)  # a renewal would have restarted motion within one poll
+        check("...and never moves the chair", "phone_forward" not in con.held() and state(display_port)["values"]["speed"] == 0,
+              con.held())
+        # Renewals at 1 Hz: the press lives for its first lease only.
+        wait_for(lambda: not state(display_port)["emergency"] and not state(display_port)["disabled"]["drive"], 10)
+        ok = second.request({"op": "press", "command": "phone_forward", "value": 1, "press": 2})
+        moving_seen = []
+        for _ in range(4):
+            time.sleep(1.0)
+            r = second.request({"op": "renew", "press": 2})
+            moving_seen.append("phone_forward=1" in con.held())
+            if r and r.get("ok"):
+                break
+        check("renewals at 1 Hz never drive after the first lapse", bool(ok and ok.get("ok")) and not any(moving_seen),
+              f"{moving_seen}")
+
+        # ---- the display's posture presses are hold-type too: stand never latches
+        wait_for(lambda: not state(display_port)["emergency"], 10)
+        r = display_request(display_port, {"op": "press", "command": "stand", "value": "stand", "press": 1})
+        check("stand is a press", bool(r and r.get("ok")), json.dumps(r))
+        check("stand without renewals stops within the lease",
+              bool(wait_for(lambda: "stand" not in con.held(), 5, 0.01)), con.held())
+        check("the stop command is released once the chair is still",
+              bool(wait_for(lambda: "anti_pinch" not in con.held(), 5, 0.01)), con.held())
+        r = display_request(display_port, {"op": "one_touch", "value": "stand"})
+        check("there is no one-touch stand any more", r is not None and not r.get("ok"), json.dumps(r))
+
+        # ---- a flood of strangers on the phone network never locks the display out
+        strangers = []
+        for _ in range(64):
+            try:
+                strangers.append(socket.create_connection(("127.0.0.1", phone_port), 5))
+            except OSError:
+                break
+        check("the display connects while 64 strangers hold the phone listener",
+              http_status(display_port, "/api/state") == 200)
+        extra = WebSocket(display_port, "/ws?role=display")
+        check("...and its WebSocket too", extra.recv(10) is not None)
+        extra.close()
+        for s in strangers:
+            s.close()
+
+        # ---- revocation: every pairing listed, offline ones too; forgetting closes at once
+        second.close()
+        listed = wait_for(lambda: [p for p in state(display_port)["phones"] if not p["connected"]], 10)
+        check("the display lists an offline phone with its last contact",
+              bool(listed) and listed[0]["name"] == "Anna's phone" and listed[0]["last_contact"], json.dumps(listed))
+        again = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(again)
+        check("the phone connects again with its token", (again.request({"op": "auth", "token": token}) or {}).get("ok"))
+        forget = display_request(display_port, {"op": "forget", "phone": listed[0]["phone"] if listed else ""})
+        try:
+            while again.recv(5) is not None:
+                pass
+            reason = None
+        except OSError:
+            reason = again.close_reason
+        check("forgetting a phone closes its connection at once", bool(forget and forget.get("ok")) and reason is not None
+              and "forgotten" in reason, f"{forget} {reason}")
+        late_phone = WebSocket(phone_port, "/ws", tls=True)
+        r = late_phone.request({"op": "auth", "token": token})
+        check("a forgotten phone's token is refused", r is not None and not r.get("ok"), json.dumps(r))
+        late_phone.close()
+
+        # ---- a WebSocket message of endless empty fragments is cut
+        raw = WebSocket(display_port, "/ws?role=display")
+        raw.recv(5)
+        mask = b"\x00\x00\x00\x00"
+        cut = False
+        try:
+            raw.s.sendall(bytes([0x01, 0x80]) + mask)  # text, not final, empty
+            for _ in range(20000):
+                raw.s.sendall(bytes([0x00, 0x80]) + mask)  # continuation, not final, empty
+        except OSError:
+            cut = True
+        if not cut:
+            try:
+                raw.s.settimeout(10)
+                while raw.s.recv(65536):
+                    pass
+                cut = True
+            except OSError:
+                cut = True
+        check("a message of endless empty fragments is cut", cut)
+
+        # ---- guessing: the code is replaced after 3 wrong ones, the guesser's address is slowed
+        display_request(display_port, {"op": "pair_start"})
+        code = wait_for(lambda: state(display_port)["pairing_code"], 10)
+        wrong = str((int(code) + 1) % 1000000).zfill(6)
+        guesser = WebSocket(phone_port, "/ws", tls=True)
+        for _ in range(3):
+            guesser.request({"op": "pair", "code": wrong, "name": "x"})
+        new_code = wait_for(lambda: state(display_port)["pairing_code"] != code and state(display_port)["pairing_code"], 10)
+        check("a code guessed at 3 times is replaced by a new one (not left unusable)",
+              bool(new_code) and new_code != code, f"{code} -> {new_code}")
+        limited = None
+        for _ in range(12):
+            limited = guesser.request({"op": "pair", "code": wrong, "name": "x"})
+            if limited and "too many" in limited.get("error", ""):
+                break
+        check("wrong codes are rate-limited per source address",
+              limited is not None and not limited.get("ok") and "too many" in limited.get("error", ""),
+              json.dumps(limited))
+        right = guesser.request({"op": "pair", "code": new_code, "name": "x"})
+        check("...even the right code, while the limit lasts", right is not None and not right.get("ok"),
+              json.dumps(right))
+        guesser.close()
+
+        # ---- the log: one line each, with a timestamp
+        text = open(log_path).read()
+        for what in ("paired", "forgotten", "disconnected", "lost control"):
+            check(f"the daemon logs '{what}'", what in text)
+    finally:
+        for s in sockets:
+            try:
+                s.close()
+            except Exception:  # noqa: BLE001
+                pass
+        stop_processes(procs)
+        shutil.rmtree(work, ignore_errors=True)
+    return summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
