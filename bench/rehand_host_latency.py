@@ -13,6 +13,8 @@
 Usage: bench/rehand_host_latency.py RTUKIT [--cycles N]
 Prints a Markdown table for bench/README.md. Not a test: figures, no verdict.
 """
+import base64
+import hashlib
 import json
 import os
 import statistics
@@ -66,8 +68,15 @@ def run(pages):
         except OSError:
             return False
     wait_for(started, 10)
+    # The phone listener speaks TLS with the certificate the daemon made at
+    # its first start: pinned by its SPKI hash, as the browser tests do.
+    cert = os.path.join(work, "rehand6600-phone.crt")
+    der = subprocess.run(["openssl", "x509", "-in", cert, "-pubkey", "-noout"], capture_output=True, check=True).stdout
+    der = subprocess.run(["openssl", "pkey", "-pubin", "-outform", "der"], input=der, capture_output=True,
+                         check=True).stdout
+    pin = base64.b64encode(hashlib.sha256(der).digest()).decode()
     o = webdriver.ChromeOptions()
-    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    for a in [f"--ignore-certificate-errors-spki-list={pin}", "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
               "--disable-background-networking", "--disable-component-update", "--disable-sync",
               "--disable-dev-shm-usage", "--disable-renderer-backgrounding",
               "--disable-background-timer-throttling", "--disable-backgrounding-occluded-windows",
@@ -109,9 +118,9 @@ def run(pages):
 
         # 2. pointer-up on the phone -> phone_forward reads 0
         d.switch_to.new_window("tab")
-        d.get(f"http://127.0.0.1:{phone}/")
+        d.get(f"https://127.0.0.1:{phone}/")
         d.execute_script(f"localStorage.setItem('rtukit-rehand6600-token', '{TOKEN}')")
-        d.get(f"http://127.0.0.1:{phone}/")
+        d.get(f"https://127.0.0.1:{phone}/")
         wait_for(lambda: d.execute_script("return document.querySelector('#remote').checkVisibility()"), 5)
         release = []
         down_js = ("const b = document.querySelector('#fwd');"

@@ -233,6 +233,27 @@ def main():
         check("renewals at 1 Hz never drive after the first lapse", bool(ok and ok.get("ok")) and not any(moving_seen),
               f"{moving_seen}")
 
+        # ---- a phone whose connection drops mid-press: the stop command at once (D-12)
+        wait_for(lambda: not state(display_port)["emergency"] and not state(display_port)["disabled"]["drive"], 10)
+        r = second.request({"op": "press", "command": "phone_forward", "value": 1, "press": 3})
+        driving = False
+        end = time.monotonic() + 5
+        while time.monotonic() < end and not driving:
+            second.request({"op": "renew", "press": 3}, timeout=1)
+            driving = state(display_port)["values"]["speed"] > 0
+            time.sleep(0.05)
+        check("the phone drives, renewing", bool(r and r.get("ok")) and driving, json.dumps(r))
+        second.s.close()  # gone without a close frame: Wi-Fi lost
+        t0 = time.monotonic()
+        stopped = wait_for(lambda: "phone_forward" not in con.held(), 5, 0.005)
+        check("a dropped connection ends the press", bool(stopped), f"{(time.monotonic() - t0) * 1000:.0f} ms")
+        check("...with the stop command (emergency braking)",
+              bool(wait_for(lambda: state(display_port)["emergency"] or "anti_pinch=1" in con.held(), 2, 0.005)))
+        check("the chair comes to a stop", bool(wait_for(lambda: state(display_port)["values"]["speed"] == 0, 10)))
+        second = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(second)
+        second.request({"op": "auth", "token": token})
+
         # ---- the display's posture presses are hold-type too: stand never latches
         wait_for(lambda: not state(display_port)["emergency"], 10)
         r = display_request(display_port, {"op": "press", "command": "stand", "value": "stand", "press": 1})
