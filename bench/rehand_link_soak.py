@@ -56,6 +56,8 @@ class Display:
         self.id = 0
         self.events = []
         self.results = {}
+        self.press = None  # the finger's press id while it is down
+        self.presses = 0
 
     def send(self, msg):
         self.id += 1
@@ -84,12 +86,23 @@ class Display:
         ids = []
         end = time.monotonic() + seconds
         while time.monotonic() < end:
-            ids.append(self.send({"op": "hold", "command": "seat_lift", "value": "up"}))
+            if self.press is None:  # the finger comes down: a new press
+                self.presses += 1
+                self.press = self.presses
+                ids.append(self.send({"op": "press", "command": "seat_lift", "value": "up", "press": self.press}))
+            else:  # the finger stays down: the press is renewed (refused once it has ended)
+                ids.append(self.send({"op": "renew", "press": self.press}))
             self.pump(0.1)
             if until and until():
                 break
         self.pump(0.05)
         return [self.results.get(i) for i in ids]
+
+    def release(self):
+        """The finger lifts."""
+        if self.press is not None:
+            self.send({"op": "release", "press": self.press})
+        self.press = None
 
     def switch_line(self, bus, event):
         """Cuts or connects the line (SIGUSR1 to the bus), the finger still
@@ -151,7 +164,7 @@ def main():
             #    finger is lifted first and pressed while the line is dead,
             #    before the daemon noticed (its press fails on the bus)
             if cycle % 2:
-                d.send({"op": "release", "command": "seat_lift"})
+                d.release()
                 d.pump(0.15)
             raised = d.switch_line(bus, "error_raised")
             if raised is None:
@@ -176,12 +189,12 @@ def main():
             if moved:
                 failures.append(f"cycle {cycle}: a held command survived the link loss (seat_lift moved)")
             # 4. finger up, pressed again: the seat lifts again; then released
-            d.send({"op": "release", "command": "seat_lift"})
+            d.release()
             d.pump(0.15)
             d.hold_for(3, until=lifting)
             if not lifting():
                 failures.append(f"cycle {cycle}: pressing again did not lift the seat")
-            d.send({"op": "release", "command": "seat_lift"})
+            d.release()
             d.pump(0.3)
             if lifting():
                 failures.append(f"cycle {cycle}: the release did not stop the seat")

@@ -484,7 +484,7 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                        "the display's listener (HOST:PORT), loopback only: the kiosk browser on this board")
             ->capture_default_str();
         cmd.add_option("--phone", a.phone,
-                       "a TLS listener for phones (HOST:PORT, repeatable), e.g. 0.0.0.0:8443 on the chair's hotspot");
+                       "a TLS listener for phones (HOST:PORT, repeatable): the chair's hotspot address, e.g. 192.168.4.1:8443");
         cmd.add_option("--tls-cert", a.tls_cert,
                        "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
         cmd.add_option("--tls-key", a.tls_key, "its private key, PEM (with --tls-cert)");
@@ -496,7 +496,7 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
             "--pairing-file", a.pairing_file,
             "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");
         examples(cmd,
-                 {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 0.0.0.0:8443"});
+                 {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443"});
       },
       [](const ChairArgs& a) { return run_host(a); });
   add_command<ChairArgs>(

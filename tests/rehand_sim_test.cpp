@@ -226,7 +226,8 @@ TEST_F(RehandSim, Host_UiRules_ChargingPushAndPhoneOnlyWhileStatic) {
   ASSERT_TRUE(eventually([&] { return !host->snapshot().is_static(); }));
   why = host->hold(reg::kPhoneForward, 1);
   EXPECT_EQ(why, Errc::refused);
-  EXPECT_EQ(why.reason(), "phone drive only while the chair is static");
+  // The local side is not static: its joystick is deflected (the session names the first reason).
+  EXPECT_EQ(why.reason(), "the joystick on the chair is in use");
   console("joystick 0 0");
   ASSERT_TRUE(eventually([&] { return host->snapshot().is_static(); }, 5s));
   EXPECT_FALSE(host->hold(reg::kPhoneForward, 1));
@@ -316,7 +317,8 @@ TEST_F(RehandSim, Cli_FailuresExitCodes) {
   console("error 10C3");
   r = cli({"rehand6600", "hold", "stand", "stand"});
   EXPECT_EQ(r.code, 5) << r.output;
-  EXPECT_NE(r.output.find("error overlay active (10C3 Seat lift Error)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("10C3 Seat lift Error is active; only releasing is possible"), std::string::npos)
+      << r.output;
   console("error clear");
   console("id 0x42");
   for (const std::string cmd : {"status", "watch"}) {
