@@ -101,6 +101,14 @@ def main():
               r.returncode == 2 and "loopback" in r.stderr and len(r.stderr.strip().splitlines()) == 1,
               f"exit {r.returncode}: {r.stderr.strip()}")
 
+        r = subprocess.run([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{display_port}",
+                            "--phone", f"127.0.0.1:{phone_port}", "--tls-cert", os.path.join(work, "c.pem"),
+                            "--pairing-file", os.path.join(work, "p0.json")], capture_output=True, text=True,
+                           timeout=60)
+        check("a phone listener without its TLS key is refused at start (exit 2, one line)",
+              r.returncode == 2 and "tls" in r.stderr.lower() and len(r.stderr.strip().splitlines()) == 1,
+              f"exit {r.returncode}: {r.stderr.strip()}")
+
         sim = subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
                                 "--console", f"unix:{console_path}"], stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)

@@ -302,7 +302,9 @@ function phoneRow(p) {
   text.className = 'phone-text';
   const name = document.createElement('span');
   name.className = 'phone-name';
-  name.textContent = p.name || p.phone;
+  // The name is the phone's own word; the code it paired with is the
+  // display user's proof of which phone this is.
+  name.textContent = `${p.name || p.phone}${p.paired_code ? ` (code ${p.paired_code})` : ''}`;
   const status = document.createElement('span');
   status.className = 'phone-status';
   status.textContent = p.driving ? 'driving' : p.connected ? 'connected'
