@@ -1,16 +1,18 @@
 // The Rehand 6600 host daemon's WebSocket/HTTP message parser
 // (parse_host_message, programs/rehand_host) on arbitrary text, as a
-// display, an unpaired phone and a paired phone.
+// display, an unauthenticated phone and an authenticated phone.
 // Properties: never crashes and never throws (an exception would end the
 // daemon's web thread, and with it the HMI); a command it returns is one the
-// role may send: a display never drives, pairs or sounds the phone horn, a
-// phone never holds posture commands, changes settings or revokes, an
-// unpaired phone gets nothing but "pair" (everything else is refused); each
-// command's register is one of that command's and its value one the
-// register accepts (hold: non-zero); a refusal is invalid_argument or
-// refused, and the result document with its reason serialises as JSON.
+// role may send: a display never drives, pairs, authenticates or sounds the
+// phone horn, a phone never presses posture commands, changes settings,
+// stops everyone or forgets phones, an unauthenticated phone gets nothing
+// but "auth" and "pair" (everything else is refused), and an authenticated
+// one never authenticates again; each press's register is one of that
+// role's hold commands and its value a non-zero one the register accepts,
+// with a press id; a refusal is invalid_argument or refused, and the result
+// document with its reason serialises as JSON.
 //
-// Input: the client (1 byte: 0 display, 1 unpaired phone, 2 paired phone), then the message.
+// Input: the client (1 byte: 0 display, 1 unauthenticated phone, 2 authenticated phone), then the message.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -34,20 +36,30 @@ bool accepts(uint16_t address, uint16_t value) {
   return r && rh::table_of(*r) == rh::Table::command && rh::check_value(*r, value) == Errc::ok;
 }
 
-bool holdable(uint16_t address) {
+bool display_holdable(uint16_t address) {
   const rh::Register* r = rh::find_register(address);
   return r && r->role == profile::Role::hold &&
          ((address >= rh::reg::kStandSit && address <= rh::reg::kPlateTilt) ||
           address == rh::reg::kAntiPinch);
 }
 
+bool phone_holdable(uint16_t address) {
+  return (address >= rh::reg::kPhoneForward && address <= rh::reg::kPhoneRight) ||
+         address == rh::reg::kPhoneHorn;
+}
+
+void check_press(const HostCommand& c, bool (*holdable)(uint16_t)) {
+  if (c.press == 0) std::abort();
+  if (c.kind == Kind::press && (!holdable(c.address) || c.value == 0 || !accepts(c.address, c.value)))
+    std::abort();
+}
+
 void check_display(const HostCommand& c) {
   switch (c.kind) {
-    case Kind::hold:
-      if (!holdable(c.address) || c.value == 0 || !accepts(c.address, c.value)) std::abort();
-      break;
+    case Kind::press:
+    case Kind::renew:
     case Kind::release:
-      if (!holdable(c.address)) std::abort();
+      check_press(c, display_holdable);
       break;
     case Kind::pulse:
       if (c.address != rh::reg::kLight) std::abort();
@@ -57,29 +69,30 @@ void check_display(const HostCommand& c) {
           !accepts(c.address, c.value))
         std::abort();
       break;
-    case Kind::one_touch:
-      if (c.value > 2) std::abort();
+    case Kind::forget:
+      if (c.phone.empty()) std::abort();
       break;
+    case Kind::stop:
     case Kind::pair_start:
     case Kind::pair_cancel:
-    case Kind::revoke:
+    case Kind::forget_all:
       break;
     default:
       std::abort();  // a phone's command from the display
   }
 }
 
-void check_phone(const HostCommand& c, bool paired) {
-  if (!paired && c.kind != Kind::pair) std::abort();  // only pairing before the code
+void check_phone(const HostCommand& c, bool authenticated) {
+  if (!authenticated && c.kind != Kind::pair && c.kind != Kind::auth) std::abort();
+  if (authenticated && (c.kind == Kind::pair || c.kind == Kind::auth)) std::abort();
   switch (c.kind) {
     case Kind::pair:
+    case Kind::auth:
       break;
-    case Kind::drive:
-      if (c.address != 0 && (c.address < rh::reg::kPhoneForward || c.address > rh::reg::kPhoneRight))
-        std::abort();
-      break;
-    case Kind::horn:
-      if (c.address != rh::reg::kPhoneHorn || c.value > 1) std::abort();
+    case Kind::press:
+    case Kind::renew:
+    case Kind::release:
+      check_press(c, phone_holdable);
       break;
     case Kind::pulse:
       if (c.address != rh::reg::kPhoneLight && c.address != rh::reg::kPhoneLeftSignal &&
@@ -108,7 +121,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   } else {
     const Status& e = m.command.error();
     if (e.code() != Errc::invalid_argument && e.code() != Errc::refused) std::abort();
-    if (!display && !paired && m.op != "pair" && e.code() != Errc::refused) std::abort();
+    if (!display && !paired && m.op != "pair" && m.op != "auth" && e.code() != Errc::refused) std::abort();
     if (!fuzz::valid_utf8(e.reason())) std::abort();
     result["error"] = std::string(e.reason());
   }
