@@ -25,8 +25,8 @@ PACKAGES=(
   libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   # the sniffer's pcap files, decoded by Wireshark's dissector
   tshark
-  # the web layer (Boost.Beast, header-only) and its pages tested in a real browser
-  libboost-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
+  # the web layer (Boost.Beast, header-only; TLS listeners on OpenSSL) and its pages tested in a real browser
+  libboost-dev libssl-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
   # the Inverjet MQTT bridge (libmosquitto) and its tests (a real broker and its clients)
   libmosquitto-dev mosquitto mosquitto-clients
 )
@@ -38,7 +38,7 @@ if [ "$target" = "aarch64" ]; then
   PACKAGES+=(
     g++-aarch64-linux-gnu qemu-user qemu-user-binfmt
     libfmt-dev:arm64 libspdlog-dev:arm64 libgtest-dev:arm64 libgmock-dev:arm64 libqrencode-dev:arm64
-    libmosquitto-dev:arm64 libboost-dev:arm64 libmodbus-dev:arm64
+    libmosquitto-dev:arm64 libboost-dev:arm64 libssl-dev:arm64 libmodbus-dev:arm64
     # Debian 12's libyaml-cpp-dev is not multi-arch: its arm64 runtime library only (CMakeLists.txt)
     libyaml-cpp0.7:arm64
   )

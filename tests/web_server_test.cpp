@@ -84,7 +84,7 @@ struct Client {
     tcp::resolver resolver(io);
     asio::connect(ws.next_layer(), resolver.resolve("127.0.0.1", std::to_string(port)));
     ws.read_message_max(read_max);
-    ws.handshake("127.0.0.1", "/ws");
+    ws.handshake("127.0.0.1:" + std::to_string(port), "/ws");  // Host must carry the port
   }
   std::string read() {
     beast::flat_buffer b;
@@ -101,7 +101,7 @@ std::pair<unsigned, std::string> get(uint16_t port, const std::string& target) {
   tcp::resolver resolver(io);
   asio::connect(s, resolver.resolve("127.0.0.1", std::to_string(port)));
   http::request<http::empty_body> req(http::verb::get, target, 11);
-  req.set(http::field::host, "127.0.0.1");
+  req.set(http::field::host, "127.0.0.1:" + std::to_string(port));
   http::write(s, req);
   beast::flat_buffer b;
   http::response<http::string_body> res;
@@ -176,8 +176,10 @@ TEST(WebServer, AMessageOverTheLimitClosesTheConnection) {
 }
 
 TEST(WebServer, ConnectionsOverTheLimitAreClosedAtOnce) {
+  Listener l("127.0.0.1:0");
+  l.max_connections = 2;
   ServerOptions o;
-  o.max_connections = 2;
+  o.listen = {l};
   Rig rig(o);
   Client a(rig.port), b(rig.port);
   EXPECT_TRUE(eventually([&] { return rig.server->connections() == 2; }));

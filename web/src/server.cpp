@@ -1,40 +1,59 @@
 // HTTP and WebSocket on Boost.Beast: one io_context, one thread. Each
 // connection is a session object kept alive by its own pending operations
 // (Beast's usual shape); the server only keeps weak references, so a
-// connection that errors simply goes away.
+// connection that errors simply goes away. The sessions are templates over
+// the stream (plain TCP, or TLS over it), so both listeners run the same
+// code and the same protections.
 #include "rtukit/web/server.hpp"
 
 #include <fmt/core.h>
+#include <openssl/ssl.h>
 
+#include <boost/asio/compose.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/asio/post.hpp>
+#include <boost/asio/ssl.hpp>
 #include <boost/asio/steady_timer.hpp>
 #include <boost/asio/strand.hpp>
 #include <boost/beast/core.hpp>
 #include <boost/beast/http.hpp>
+#include <boost/beast/ssl.hpp>
 #include <boost/beast/websocket.hpp>
+#include <boost/beast/websocket/ssl.hpp>
 #include <chrono>
 #include <deque>
+#include <exception>
 #include <map>
 #include <mutex>
 #include <thread>
+#include <type_traits>
 
 namespace rtukit::web {
 namespace {
 
 namespace asio = boost::asio;
+namespace ssl = asio::ssl;
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
 using tcp = asio::ip::tcp;
 using Clock = std::chrono::steady_clock;
+using PlainStream = beast::tcp_stream;
+using TlsStream = beast::ssl_stream<beast::tcp_stream>;
 
-std::string peer_of(const tcp::socket& s) {
-  boost::system::error_code ec;
-  const tcp::endpoint e = s.remote_endpoint(ec);
-  if (ec) return "?";
+template <class Stream>
+constexpr bool kTls = std::is_same_v<Stream, TlsStream>;
+
+std::string peer_of(const tcp::endpoint& e) {
   return e.address().is_v6() ? fmt::format("[{}]:{}", e.address().to_string(), e.port())
                              : fmt::format("{}:{}", e.address().to_string(), e.port());
+}
+
+// A v4 client of a dual-stack listener arrives as ::ffff:a.b.c.d; it is the
+// same source as a.b.c.d for the budgets, and reads better as such.
+asio::ip::address plain_address(const asio::ip::address& a) {
+  if (a.is_v6() && a.to_v6().is_v4_mapped()) return asio::ip::make_address_v4(asio::ip::v4_mapped, a.to_v6());
+  return a;
 }
 
 // "host:port" or "[v6]:port".
@@ -50,6 +69,24 @@ bool split_listen(std::string_view listen, std::string& host, uint16_t& port) {
   port = static_cast<uint16_t>(n);
   if (host == "localhost") host = "127.0.0.1";
   return !host.empty();
+}
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    const auto lower = [](char c) { return c >= 'A' && c <= 'Z' ? static_cast<char>(c - 'A' + 'a') : c; };
+    if (lower(a[i]) != lower(b[i])) return false;
+  }
+  return true;
+}
+
+// Every response, whoever wrote it, including the WebSocket 101.
+template <class Fields>
+void set_security_headers(Fields& f) {
+  f.set(http::field::server, "rtukit");
+  f.set("Content-Security-Policy", "default-src 'self'; frame-ancestors 'none'");
+  f.set("X-Content-Type-Options", "nosniff");
+  f.set("Referrer-Policy", "no-referrer");
 }
 
 }  // namespace
@@ -72,12 +109,24 @@ std::string HttpRequest::param(std::string_view key) const {
   return {};
 }
 
+Listener Listener::from(std::string address) {
+  Listener l(std::move(address));
+  if (is_loopback(l.address)) l.max_per_source = l.max_connections;
+  return l;
+}
+
 std::string url_of(std::string_view listen, uint16_t port) {
   std::string host;
   uint16_t ignored = 0;
   if (!split_listen(listen, host, ignored)) return std::string(listen);
   if (host.find(':') != std::string::npos) host = "[" + host + "]";
   return fmt::format("http://{}:{}", host, port);
+}
+
+std::string listener_url(const Listener& listener, uint16_t port) {
+  std::string url = url_of(listener.address, port);
+  if (listener.tls && url.rfind("http://", 0) == 0) url.insert(4, "s");
+  return url;
 }
 
 bool is_loopback(std::string_view listen) {
@@ -91,40 +140,188 @@ bool is_loopback(std::string_view listen) {
 
 // ---------------------------------------------------------------- the server
 
+namespace {
+
+struct ListenerState {
+  Listener options;
+  uint16_t port = 0;
+  bool loopback = false;
+  std::unique_ptr<tcp::acceptor> acceptor;
+  std::unique_ptr<ssl::context> tls;
+  std::unique_ptr<asio::steady_timer> retry;  ///< the pause after a failed accept
+  // The budget in use, under Impl::mutex.
+  size_t open = 0;
+  std::map<asio::ip::address, size_t> per_source;
+};
+
+}  // namespace
+
 struct Server::Impl {
   // Destroyed by hand, first: its pending handlers own sessions, and their
-  // destructors use the members below.
+  // destructors use the members below (the budgets, the TLS contexts).
   ~Impl() {
-    acceptors.clear();
+    for (ListenerState& l : listeners) {
+      l.acceptor.reset();
+      l.retry.reset();
+    }
     timers.clear();
     io.reset();
   }
   ServerOptions options;
   Handlers handlers;
   std::optional<asio::io_context> io{std::in_place, 1};
-  std::vector<std::unique_ptr<tcp::acceptor>> acceptors;
-  std::vector<uint16_t> ports;
+  std::vector<ListenerState> listeners;  ///< fixed once start() returned
   std::thread thread;
   std::vector<std::shared_ptr<asio::steady_timer>> timers;
   uint64_t next_id = 1;
-  mutable std::mutex mutex;  ///< guards sessions (connections() from other threads)
+  mutable std::mutex mutex;  ///< guards sockets (connections() from other threads) and the budgets
   std::map<uint64_t, std::weak_ptr<Socket>> sockets;
-  size_t http_sessions = 0;
   bool stopped = false;
 
-  size_t open_count() const {
-    std::lock_guard lock(mutex);
-    return sockets.size() + http_sessions;
-  }
   void accept(size_t index);
+  void serve(size_t index, tcp::socket socket);
 };
 
 namespace {
 
-class WsSession final : public Socket, public std::enable_shared_from_this<WsSession> {
+// One connection's place in its listener's budget, from accept to the end of
+// the connection (it moves from the HTTP session to the WebSocket session).
+class Slot {
  public:
-  WsSession(Server::Impl& server, uint64_t id, HttpRequest request, tcp::socket socket)
-      : Socket(id, std::move(request)), server_(server), ws_(std::move(socket)) {}
+  static std::optional<Slot> take(Server::Impl& server, size_t listener, const asio::ip::address& source) {
+    std::lock_guard lock(server.mutex);
+    ListenerState& l = server.listeners[listener];
+    size_t& mine = l.per_source[source];
+    if (l.open >= l.options.max_connections || mine >= l.options.max_per_source) {
+      if (mine == 0) l.per_source.erase(source);
+      return std::nullopt;
+    }
+    ++l.open;
+    ++mine;
+    return Slot(server, listener, source);
+  }
+  Slot(Slot&& other) noexcept
+      : server_(std::exchange(other.server_, nullptr)), listener_(other.listener_), source_(other.source_) {}
+  Slot& operator=(Slot&&) = delete;
+  ~Slot() {
+    if (!server_) return;
+    std::lock_guard lock(server_->mutex);
+    ListenerState& l = server_->listeners[listener_];
+    --l.open;
+    if (--l.per_source[source_] == 0) l.per_source.erase(source_);
+  }
+
+ private:
+  Slot(Server::Impl& server, size_t listener, asio::ip::address source)
+      : server_(&server), listener_(listener), source_(source) {}
+  Server::Impl* server_;
+  size_t listener_;
+  asio::ip::address source_;
+};
+
+// Sees every byte a WebSocket client sends after the upgrade and follows the
+// frame headers (RFC 6455 section 5.2). Beast says nothing about frames: an
+// empty non-final frame never completes a read (Beast loops to the next
+// frame), so without this a client could send them forever, unseen by the
+// size limit and the message rate limit. `on_frame(opcode, fin)` returning
+// false fails the read that carried the frame, which ends the session.
+template <class Next>
+class FrameMeter {
+ public:
+  using executor_type = typename Next::executor_type;
+  using next_layer_type = Next;
+
+  explicit FrameMeter(Next&& next) : next_(std::move(next)) {}
+  executor_type get_executor() noexcept { return next_.get_executor(); }
+  Next& next_layer() noexcept { return next_; }
+  const Next& next_layer() const noexcept { return next_; }
+
+  std::function<bool(unsigned opcode, bool fin)> on_frame;
+
+  template <class Buffers, class Token>
+  auto async_read_some(const Buffers& buffers, Token&& token) {
+    return asio::async_compose<Token, void(beast::error_code, size_t)>(
+        [this, buffers, started = false](auto& self, beast::error_code ec = {}, size_t n = 0) mutable {
+          if (!started) {
+            started = true;
+            next_.async_read_some(buffers, std::move(self));
+            return;
+          }
+          if (!ec && !feed(buffers, n)) ec = asio::error::message_size;
+          self.complete(ec, n);
+        },
+        token, next_);
+  }
+
+  template <class Buffers, class Token>
+  auto async_write_some(const Buffers& buffers, Token&& token) {
+    return next_.async_write_some(buffers, std::forward<Token>(token));
+  }
+
+ private:
+  template <class Buffers>
+  bool feed(const Buffers& buffers, size_t n) {
+    const auto read = beast::buffers_prefix(n, buffers);
+    for (const asio::const_buffer b : beast::buffers_range_ref(read)) {
+      const auto* p = static_cast<const uint8_t*>(b.data());
+      size_t left = b.size();
+      while (left > 0) {
+        if (skip_ > 0) {  // payload: not ours to look at
+          const size_t k = static_cast<size_t>(std::min<uint64_t>(skip_, left));
+          skip_ -= k;
+          p += k;
+          left -= k;
+          continue;
+        }
+        head_[have_++] = *p++;
+        --left;
+        if (have_ < 2) continue;
+        const unsigned len7 = head_[1] & 0x7Fu;
+        const size_t need = 2 + (len7 == 126 ? 2 : len7 == 127 ? 8 : 0) + ((head_[1] & 0x80u) ? 4 : 0);
+        if (have_ < need) continue;
+        uint64_t len = len7;
+        if (len7 == 126) len = (uint64_t{head_[2]} << 8) | head_[3];
+        if (len7 == 127) {
+          len = 0;
+          for (size_t i = 2; i < 10; ++i) len = (len << 8) | head_[i];
+        }
+        have_ = 0;
+        skip_ = len;
+        if (on_frame && !on_frame(head_[0] & 0x0Fu, (head_[0] & 0x80u) != 0)) return false;
+      }
+    }
+    return true;
+  }
+
+  Next next_;
+  uint8_t head_[14] = {};
+  size_t have_ = 0;
+  uint64_t skip_ = 0;
+};
+
+// How Beast closes a WebSocket's next layer: through the meter, as the layer under it would be.
+template <class Next>
+void teardown(beast::role_type role, FrameMeter<Next>& stream, beast::error_code& ec) {
+  using beast::websocket::teardown;
+  teardown(role, stream.next_layer(), ec);
+}
+template <class Next, class Handler>
+void async_teardown(beast::role_type role, FrameMeter<Next>& stream, Handler&& handler) {
+  using beast::websocket::async_teardown;
+  async_teardown(role, stream.next_layer(), std::forward<Handler>(handler));
+}
+
+template <class Stream>
+class WsSession final : public Socket, public std::enable_shared_from_this<WsSession<Stream>> {
+ public:
+  WsSession(Server::Impl& server, uint64_t id, HttpRequest request, std::string peer_address, Stream&& stream,
+            Slot slot)
+      : Socket(id, std::move(request), std::move(peer_address)),
+        server_(server),
+        slot_(std::move(slot)),
+        ws_(std::move(stream)) {
+    ws_.next_layer().on_frame = [this](unsigned opcode, bool fin) { return on_frame(opcode, fin); };
+  }
 
   void start(http::request<http::string_body> upgrade) {
     // Idle pings find a peer that vanished without a close (Wi-Fi gone); a
@@ -134,21 +331,26 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
     t.idle_timeout = std::chrono::seconds(10);
     t.keep_alive_pings = true;
     ws_.set_option(t);
+    ws_.set_option(
+        websocket::stream_base::decorator([](websocket::response_type& res) { set_security_headers(res); }));
     ws_.read_message_max(server_.options.max_message);
-    ws_.async_accept(upgrade, [self = shared_from_this()](beast::error_code ec) {
+    ws_.async_accept(upgrade, [self = this->shared_from_this()](beast::error_code ec) {
       if (ec) return self->finish();
       self->open_ = true;
       {
         std::lock_guard lock(self->server_.mutex);
         self->server_.sockets[self->id()] = self;
       }
-      if (self->server_.handlers.opened) self->server_.handlers.opened(self);
+      if (!self->call([&] {
+            if (self->server_.handlers.opened) self->server_.handlers.opened(self);
+          }))
+        return;
       self->read();
     });
   }
 
   void send(std::string text) override {
-    asio::post(ws_.get_executor(), [self = shared_from_this(), text = std::move(text)]() mutable {
+    asio::post(ws_.get_executor(), [self = this->shared_from_this(), text = std::move(text)]() mutable {
       if (!self->open_ || self->closing_) return;
       self->queued_ += text.size();
       self->queue_.push_back(std::move(text));
@@ -159,7 +361,7 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   }
 
   void close(std::string reason) override {
-    asio::post(ws_.get_executor(), [self = shared_from_this(), reason = std::move(reason)]() {
+    asio::post(ws_.get_executor(), [self = this->shared_from_this(), reason = std::move(reason)]() {
       if (!self->open_ || self->closing_) return;
       self->closing_ = true;
       if (reason.size() > 120) return self->do_close(reason.substr(0, 120));
@@ -170,6 +372,30 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   bool is_open() const override { return open_ && !closing_; }
 
  private:
+  // Runs an application handler; one that throws closes this socket rather
+  // than ending the server's thread (and with it every other client).
+  template <class F>
+  bool call(F&& f) {
+    try {
+      f();
+      return true;
+    } catch (...) {
+      if (!closing_) {
+        closing_ = true;
+        do_close("internal error");
+      }
+      return false;
+    }
+  }
+
+  // Called by the meter for each frame header, inside a read.
+  bool on_frame(unsigned opcode, bool fin) {
+    if (opcode & 0x8u) return within_rate();  // ping, pong, close: Beast answers them, but they cost
+    if (++frames_ > server_.options.max_frames_per_message) return false;
+    if (fin) frames_ = 0;
+    return true;
+  }
+
   void cut() {
     closing_ = true;
     beast::error_code ignored;
@@ -179,11 +405,11 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   void do_close(const std::string& reason) {
     // A peer that does not answer the close handshake is cut off by the timeout.
     ws_.async_close(websocket::close_reason(websocket::close_code::policy_error, reason),
-                    [self = shared_from_this()](beast::error_code) { self->finish(); });
+                    [self = this->shared_from_this()](beast::error_code) { self->finish(); });
   }
 
   void read() {
-    ws_.async_read(buffer_, [self = shared_from_this()](beast::error_code ec, size_t) {
+    ws_.async_read(buffer_, [self = this->shared_from_this()](beast::error_code ec, size_t) {
       if (ec) return self->finish();
       if (!self->within_rate()) {
         self->buffer_.consume(self->buffer_.size());
@@ -192,7 +418,9 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
       }
       const std::string text = beast::buffers_to_string(self->buffer_.data());
       self->buffer_.consume(self->buffer_.size());
-      if (!self->closing_ && self->server_.handlers.message) self->server_.handlers.message(self, text);
+      if (!self->closing_ && self->server_.handlers.message &&
+          !self->call([&] { self->server_.handlers.message(self, text); }))
+        return;
       self->read();
     });
   }
@@ -210,12 +438,13 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
 
   void write() {
     ws_.text(true);
-    ws_.async_write(asio::buffer(queue_.front()), [self = shared_from_this()](beast::error_code ec, size_t) {
-      if (ec) return self->finish();
-      self->queued_ -= self->queue_.front().size();
-      self->queue_.pop_front();
-      if (!self->queue_.empty() && !self->closing_) self->write();
-    });
+    ws_.async_write(asio::buffer(queue_.front()),
+                    [self = this->shared_from_this()](beast::error_code ec, size_t) {
+                      if (ec) return self->finish();
+                      self->queued_ -= self->queue_.front().size();
+                      self->queue_.pop_front();
+                      if (!self->queue_.empty() && !self->closing_) self->write();
+                    });
   }
 
   // Called once per ending path; the handlers hear of it once.
@@ -230,45 +459,126 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
     }
     beast::error_code ignored;
     beast::get_lowest_layer(ws_).socket().close(ignored);
-    if (was_open && server_.handlers.closed) server_.handlers.closed(shared_from_this());
+    if (was_open && server_.handlers.closed) {
+      try {
+        server_.handlers.closed(this->shared_from_this());
+      } catch (...) {  // nothing left to close; the server goes on
+      }
+    }
   }
 
   Server::Impl& server_;
-  websocket::stream<beast::tcp_stream> ws_;
+  Slot slot_;
+  websocket::stream<FrameMeter<Stream>> ws_;
   beast::flat_buffer buffer_;
   std::deque<std::string> queue_;
   size_t queued_ = 0;
+  size_t frames_ = 0;  ///< frames of the message being received
   bool open_ = false, closing_ = false, finished_ = false;
   double tokens_ = 0;
   Clock::time_point refilled_ = Clock::now() - std::chrono::seconds(2);
 };
 
-class HttpSession final : public std::enable_shared_from_this<HttpSession> {
+// Whether a request may reach the handlers (RFC 6455 section 10.2; DNS
+// rebinding: a page on evil.example whose name now points here carries
+// Host: evil.example). The reason of a refusal, or nullopt.
+std::optional<std::string_view> refusal(const ListenerState& l, const http::request<http::string_body>& req) {
+  if (req.count(http::field::host) != 1) return "Host not allowed";
+  const auto raw_host = req[http::field::host];
+  const std::string_view host(raw_host.data(), raw_host.size());
+  std::string_view name, port_text;
+  if (!host.empty() && host.front() == '[') {
+    const size_t close = host.find(']');
+    if (close == std::string_view::npos) return "Host not allowed";
+    name = host.substr(1, close - 1);
+    port_text = host.substr(close + 1);
+  } else {
+    const size_t colon = host.find(':');
+    if (colon != std::string_view::npos && host.find(':', colon + 1) != std::string_view::npos)
+      return "Host not allowed";  // an IPv6 address must be in brackets
+    name = host.substr(0, colon);
+    port_text = colon == std::string_view::npos ? std::string_view{} : host.substr(colon);
+  }
+  unsigned port = l.options.tls ? 443 : 80;  // left out: the scheme's default
+  if (!port_text.empty()) {
+    if (port_text.front() != ':') return "Host not allowed";
+    port_text.remove_prefix(1);
+    if (port_text.empty() || port_text.size() > 5 ||
+        port_text.find_first_not_of("0123456789") != std::string_view::npos)
+      return "Host not allowed";
+    port = static_cast<unsigned>(std::stoul(std::string(port_text)));
+  }
+  if (name.empty() || port != l.port) return "Host not allowed";
+  boost::system::error_code ec;
+  const bool bracketed = host.front() == '[';
+  bool allowed = false;
+  if (bracketed) {
+    (void)asio::ip::make_address_v6(std::string(name), ec);
+    allowed = !ec;
+  } else {
+    (void)asio::ip::make_address_v4(std::string(name), ec);
+    allowed = !ec || (l.loopback && iequals(name, "localhost"));
+    for (const std::string& n : l.options.host_names) allowed = allowed || iequals(name, n);
+  }
+  if (!allowed) return "Host not allowed";
+
+  const size_t origins = req.count(http::field::origin);
+  if (origins == 0) return std::nullopt;  // not a browser: no page can steer it
+  if (origins > 1) return "Origin not allowed";
+  const std::string expected = std::string(l.options.tls ? "https://" : "http://") + std::string(host);
+  const auto origin = req[http::field::origin];
+  if (!iequals(std::string_view(origin.data(), origin.size()), expected)) return "Origin not allowed";
+  return std::nullopt;
+}
+
+template <class Stream>
+class HttpSession final : public std::enable_shared_from_this<HttpSession<Stream>> {
  public:
-  HttpSession(Server::Impl& server, size_t listener, tcp::socket socket)
-      : server_(server), listener_(listener), stream_(std::move(socket)) {
-    std::lock_guard lock(server_.mutex);
-    ++server_.http_sessions;
+  HttpSession(Server::Impl& server, size_t listener, Slot slot, asio::ip::address source, std::string peer,
+              Stream&& stream)
+      : server_(server),
+        listener_(listener),
+        slot_(std::move(slot)),
+        source_(std::move(source)),
+        peer_(std::move(peer)),
+        stream_(std::move(stream)) {}
+
+  void start() {
+    // One deadline from the connection's first byte to its first complete
+    // request, TLS handshake included: a client that trickles (slowloris)
+    // keeps its slot no longer than that.
+    lowest().expires_after(timeout());
+    if constexpr (kTls<Stream>) {
+      stream_.async_handshake(
+          ssl::stream_base::server, [self = this->shared_from_this()](beast::error_code ec) {
+            if (ec) return;  // plain HTTP, a bad client hello, the deadline: closed as the session ends
+            self->read();
+          });
+    } else {
+      read();
+    }
   }
-  ~HttpSession() {
-    std::lock_guard lock(server_.mutex);
-    --server_.http_sessions;
+
+ private:
+  std::chrono::milliseconds timeout() const {
+    return std::chrono::milliseconds(server_.options.request_timeout_ms);
   }
+  beast::tcp_stream& lowest() { return beast::get_lowest_layer(stream_); }
+  const ListenerState& listener() const { return server_.listeners[listener_]; }
 
   void read() {
     parser_.emplace();
     parser_->body_limit(server_.options.max_message);
     parser_->header_limit(16 * 1024);
-    stream_.expires_after(std::chrono::seconds(30));
-    http::async_read(stream_, buffer_, *parser_, [self = shared_from_this()](beast::error_code ec, size_t) {
-      if (ec == http::error::body_limit || ec == http::error::header_limit)
-        return self->reply_error(413, "request too large");
-      if (ec) return self->shut();
-      self->handle(self->parser_->release());
-    });
+    http::async_read(stream_, buffer_, *parser_,
+                     [self = this->shared_from_this()](beast::error_code ec, size_t) {
+                       if (ec == http::error::body_limit || ec == http::error::header_limit)
+                         return self->reply_error(413, "request too large");
+                       if (ec) return;  // closed, a timeout, garbage: the session ends, and its stream closes
+                       self->handle(self->parser_->release());
+                     });
   }
 
- private:
   HttpRequest convert(const http::request<http::string_body>& req) const {
     HttpRequest out;
     out.method = std::string(req.method_string());
@@ -277,29 +587,52 @@ class HttpSession final : public std::enable_shared_from_this<HttpSession> {
     out.path = target.substr(0, q);
     if (q != std::string::npos) out.query = target.substr(q + 1);
     out.body = req.body();
-    out.peer = peer_of(stream_.socket());
+    out.peer = peer_;
     out.listener = listener_;
-    if (auto it = req.find(http::field::user_agent); it != req.end())
-      out.user_agent = std::string(it->value());
+    const auto field = [&](http::field f) {
+      const auto it = req.find(f);
+      return it == req.end() ? std::string() : std::string(it->value());
+    };
+    out.user_agent = field(http::field::user_agent);
+    out.host = field(http::field::host);
+    out.origin = field(http::field::origin);
+    out.cookie = field(http::field::cookie);
+    out.secure = kTls<Stream>;
     return out;
   }
 
   void handle(http::request<http::string_body> req) {
+    if (const auto why = refusal(listener(), req))
+      return reply(
+          {.status = 403, .content_type = "text/plain; charset=utf-8", .body = std::string(*why) + "\n"},
+          false);
     HttpRequest request = convert(req);
     if (websocket::is_upgrade(req)) {
-      if (server_.handlers.upgrade) {
-        if (std::optional<HttpResponse> refusal = server_.handlers.upgrade(request))
-          return reply(*refusal, false);
+      std::optional<HttpResponse> refused;
+      try {
+        if (server_.handlers.upgrade) refused = server_.handlers.upgrade(request);
+      } catch (...) {
+        refused = internal_error();
       }
-      stream_.expires_never();
-      auto ws = std::make_shared<WsSession>(server_, server_.next_id++, std::move(request),
-                                            stream_.release_socket());
+      if (refused) return reply(*refused, false);
+      lowest().expires_never();  // the WebSocket keeps its own time
+      auto ws =
+          std::make_shared<WsSession<Stream>>(server_, server_.next_id++, std::move(request),
+                                              source_.to_string(), std::move(stream_), std::move(slot_));
       ws->start(std::move(req));
       return;
     }
     HttpResponse r{.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
-    if (server_.handlers.http) r = server_.handlers.http(request);
+    try {
+      if (server_.handlers.http) r = server_.handlers.http(request);
+    } catch (...) {
+      r = internal_error();
+    }
     reply(r, req.keep_alive());
+  }
+
+  static HttpResponse internal_error() {
+    return {.status = 500, .content_type = "text/plain; charset=utf-8", .body = "internal error\n"};
   }
 
   void reply_error(unsigned status, std::string text) {
@@ -309,28 +642,47 @@ class HttpSession final : public std::enable_shared_from_this<HttpSession> {
 
   void reply(const HttpResponse& r, bool keep_alive) {
     auto res = std::make_shared<http::response<http::string_body>>(static_cast<http::status>(r.status), 11);
-    res->set(http::field::server, "rtukit");
+    for (const auto& [name, value] : r.headers) {
+      // A line break in a field would let the application's data write headers of its own.
+      if (name.empty() || name.find_first_of("\r\n:") != std::string::npos ||
+          value.find_first_of("\r\n") != std::string::npos)
+        continue;
+      res->insert(name, value);
+    }
     res->set(http::field::content_type, r.content_type);
     res->set(http::field::cache_control, r.cache_control);
-    res->set("X-Content-Type-Options", "nosniff");
+    set_security_headers(*res);
     res->body() = r.body;
     res->keep_alive(keep_alive);
     res->prepare_payload();
+    lowest().expires_after(timeout());  // a client that does not read its answer does not keep the slot
     http::async_write(stream_, *res,
-                      [self = shared_from_this(), res, keep_alive](beast::error_code ec, size_t) {
-                        if (ec || !keep_alive) return self->shut();
+                      [self = this->shared_from_this(), res, keep_alive](beast::error_code ec, size_t) {
+                        if (ec) return;
+                        if (!keep_alive) return self->shut();
+                        self->lowest().expires_after(self->timeout());  // for the next request
                         self->read();
                       });
   }
 
   void shut() {
-    beast::error_code ignored;
-    stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+    if constexpr (kTls<Stream>) {
+      // close_notify, so the client knows the answer is whole; a client that
+      // does not answer it is closed after a short wait.
+      lowest().expires_after(std::chrono::seconds(2));
+      stream_.async_shutdown([self = this->shared_from_this()](beast::error_code) {});
+    } else {
+      beast::error_code ignored;
+      stream_.socket().shutdown(tcp::socket::shutdown_send, ignored);
+    }
   }
 
   Server::Impl& server_;
   size_t listener_;
-  beast::tcp_stream stream_;
+  Slot slot_;
+  asio::ip::address source_;
+  std::string peer_;
+  Stream stream_;
   beast::flat_buffer buffer_;
   std::optional<http::request_parser<http::string_body>> parser_;
 };
@@ -338,20 +690,70 @@ class HttpSession final : public std::enable_shared_from_this<HttpSession> {
 }  // namespace
 
 void Server::Impl::accept(size_t index) {
-  acceptors[index]->async_accept(asio::make_strand(*io),
-                                 [this, index](beast::error_code ec, tcp::socket socket) {
-                                   if (ec == asio::error::operation_aborted || stopped) return;
-                                   if (!ec) {
-                                     if (open_count() >= options.max_connections) {
-                                       beast::error_code ignored;
-                                       socket.close(ignored);  // full: closed at once
-                                     } else {
-                                       std::make_shared<HttpSession>(*this, index, std::move(socket))->read();
-                                     }
-                                   }
-                                   accept(index);
-                                 });
+  ListenerState& l = listeners[index];
+  l.acceptor->async_accept(asio::make_strand(*io), [this, index](beast::error_code ec, tcp::socket socket) {
+    if (ec == asio::error::operation_aborted || stopped) return;
+    if (!ec) {
+      serve(index, std::move(socket));
+      return accept(index);
+    }
+    // Out of descriptors (EMFILE) fails again at once: pause rather than spin.
+    listeners[index].retry->expires_after(std::chrono::milliseconds(100));
+    listeners[index].retry->async_wait([this, index](beast::error_code e) {
+      if (!e && !stopped) accept(index);
+    });
+  });
 }
+
+void Server::Impl::serve(size_t index, tcp::socket socket) {
+  beast::error_code ec;
+  const tcp::endpoint remote = socket.remote_endpoint(ec);
+  if (ec) return;  // gone already; the socket closes here
+  const asio::ip::address source = plain_address(remote.address());
+  std::optional<Slot> slot = Slot::take(*this, index, source);
+  if (!slot) {
+    socket.close(ec);  // over the listener's or the source's budget: closed at once
+    return;
+  }
+  const std::string peer = peer_of(tcp::endpoint(source, remote.port()));
+  ListenerState& l = listeners[index];
+  if (l.tls) {
+    std::make_shared<HttpSession<TlsStream>>(*this, index, std::move(*slot), source, peer,
+                                             TlsStream(std::move(socket), *l.tls))
+        ->start();
+  } else {
+    std::make_shared<HttpSession<PlainStream>>(*this, index, std::move(*slot), source, peer,
+                                               PlainStream(std::move(socket)))
+        ->start();
+  }
+}
+
+namespace {
+
+// TLS 1.2 and newer, forward-secret AEAD suites only (1.3's are all that).
+rtukit::Status load_tls(ssl::context& ctx, const Listener& l) {
+  ctx.set_options(ssl::context::default_workarounds | ssl::context::no_sslv2 | ssl::context::no_sslv3 |
+                  ssl::context::no_tlsv1 | ssl::context::no_tlsv1_1 | ssl::context::single_dh_use |
+                  ssl::context::no_compression);
+  SSL_CTX_set_min_proto_version(ctx.native_handle(), TLS1_2_VERSION);
+  SSL_CTX_set_cipher_list(ctx.native_handle(), "ECDHE+AESGCM:ECDHE+CHACHA20");
+  // An encrypted key must fail to load, not ask for a passphrase on the terminal.
+  ctx.set_password_callback([](size_t, ssl::context::password_purpose) { return std::string(); });
+  beast::error_code ec;
+  ctx.use_certificate_chain_file(l.tls->cert, ec);
+  if (ec)
+    return rtukit::Status(Errc::io_error,
+                          fmt::format("{}: certificate {}: {}", l.address, l.tls->cert, ec.message()));
+  ctx.use_private_key_file(l.tls->key, ssl::context::pem, ec);
+  if (ec)
+    return rtukit::Status(Errc::io_error, fmt::format("{}: key {}: {}", l.address, l.tls->key, ec.message()));
+  if (SSL_CTX_check_private_key(ctx.native_handle()) != 1)
+    return rtukit::Status(Errc::io_error,
+                          fmt::format("{}: {} is not the key of {}", l.address, l.tls->key, l.tls->cert));
+  return {};
+}
+
+}  // namespace
 
 Server::Server(ServerOptions options, Handlers handlers) : impl_(std::make_unique<Impl>()) {
   impl_->options = std::move(options);
@@ -364,7 +766,9 @@ Server::~Server() {
 
 rtukit::Status Server::start() {
   Impl& s = *impl_;
-  for (const std::string& listen : s.options.listen) {
+  std::vector<ListenerState> ready;
+  for (const Listener& spec : s.options.listen) {
+    const std::string& listen = spec.address;
     std::string host;
     uint16_t port = 0;
     boost::system::error_code ec;
@@ -372,17 +776,28 @@ rtukit::Status Server::start() {
       return rtukit::Status(Errc::invalid_argument, fmt::format("{}: expected HOST:PORT", listen));
     const auto address = asio::ip::make_address(host, ec);
     if (ec) return rtukit::Status(Errc::invalid_argument, fmt::format("{}: not an IP address", listen));
-    auto acceptor = std::make_unique<tcp::acceptor>(*s.io);
+    if (spec.max_connections == 0 || spec.max_per_source == 0)
+      return rtukit::Status(Errc::invalid_argument, fmt::format("{}: a connection budget of 0", listen));
+    ListenerState l;
+    l.options = spec;
+    l.loopback = address.is_loopback();
+    if (spec.tls) {
+      l.tls = std::make_unique<ssl::context>(ssl::context::tls_server);
+      if (rtukit::Status e = load_tls(*l.tls, spec)) return e;
+    }
+    l.acceptor = std::make_unique<tcp::acceptor>(*s.io);
+    l.retry = std::make_unique<asio::steady_timer>(*s.io);
     const tcp::endpoint endpoint(address, port);
-    acceptor->open(endpoint.protocol(), ec);
-    if (!ec) acceptor->set_option(asio::socket_base::reuse_address(true), ec);
-    if (!ec) acceptor->bind(endpoint, ec);
-    if (!ec) acceptor->listen(asio::socket_base::max_listen_connections, ec);
+    l.acceptor->open(endpoint.protocol(), ec);
+    if (!ec) l.acceptor->set_option(asio::socket_base::reuse_address(true), ec);
+    if (!ec) l.acceptor->bind(endpoint, ec);
+    if (!ec) l.acceptor->listen(asio::socket_base::max_listen_connections, ec);
     if (ec) return rtukit::Status(Errc::io_error, fmt::format("{}: {}", listen, ec.message()));
-    s.ports.push_back(acceptor->local_endpoint().port());
-    s.acceptors.push_back(std::move(acceptor));
+    l.port = l.acceptor->local_endpoint().port();
+    ready.push_back(std::move(l));
   }
-  for (size_t i = 0; i < s.acceptors.size(); ++i) s.accept(i);
+  s.listeners = std::move(ready);
+  for (size_t i = 0; i < s.listeners.size(); ++i) s.accept(i);
   s.thread = std::thread([&s] { s.io->run(); });
   return {};
 }
@@ -392,9 +807,10 @@ void Server::stop() {
   if (!s.thread.joinable()) return;
   asio::post(*s.io, [&s] {
     s.stopped = true;
-    for (auto& a : s.acceptors) {
+    for (ListenerState& l : s.listeners) {
       beast::error_code ignored;
-      a->close(ignored);
+      l.acceptor->close(ignored);
+      l.retry->cancel();
     }
     for (auto& t : s.timers) t->cancel();
   });
@@ -412,7 +828,9 @@ void Server::stop() {
 }
 
 std::vector<uint16_t> Server::ports() const {
-  return impl_->ports;
+  std::vector<uint16_t> out;
+  for (const ListenerState& l : impl_->listeners) out.push_back(l.port);
+  return out;
 }
 
 void Server::post(std::function<void()> fn) {

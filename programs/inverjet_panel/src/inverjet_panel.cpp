@@ -41,7 +41,7 @@ struct Panel::Impl {
         master(std::move(link),
                MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms)}),
         client(master, UnitId{options.unit}),
-        server(web::ServerOptions{.listen = {options.http}}, handlers()) {}
+        server(web::ServerOptions{.listen = {web::Listener::from(options.http)}}, handlers()) {}
 
   PanelOptions options;
   Master master;
