@@ -1,5 +1,8 @@
 // Test helpers for tests that start programs: start by PID, stop by PID,
 // never `sleep` for a fixed time (poll for the condition instead, bounded).
+// The bounds are generous on purpose: they are deadlines for events, reached
+// only when a test fails anyway; a sanitizer build on a machine whose other
+// core is busy (scripts/busy.sh) takes seconds where an idle one takes ms.
 #pragma once
 
 #include <fcntl.h>
@@ -29,9 +32,12 @@ inline std::string read_file(const std::string& path) {
   return ss.str();
 }
 
+/// How long a started program may take to say it is ready ("listening on").
+inline constexpr std::chrono::milliseconds kStartDeadline = 30000ms;
+
 /// Polls `cond` every 10 ms until it holds or `timeout` passes.
 template <class Cond>
-bool eventually(Cond cond, std::chrono::milliseconds timeout = 5000ms) {
+bool eventually(Cond cond, std::chrono::milliseconds timeout = 20000ms) {
   const auto end = std::chrono::steady_clock::now() + timeout;
   while (std::chrono::steady_clock::now() < end) {
     if (cond()) return true;
@@ -146,7 +152,7 @@ class Process {
     return true;
   }
   /// Waits until the output contains `needle` (false if the process died or time ran out).
-  bool wait_for_output(const std::string& needle, std::chrono::milliseconds timeout = 5000ms) {
+  bool wait_for_output(const std::string& needle, std::chrono::milliseconds timeout = kStartDeadline) {
     return eventually([&] { return output().find(needle) != std::string::npos || !running(); }, timeout) &&
            output().find(needle) != std::string::npos;
   }

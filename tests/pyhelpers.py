@@ -1,7 +1,12 @@
 """What the Python tests and benchmarks share: a free loopback port, polling
-with a deadline, whether a TCP port accepts, a percentile, a simulator's
-console and a small WebSocket client. Import with the tests/ folder on
-sys.path."""
+with a deadline, whether a TCP port accepts, connecting to a server that may
+still be starting, a percentile, a simulator's console and a small WebSocket
+client. Import with the tests/ folder on sys.path.
+
+Timing: a test waits for events (a socket that accepts, an answer, a state
+seen) with generous deadlines, never for a fixed time: a deadline only costs
+time when the test fails anyway, while a short one fails on a busy machine
+(scripts/busy.sh). START_DEADLINE is the one for a program coming up."""
 import os
 import socket
 import time
@@ -16,7 +21,12 @@ def free_port():
     return p
 
 
-def wait_for(fn, timeout=5.0, step=0.02):
+# How long a started program may take to open its socket and accept: a
+# sanitizer build on a machine whose other core is busy starts in seconds.
+START_DEADLINE = 30.0
+
+
+def wait_for(fn, timeout=10.0, step=0.02):
     """fn() until it returns something true, at most `timeout` s; its last value."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
@@ -36,6 +46,41 @@ def connects(port, host="127.0.0.1"):
         return False
 
 
+def connect_retrying(make, address, timeout=START_DEADLINE):
+    """A socket from make() connected to `address`, for a server that may
+    still be starting: its socket not there yet (FileNotFoundError), or there
+    but not accepting yet (ConnectionRefusedError: bound, not listening) is
+    tried again until `timeout` s have passed; then the last error is raised."""
+    end = time.monotonic() + timeout
+    while True:
+        s = make()
+        try:
+            s.connect(address)
+            return s
+        except (FileNotFoundError, ConnectionRefusedError):
+            s.close()
+            if time.monotonic() >= end:
+                raise
+            time.sleep(0.02)
+        except BaseException:
+            s.close()
+            raise
+
+
+def connect_unix(path, timeout=START_DEADLINE):
+    """A connected unix-domain stream socket (a simulator's console)."""
+    return connect_retrying(lambda: socket.socket(socket.AF_UNIX), path, timeout)
+
+
+def connect_tcp(port, host="127.0.0.1", timeout=START_DEADLINE, io_timeout=None):
+    """A TCP connection to host:port, retried while it is refused."""
+    def make():
+        s = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
+        s.settimeout(io_timeout if io_timeout is not None else timeout)
+        return s
+    return connect_retrying(make, (host, port), timeout)
+
+
 def pct(xs, p):
     """The p-th percentile of xs (nearest rank); nan when empty."""
     xs = sorted(xs)
@@ -44,18 +89,21 @@ def pct(xs, p):
 
 class Console:
     """A simulator's console on its unix socket (`--console unix:PATH`): one
-    line in, one line of answer out."""
+    line in, one line of answer out. Connects as soon as the simulator
+    accepts (it may still be starting), within `timeout` s."""
 
-    def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
+    def __init__(self, path, timeout=START_DEADLINE):
+        self.s = connect_unix(path, timeout)
+        self.s.settimeout(10)
 
     def ask(self, line):
         self.s.sendall(line.encode() + b"\n")
         data = b""
         while not data.endswith(b"\n"):
-            data += self.s.recv(4096)
+            chunk = self.s.recv(4096)
+            if not chunk:
+                raise OSError(f"console closed after {data!r}")
+            data += chunk
         return data.decode().strip()
 
 
@@ -64,12 +112,23 @@ class WebSocket:
     only, masked as a client must, pings answered. Not a library: enough to
     drive a page's API from a test or a bench without a browser."""
 
-    def __init__(self, port, path, host="127.0.0.1", timeout=5.0):
+    def __init__(self, port, path, host="127.0.0.1", timeout=5.0, tls=False, headers=None, host_header=None):
+        """`tls`: wss (the certificate is not checked: the tests pin it
+        elsewhere); `headers`: more header fields ({"Origin": ...});
+        `host_header`: the Host field to send (default host:port).
+        Raises OSError("handshake refused: HTTP/1.1 403 ...") on a refusal."""
         import base64
-        self.s = socket.create_connection((host, port), timeout=timeout)
+        self.s = connect_tcp(port, host, io_timeout=timeout)
+        if tls:
+            import ssl
+            ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)
+            ctx.check_hostname = False
+            ctx.verify_mode = ssl.CERT_NONE
+            self.s = ctx.wrap_socket(self.s, server_hostname=host)
         key = base64.b64encode(os.urandom(16)).decode()
-        self.s.sendall((f"GET {path} HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
-                        f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n").encode())
+        more = "".join(f"{k}: {v}\r\n" for k, v in (headers or {}).items())
+        self.s.sendall((f"GET {path} HTTP/1.1\r\nHost: {host_header or f'{host}:{port}'}\r\nUpgrade: websocket\r\n"
+                        f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n{more}\r\n").encode())
         head = b""
         while b"\r\n\r\n" not in head:
             chunk = self.s.recv(4096)
@@ -80,6 +139,7 @@ class WebSocket:
         if b" 101 " not in status:
             raise OSError(f"handshake refused: {status.decode(errors='replace')}")
         self.buf = head.split(b"\r\n\r\n", 1)[1]
+        self.close_reason = None
 
     def _frame(self, opcode, payload):
         mask = os.urandom(4)
@@ -95,6 +155,22 @@ class WebSocket:
 
     def send(self, text):
         self._frame(0x1, text.encode())
+
+    def request(self, message, timeout=5.0):
+        """Sends a JSON message with a fresh "id" and returns the result that
+        echoes it (other messages on the way are skipped), or None."""
+        import json
+        self.next_id = getattr(self, "next_id", 0) + 1
+        self.send(json.dumps({**message, "id": self.next_id}))
+        end = time.monotonic() + timeout
+        while time.monotonic() < end:
+            text = self.recv(max(0.01, end - time.monotonic()))
+            if text is None:
+                return None
+            m = json.loads(text)
+            if m.get("type") == "result" and m.get("id") == self.next_id:
+                return m
+        return None
 
     def _need(self, n):
         while len(self.buf) < n:
@@ -122,7 +198,8 @@ class WebSocket:
                 if opcode == 0x9:
                     self._frame(0xA, payload)
                 elif opcode == 0x8:
-                    raise OSError("closed by the server")
+                    self.close_reason = payload[2:].decode(errors="replace")
+                    raise OSError(f"closed by the server: {self.close_reason}")
                 elif opcode == 0x1:
                     return payload.decode()
         except socket.timeout:

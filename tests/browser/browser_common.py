@@ -2,15 +2,16 @@
 chromedriver), checks that print one line each, polling with a deadline,
 the simulators' console sockets, and the layout check (no control overlaps
 another or leaves the screen, every text fits)."""
+import atexit
 import os
 import re
+import shutil
 import sys
 import socket
 import tempfile
-import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import free_port, stop_processes, wait_for  # noqa: E402,F401 (the browser tests take them from here)
+from pyhelpers import connect_unix, free_port, stop_processes, wait_for  # noqa: E402,F401 (the browser tests take them from here)
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -25,18 +26,26 @@ def check(name, cond, detail=""):
 
 
 class Console:
-    """The simulator's console on its unix socket: the chair's physical side."""
+    """The simulator's console on its unix socket: the chair's physical side.
+    Connects as soon as the simulator accepts (it may still be starting)."""
 
     def __init__(self, path):
-        self.s = socket.socket(socket.AF_UNIX)
-        self.s.connect(path)
-        self.s.settimeout(2)
+        self.s = connect_unix(path)
+        self.s.settimeout(10)
 
     def cmd(self, line):
+        """Every answer the command gets: its first line is waited for (the
+        command has been run then), with a generous deadline; lines that
+        follow it closely (a multi-line answer) are taken too."""
+        self.s.settimeout(10)
         self.s.sendall(line.encode() + b"\n")
-        time.sleep(0.15)
         data = b""
         try:
+            while not data.endswith(b"\n"):
+                chunk = self.s.recv(65536)
+                if not chunk:
+                    return data.decode(errors="replace")
+                data += chunk
             self.s.settimeout(0.2)
             while True:
                 chunk = self.s.recv(65536)
@@ -49,7 +58,7 @@ class Console:
 
     def ask(self, line):
         """A one-line answer ("speed = 70 %")."""
-        self.s.settimeout(2)
+        self.s.settimeout(10)
         self.s.sendall(line.encode() + b"\n")
         data = b""
         while not data.endswith(b"\n"):
@@ -58,7 +67,7 @@ class Console:
 
     def held(self):
         # Reads until the status's last line: a probe of a few ms, not a fixed wait.
-        self.s.settimeout(2)
+        self.s.settimeout(10)
         self.s.sendall(b"status\n")
         data = b""
         while not re.search(rb"held commands:[^\n]*\n", data):
@@ -70,10 +79,15 @@ class Console:
         return m.group(1).strip() if m else "?"
 
 
-def browser(width, height):
+def browser(width, height, extra=()):
+    """A headless Chromium with a viewport of width x height; `extra`: more
+    command-line flags (e.g. a pinned certificate's
+    --ignore-certificate-errors-spki-list)."""
     o = webdriver.ChromeOptions()
     udd = tempfile.mkdtemp(prefix='rtukit-chromium-')
-    for a in ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+    # Removed when the test ends (after it quit the browser): no profile left in the temp folder.
+    atexit.register(shutil.rmtree, udd, True)
+    for a in [*extra, "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
               "--disable-background-networking", "--disable-component-update", "--disable-sync",
               "--disable-dev-shm-usage", "--autoplay-policy=no-user-gesture-required",
               f"--user-data-dir={udd}"]:

@@ -4,21 +4,27 @@ mosquitto_sub / mosquitto_pub as the independent peers, and the simulated
 machine on a pty. Starts what it needs (a broker on a free loopback port with
 a config file written here), stops it by PID.
 
+Timing: every wait is for an event (a socket that accepts, a subscription the
+broker confirmed, a message seen) under a generous deadline, never a fixed
+sleep that assumes how fast this machine is; only the checks that something
+does NOT happen watch for a bounded time. The temporary folder is removed at
+the end.
+
 Usage: inverjet_bridge_mqtt.py RTUKIT
 Prints "ok NAME" / "FAIL NAME detail" per check; exits 1 when one failed.
 """
 import getpass
 import json
 import os
+import shutil
 import signal
-import socket
 import subprocess
 import sys
 import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import Console, connects, free_port, wait_for  # noqa: E402
+from pyhelpers import START_DEADLINE, Console, connects, free_port, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 failures = []
@@ -60,26 +66,13 @@ class Broker:
 
     def start(self):
         self.p = start(["mosquitto", "-c", self.conf])
-        wait_for(lambda: connects(self.port))
+        if not wait_for(lambda: connects(self.port) or self.p.poll() is not None, START_DEADLINE) \
+                or self.p.poll() is not None:
+            raise RuntimeError(f"mosquitto on port {self.port} did not come up (exit {self.p.poll()})")
 
     def restart(self):
         stop(self.p)
         self.start()
-
-
-def sub(port, topics, count=None, timeout=3, auth=()):
-    """Retained and live messages on `topics` for `timeout` s (or until `count`)."""
-    argv = ["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-v", "-W", str(timeout), *auth]
-    for t in topics:
-        argv += ["-t", t]
-    if count:
-        argv += ["-C", str(count)]
-    out = subprocess.run(argv, capture_output=True, text=True).stdout
-    msgs = []
-    for line in out.splitlines():
-        topic, _, payload = line.partition(" ")
-        msgs.append((topic, payload))
-    return msgs
 
 
 def pub(port, topic, payload, retain=False, auth=()):
@@ -89,20 +82,89 @@ def pub(port, topic, payload, retain=False, auth=()):
     return subprocess.run(argv, capture_output=True, text=True).returncode
 
 
-def retained(port, topic, auth=()):
-    msgs = sub(port, [topic], count=1, timeout=2, auth=auth)
-    return msgs[0][1] if msgs else None
+class Subscriber:
+    """mosquitto_sub on `topics`, returned once the broker has confirmed the
+    subscription (its SUBACK, seen with -d): whatever is published after that
+    reaches it. messages() gives the payload lines (with -v: "topic payload")
+    until `count` came or `timeout` s passed."""
+
+    def __init__(self, port, topics, count=None, timeout=30, auth=(), verbose=False):
+        # Line-buffered (stdbuf): into a pipe, mosquitto_sub would hold its -d lines until it exits.
+        argv = ["stdbuf", "-oL", "mosquitto_sub", "-d", "-h", "127.0.0.1", "-p", str(port), "-W", str(timeout), *auth]
+        for t in topics:
+            argv += ["-t", t]
+        if count:
+            argv += ["-C", str(count)]
+        if verbose:
+            argv.append("-v")
+        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.ready = False
+        for line in self.p.stdout:
+            if "received SUBACK" in line:
+                self.ready = True
+                break
+        if not self.ready:
+            self.close()
+            raise RuntimeError(f"mosquitto_sub {' '.join(topics)} on port {port}: no SUBACK")
+
+    def messages(self):
+        for line in self.p.stdout:
+            # -d's own lines: "Client ... sending/received ...", "Subscribed (mid: 1): 0".
+            if line.startswith("Client ") or line.startswith("Subscribed (mid"):
+                continue
+            yield line.rstrip("\n")
+
+    def close(self):
+        stop(self.p)
+        self.p.stdout.close()
+
+
+def sub(port, topics, auth=(), timeout=START_DEADLINE):
+    """The retained messages on `topics` as [(topic, payload)], all of them and
+    no more, without watching for a while: subscribed (SUBACK), the broker
+    has queued every retained message for us; a probe we publish after that
+    comes behind them. None when the broker does not serve us (refused, no
+    TLS) or `timeout` passed."""
+    user = auth[auth.index("-u") + 1] if "-u" in auth else "anonymous"
+    probe = f"rtukit/inverjet/{user}/test-probe"  # inside what the ACL grants each user
+    token = os.urandom(8).hex()
+    try:
+        s = Subscriber(port, [*topics, probe], timeout=timeout, auth=auth, verbose=True)
+    except RuntimeError:
+        return None
+    try:
+        if pub(port, probe, token, auth=auth) != 0:
+            return None
+        msgs = []
+        for line in s.messages():
+            topic, _, payload = line.partition(" ")
+            if topic != probe:
+                msgs.append((topic, payload))
+            elif payload == token:
+                return msgs
+        return None
+    finally:
+        s.close()
+
+
+def retained(port, topic, auth=(), timeout=START_DEADLINE):
+    """The retained message on `topic`, or None."""
+    msgs = sub(port, [topic], auth, timeout) or []
+    return next((v for t, v in msgs if t == topic), None)
 
 
 def machine(work, name):
+    """A simulated machine: its pty, and its console once it accepts (the
+    console socket's file exists from bind(), before the simulator listens)."""
     pty, con = os.path.join(work, name), os.path.join(work, name + ".sock")
-    start([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console", "--console",
-           f"unix:{con}"])
-    wait_for(lambda: os.path.exists(pty) and os.path.exists(con))
+    sim = start([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console", "--console",
+                 f"unix:{con}"])
+    if not wait_for(lambda: os.path.exists(pty) or sim.poll() is not None, START_DEADLINE) or sim.poll() is not None:
+        raise RuntimeError(f"simulator {name} did not come up (exit {sim.poll()})")
     return pty, Console(con)
 
 
-ERR_DIR = tempfile.mkdtemp(prefix="rtukit-bridge-err-")
+ERR_DIR = None  # the bridges' stderr files: main() makes it inside its temporary folder
 
 
 def bridge(pty, port, mid, *extra, scheme="mqtt"):
@@ -116,22 +178,20 @@ def command(port, mid, cmd, payload, auth=()):
     """Publishes a command and returns the bridge's answer to it on .../result
     (the first answer naming this command, and its id when the payload has one;
     a late answer to an earlier command is skipped)."""
-    out = subprocess.Popen(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-t", f"rtukit/inverjet/{mid}/result",
-                            "-W", "5", *auth], stdout=subprocess.PIPE, text=True)
+    out = Subscriber(port, [f"rtukit/inverjet/{mid}/result"], timeout=30, auth=auth)
     try:
-        time.sleep(0.2)
         pub(port, f"rtukit/inverjet/{mid}/set/{cmd}", payload, auth=auth)
         try:
             want_id = json.loads(payload).get("id")
         except (ValueError, AttributeError):
             want_id = None
-        for line in out.stdout:
+        for line in out.messages():
             r = json.loads(line)
             if r.get("command") == cmd and r.get("id") == want_id:
                 return r
         return None
     finally:
-        stop(out)
+        out.close()
 
 
 # Home Assistant's MQTT discovery schema (the keys each component takes, as
@@ -158,7 +218,10 @@ REQUIRED = {"sensor": {"state_topic"}, "binary_sensor": {"state_topic"}, "number
 
 
 def main():
+    global ERR_DIR
     work = tempfile.mkdtemp(prefix="rtukit-mqtt-")
+    ERR_DIR = os.path.join(work, "bridge-stderr")
+    os.mkdir(ERR_DIR)
     try:
         port = free_port()
         broker = Broker(work, port)
@@ -166,20 +229,21 @@ def main():
 
         # a retained command left on the broker before the bridge comes up
         pub(port, "rtukit/inverjet/pool1/set/start", '{"mode":"free","speed":60}', retain=True)
-        refusal = subprocess.Popen(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(port), "-t",
-                                    "rtukit/inverjet/pool1/result", "-C", "1", "-W", "10"], stdout=subprocess.PIPE, text=True)
-        time.sleep(0.2)
+        refusal = Subscriber(port, ["rtukit/inverjet/pool1/result"], count=1, timeout=START_DEADLINE)
         b = bridge(pty, port, "pool1")
-        check("availability online", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online"))
-        doc = wait_for(lambda: retained(port, "rtukit/inverjet/pool1/state"))
+        check("availability online", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online",
+                                               START_DEADLINE))
+        doc = wait_for(lambda: retained(port, "rtukit/inverjet/pool1/state"), START_DEADLINE)
         state = json.loads(doc) if doc else {}
         check("retained state document", state.get("state") == "off" and state.get("speed") == 0
               and state.get("bus_v") == 311.0 and "versions" in state, doc)
-        answer = json.loads(refusal.communicate()[0] or "{}")
+        answer = json.loads(next(refusal.messages(), None) or "{}")
+        refusal.close()
         check("a retained command is refused", answer.get("ok") is False and "retained" in answer.get("error", ""), answer)
         check("a retained command is never run", con.ask("get state").startswith("state = off"), con.ask("get state"))
         pub(port, "rtukit/inverjet/pool1/set/start", "", retain=True)  # clear it
-        check("per-value topics", retained(port, "rtukit/inverjet/pool1/value/bus_v") == "311.0")
+        check("per-value topics", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/value/bus_v") == "311.0"),
+              sub(port, ["rtukit/inverjet/pool1/value/#"]))
 
         # every command and every refusal
         r = command(port, "pool1", "start", '{"mode":"timer","speed":80,"duration":"30:00","id":7}')
@@ -226,7 +290,7 @@ def main():
         con.ask("fault clear")
 
         # Home Assistant discovery
-        disc = sub(port, ["homeassistant/#"], timeout=2)
+        disc = sub(port, ["homeassistant/#"]) or []
         comps = {}
         bad = []
         own = {"rtukit/inverjet/pool1/" + t for t in ("state", "availability", "set/speed", "set/start", "set/pause",
@@ -259,27 +323,31 @@ def main():
 
         # broker restart: the bridge comes back by itself and publishes again
         broker.restart()
+        # (the bridge retries at 1, 2, 4... up to 30 s: a restart that took long is seen up to 30 s late)
         check("after a broker restart: online again", wait_for(
-            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 15))
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 60))
         check("after a broker restart: state again", wait_for(
-            lambda: retained(port, "rtukit/inverjet/pool1/state") is not None, 5))
+            lambda: retained(port, "rtukit/inverjet/pool1/state") is not None, START_DEADLINE))
 
         # the machine unplugged, then back
         stop(procs[1], signal.SIGKILL)  # the simulator
         check("machine gone: offline", wait_for(
-            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", 10))
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", START_DEADLINE))
         pty2, con = machine(work, "jet1")
         check("machine back: online", wait_for(
-            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 15))
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", START_DEADLINE))
 
         # last will: the bridge killed
         stop(b, signal.SIGKILL)
         check("bridge killed: the broker publishes offline (last will)", wait_for(
-            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", 5))
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline", START_DEADLINE))
         b = bridge(pty, port, "pool1")
-        check("bridge back", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online", 10))
+        check("bridge back", wait_for(lambda: retained(port, "rtukit/inverjet/pool1/availability") == "online",
+                                      START_DEADLINE))
         stop(b)
-        check("bridge stopped cleanly: offline", retained(port, "rtukit/inverjet/pool1/availability") == "offline")
+        # Exit 0: it ended on SIGTERM (not killed, which would publish the last will instead).
+        check("bridge stopped cleanly: offline", b.returncode == 0 and wait_for(
+            lambda: retained(port, "rtukit/inverjet/pool1/availability") == "offline"), b.returncode)
         plan = subprocess.run([RTUKIT, "inverjet", "plan", "show", "2", "--port", pty, "--json"], capture_output=True,
                               text=True)
         # The simulator was restarted without state: plan 2 is the factory plan again; shown to prove the port is free.
@@ -304,9 +372,14 @@ def main():
         authA = ("-u", "jetA", "-P", "secretA")
         authB = ("-u", "jetB", "-P", "secretB")
         check("A and B online", wait_for(lambda: retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online"
-                                         and retained(aport, "rtukit/inverjet/jetB/availability", authB) == "online", 10))
+                                         and retained(aport, "rtukit/inverjet/jetB/availability", authB) == "online",
+                                         START_DEADLINE))
+        # At QoS 1 mosquitto_pub returns once the broker has taken the message;
+        # B's answer to a command published after it shows B's bridge has seen
+        # everything the broker let through before (one subscription, in order).
         pub(aport, "rtukit/inverjet/jetB/set/start", '{"mode":"free","speed":70}', auth=authA)
-        time.sleep(1.5)
+        r = command(aport, "jetB", "fly", "{}", auth=authB)
+        check("B answers its own credentials' command after A's attempt", r and not r["ok"], r)
         check("A's credentials cannot command B", conB.ask("get state").startswith("state = off"), conB.ask("get state"))
         r = command(aport, "jetA", "start", '{"mode":"free","speed":70}', auth=authA)
         check("A's credentials command A", r and r["ok"] and wait_for(lambda: not conA.ask("get state").startswith("state = off")), r)
@@ -331,8 +404,10 @@ def main():
         bridge(ptyT, tport, "tls1", "--tls-ca", ca, scheme="mqtts")
         tls_sub = ("--cafile", ca)
         check("TLS: the bridge is online through the encrypted link",
-              wait_for(lambda: retained(tport, "rtukit/inverjet/tls1/availability", tls_sub) == "online", 10))
-        check("TLS: a plain client is not served", retained(tport, "rtukit/inverjet/tls1/availability") is None)
+              wait_for(lambda: retained(tport, "rtukit/inverjet/tls1/availability", tls_sub) == "online",
+                       START_DEADLINE))
+        # (a plain mosquitto_sub retries until its -W: 5 s of being refused)
+        check("TLS: a plain client is not served", retained(tport, "rtukit/inverjet/tls1/availability", timeout=5) is None)
         ptyU, _ = machine(work, "jetU")
         bridge(ptyU, tport, "tls2", scheme="mqtts")  # trusts only the system's CAs, not ours
         time.sleep(2)
@@ -345,20 +420,29 @@ def main():
         for i in range(20):
             p_, _ = machine(work, f"fleet{i}")
             bridge(p_, fport, f"swim{i:02d}", "--no-discovery")
-        online = wait_for(lambda: sum(1 for t, v in sub(fport, ["rtukit/inverjet/+/availability"], timeout=1)
-                                      if v == "online") == 20, 30, 0.5)
+        online = wait_for(lambda: sum(1 for t, v in sub(fport, ["rtukit/inverjet/+/availability"]) or []
+                                      if v == "online") == 20, 2 * START_DEADLINE, 0.2)
         check("20 machines online, each under its own id", online)
-        states = sub(fport, ["rtukit/inverjet/+/state"], timeout=1)
-        check("20 state documents", len({t for t, _ in states}) == 20, len(states))
+        states = set()
+
+        def twenty_states():
+            states.clear()
+            states.update(t for t, _ in sub(fport, ["rtukit/inverjet/+/state"]) or [])
+            return len(states) == 20
+        check("20 state documents", wait_for(twenty_states, START_DEADLINE, 0.5), len(states))
     finally:
         for p in reversed(procs):
             stop(p)
-    reports = [n for n in os.listdir(ERR_DIR) if "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
-    check("no sanitizer report from any bridge", not reports,
-          "".join(open(os.path.join(ERR_DIR, n)).read()[:3000] for n in reports[:1]))
+        reports = [n for n in os.listdir(ERR_DIR) if "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
+        check("no sanitizer report from any bridge", not reports,
+              "".join(open(os.path.join(ERR_DIR, n)).read()[:3000] for n in reports[:1]))
+        shutil.rmtree(work, ignore_errors=True)
     print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
     return 0 if not failures else 1
 
 
 if __name__ == "__main__":
+    # Stopped by the test runner (its deadline): end through the finally
+    # blocks, which stop what was started and remove the temporary folder.
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     sys.exit(main())
