@@ -13,6 +13,7 @@ the end.
 Usage: inverjet_bridge_mqtt.py RTUKIT
 Prints "ok NAME" / "FAIL NAME detail" per check; exits 1 when one failed.
 """
+import ctypes
 import getpass
 import json
 import os
@@ -37,8 +38,16 @@ def check(name, cond, detail=""):
         failures.append(name)
 
 
+def _end_with_us():
+    # In the child: SIGTERM when this script ends, however it ends (even
+    # SIGKILL from the test runner's deadline): no broker, simulator or
+    # bridge is left running. (prctl(PR_SET_PDEATHSIG) = 1)
+    ctypes.CDLL(None, use_errno=True).prctl(1, signal.SIGTERM, 0, 0, 0)
+
+
 def start(argv, **kw):
-    p = subprocess.Popen(argv, stdout=kw.pop("stdout", subprocess.DEVNULL), stderr=kw.pop("stderr", subprocess.DEVNULL), **kw)
+    p = subprocess.Popen(argv, stdout=kw.pop("stdout", subprocess.DEVNULL), stderr=kw.pop("stderr", subprocess.DEVNULL),
+                         preexec_fn=_end_with_us, **kw)
     procs.append(p)
     return p
 
@@ -97,14 +106,18 @@ class Subscriber:
             argv += ["-C", str(count)]
         if verbose:
             argv.append("-v")
-        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+        self.p = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True,
+                                  preexec_fn=_end_with_us)
         self.ready = False
-        for line in self.p.stdout:
-            if "received SUBACK" in line:
-                self.ready = True
-                break
+        try:
+            for line in self.p.stdout:
+                if "received SUBACK" in line:
+                    self.ready = True
+                    break
+        finally:
+            if not self.ready:
+                self.close()
         if not self.ready:
-            self.close()
             raise RuntimeError(f"mosquitto_sub {' '.join(topics)} on port {port}: no SUBACK")
 
     def messages(self):
@@ -431,6 +444,11 @@ def main():
             return len(states) == 20
         check("20 state documents", wait_for(twenty_states, START_DEADLINE, 0.5), len(states))
     finally:
+        # All told at once, then waited for: some forty programs end together
+        # (one by one they took longer than a runner's grace before SIGKILL).
+        for p in procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGTERM)
         for p in reversed(procs):
             stop(p)
         reports = [n for n in os.listdir(ERR_DIR) if "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
