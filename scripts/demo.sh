@@ -59,12 +59,12 @@ exec 4>"$dir/chair-console"
 wait_for "$chair"
 echo "== simulator: $(grep 'listening on' "$dir/chair.log")"
 run rehand6600 status --port "$chair" --json
-run rehand6600 hold stand stand --for 2s --port "$chair"      # one-touch stand, held 2 s, then released
+run rehand6600 hold stand stand --for 2s --port "$chair"      # stand/sit is press-and-hold: held 2 s (lease renewed), then released
 run rehand6600 pulse light --port "$chair"
 echo "== console: joystick 0 100 (the user drives)"
 echo "joystick 0 100" >&4
 run rehand6600 watch --port "$chair" --count 3 --interval 300
-run rehand6600 hold phone_forward --port "$chair"              # refused: phone drive only while static (exit 5)
+run rehand6600 hold phone_forward --port "$chair"              # refused: the chair is not fully seated after standing (D-10, exit 5)
 echo "joystick 0 0" >&4
 echo "== console: error 10C3 (seat lift fault)"
 echo "error 10C3" >&4
