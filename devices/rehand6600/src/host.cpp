@@ -576,20 +576,20 @@ rtukit::Status Host::pulse(uint16_t command) {
   return wait_ticket(ticket);
 }
 
-rtukit::Status Host::set_drive_mode(uint16_t mode) {
-  const Register& r = *find_register(reg::kDriveMode);
-  if (rtukit::Status e = profile::check_argument(r, mode)) return e;
+// A setting, checked against its row, queued as the local tool, waited for.
+rtukit::Status Host::set_setting(uint16_t address, uint16_t value) {
+  if (rtukit::Status e = profile::check_argument(*find_register(address), value)) return e;
   uint64_t ticket = 0;
-  if (rtukit::Status e = queue(kLocalClient, reg::kDriveMode, mode, &ticket)) return e;
+  if (rtukit::Status e = queue(kLocalClient, address, value, &ticket)) return e;
   return wait_ticket(ticket);
 }
 
+rtukit::Status Host::set_drive_mode(uint16_t mode) {
+  return set_setting(reg::kDriveMode, mode);
+}
+
 rtukit::Status Host::set_speed_level(uint16_t level) {
-  const Register& r = *find_register(reg::kSpeedLevel);
-  if (rtukit::Status e = profile::check_argument(r, level)) return e;
-  uint64_t ticket = 0;
-  if (rtukit::Status e = queue(kLocalClient, reg::kSpeedLevel, level, &ticket)) return e;
-  return wait_ticket(ticket);
+  return set_setting(reg::kSpeedLevel, level);
 }
 
 Error Host::set_host_fault(uint16_t code) {

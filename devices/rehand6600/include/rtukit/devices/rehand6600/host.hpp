@@ -262,6 +262,7 @@ class Host {
   std::vector<Event> collect();         ///< under the lock: the logic's and the session's events
   rtukit::Status queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket);
   rtukit::Status wait_ticket(uint64_t ticket);
+  rtukit::Status set_setting(uint16_t address, uint16_t value);
   Error write_command(uint16_t address, uint16_t value);
 
   HostOptions options_;
