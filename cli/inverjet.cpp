@@ -101,10 +101,10 @@ uint16_t parse_speed(const std::string& text) {
   return static_cast<uint16_t>(parse_number(text, "speed (%)", 0, ij::kMaxSpeed));
 }
 
-// "30:00", "1800": 0/1..5999 s.
+// "30:00", "30m", "90s": 0/1..5999 s (profile::parse_duration, one form everywhere).
 uint16_t parse_duration(const std::string& text, std::string_view what, uint32_t min) {
-  const Result<uint32_t> t = profile::parse_mm_ss(text);
-  if (!t.ok()) throw Failure{kUsage, fmt::format("{} '{}' is not mm:ss or a number of seconds", what, text)};
+  const Result<uint32_t> t = profile::parse_duration(text);
+  if (!t.ok()) throw Failure{kUsage, fmt::format("{} '{}': {}", what, text, t.error().reason())};
   if (*t < min || *t > ij::kMaxTime)
     throw Failure{kUsage,
                   fmt::format("{} {} ({} s) is out of range {}..5999 s (99:59)", what, text, *t, min)};
@@ -338,7 +338,7 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
     out["plan"] = plan;
     Json& list = out["segments"] = Json::array();
     for (const auto& seg : *segments)
-      list.push_back({{"speed", seg.speed}, {"end", seg.end}, {"end_text", profile::format_mm_ss(seg.end)}});
+      list.push_back({{"speed", seg.speed}, {"end", profile::format_mm_ss(seg.end)}, {"end_s", seg.end}});
     print_json(out);
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
@@ -461,9 +461,11 @@ int run_bridge(const JetArgs& a) {
   if (rtukit::Status e = bridge.start())
     throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
                   fmt::format("inverjet bridge: {}", e.reason())};
-  for (const programs::BridgeMachine& m : o.machines)
-    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on mqtt://{}:{}\n", m.unit, m.id, o.host,
-               o.port);
+  const std::vector<std::string> ids = bridge.client_ids();
+  for (size_t i = 0; i < o.machines.size(); ++i)
+    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on {}://{}:{} (client id {})\n", o.machines[i].unit,
+               o.machines[i].id, o.tls_ca.empty() ? "mqtt" : "mqtts", o.host, o.port, ids.at(i));
+  for (const std::string& w : bridge.warnings()) fmt::print(stderr, "inverjet bridge: {}\n", w);
   std::fflush(stdout);
   while (interrupt.sleep(std::chrono::milliseconds(200))) {
   }
@@ -559,7 +561,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       [&](CLI::App& cmd, JetArgs& a) {
         StartArgs& s = a.start;
         cmd.add_flag("--free", s.free, "free mode (counts up)");
-        cmd.add_option("--timer", s.timer, "timer mode for DURATION (mm:ss or seconds, 1..5999 s)");
+        cmd.add_option("--timer", s.timer, "timer mode for DURATION (mm:ss, or with a unit: 30m, 90s; at most 99:59)");
         cmd.add_option("--plan", s.plan, "training plan 1..4");
         cmd.add_option("--speed", s.speed, "speed 0..100 % (free: default from memory)");
         cmd.add_option("--from", s.from, "with --plan: start this far into the plan (mm:ss)");

@@ -503,10 +503,16 @@ TEST(InverjetRegisters, FormatsValuesFromTheTable) {
   EXPECT_EQ(format_value(*find_register("display_software"), 0x00010002), "V1.2");
   EXPECT_EQ(format_value(*find_register("mosfet_temperature"), 315), "31.5 degC");
   EXPECT_EQ(format_value(*find_register("motor_current"), 782), "7.82 A");
-  EXPECT_EQ(*profile::parse_mm_ss("30:00"), 1800u);
-  EXPECT_EQ(*profile::parse_mm_ss("90"), 90u);
-  EXPECT_FALSE(profile::parse_mm_ss("1:5").ok());
-  EXPECT_FALSE(profile::parse_mm_ss("abc").ok());
+  EXPECT_EQ(*profile::parse_duration("30:00"), 1800u);
+  EXPECT_EQ(*profile::parse_duration("1:30"), 90u);
+  EXPECT_EQ(*profile::parse_duration("30m"), 1800u);
+  EXPECT_EQ(*profile::parse_duration("90s"), 90u);
+  EXPECT_EQ(*profile::parse_duration("1m30s"), 90u);
+  // A bare number has no unit: refused, with an example.
+  EXPECT_FALSE(profile::parse_duration("30").ok());
+  EXPECT_NE(profile::parse_duration("30").error().reason().find("30:00"), std::string_view::npos);
+  for (const char* bad : {"", "1:5", "abc", "1:60", "m", "s", "30x", "1m60s", "-5s", "1m30", ":30", "999999s"})
+    EXPECT_FALSE(profile::parse_duration(bad).ok()) << bad;
 }
 
 // ------------------------------------------------------------ motor model

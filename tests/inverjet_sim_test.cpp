@@ -315,8 +315,8 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_EQ(
       json::parse(r.output)["segments"],
-      json::parse(R"([{"speed":30,"end":300,"end_text":"05:00"},{"speed":80,"end":360,"end_text":"06:00"},
-                            {"speed":40,"end":600,"end_text":"10:00"}])"));
+      json::parse(R"([{"speed":30,"end":"05:00","end_s":300},{"speed":80,"end":"06:00","end_s":360},
+                            {"speed":40,"end":"10:00","end_s":600}])"));
   // What `plan show --json` prints is a plan file too.
   std::ofstream(dir_ / "shown.json") << r.output;
   ASSERT_EQ(cli({"inverjet", "plan", "set", "2", dir_ / "shown.json"}).code, 0);
@@ -331,7 +331,7 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   EXPECT_EQ(cli({"inverjet", "plan", "set", "3", dir_ / "shown.csv"}).code, 0);
   EXPECT_EQ(cli({"inverjet", "plan", "clear", "4"}).code, 0);
   EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "4", "--json"}).output)["segments"],
-            json::parse(R"([{"speed":20,"end":60,"end_text":"01:00"}])"));
+            json::parse(R"([{"speed":20,"end":"01:00","end_s":60}])"));
 }
 
 TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
@@ -483,7 +483,7 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
   r = cli({"inverjet", "plan", "show", "2", "--json", "--unit", "12"});
   EXPECT_EQ(json::parse(r.output)["segments"],
             json::parse(
-                R"([{"speed":35,"end":120,"end_text":"02:00"},{"speed":45,"end":240,"end_text":"04:00"}])"));
+                R"([{"speed":35,"end":"02:00","end_s":120},{"speed":45,"end":"04:00","end_s":240}])"));
   EXPECT_EQ(status("12")["state"], 0);  // D-12: a restart is a power-on
 
   // Damaged: cut in half, as a failing disk leaves it. Still ours, so it is

@@ -30,9 +30,9 @@ bool make_segment(std::string_view speed_text, std::string_view end_text, const 
     *why = fmt::format("{}: speed {} % is out of range 0..100", where, speed);
     return false;
   }
-  const Result<uint32_t> end = profile::parse_mm_ss(end_text);
+  const Result<uint32_t> end = profile::parse_duration(end_text);
   if (!end.ok()) {
-    *why = fmt::format("{}: end time '{}' is not mm:ss or seconds", where, end_text);
+    *why = fmt::format("{}: end time '{}': {}", where, end_text, end.error().reason());
     return false;
   }
   if (*end > kMaxTime) {

@@ -143,22 +143,33 @@ std::string format_mm_ss(unsigned seconds) {
   return fmt::format("{:02}:{:02}", seconds / 60, seconds % 60);
 }
 
-Result<uint32_t> parse_mm_ss(std::string_view text) noexcept {
+Result<uint32_t> parse_duration(std::string_view text) noexcept {
+  // At most 5 digits a number: no overflow, and more is no duration anyway.
   const auto number = [](std::string_view t, uint32_t* out) {
-    if (t.empty()) return false;
+    if (t.empty() || t.size() > 5) return false;
     const auto [end, ec] = std::from_chars(t.data(), t.data() + t.size(), *out);
     return ec == std::errc{} && end == t.data() + t.size();
   };
-  const size_t colon = text.find(':');
+  const char* const form = "write mm:ss or a number with a unit, for example 30:00, 30m, 90s or 1m30s";
   uint32_t a = 0, b = 0;
-  if (colon == std::string_view::npos) {
-    if (!number(text, &a)) return Error(Errc::invalid_argument, "not mm:ss or seconds");
-    return a;
+  if (const size_t colon = text.find(':'); colon != std::string_view::npos) {
+    const std::string_view sec = text.substr(colon + 1);
+    if (!number(text.substr(0, colon), &a) || sec.size() != 2 || !number(sec, &b) || b > 59)
+      return Error(Errc::invalid_argument, form);
+    return a * 60 + b;
   }
-  const std::string_view sec = text.substr(colon + 1);
-  if (!number(text.substr(0, colon), &a) || sec.size() != 2 || !number(sec, &b) || b > 59)
-    return Error(Errc::invalid_argument, "not mm:ss or seconds");
-  return a * 60 + b;
+  if (number(text, &a)) return Error(Errc::invalid_argument, "a bare number has no unit: write 30:00 (mm:ss), 30m or 90s");
+  // "30m", "90s", "1m30s".
+  if (const size_t m = text.find('m'); m != std::string_view::npos) {
+    if (!number(text.substr(0, m), &a)) return Error(Errc::invalid_argument, form);
+    const std::string_view rest = text.substr(m + 1);
+    if (rest.empty()) return a * 60;
+    if (rest.back() != 's' || !number(rest.substr(0, rest.size() - 1), &b) || b > 59)
+      return Error(Errc::invalid_argument, form);
+    return a * 60 + b;
+  }
+  if (!text.empty() && text.back() == 's' && number(text.substr(0, text.size() - 1), &a)) return a;
+  return Error(Errc::invalid_argument, form);
 }
 
 std::string format_value(const Row& row, int64_t raw) {
@@ -232,8 +243,8 @@ Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
       return checked(row, bits, typed);
     }
     case Encoding::duration: {
-      const Result<uint32_t> s = parse_mm_ss(typed);
-      if (!s.ok()) return not_a("mm:ss or seconds");
+      const Result<uint32_t> s = parse_duration(typed);
+      if (!s.ok()) return not_a("a duration: mm:ss (30:00) or a number with a unit (30m, 90s)");
       return checked(row, *s, typed);
     }
     case Encoding::boolean: {

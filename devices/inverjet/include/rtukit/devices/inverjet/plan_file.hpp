@@ -1,7 +1,8 @@
 // Training-plan files for `rtukit inverjet plan set`:
-//  - CSV: one `speed,end` per line (end as mm:ss or seconds); an optional
+//  - CSV: one `speed,end` per line (end as mm:ss, or 90s / 30m: a bare number is
+//    refused, profile::parse_duration); an optional
 //    header line `speed,end`; blank lines and lines starting with # skipped.
-//  - JSON: [{"speed": 40, "end": "05:00"}, ...] (end may also be a number of seconds).
+//  - JSON: [{"speed": 40, "end": "05:00"}, ...] (end as text, the same forms).
 // The format is chosen by the first non-blank character ('[' = JSON).
 #pragma once
 
@@ -16,7 +17,7 @@
 namespace rtukit::inverjet {
 
 /// Parses and validates (validate_plan) a plan: CSV (speed,end per line), a
-/// JSON array of {"speed", "end"} (end as "mm:ss" or seconds), or the
+/// JSON array of {"speed", "end"} (end as "mm:ss", "30m", "90s"), or the
 /// document `rtukit inverjet plan show --json` prints (its "segments"). Errors: invalid_argument,
 /// the reason naming the line (CSV) or entry (JSON): "line 3: end 00:50 is not after 01:00".
 Outcome<std::vector<Segment>> parse_plan(std::string_view text);

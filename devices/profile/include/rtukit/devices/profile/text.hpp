@@ -58,8 +58,13 @@ size_t valid_utf8_prefix(std::string_view s) noexcept;
 
 /// mm:ss for a number of seconds ("30:00", "99:59").
 std::string format_mm_ss(unsigned seconds);
-/// "mm:ss", "m:ss" or plain seconds. Errors: invalid_argument.
-Result<uint32_t> parse_mm_ss(std::string_view text) noexcept;
+/// A duration as a person types it, in the one form every front-end takes
+/// (CLI, pool panel, MQTT bridge, plan files): "mm:ss" or "m:ss" ("30:00",
+/// "1:30"; seconds 00..59), or a number with a unit: "30m", "90s", "1m30s".
+/// A bare number is refused: "30" could be seconds or minutes, and a timer
+/// of 30 s that a swimmer meant as 30 min ends the run at once.
+/// Errors: invalid_argument with the reason and an example.
+Result<uint32_t> parse_duration(std::string_view text) noexcept;
 
 /// The canonical key for what a user typed: "drive-mode" -> "drive_mode".
 std::string canonical_key(std::string_view typed);
