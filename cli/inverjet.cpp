@@ -1,12 +1,17 @@
 // `rtukit inverjet ...`: the Inverjet through its typed client. Values are
 // checked here first (one clear line, exit 2), so nothing half-valid is sent;
 // decoding uses the register table (devices/inverjet/registers.hpp).
+#include <fcntl.h>
 #include <fmt/core.h>
+#include <sys/stat.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <csignal>
+#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -52,6 +57,9 @@ struct JetArgs {
               discovery_prefix = "homeassistant";
   double poll_hz = 2, max_rate = 2;
   std::string http = "127.0.0.1:8081";  ///< panel
+  std::vector<std::string> host_names;  ///< panel: DNS names allowed in Host
+  std::string tls_cert, tls_key;        ///< panel: its certificate and key (PEM)
+  bool force = false;                   ///< panel-password: replace an existing file
   bool no_discovery = false;
 };
 
@@ -473,28 +481,102 @@ int run_bridge(const JetArgs& a) {
   return kOk;
 }
 
-// The pool panel, until SIGINT/SIGTERM.
+// The pool panel, until SIGINT/SIGTERM. Off loopback it needs a password
+// file and TLS (Panel::start refuses: one line, exit 2).
 int run_panel(const JetArgs& a) {
   programs::PanelOptions o;
   o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
   o.http = a.http;
   o.poll_hz = a.poll_hz;
   o.response_timeout_ms = a.link.timeout_ms;
-  if (!web::is_loopback(a.http))
-    fmt::print(stderr,
-               "warning: the panel on {} is reachable from the network: anyone who reaches it can start "
-               "the machine; put it on the pool's own network or behind an authenticating proxy\n",
-               a.http);
+  o.host_names = a.host_names;
+  o.password_file = a.password_file;
+  o.tls_cert = a.tls_cert;
+  o.tls_key = a.tls_key;
   programs::Panel panel(io::make_link(a.link.spec(false)), o);
   const Interruptible interrupt;
   if (rtukit::Status e = panel.start())
-    throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
+    throw Failure{e.code() == Errc::invalid_argument || e.code() == Errc::malformed ? kUsage : kIoError,
                   fmt::format("inverjet panel: {}", e.reason())};
-  fmt::print("inverjet panel: {}  (unit {})\n", panel.url(), o.unit);
+  fmt::print("inverjet panel: {}  (unit {}{})\n", panel.url(), o.unit,
+             o.password_file.empty() ? ", no password: loopback only" : ", password required");
   std::fflush(stdout);
   while (interrupt.sleep(std::chrono::milliseconds(200))) {
   }
   panel.stop();
+  return kOk;
+}
+
+// One line from stdin without its line end; on a terminal, `prompt` first
+// (on stderr) and without echo.
+std::string read_secret_line(const char* prompt) {
+  const bool tty = ::isatty(0) != 0;
+  termios old{};
+  if (tty) {
+    fmt::print(stderr, "{}", prompt);
+    std::fflush(stderr);
+    ::tcgetattr(0, &old);
+    termios quiet = old;
+    quiet.c_lflag &= ~static_cast<tcflag_t>(ECHO);
+    ::tcsetattr(0, TCSAFLUSH, &quiet);
+  }
+  std::string line;
+  char c = 0;
+  while (line.size() < 4096) {
+    const ssize_t n = ::read(0, &c, 1);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0 || c == '\n') break;
+    line += c;
+  }
+  if (tty) {
+    ::tcsetattr(0, TCSAFLUSH, &old);
+    fmt::print(stderr, "\n");
+  }
+  if (!line.empty() && line.back() == '\r') line.pop_back();
+  return line;
+}
+
+// `rtukit inverjet panel-password FILE`: the panel's password file, from a
+// password read on stdin (docs/inverjet.md, "Pool panel").
+int run_panel_password(const JetArgs& a) {
+  struct stat st {};
+  if (!a.force && ::lstat(a.file.c_str(), &st) == 0)
+    throw Failure{kUsage, fmt::format("{} exists: not replaced (--force replaces it)", a.file)};
+  const std::string password = read_secret_line("New panel password: ");
+  size_t characters = 0;  // UTF-8: count code points, not bytes
+  for (const char c : password)
+    if ((static_cast<unsigned char>(c) & 0xC0) != 0x80) ++characters;
+  if (characters < 8)
+    throw Failure{kUsage, password.empty() ? std::string("no password on stdin (at least 8 characters)")
+                                           : fmt::format("the password has {} characters: at least 8, please",
+                                                         characters)};
+  if (::isatty(0) && read_secret_line("Again: ") != password)
+    throw Failure{kUsage, "the two passwords differ: nothing written"};
+  const Outcome<std::string> record = programs::make_password_record(password);
+  if (!record) throw Failure{kIoError, std::string(record.error().reason())};
+  if (a.force) {
+    if (rtukit::Status e = io::write_file_atomically(a.file, *record, 0600))
+      throw Failure{kIoError, fmt::format("{}: {}", a.file, e.reason())};
+  } else {
+    const int fd = ::open(a.file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
+    if (fd < 0) {
+      if (errno == EEXIST)
+        throw Failure{kUsage, fmt::format("{} exists: not replaced (--force replaces it)", a.file)};
+      throw Failure{kIoError, fmt::format("{}: {}", a.file, std::strerror(errno))};
+    }
+    const bool written =
+        ::write(fd, record->data(), record->size()) == static_cast<ssize_t>(record->size()) &&
+        ::fsync(fd) == 0;
+    ::close(fd);
+    if (!written) {
+      ::unlink(a.file.c_str());
+      throw Failure{kIoError, fmt::format("{}: cannot write", a.file)};
+    }
+  }
+  fmt::print(
+      "{}: the panel's password (PBKDF2-HMAC-SHA256, mode 0600); use it with `rtukit inverjet panel "
+      "--password-file {}`\n",
+      a.file, a.file);
   return kOk;
 }
 
@@ -536,9 +618,29 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
         cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
         cmd.add_option("--http", a.http, "HOST:PORT to serve the page on")->capture_default_str();
         cmd.add_option("--poll-hz", a.poll_hz, "polls per second")->capture_default_str();
-        examples(cmd, {"rtukit inverjet panel " + port + " --http 127.0.0.1:8081"});
+        cmd.add_option("--password-file", a.password_file,
+                       "the panel's password (made by `rtukit inverjet panel-password FILE`); required "
+                       "off loopback");
+        cmd.add_option("--tls-cert", a.tls_cert, "PEM certificate: serve HTTPS (required off loopback)");
+        cmd.add_option("--tls-key", a.tls_key, "the certificate's PEM private key");
+        cmd.add_option("--host-name", a.host_names,
+                       "a DNS name the panel is reached by (pool.local), besides IP addresses (repeatable)");
+        examples(cmd, {"rtukit inverjet panel " + port + " --http 127.0.0.1:8081",
+                       "rtukit inverjet panel " + port +
+                           " --http 192.168.10.2:8443 --password-file /etc/rtukit/panel.pw --tls-cert "
+                           "/etc/rtukit/panel.crt --tls-key /etc/rtukit/panel.key --host-name pool.local"});
       },
       [](const JetArgs& a) { return run_panel(a); });
+  add_command<JetArgs>(
+      *jet, action, "panel-password",
+      "make the pool panel's password file from a password read on stdin (docs/inverjet.md)",
+      [&](CLI::App& cmd, JetArgs& a) {
+        cmd.add_option("FILE", a.file, "the file to write (mode 0600)")->required();
+        cmd.add_flag("--force", a.force, "replace an existing file");
+        examples(cmd, {"rtukit inverjet panel-password /etc/rtukit/panel.pw",
+                       "printf '%s\\n' \"$PW\" | rtukit inverjet panel-password panel.pw --force"});
+      },
+      [](const JetArgs& a) { return run_panel_password(a); });
   add_command<JetArgs>(
       *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
       [&](CLI::App& cmd, JetArgs& a) {

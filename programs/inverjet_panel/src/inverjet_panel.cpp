@@ -1,20 +1,38 @@
 // The pool panel: a bus thread (polls, commands, history) and the web
 // thread (pages). Commands cross from the web thread to the bus thread in a
 // queue; states, samples and results cross back with Server::post.
+//
+// Who may use it (docs/inverjet.md, "Pool panel"): the web layer checks
+// Origin and Host on every request; with a password file, every request but
+// the login page needs a session cookie. A session is a 256-bit random token
+// the browser keeps in an HttpOnly, SameSite=Strict cookie (Secure unless the
+// listener is plain HTTP on loopback); the panel keeps only its SHA-256, in
+// memory, for 12 hours. Wrong passwords: 10 per source address per minute.
 #include "rtukit/programs/inverjet_panel.hpp"
 
+#include <fmt/chrono.h>
 #include <fmt/core.h>
+#include <openssl/crypto.h>
+#include <openssl/evp.h>
+#include <sys/random.h>
 
+#include <array>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <ctime>
 #include <deque>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <set>
+#include <sstream>
 #include <thread>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
@@ -28,12 +46,214 @@ namespace ij = inverjet;
 
 constexpr size_t kHistory = 2 * 60 * 60 * 2;  // two hours at 2 Hz
 
+constexpr std::string_view kRecordTag = "rtukit-panel-password";
+constexpr std::string_view kRecordAlgorithm = "pbkdf2-sha256";
+constexpr size_t kSaltBytes = 16, kKeyBytes = 32, kTokenBytes = 32;
+constexpr std::string_view kCookie = "rtukit_panel";
+constexpr auto kSessionLife = std::chrono::hours(12);
+constexpr size_t kMaxSessions = 256;  ///< the oldest goes first beyond this
+constexpr int kWrongPerAddress = 10;  ///< wrong passwords per source address per kWrongWindow
+constexpr auto kWrongWindow = std::chrono::minutes(1);
+
 struct Job {
   uint64_t socket = 0;
   Json message;
 };
 
+bool random_bytes(unsigned char* out, size_t n) {
+  size_t got = 0;
+  while (got < n) {
+    const ssize_t r = ::getrandom(out + got, n - got, 0);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) return false;
+    got += static_cast<size_t>(r);
+  }
+  return true;
+}
+
+std::string hex(const unsigned char* data, size_t n) {
+  std::string out;
+  for (size_t i = 0; i < n; ++i) out += fmt::format("{:02x}", data[i]);
+  return out;
+}
+
+std::optional<std::vector<unsigned char>> unhex(std::string_view text) {
+  if (text.size() % 2) return std::nullopt;
+  std::vector<unsigned char> out;
+  for (size_t i = 0; i < text.size(); i += 2) {
+    unsigned v = 0;
+    for (const char c : text.substr(i, 2)) {
+      v <<= 4;
+      if (c >= '0' && c <= '9')
+        v |= static_cast<unsigned>(c - '0');
+      else if (c >= 'a' && c <= 'f')
+        v |= static_cast<unsigned>(c - 'a' + 10);
+      else
+        return std::nullopt;
+    }
+    out.push_back(static_cast<unsigned char>(v));
+  }
+  return out;
+}
+
+std::string base64url(const unsigned char* data, size_t n) {
+  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_";
+  std::string out;
+  uint32_t bits = 0;
+  int have = 0;
+  for (size_t i = 0; i < n; ++i) {
+    bits = (bits << 8) | data[i];
+    have += 8;
+    while (have >= 6) {
+      have -= 6;
+      out += kAlphabet[(bits >> have) & 63];
+    }
+  }
+  if (have > 0) out += kAlphabet[(bits << (6 - have)) & 63];
+  return out;
+}
+
+std::string sha256_hex(std::string_view text) {
+  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
+  unsigned int n = 0;
+  if (EVP_Digest(text.data(), text.size(), digest.data(), &n, EVP_sha256(), nullptr) != 1) return {};
+  return hex(digest.data(), n);
+}
+
+bool derive(std::string_view password, const std::vector<unsigned char>& salt, unsigned iterations,
+            unsigned char* key, size_t key_bytes) {
+  return PKCS5_PBKDF2_HMAC(password.data(), static_cast<int>(password.size()), salt.data(),
+                           static_cast<int>(salt.size()), static_cast<int>(iterations), EVP_sha256(),
+                           static_cast<int>(key_bytes), key) == 1;
+}
+
+struct Record {
+  unsigned iterations = 0;
+  std::vector<unsigned char> salt, key;
+};
+
+std::optional<Record> parse_record(std::string_view text) {
+  while (!text.empty() && (text.back() == '\n' || text.back() == '\r')) text.remove_suffix(1);
+  std::istringstream in{std::string(text)};
+  std::string tag, algorithm, iterations, salt, key, extra;
+  if (!(in >> tag >> algorithm >> iterations >> salt >> key) || (in >> extra)) return std::nullopt;
+  if (tag != kRecordTag || algorithm != kRecordAlgorithm) return std::nullopt;
+  Record r;
+  if (iterations.empty() || iterations.size() > 9 ||
+      iterations.find_first_not_of("0123456789") != std::string::npos)
+    return std::nullopt;
+  r.iterations = static_cast<unsigned>(std::stoul(iterations));
+  auto s = unhex(salt), k = unhex(key);
+  if (r.iterations < 1000 || !s || !k || s->size() < 8 || k->size() != kKeyBytes) return std::nullopt;
+  r.salt = std::move(*s);
+  r.key = std::move(*k);
+  return r;
+}
+
+// "a=1; b=2" -> the value of `name`, "" when absent.
+std::string cookie_value(std::string_view header, std::string_view name) {
+  while (!header.empty()) {
+    const size_t semi = header.find(';');
+    std::string_view item = header.substr(0, semi);
+    header = semi == std::string_view::npos ? std::string_view() : header.substr(semi + 1);
+    while (!item.empty() && item.front() == ' ') item.remove_prefix(1);
+    if (item.size() > name.size() && item.substr(0, name.size()) == name && item[name.size()] == '=')
+      return std::string(item.substr(name.size() + 1));
+  }
+  return {};
+}
+
+// application/x-www-form-urlencoded: the value of `key`, %-decoded.
+std::optional<std::string> form_value(std::string_view body, std::string_view key) {
+  while (!body.empty()) {
+    const size_t amp = body.find('&');
+    const std::string_view item = body.substr(0, amp);
+    body = amp == std::string_view::npos ? std::string_view() : body.substr(amp + 1);
+    const size_t eq = item.find('=');
+    if (eq == std::string_view::npos || item.substr(0, eq) != key) continue;
+    std::string out;
+    const std::string_view v = item.substr(eq + 1);
+    for (size_t i = 0; i < v.size(); ++i) {
+      if (v[i] == '+') {
+        out += ' ';
+      } else if (v[i] == '%' && i + 2 < v.size()) {
+        const auto b = unhex(fmt::format("{}{}", static_cast<char>(std::tolower(v[i + 1])),
+                                         static_cast<char>(std::tolower(v[i + 2]))));
+        if (!b) return std::nullopt;
+        out += static_cast<char>((*b)[0]);
+        i += 2;
+      } else if (v[i] == '%') {
+        return std::nullopt;
+      } else {
+        out += v[i];
+      }
+    }
+    return out;
+  }
+  return std::nullopt;
+}
+
+std::string html_escape(std::string_view text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+int64_t unix_ms() {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
 }  // namespace
+
+rtukit::Outcome<std::string> make_password_record(std::string_view password, unsigned iterations) {
+  std::vector<unsigned char> salt(kSaltBytes);
+  if (!random_bytes(salt.data(), salt.size()))
+    return rtukit::Status(Errc::io_error, "no random bytes from the OS (getrandom)");
+  std::array<unsigned char, kKeyBytes> key{};
+  if (!derive(password, salt, iterations, key.data(), key.size()))
+    return rtukit::Status(Errc::io_error, "PBKDF2 failed (OpenSSL)");
+  return fmt::format("{} {} {} {} {}\n", kRecordTag, kRecordAlgorithm, iterations,
+                     hex(salt.data(), salt.size()), hex(key.data(), key.size()));
+}
+
+rtukit::Outcome<bool> check_password(std::string_view record, std::string_view password) {
+  const std::optional<Record> r = parse_record(record);
+  if (!r) return rtukit::Status(Errc::malformed, "not a panel password record");
+  std::array<unsigned char, kKeyBytes> key{};
+  if (!derive(password, r->salt, r->iterations, key.data(), key.size()))
+    return rtukit::Status(Errc::io_error, "PBKDF2 failed (OpenSSL)");
+  return CRYPTO_memcmp(key.data(), r->key.data(), kKeyBytes) == 0;
+}
+
+rtukit::Outcome<std::string> load_password_record(const std::string& path) {
+  Outcome<std::string> text = io::read_regular_file(path, 4096);
+  if (!text) return rtukit::Status(text.error().error(), fmt::format("{}: {}", path, text.error().reason()));
+  if (!parse_record(*text))
+    return rtukit::Status(Errc::malformed,
+                          fmt::format("{}: not a panel password file (make one with `rtukit inverjet "
+                                      "panel-password {}`)",
+                                      path, path));
+  return *text;
+}
 
 struct Panel::Impl {
   Impl(std::unique_ptr<io::Link> link, PanelOptions o)
@@ -41,7 +261,16 @@ struct Panel::Impl {
         master(std::move(link),
                MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms)}),
         client(master, UnitId{options.unit}),
-        server(web::ServerOptions{.listen = {web::Listener::from(options.http)}}, handlers()) {}
+        server(web::ServerOptions{.listen = {listener()}}, handlers()) {
+    if (!options.log)
+      options.log = [](const std::string& line) {
+        const std::time_t now = std::time(nullptr);
+        std::tm tm{};
+        ::localtime_r(&now, &tm);
+        fmt::print(stderr, "{:%Y-%m-%d %H:%M:%S} inverjet panel: {}\n", tm, line);
+        std::fflush(stderr);
+      };
+  }
 
   PanelOptions options;
   Master master;
@@ -61,30 +290,235 @@ struct Panel::Impl {
   std::vector<Json> history;
   std::string plans;
 
+  // Who may use it. `record` is set by start() before the server runs; the
+  // rest is the web thread's.
+  std::string record;  ///< the password file's line; empty: no password (loopback only)
+  struct Session {
+    Clock::time_point until;
+    Clock::time_point made;
+  };
+  std::map<std::string, Session> sessions;  ///< by the SHA-256 (hex) of the token
+  std::map<uint64_t, std::string> socket_session;
+  struct Wrong {
+    Clock::time_point since{};
+    int count = 0;
+  };
+  std::map<std::string, Wrong> wrong;  ///< per source address
+
+  web::Listener listener() const {
+    web::Listener l = web::Listener::from(options.http);
+    l.host_names = options.host_names;
+    if (!options.tls_cert.empty() && !options.tls_key.empty())
+      l.tls = web::TlsFiles{options.tls_cert, options.tls_key};
+    return l;
+  }
+
+  void log(const std::string& line) const { options.log(line); }
+
+  static std::string address_of(const std::string& peer) {
+    // "192.168.1.5:51234", "[::1]:51234" -> the address alone.
+    std::string a = peer.substr(0, peer.rfind(':'));
+    if (a.size() >= 2 && a.front() == '[' && a.back() == ']') a = a.substr(1, a.size() - 2);
+    if (a.rfind("::ffff:", 0) == 0) a = a.substr(7);
+    return a;
+  }
+
+  // The session the request's cookie names, or "" (none, unknown, expired).
+  std::string session_of(const web::HttpRequest& r) {
+    const std::string token = cookie_value(r.cookie, kCookie);
+    if (token.empty() || token.size() > 100) return {};
+    const std::string id = sha256_hex(token);
+    const auto it = sessions.find(id);
+    if (it == sessions.end()) return {};
+    if (Clock::now() >= it->second.until) {
+      end_session(id, "expired");
+      return {};
+    }
+    return id;
+  }
+
+  bool authorized(const web::HttpRequest& r) { return record.empty() || !session_of(r).empty(); }
+
+  void end_session(const std::string& id, const std::string& why) {
+    sessions.erase(id);
+    for (auto it = socket_session.begin(); it != socket_session.end();) {
+      if (it->second == id) {
+        if (auto s = sockets.find(it->first); s != sockets.end()) s->second->close(why);
+        it = socket_session.erase(it);
+      } else {
+        ++it;
+      }
+    }
+  }
+
+  void expire_sessions() {
+    const auto now = Clock::now();
+    std::vector<std::string> old;
+    for (const auto& [id, s] : sessions)
+      if (now >= s.until) old.push_back(id);
+    for (const std::string& id : old) {
+      end_session(id, "session expired: log in again");
+      log("a session expired (12 h)");
+    }
+    for (auto it = wrong.begin(); it != wrong.end();)
+      it = now - it->second.since > kWrongWindow ? wrong.erase(it) : std::next(it);
+  }
+
+  // Wrong passwords from one address, per minute: guessing is slow.
+  std::optional<int64_t> locked_for(const std::string& address) {
+    auto& w = wrong[address];
+    const auto now = Clock::now();
+    if (now - w.since > kWrongWindow) w = {now, 0};
+    if (w.count < kWrongPerAddress) return std::nullopt;
+    return std::max<int64_t>(1,
+                             std::chrono::ceil<std::chrono::seconds>(w.since + kWrongWindow - now).count());
+  }
+
+  static web::HttpResponse see_other(std::string where) {
+    web::HttpResponse r{
+        .status = 303, .content_type = "text/plain; charset=utf-8", .body = "see " + where + "\n"};
+    r.headers.emplace_back("Location", std::move(where));
+    return r;
+  }
+
+  static web::HttpResponse login_page(unsigned status, std::string_view why) {
+    const web::Asset* a = web::find_asset("/inverjet/login.html");
+    std::string body = a ? std::string(a->body) : std::string("<!doctype html><p>login page missing</p>");
+    const std::string marker = "<p id=\"why\" class=\"reason\">";
+    if (const size_t at = body.find(marker); at != std::string::npos && !why.empty())
+      body.insert(at + marker.size(), html_escape(why));
+    return {.status = status, .content_type = "text/html; charset=utf-8", .body = std::move(body)};
+  }
+
+  web::HttpResponse login(const web::HttpRequest& r) {
+    const bool json = !r.body.empty() && r.body.front() == '{';
+    const auto refuse = [&](unsigned status, const std::string& why) {
+      if (json) return web::HttpResponse{.status = status, .body = Json{{"error", why}}.dump()};
+      return login_page(status, why);
+    };
+    if (record.empty()) return see_other("/");  // no password on this panel
+    const std::string from = address_of(r.peer);
+    if (const std::optional<int64_t> wait = locked_for(from)) {
+      log(fmt::format("login refused from {}: too many wrong passwords", from));
+      web::HttpResponse res =
+          refuse(429, fmt::format("Too many wrong passwords from this device: try again in {} s.", *wait));
+      res.headers.emplace_back("Retry-After", std::to_string(*wait));
+      return res;
+    }
+    std::optional<std::string> password;
+    if (json) {
+      const Json body = Json::parse(r.body, nullptr, false);
+      if (body.is_object() && body.contains("password") && body["password"].is_string())
+        password = body["password"].get<std::string>();
+    } else {
+      password = form_value(r.body, "password");
+    }
+    if (!password || password->empty()) return refuse(400, "Enter the panel's password.");
+    const Outcome<bool> ok = check_password(record, *password);
+    if (!ok) return refuse(500, std::string(ok.error().reason()));
+    if (!*ok) {
+      ++wrong[from].count;
+      log(fmt::format("wrong password from {} ({} this minute)", from, wrong[from].count));
+      return refuse(401, "Wrong password: try again. Ask the pool staff for the panel's password.");
+    }
+    std::array<unsigned char, kTokenBytes> raw{};
+    if (!random_bytes(raw.data(), raw.size())) return refuse(500, "no random bytes from the OS");
+    const std::string token = base64url(raw.data(), raw.size());
+    if (sessions.size() >= kMaxSessions) {
+      auto oldest = sessions.begin();
+      for (auto it = sessions.begin(); it != sessions.end(); ++it)
+        if (it->second.made < oldest->second.made) oldest = it;
+      end_session(oldest->first, "too many sessions: the oldest ended");
+    }
+    const auto now = Clock::now();
+    sessions[sha256_hex(token)] = {now + kSessionLife, now};
+    log(fmt::format("login from {} ({} session(s))", from, sessions.size()));
+    // Secure, except on plain HTTP on loopback (the browser would drop it).
+    const bool secure = r.secure || !web::is_loopback(options.http);
+    web::HttpResponse res = see_other("/");
+    res.headers.emplace_back(
+        "Set-Cookie", fmt::format("{}={}; Path=/;{} HttpOnly; SameSite=Strict; Max-Age={}", kCookie, token,
+                                  secure ? " Secure;" : "",
+                                  std::chrono::duration_cast<std::chrono::seconds>(kSessionLife).count()));
+    return res;
+  }
+
+  web::HttpResponse logout(const web::HttpRequest& r) {
+    if (const std::string id = session_of(r); !id.empty()) {
+      end_session(id, "logged out");
+      log(fmt::format("logout from {}", address_of(r.peer)));
+    }
+    web::HttpResponse res = see_other(record.empty() ? "/" : "/login");
+    const bool secure = r.secure || !web::is_loopback(options.http);
+    res.headers.emplace_back("Set-Cookie", fmt::format("{}=; Path=/;{} HttpOnly; SameSite=Strict; Max-Age=0",
+                                                       kCookie, secure ? " Secure;" : ""));
+    return res;
+  }
+
+  web::HttpResponse http(const web::HttpRequest& r) {
+    if (r.path == "/login") {
+      if (r.method == "POST") return login(r);
+      if (record.empty() || authorized(r)) return see_other("/");
+      return login_page(200, "");
+    }
+    if (r.path == "/logout") {
+      if (r.method != "POST")
+        return {.status = 405, .content_type = "text/plain; charset=utf-8", .body = "POST /logout\n"};
+      return logout(r);
+    }
+    if (r.path == "/inverjet/login.css") return *web::asset_response(r.path);
+    if (!authorized(r)) {
+      if (r.path == "/" || r.path.ends_with(".html")) return see_other("/login");
+      return {.status = 401, .body = R"({"error":"log in first: /login"})"};
+    }
+    if (r.path == "/api/session") return {.body = Json{{"auth", !record.empty()}}.dump()};
+    const std::string path = r.path == "/" ? "/inverjet/panel.html" : r.path;
+    if (path != "/inverjet/login.html")
+      if (auto a = web::asset_response(path)) return *a;
+    return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
+  }
+
   web::Handlers handlers() {
     web::Handlers h;
-    h.http = [](const web::HttpRequest& r) -> web::HttpResponse {
-      const std::string path = r.path == "/" ? "/inverjet/panel.html" : r.path;
-      if (auto a = web::asset_response(path)) return *a;
-      return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
-    };
-    h.upgrade = [](const web::HttpRequest& r) -> std::optional<web::HttpResponse> {
+    h.http = [this](const web::HttpRequest& r) { return http(r); };
+    h.upgrade = [this](const web::HttpRequest& r) -> std::optional<web::HttpResponse> {
       if (r.path != "/ws") return web::HttpResponse{.status = 404, .body = R"({"error":"no such endpoint"})"};
+      if (!authorized(r))
+        return web::HttpResponse{.status = 401, .body = R"({"error":"log in first: /login"})"};
       return std::nullopt;
     };
     h.opened = [this](const web::SocketPtr& s) {
+      if (!record.empty()) {
+        const std::string id = session_of(s->request());
+        if (id.empty()) {  // ended between the upgrade and now
+          s->close("log in first");
+          return;
+        }
+        socket_session[s->id()] = id;
+      }
       sockets[s->id()] = s;
       if (!last_state.empty()) s->send(last_state);
       s->send(Json{{"type", "history"}, {"samples", history}}.dump());
       if (!plans.empty()) s->send(plans);
     };
-    h.closed = [this](const web::SocketPtr& s) { sockets.erase(s->id()); };
+    h.closed = [this](const web::SocketPtr& s) {
+      sockets.erase(s->id());
+      socket_session.erase(s->id());
+    };
     h.message = [this](const web::SocketPtr& s, std::string_view text) {
+      if (!record.empty() && !socket_session.contains(s->id())) return;
       Json m = Json::parse(text, nullptr, false);
       if (m.is_discarded() || !m.is_object() || !m.contains("op") || !m["op"].is_string()) {
         s->send(Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
         return;
       }
+      const std::string op = m["op"].get<std::string>();
+      if (op == "ping") {  // the page's check for a half-open connection
+        s->send(R"({"type":"pong"})");
+        return;
+      }
+      if (op == "start" || op == "stop" || op == "plan")
+        log(fmt::format("{} from {}", op, s->peer_address()));
       std::lock_guard lock(mutex);
       if (jobs.size() >= 16) {  // a page that floods the bus waits for nobody: refused
         s->send(Json{{"type", "result"},
@@ -115,7 +549,8 @@ struct Panel::Impl {
       Outcome<std::vector<ij::Segment>> segments = client.read_plan(p);
       Json list = Json::array();
       if (segments)
-        for (const ij::Segment& s : *segments) list.push_back({{"speed", s.speed}, {"end", s.end}});
+        for (const ij::Segment& s : *segments)
+          list.push_back({{"speed", s.speed}, {"end", profile::format_mm_ss(s.end)}, {"end_s", s.end}});
       all.push_back(list);
     }
     return Json{{"type", "plans"}, {"plans", all}};
@@ -162,6 +597,7 @@ struct Panel::Impl {
     bool plans_read = false;
     bool running_before = false;
     bool online = false;
+    bool said_offline = false;  // the page hears of a machine that never answered too
     unsigned failures = 0;
     for (;;) {
       std::deque<Job> todo;
@@ -177,8 +613,9 @@ struct Panel::Impl {
       next_poll = Clock::now() + period;
       const Result<ij::MachineStatus> s = client.status();
       if (!s) {
-        if (++failures >= 2 && online) {
+        if (++failures >= 2 && (online || !said_offline)) {
           online = false;
+          said_offline = true;
           server.post([this] {
             Json st = last_state.empty() ? Json{{"type", "state"}} : Json::parse(last_state);
             st["online"] = false;
@@ -192,6 +629,7 @@ struct Panel::Impl {
       }
       failures = 0;
       online = true;
+      const int64_t contact = unix_ms();
       if (!plans_read) {
         plans_read = true;
         Json p = read_plans();
@@ -203,6 +641,7 @@ struct Panel::Impl {
       Json st = machine_state_json(*s);
       st["type"] = "state";
       st["online"] = true;
+      st["last_contact_ms"] = contact;
       const bool running = s->phase() == ij::Phase::running || s->phase() == ij::Phase::starting ||
                            s->phase() == ij::Phase::paused;
       const bool new_run = running && !running_before;
@@ -240,7 +679,27 @@ Panel::~Panel() {
 }
 
 rtukit::Status Panel::start() {
-  if (rtukit::Status e = impl_->server.start()) return e;
+  Impl& p = *impl_;
+  const PanelOptions& o = p.options;
+  const auto bad = [](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
+  if (o.tls_cert.empty() != o.tls_key.empty()) return bad("--tls-cert and --tls-key go together");
+  if (!web::is_loopback(o.http) && (o.password_file.empty() || o.tls_cert.empty()))
+    return bad(fmt::format(
+        "the panel on {} is reachable from the network: it needs {} (anyone who reaches it could start the "
+        "machine; see docs/inverjet.md, \"Pool panel\")",
+        o.http,
+        o.password_file.empty() && o.tls_cert.empty()
+            ? "--password-file FILE and --tls-cert FILE --tls-key FILE"
+        : o.password_file.empty() ? "--password-file FILE (make it with `rtukit inverjet "
+                                    "panel-password FILE`)"
+                                  : "TLS: --tls-cert FILE --tls-key FILE"));
+  if (!o.password_file.empty()) {
+    Outcome<std::string> r = load_password_record(o.password_file);
+    if (!r) return r.error();
+    p.record = std::move(*r);
+  }
+  p.server.every(30'000, [&p] { p.expire_sessions(); });
+  if (rtukit::Status e = p.server.start()) return e;
   impl_->thread = std::thread([this] { impl_->run(); });
   return {};
 }
@@ -258,7 +717,7 @@ void Panel::stop() {
 }
 
 std::string Panel::url() const {
-  return web::url_of(impl_->options.http, impl_->server.ports().at(0));
+  return web::listener_url(impl_->listener(), impl_->server.ports().at(0));
 }
 
 }  // namespace rtukit::programs
