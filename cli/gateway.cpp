@@ -76,7 +76,9 @@ void add_gateway_command(CLI::App& app, Action& action) {
                        "where clients connect: tcp://HOST:PORT (Modbus TCP) or rtu+tcp://HOST:PORT (RTU "
                        "frames over TCP); repeatable; loopback unless told")
             ->capture_default_str();
-        cmd.add_flag("--read-only", a.read_only, "refuse every write with exception 01");
+        cmd.add_flag("--read-only", a.read_only,
+                     "relay only requests that change nothing (FC01-04, FC08 echo/register/counters, "
+                     "FC0B, FC0C, FC11, FC2B/0E); everything else gets exception 01");
         cmd.add_option("--allow-units", a.allow_units,
                        "units relayed: 1,21 or 1-10 (default 1-247); others get 0A");
         cmd.add_option("--cache-ms", a.cache_ms,

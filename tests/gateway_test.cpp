@@ -11,6 +11,8 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <map>
+#include <sstream>
 #include <thread>
 
 #include "process.hpp"
@@ -59,6 +61,78 @@ class GatewayTest : public ::testing::Test {
   std::unique_ptr<Process> bus_;
   std::unique_ptr<Process> gateway_;
 };
+
+// A `--read-only` gateway in front of the slave, and a raw Modbus TCP client,
+// so that any PDU can be sent and its answer seen byte for byte.
+class GatewayReadOnly : public GatewayTest {
+ protected:
+  void SetUp() override {
+    ASSERT_NO_FATAL_FAILURE(start({"--read-only"}));
+    fd_ = connect_to(port_);
+    ASSERT_GE(fd_, 0);
+    const timeval wait{3, 0};
+    ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &wait, sizeof wait);
+  }
+  void TearDown() override {
+    if (fd_ >= 0) ::close(fd_);
+  }
+
+  // One request to unit 21: the PDU of its answer, empty if none came within 3 s.
+  std::vector<uint8_t> ask(const std::vector<uint8_t>& pdu) {
+    const auto t = static_cast<uint16_t>(++transaction_);
+    const auto length = static_cast<uint16_t>(pdu.size() + 1);
+    std::vector<uint8_t> adu = {static_cast<uint8_t>(t >> 8),      static_cast<uint8_t>(t),      0,    0,
+                                static_cast<uint8_t>(length >> 8), static_cast<uint8_t>(length), kUnit};
+    adu.insert(adu.end(), pdu.begin(), pdu.end());
+    if (::send(fd_, adu.data(), adu.size(), MSG_NOSIGNAL) != static_cast<ssize_t>(adu.size())) return {};
+    const auto read_exactly = [&](uint8_t* p, size_t n) {
+      for (size_t got = 0; got < n;) {
+        const ssize_t r = ::recv(fd_, p + got, n - got, 0);
+        if (r <= 0) return false;
+        got += static_cast<size_t>(r);
+      }
+      return true;
+    };
+    uint8_t h[7];
+    if (!read_exactly(h, sizeof h) || load_be16(h) != t || h[6] != kUnit) return {};
+    const uint16_t n = load_be16(h + 4);
+    if (n < 2) return {};
+    std::vector<uint8_t> answer(n - 1u);
+    if (!read_exactly(answer.data(), answer.size())) return {};
+    return answer;
+  }
+
+  // Every request PDU that reached unit 21 on the bus, in order (the slave's
+  // -v log: "rx UNIT PDU... CRC CRC -> tx ..."). Waits until `last` (a read
+  // sent after everything else) is among them, so the log is complete.
+  std::vector<std::vector<uint8_t>> bus_saw_after(const std::vector<uint8_t>& last) {
+    std::vector<std::vector<uint8_t>> pdus;
+    eventually([&] {
+      pdus.clear();
+      std::istringstream log(bus_->output());
+      for (std::string line; std::getline(log, line);) {
+        const size_t rx = line.find("rx "), arrow = line.find(" ->");
+        if (rx != 0 || arrow == std::string::npos) continue;
+        std::istringstream bytes(line.substr(3, arrow - 3));
+        std::vector<uint8_t> frame;
+        for (unsigned b = 0; bytes >> std::hex >> b;) frame.push_back(static_cast<uint8_t>(b));
+        if (frame.size() < 4 || frame[0] != kUnit) continue;
+        pdus.emplace_back(frame.begin() + 1, frame.end() - 2);  // without unit and CRC
+      }
+      return !pdus.empty() && pdus.back() == last;
+    });
+    return pdus;
+  }
+
+  static constexpr uint8_t kUnit = 21;
+  int fd_ = -1;
+  unsigned transaction_ = 0;
+};
+
+// The read-only allow-list, written out from the issue that defined it.
+bool fc08_reads_only(uint16_t sub_function) {
+  return sub_function == 0x00 || sub_function == 0x02 || (sub_function >= 0x0B && sub_function <= 0x12);
+}
 
 }  // namespace
 
@@ -343,4 +417,139 @@ TEST_F(GatewayTest, RtuOverTcpListener_AnswersInOrder_BadCrcIsSilent) {
   EXPECT_EQ(in, want);  // the read first, then the refusal; nothing for the bad frame
   ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, reg).ok());
   EXPECT_EQ(reg[0], 4321);  // the write with the bad CRC never reached the bus
+}
+
+// The allow-list of a read-only gateway, entry by entry, without a bus: every
+// function code, every FC08 sub-function, every FC2B MEI type. Anything it does
+// not name is refused with 01, including what a deny-list would let through.
+TEST(GatewayReadOnlyAdmission, AdmitsOnlyTheAllowList_EveryFunctionSubFunctionAndMeiType) {
+  using A = GatewayAdmission::Action;
+  const GatewayOptions open{}, read_only{.read_only = true};
+  // A well-formed request for every function the codec reads.
+  const std::map<uint8_t, std::vector<uint8_t>> valid = {
+      {0x01, {0x01, 0, 0, 0, 1}},
+      {0x02, {0x02, 0, 0, 0, 1}},
+      {0x03, {0x03, 0, 0, 0, 1}},
+      {0x04, {0x04, 0, 0, 0, 1}},
+      {0x05, {0x05, 0, 0, 0xFF, 0x00}},
+      {0x06, {0x06, 0, 0, 0, 1}},
+      {0x07, {0x07}},
+      {0x0B, {0x0B}},
+      {0x0C, {0x0C}},
+      {0x0F, {0x0F, 0, 0, 0, 1, 1, 1}},
+      {0x10, {0x10, 0, 0, 0, 1, 2, 0, 5}},
+      {0x11, {0x11}},
+      {0x16, {0x16, 0, 0, 0xFF, 0xFF, 0, 0}},
+      {0x17, {0x17, 0, 0, 0, 1, 0, 0, 0, 1, 2, 0, 5}},
+  };
+  for (unsigned f = 0; f <= 0xFF; ++f) {
+    if (f == 0x08 || f == 0x2B) continue;  // below, by sub-function and MEI type
+    const auto function = static_cast<uint8_t>(f);
+    const auto it = valid.find(function);
+    const std::vector<uint8_t> pdu =
+        it != valid.end() ? it->second : std::vector<uint8_t>{function, 0, 0, 0, 1};
+    const bool listed = (f >= 0x01 && f <= 0x04) || f == 0x0B || f == 0x0C || f == 0x11;
+    const GatewayAdmission a = admit_gateway_request(read_only, 21, pdu, false);
+    if (listed) {
+      EXPECT_EQ(a.action, A::relay) << "FC" << std::hex << f;
+    } else {
+      EXPECT_EQ(a.action, A::refuse) << "FC" << std::hex << f;
+      EXPECT_EQ(a.exception, Errc::illegal_function) << "FC" << std::hex << f;
+    }
+    // The same request on an open gateway: relayed if the codec reads it, so a refusal above is read-only's.
+    if (it != valid.end()) EXPECT_EQ(admit_gateway_request(open, 21, pdu, false).action, A::relay);
+    EXPECT_EQ(relays_when_read_only(Request{.function = function}), listed) << "FC" << std::hex << f;
+  }
+  for (uint32_t sub = 0; sub <= 0xFFFF; ++sub) {
+    const std::vector<uint8_t> pdu = {0x08, static_cast<uint8_t>(sub >> 8), static_cast<uint8_t>(sub), 0, 0};
+    const GatewayAdmission a = admit_gateway_request(read_only, 21, pdu, false);
+    ASSERT_EQ(a.action, fc08_reads_only(static_cast<uint16_t>(sub)) ? A::relay : A::refuse)
+        << "FC08 sub-function " << std::hex << sub;
+    if (a.action == A::refuse) ASSERT_EQ(a.exception, Errc::illegal_function) << std::hex << sub;
+    ASSERT_EQ(admit_gateway_request(open, 21, pdu, false).action, A::relay) << std::hex << sub;
+  }
+  for (unsigned mei = 0; mei <= 0xFF; ++mei) {
+    const std::vector<uint8_t> pdu = {0x2B, static_cast<uint8_t>(mei), 0x01, 0x00};
+    const GatewayAdmission a = admit_gateway_request(read_only, 21, pdu, false);
+    EXPECT_EQ(a.action, mei == 0x0E ? A::relay : A::refuse) << "MEI type " << std::hex << mei;
+    if (a.action == A::refuse) EXPECT_EQ(a.exception, Errc::illegal_function) << std::hex << mei;
+    EXPECT_EQ(relays_when_read_only(Request{.function = 0x2B, .mei_type = static_cast<uint8_t>(mei)}),
+              mei == 0x0E);
+  }
+}
+
+// Every FC08 sub-function 0x00..0xFF through a running --read-only gateway:
+// exactly 00 (echo), 02 (diagnostic register) and 0B..12 (the counters) reach
+// the device and come back with its answer; every other one (01 restart, 03
+// ASCII delimiter, 04 listen-only, 0A and 14 clears, 05..09, 13, 15 and up)
+// is answered 01 by the gateway and never appears on the bus.
+TEST_F(GatewayReadOnly, EveryDiagnosticSubFunction_OnlyEchoRegisterAndCountersReachTheBus) {
+  std::vector<std::vector<uint8_t>> relayed;
+  for (unsigned sub = 0; sub <= 0xFF; ++sub) {
+    const std::vector<uint8_t> req =
+        sub == 0x00 ? std::vector<uint8_t>{0x08, 0x00, 0x00, 0xAB, 0xCD}
+                    : std::vector<uint8_t>{0x08, 0x00, static_cast<uint8_t>(sub), 0x00, 0x00};
+    const std::vector<uint8_t> answer = ask(req);
+    if (fc08_reads_only(static_cast<uint16_t>(sub))) {
+      relayed.push_back(req);
+      // The device's own answer: the echo, or the sub-function and its value.
+      ASSERT_EQ(answer.size(), 5u) << "sub-function " << std::hex << sub;
+      EXPECT_EQ(std::vector<uint8_t>(answer.begin(), answer.begin() + 3),
+                std::vector<uint8_t>(req.begin(), req.begin() + 3));
+      if (sub == 0x00) EXPECT_EQ(answer, req);
+    } else {
+      EXPECT_EQ(answer, (std::vector<uint8_t>{0x88, 0x01})) << "sub-function " << std::hex << sub;
+    }
+  }
+  const std::vector<uint8_t> last = {0x03, 0x00, 0x42, 0x00, 0x01};
+  ASSERT_EQ(ask(last).size(), 4u);
+  relayed.push_back(last);
+  // On the bus: the 10 relayed sub-functions and the last read, nothing else.
+  EXPECT_EQ(bus_saw_after(last), relayed);
+  // The device still answers (no listen-only, no restart reached it).
+  EXPECT_EQ(ask({0x08, 0x00, 0x00, 0x12, 0x34}), (std::vector<uint8_t>{0x08, 0x00, 0x00, 0x12, 0x34}));
+  ::kill(gateway_->pid(), SIGTERM);
+  EXPECT_EQ(gateway_->wait(3000ms), 0);
+  EXPECT_NE(gateway_->output().find("246 refused"), std::string::npos) << gateway_->output();
+}
+
+// The rest of the list: FC0B, FC0C, FC11 and FC2B/0E reach the device; FC2B
+// with MEI type 0D (CANopen), FC17 (it writes), FC15 (write file record),
+// FC14, FC07, FC18, the writes and a user-defined code get 01 from the
+// gateway and never reach the bus.
+TEST_F(GatewayReadOnly, IdentificationAndEventLogRelayed_WritesOtherMeiAndUnlistedRefused) {
+  const std::vector<std::vector<uint8_t>> relay = {
+      {0x0B},                    // get comm event counter
+      {0x0C},                    // get comm event log
+      {0x11},                    // report server id
+      {0x2B, 0x0E, 0x01, 0x00},  // read device identification
+  };
+  const std::vector<std::vector<uint8_t>> refuse = {
+      {0x2B, 0x0D, 0x00, 0x00},  // MEI 0D: CANopen general reference
+      {0x17, 0x00, 0x05, 0x00, 0x01, 0x00, 0x05, 0x00, 0x01, 0x02, 0x12, 0x34},  // read/write multiple
+      {0x15, 0x09, 0x06, 0x00, 0x04, 0x00, 0x07, 0x00, 0x01, 0x12, 0x34},        // write file record
+      {0x14, 0x07, 0x06, 0x00, 0x04, 0x00, 0x07, 0x00, 0x01},                    // read file record
+      {0x07},                                                                    // read exception status
+      {0x18, 0x00, 0x05},                                                        // read FIFO queue
+      {0x05, 0x00, 0x05, 0xFF, 0x00},
+      {0x06, 0x00, 0x05, 0x12, 0x34},
+      {0x0F, 0x00, 0x05, 0x00, 0x01, 0x01, 0x01},
+      {0x10, 0x00, 0x05, 0x00, 0x01, 0x02, 0x12, 0x34},
+      {0x16, 0x00, 0x05, 0x00, 0x00, 0x12, 0x34},
+      {0x41, 0x00, 0x05},  // user-defined
+  };
+  for (const auto& req : relay) {
+    const std::vector<uint8_t> answer = ask(req);
+    ASSERT_GE(answer.size(), 2u) << std::hex << int{req[0]};
+    EXPECT_EQ(answer[0], req[0]);  // the device's answer, not an exception
+    if (req[0] == 0x2B) EXPECT_EQ(answer[1], 0x0E);
+  }
+  for (const auto& req : refuse)
+    EXPECT_EQ(ask(req), (std::vector<uint8_t>{static_cast<uint8_t>(req[0] | 0x80), 0x01}))
+        << std::hex << int{req[0]};
+  const std::vector<uint8_t> last = {0x03, 0x00, 0x05, 0x00, 0x01};
+  EXPECT_EQ(ask(last), (std::vector<uint8_t>{0x03, 0x02, 0x00, 0x00}));  // nothing was written
+  std::vector<std::vector<uint8_t>> want = relay;
+  want.push_back(last);
+  EXPECT_EQ(bus_saw_after(last), want);
 }

@@ -26,25 +26,38 @@ bool gateway_counts_as_write(uint8_t function) {
          function == fc(Function::read_write_multiple_registers);  // it writes before it reads
 }
 
+bool relays_when_read_only(const Request& r) {
+  switch (r.function) {
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
+    case fc(Function::get_comm_event_counter):
+    case fc(Function::get_comm_event_log):
+    case fc(Function::report_server_id):
+      return true;
+    case fc(Function::diagnostics):
+      // Echo, the diagnostic register and the counters it reads (0B bus
+      // messages .. 12 character overruns). Not: 01 restart, 03 ASCII
+      // delimiter, 04 listen-only, 0A and 14 clears, anything unknown.
+      return r.sub_function == static_cast<uint16_t>(Diagnostic::return_query_data) ||
+             r.sub_function == static_cast<uint16_t>(Diagnostic::return_diagnostic_register) ||
+             (r.sub_function >= static_cast<uint16_t>(Diagnostic::bus_message_count) &&
+              r.sub_function <= static_cast<uint16_t>(Diagnostic::bus_character_overrun_count));
+    case fc(Function::encapsulated_interface):
+      return r.mei_type == kMeiDeviceIdentification;  // 2B/0E only, not 0D (CANopen) or others
+    default:
+      // Writes (05, 06, 0F, 10, 16, 17), 07, file records, anything not
+      // listed, including a function added later: refused until someone
+      // decides it reads only.
+      return false;
+  }
+}
+
 namespace {
 
 bool is_write(uint8_t function) {
   return gateway_counts_as_write(function);
-}
-
-// FC08 sub-functions that change the device's line state: restart (and
-// clear), listen-only (which silences it), clearing counters.
-bool changes_line_state(const Request& r) {
-  if (r.function != fc(Function::diagnostics)) return false;
-  switch (static_cast<Diagnostic>(r.sub_function)) {
-    case Diagnostic::restart_communications:
-    case Diagnostic::force_listen_only:
-    case Diagnostic::clear_counters:
-    case Diagnostic::clear_overrun_counter:
-      return true;
-    default:
-      return false;
-  }
 }
 
 bool is_read(uint8_t function) {
@@ -240,8 +253,8 @@ GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t un
                            : std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
                                  options.allowed_units.end();
   if (!allowed) return {Action::refuse, Errc::gateway_path_unavailable, {}};
-  if (options.read_only && (is_write(req->function) || changes_line_state(*req)))
-    return {Action::refuse, Errc::illegal_function, {}};
+  // Read-only: an allow-list, so whatever it does not name is refused (fails closed).
+  if (options.read_only && !relays_when_read_only(*req)) return {Action::refuse, Errc::illegal_function, {}};
   return {Action::relay, Errc::ok, *req};
 }
 

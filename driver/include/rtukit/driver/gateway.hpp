@@ -11,8 +11,9 @@
 // robin, one transaction at a time, and answers each client on its own
 // connection. Answers: the device's own response or exception; 0x0B when the
 // device does not answer (or answers garbage), 0x0A when the bus is down or
-// the unit is not allowed, 0x01 for writes on a read-only gateway or a
-// function not relayed, 0x06 when a client already has too many requests
+// the unit is not allowed, 0x01 for a function not relayed or, on a
+// read-only gateway, for every request outside its allow-list
+// (relays_when_read_only), 0x06 when a client already has too many requests
 // waiting.
 //
 // Read coalescing (`cache`): identical reads within that time share one bus
@@ -40,7 +41,9 @@ class io_context;
 namespace rtukit {
 
 struct GatewayOptions {
-  /// Refuse every write (FC05, FC06, FC0F, FC10) with exception 01.
+  /// Relay only the requests that change nothing (relays_when_read_only: an
+  /// allow-list); every other request gets exception 01 from the gateway and
+  /// never reaches the bus.
   bool read_only = false;
   /// Units relayed; empty: 1..247. Others get exception 0x0A.
   std::vector<uint8_t> allowed_units;
@@ -80,12 +83,26 @@ struct GatewayAdmission {
 /// PDUs are dropped; an MBAP request's length says it is whole, so a short
 /// PDU gets 03. Order of the checks: the codec (a function not relayed: 01;
 /// fields out of range: 02/03), the unit allow-list (0A), read-only (01 for
-/// every write and every FC08 that changes the device's line state).
+/// every request relays_when_read_only does not name).
 GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t unit,
                                        std::span<const uint8_t> pdu, bool ordered);
 
-/// True for the functions that change a device's data (FC05, 06, 0F, 10, 16, 17).
+/// True for the functions that change a device's data (FC05, 06, 0F, 10, 16, 17):
+/// the ones whose relaying invalidates cached reads.
 bool gateway_counts_as_write(uint8_t function);
+
+/// The allow-list of a read-only gateway: true only for a request that
+/// changes nothing on the device or its line. Exactly: FC01, 02, 03, 04
+/// (reads); FC08 with sub-function 00 (echo), 02 (diagnostic register) or
+/// 0B..12 (the counters, bus messages .. character overruns); FC0B (comm
+/// event counter), FC0C (comm event log), FC11 (report server id); FC2B with
+/// MEI type 0E (read device identification). False for everything else:
+/// every write (05, 06, 0F, 10, 16, 17), FC07, FC08 restart (01), ASCII
+/// delimiter (03), listen-only (04), the clears (0A, 14) and any other
+/// sub-function, FC2B with another MEI type, file records, user-defined
+/// codes, and any function added later until someone decides it reads only:
+/// the list fails closed. One function for the gateway and its fuzz oracle.
+bool relays_when_read_only(const Request& request);
 
 class Gateway {
  public:
