@@ -471,8 +471,9 @@ int run_bridge(const JetArgs& a) {
                   fmt::format("inverjet bridge: {}", e.reason())};
   const std::vector<std::string> ids = bridge.client_ids();
   for (size_t i = 0; i < o.machines.size(); ++i)
-    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on {}://{}:{} (client id {})\n", o.machines[i].unit,
-               o.machines[i].id, o.tls_ca.empty() ? "mqtt" : "mqtts", o.host, o.port, ids.at(i));
+    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on {}://{}:{} (client id {})\n",
+               o.machines[i].unit, o.machines[i].id, o.tls_ca.empty() ? "mqtt" : "mqtts", o.host, o.port,
+               ids.at(i));
   for (const std::string& w : bridge.warnings()) fmt::print(stderr, "inverjet bridge: {}\n", w);
   std::fflush(stdout);
   while (interrupt.sleep(std::chrono::milliseconds(200))) {
@@ -663,7 +664,8 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       [&](CLI::App& cmd, JetArgs& a) {
         StartArgs& s = a.start;
         cmd.add_flag("--free", s.free, "free mode (counts up)");
-        cmd.add_option("--timer", s.timer, "timer mode for DURATION (mm:ss, or with a unit: 30m, 90s; at most 99:59)");
+        cmd.add_option("--timer", s.timer,
+                       "timer mode for DURATION (mm:ss, or with a unit: 30m, 90s; at most 99:59)");
         cmd.add_option("--plan", s.plan, "training plan 1..4");
         cmd.add_option("--speed", s.speed, "speed 0..100 % (free: default from memory)");
         cmd.add_option("--from", s.from, "with --plan: start this far into the plan (mm:ss)");

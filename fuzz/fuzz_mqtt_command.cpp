@@ -4,7 +4,10 @@
 // whose link is an in-process simulated machine (a MemoryLink answered by a
 // slave engine serving the simulator's model, on virtual time).
 // Properties: never crashes and never throws (an exception would end the
-// bridge's or the panel's bus thread); a stale command reaches nothing; a
+// bridge's or the panel's bus thread); a message mqtt_command_body lets
+// through is one JSON object with a numeric "ts" no more than max_age old
+// and kMaxCommandAheadS ahead (nothing else ever acts); a refused message
+// (retained, not that object, stale) reaches nothing; a
 // command refused by the checks (invalid_argument, refused) sent no write to
 // the machine; no command sends more than one write (never applied halfway);
 // every reason is valid UTF-8, so the result document the bridge and the
@@ -38,7 +41,7 @@ using namespace rtukit;
 using namespace std::chrono_literals;
 
 constexpr double kNow = 1.8e9;  // "now" for the stale guard, seconds since the epoch
-constexpr unsigned kMaxAge = 5;
+constexpr unsigned kMaxAge = programs::kMaxCommandAgeS;
 
 bool is_write(uint8_t function) {
   switch (static_cast<Function>(function)) {
@@ -98,11 +101,16 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     const unsigned writes_before = rig.writes;
     const uint64_t requests_before = rig.master->stats().requests;
     nlohmann::json body, result;
-    rtukit::Status e = programs::mqtt_command_body(payload, retained, kNow, kMaxAge, body);
+    rtukit::Status e = programs::mqtt_command_body(name, payload, retained, kNow, kMaxAge, body);
     const bool stale = static_cast<bool>(e);
     if (stale) {
       if (e.code() != Errc::refused) std::abort();
     } else {
+      // Only the documented form gets through: never a retained message.
+      if (retained || !body.is_object() || !body.contains("ts") || !body["ts"].is_number()) std::abort();
+      double ts = body["ts"].get<double>();
+      if (ts > 1e12) ts /= 1000;
+      if (!(kNow - ts <= kMaxAge) || ts - kNow > programs::kMaxCommandAheadS) std::abort();
       e = programs::inverjet_command(*rig.client, name, body, result);
     }
     const unsigned writes = rig.writes - writes_before;

@@ -17,6 +17,7 @@ import ctypes
 import getpass
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -85,7 +86,9 @@ class Broker:
 
 
 def pub(port, topic, payload, retain=False, auth=()):
-    argv = ["mosquitto_pub", "-h", "127.0.0.1", "-p", str(port), "-t", topic, "-m", payload, "-q", "1", *auth]
+    """mosquitto_pub at QoS 1; an empty payload is sent as the empty message (-n)."""
+    argv = ["mosquitto_pub", "-h", "127.0.0.1", "-p", str(port), "-t", topic, "-q", "1", *auth]
+    argv += ["-m", payload] if payload != "" else ["-n"]
     if retain:
         argv.append("-r")
     return subprocess.run(argv, capture_output=True, text=True).returncode
@@ -97,9 +100,10 @@ class Subscriber:
     reaches it. messages() gives the payload lines (with -v: "topic payload")
     until `count` came or `timeout` s passed."""
 
-    def __init__(self, port, topics, count=None, timeout=30, auth=(), verbose=False):
+    def __init__(self, port, topics, count=None, timeout=30, auth=(), verbose=False, qos=0):
         # Line-buffered (stdbuf): into a pipe, mosquitto_sub would hold its -d lines until it exits.
-        argv = ["stdbuf", "-oL", "mosquitto_sub", "-d", "-h", "127.0.0.1", "-p", str(port), "-W", str(timeout), *auth]
+        argv = ["stdbuf", "-oL", "mosquitto_sub", "-d", "-h", "127.0.0.1", "-p", str(port), "-W", str(timeout),
+                "-q", str(qos), *auth]
         for t in topics:
             argv += ["-t", t]
         if count:
@@ -182,9 +186,33 @@ ERR_DIR = None  # the bridges' stderr files: main() makes it inside its temporar
 
 def bridge(pty, port, mid, *extra, scheme="mqtt"):
     # stderr kept: a sanitizer build (ASan, TSan) reports there.
-    err = open(os.path.join(ERR_DIR, f"{mid}-{len(procs)}.err"), "w")
-    return start([RTUKIT, "inverjet", "bridge", "--port", pty, "--mqtt", f"{scheme}://127.0.0.1:{port}", "--id", mid,
-                  "--poll-hz", "4", "--max-rate", "4", *extra], stderr=err)
+    # stdout kept: it names the bridge's client ids; stderr its warnings.
+    name = os.path.join(ERR_DIR, f"{mid}-{len(procs)}")
+    p = start([RTUKIT, "inverjet", "bridge", "--port", pty, "--mqtt", f"{scheme}://127.0.0.1:{port}", "--id", mid,
+               "--poll-hz", "4", "--max-rate", "4", *extra], stdout=open(name + ".out", "w"),
+              stderr=open(name + ".err", "w"))
+    p.files = name
+    return p
+
+
+def client_id(b):
+    """The client id the bridge `b` printed at start (None before it did)."""
+    m = re.search(r"\(client id ([^)]+)\)", open(b.files + ".out").read())
+    return m.group(1) if m else None
+
+
+def documented_acl():
+    """The fleet ACL exactly as docs/security.md gives it (the block after the
+    pool-fleet-acl marker): the test runs the documentation."""
+    doc = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "docs", "security.md")).read()
+    block = doc[doc.index("<!-- pool-fleet-acl -->"):]
+    return block.split("```")[1].split("\n", 1)[1]
+
+
+def body(**fields):
+    """A command's JSON payload, stamped now ("ts", required) unless given."""
+    fields.setdefault("ts", int(time.time()))
+    return json.dumps(fields)
 
 
 def command(port, mid, cmd, payload, auth=()):
@@ -259,42 +287,109 @@ def main():
               sub(port, ["rtukit/inverjet/pool1/value/#"]))
 
         # every command and every refusal
-        r = command(port, "pool1", "start", '{"mode":"timer","speed":80,"duration":"30:00","id":7}')
+        r = command(port, "pool1", "start", body(mode="timer", speed=80, duration="30:00", id=7))
         check("start timer", r and r["ok"] and r.get("id") == 7, r)
         check("the machine runs it", wait_for(lambda: con.ask("get speed").startswith("speed = 80")), con.ask("get speed"))
         check("state published on change", wait_for(
             lambda: json.loads(retained(port, "rtukit/inverjet/pool1/state") or "{}").get("speed") == 80))
-        r = command(port, "pool1", "speed", "120")
+        r = command(port, "pool1", "speed", body(speed=120))
         check("speed 120 refused with the client's reason", r and not r["ok"] and "outside 0..100" in r["error"], r)
-        r = command(port, "pool1", "speed", "55")
+        r = command(port, "pool1", "speed", body(speed=55))
         check("speed 55", r and r["ok"] and wait_for(lambda: "55" in con.ask("get speed")), r)
-        r = command(port, "pool1", "pause", "PRESS")
+        r = command(port, "pool1", "speed", body(speed="60"))
+        check("speed as text (a wrong type) refused", r and not r["ok"] and "whole number" in r["error"], r)
+        r = command(port, "pool1", "pause", body())
         check("pause", r and r["ok"], r)
-        r = command(port, "pool1", "resume", "PRESS")
+        r = command(port, "pool1", "resume", body())
         check("resume", r and r["ok"], r)
-        r = command(port, "pool1", "start", '{"mode":"timer","speed":50}')
+        r = command(port, "pool1", "start", body(mode="timer", speed=50))
         check("timer without duration refused", r and not r["ok"] and "duration" in r["error"], r)
-        r = command(port, "pool1", "start", '{"mode":"warp"}')
+        r = command(port, "pool1", "start", body(mode="warp"))
         check("unknown mode refused", r and not r["ok"] and "warp" in r["error"], r)
-        r = command(port, "pool1", "fly", "{}")
+        r = command(port, "pool1", "fly", body())
         check("unknown command refused", r and not r["ok"] and "unknown command" in r["error"], r)
-        r = command(port, "pool1", "plan", '{"plan":2,"segments":[{"speed":40,"end":"05:00"},{"speed":60,"end":"04:00"}]}')
+        r = command(port, "pool1", "plan", body(plan=2, segments=[{"speed": 40, "end": "05:00"},
+                                                                   {"speed": 60, "end": "04:00"}]))
         check("a plan with decreasing end times refused, nothing written",
               r and not r["ok"] and "segment 2" in r["error"], r)
-        r = command(port, "pool1", "plan", '{"plan":2,"segments":[{"speed":40,"end":"05:00"},{"speed":70,"end":"10:00"}]}')
+        r = command(port, "pool1", "plan", body(plan=2, segments=[{"speed": 40, "end": 300}]))
+        check("a plan end as a bare number refused", r and not r["ok"] and "end" in r["error"], r)
+        r = command(port, "pool1", "plan", body(plan=2, segments=[{"speed": 40, "end": "05:00"},
+                                                                   {"speed": 70, "end": "10m"}]))
         check("plan upload", r and r["ok"] and r.get("segments") == 2, r)
-        r = command(port, "pool1", "stop", "PRESS")
+        r = command(port, "pool1", "stop", body())
         check("stop", r and r["ok"] and wait_for(lambda: con.ask("get state").startswith("state = off")), r)
-        r = command(port, "pool1", "pause", "PRESS")
+        r = command(port, "pool1", "pause", body())
         check("pause with nothing running: the Modbus exception by name",
               r and not r["ok"] and "exception 04" in r["error"], r)
-        r = command(port, "pool1", "start", json.dumps({"mode": "free", "speed": 30, "ts": time.time() - 60}))
-        check("a command sent 60 s ago is dropped", r and not r["ok"] and r["error"].startswith("stale"), r)
-        check("...and the machine stays off", con.ask("get state").startswith("state = off"))
-        r = command(port, "pool1", "plan_select", "Plan 2")
-        check("plan select starts plan 2", r and r["ok"] and wait_for(
+
+        # ---- commands are explicit or refused: none of these may start the machine
+        now = int(time.time())
+        bad = [
+            ("an empty message (mosquitto_pub -n)", "", "empty"),
+            ("a button's PRESS", "PRESS", "JSON object"),
+            ("false", "false", "JSON object"),
+            ("true", "true", "JSON object"),
+            ("a number", "60", "JSON object"),
+            ("null", "null", "JSON object"),
+            ("an array", "[]", "JSON object"),
+            ("not JSON", "{mode: free", "JSON object"),
+            ("no ts", json.dumps({"mode": "free", "speed": 30}), '"ts" is required'),
+            ("ts as text", json.dumps({"mode": "free", "speed": 30, "ts": str(now)}), '"ts" is required'),
+            ("a command sent 60 s ago", body(mode="free", speed=30, ts=now - 60), "stale"),
+            ("a command from the year 2100", body(mode="free", speed=30, ts=4102444800), "future"),
+            ("ts 30 s ahead, in milliseconds", body(mode="free", speed=30, ts=(now + 30) * 1000), "future"),
+            ("no mode", body(speed=30), '"mode" is required'),
+            ("mode false", body(mode=False), '"mode" is required'),
+            ("speed as text", body(mode="free", speed="30"), "whole number"),
+            ("a timer of a bare 30", body(mode="timer", speed=30, duration="30"), "30:00"),
+            ("a timer duration as a JSON number", body(mode="timer", speed=30, duration=1800), "duration"),
+            ("a plan number as text", body(mode="plan", plan="2"), "plan"),
+        ]
+        for what, payload, why in bad:
+            r = command(port, "pool1", "start", payload)
+            check(f"refused, with a reason: {what}", r and r["ok"] is False and why in r.get("error", ""), r)
+        check("...and none of them started the machine", con.ask("get state").startswith("state = off"),
+              con.ask("get state"))
+        # Retained while the bridge is online (MQTT 5, retain as published).
+        r = command(port, "pool1", "start", body(mode="free", speed=40))  # warm: a normal command is run
+        check("a fresh command runs", r and r["ok"], r)
+        command(port, "pool1", "stop", body())
+        wait_for(lambda: con.ask("get state").startswith("state = off"))
+        out = Subscriber(port, ["rtukit/inverjet/pool1/result"], timeout=30)
+        pub(port, "rtukit/inverjet/pool1/set/start", body(mode="free", speed=40), retain=True)
+        answer = json.loads(next(out.messages(), None) or "{}")
+        out.close()
+        check("a command published retained while the bridge is online is refused",
+              answer.get("ok") is False and "retained" in answer.get("error", ""), answer)
+        out = Subscriber(port, ["rtukit/inverjet/pool1/result"], timeout=30)
+        pub(port, "rtukit/inverjet/pool1/set/start", "", retain=True)  # cleared the standard way: -r -n
+        answer = json.loads(next(out.messages(), None) or "{}")
+        out.close()
+        check("clearing it with mosquitto_pub -r -n is refused too", answer.get("ok") is False, answer)
+        check("...and the machine stays off", con.ask("get state").startswith("state = off"), con.ask("get state"))
+
+        # ---- 1000 commands in a burst: every one answered (run, or refused as busy)
+        n = 1000
+        out = Subscriber(port, ["rtukit/inverjet/pool1/result"], count=n, timeout=120, qos=1)
+        lines = "".join(json.dumps({"speed": 40, "ts": int(time.time()), "id": i}) + "\n" for i in range(n))
+        subprocess.run(["mosquitto_pub", "-h", "127.0.0.1", "-p", str(port), "-t", "rtukit/inverjet/pool1/set/speed",
+                        "-q", "1", "-l"], input=lines, text=True, capture_output=True)
+        answers = {}
+        for line in out.messages():
+            a = json.loads(line)
+            answers[a.get("id")] = a
+        out.close()
+        busy = sum(1 for a in answers.values() if "busy" in a.get("error", ""))
+        check(f"{n} commands in a burst: each answered ({len(answers)}, {busy} busy)",
+              set(answers) == set(range(n)), sorted(set(range(n)) - set(answers))[:10])
+        print(f"# burst: {n} commands, {len(answers)} answers, {busy} refused as busy, "
+              f"{sum(1 for a in answers.values() if a.get('ok'))} ran", flush=True)
+
+        r = command(port, "pool1", "start", body(mode="plan", plan=2))
+        check("a plan starts (plan 2)", r and r["ok"] and wait_for(
             lambda: json.loads(retained(port, "rtukit/inverjet/pool1/state") or "{}").get("plan_select") == "Plan 2"), r)
-        command(port, "pool1", "stop", "PRESS")
+        command(port, "pool1", "stop", body())
 
         # a fault shows
         con.ask("fault motor-drive")
@@ -307,7 +402,7 @@ def main():
         comps = {}
         bad = []
         own = {"rtukit/inverjet/pool1/" + t for t in ("state", "availability", "set/speed", "set/start", "set/pause",
-                                                      "set/resume", "set/stop", "set/plan_select")}
+                                                      "set/resume", "set/stop")}
         for topic, payload in disc:
             parts = topic.split("/")
             if len(parts) != 5 or parts[0] != "homeassistant" or parts[4] != "config":
@@ -330,6 +425,9 @@ def main():
                     bad.append(f"{topic}: {k} {v} is not a bridge topic")
             if cfg.get("unique_id", "").count("pool1") != 1 or parts[3] not in cfg.get("unique_id", ""):
                 bad.append(f"{topic}: unique_id {cfg.get('unique_id')}")
+            # Every command Home Assistant sends is stamped with the time it was sent.
+            if "command_topic" in cfg and "now().timestamp()" not in cfg.get("command_template", ""):
+                bad.append(f"{topic}: no command_template with ts")
         check("discovery payloads follow the schema", not bad, "; ".join(bad[:6]))
         check("discovery announces every entity", comps == {"sensor": 9, "number": 1, "binary_sensor": 1,
                                                             "button": 4, "select": 1}, comps)
@@ -366,37 +464,73 @@ def main():
         # The simulator was restarted without state: plan 2 is the factory plan again; shown to prove the port is free.
         check("the port is free after the bridge stops", plan.returncode == 0, plan.stdout + plan.stderr)
 
-        # ---- the ACL: machine A's credentials cannot command machine B
+        # ---- identity and least privilege, with the fleet ACL of docs/security.md
         aport = free_port()
         pw = os.path.join(work, "passwd")
         subprocess.run(["mosquitto_passwd", "-b", "-c", pw, "jetA", "secretA"], check=True)
         subprocess.run(["mosquitto_passwd", "-b", pw, "jetB", "secretB"], check=True)
+        subprocess.run(["mosquitto_passwd", "-b", pw, "homeassistant", "secretH"], check=True)
         acl = os.path.join(work, "acl")
         with open(acl, "w") as f:
-            f.write("pattern readwrite rtukit/inverjet/%u/#\npattern write homeassistant/+/rtukit_inverjet_%u/#\n")
+            f.write(documented_acl())
         os.chmod(pw, 0o600)
         Broker(work, aport, f"allow_anonymous false\npassword_file {pw}\nacl_file {acl}")
         ptyA, conA = machine(work, "jetA")
         ptyB, conB = machine(work, "jetB")
+        bridges = {}
         for name, p_ in (("jetA", ptyA), ("jetB", ptyB)):
             with open(os.path.join(work, name + ".pw"), "w") as f:
                 f.write("secret" + name[-1] + "\n")
-            bridge(p_, aport, name, "--user", name, "--password-file", os.path.join(work, name + ".pw"))
+            bridges[name] = bridge(p_, aport, name, "--user", name, "--password-file", os.path.join(work, name + ".pw"))
         authA = ("-u", "jetA", "-P", "secretA")
         authB = ("-u", "jetB", "-P", "secretB")
+        authH = ("-u", "homeassistant", "-P", "secretH")
         check("A and B online", wait_for(lambda: retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online"
                                          and retained(aport, "rtukit/inverjet/jetB/availability", authB) == "online",
                                          START_DEADLINE))
         # At QoS 1 mosquitto_pub returns once the broker has taken the message;
         # B's answer to a command published after it shows B's bridge has seen
         # everything the broker let through before (one subscription, in order).
-        pub(aport, "rtukit/inverjet/jetB/set/start", '{"mode":"free","speed":70}', auth=authA)
-        r = command(aport, "jetB", "fly", "{}", auth=authB)
+        pub(aport, "rtukit/inverjet/jetB/set/start", body(mode="free", speed=70), auth=authA)
+        r = command(aport, "jetB", "fly", body(), auth=authB)
         check("B answers its own credentials' command after A's attempt", r and not r["ok"], r)
         check("A's credentials cannot command B", conB.ask("get state").startswith("state = off"), conB.ask("get state"))
-        r = command(aport, "jetA", "start", '{"mode":"free","speed":70}', auth=authA)
+        r = command(aport, "jetA", "start", body(mode="free", speed=70), auth=authA)
         check("A's credentials command A", r and r["ok"] and wait_for(lambda: not conA.ask("get state").startswith("state = off")), r)
         check("A cannot read B's state", retained(aport, "rtukit/inverjet/jetB/state", authA) is None)
+        # Home Assistant: reads every machine, commands only the one it is given.
+        check("homeassistant reads both machines", retained(aport, "rtukit/inverjet/jetA/state", authH) is not None
+              and retained(aport, "rtukit/inverjet/jetB/state", authH) is not None)
+        r = command(aport, "jetA", "stop", body(id=1), auth=authH)
+        check("homeassistant commands machine A", r and r["ok"] and wait_for(
+            lambda: conA.ask("get state").startswith("state = off")), r)
+        pub(aport, "rtukit/inverjet/jetB/set/start", body(mode="free", speed=70), auth=authH)
+        r = command(aport, "jetB", "fly", body(), auth=authB)
+        check("homeassistant cannot command machine B", r and conB.ask("get state").startswith("state = off"),
+              conB.ask("get state"))
+        pub(aport, "rtukit/inverjet/jetA/availability", "offline", retain=True, auth=authH)
+        pub(aport, "rtukit/inverjet/jetA/state", '{"state":"off"}', retain=True, auth=authB)
+        check("nobody else writes a machine's availability or state",
+              retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online"
+              and json.loads(retained(aport, "rtukit/inverjet/jetA/state", authA) or "{}").get("versions"))
+        # The client id: unique per machine and per bridge instance.
+        ida = wait_for(lambda: client_id(bridges["jetA"]), START_DEADLINE)
+        idb = client_id(bridges["jetB"])
+        check("each bridge has its own client id, with a random part",
+              ida and idb and re.fullmatch(r"rtukit-inverjet-jetA-[0-9a-f]{8}", ida) and idb.startswith("rtukit-inverjet-jetB-"),
+              (ida, idb))
+        # Another user connecting as the old well-known id (or any guess) knocks nobody off.
+        squatter = start(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(aport), "-i", "rtukit-inverjet-jetA",
+                          "-t", "rtukit/inverjet/jetB/#", *authB])
+        r = command(aport, "jetA", "start", body(mode="free", speed=30, id=2), auth=authA)
+        check("a client using the well-known id does not displace the bridge", r and r["ok"] and squatter.poll() is None
+              and retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online", r)
+        command(aport, "jetA", "stop", body(), auth=authA)
+        stop(squatter)
+        # Warnings: no credentials (the pool1 bridge above ran anonymous).
+        err = open(b.files + ".err").read()
+        check("the bridge warns when it has no broker credentials", "no broker credentials" in err, err[:300])
+        check("...and not when it has some", "no broker credentials" not in open(bridges["jetA"].files + ".err").read())
 
         # ---- TLS to the broker (a CA of our own, the server certificate for 127.0.0.1)
         ca_key, ca, key, csr, crt = (os.path.join(work, n) for n in ("ca.key", "ca.crt", "srv.key", "srv.csr", "srv.crt"))
@@ -451,7 +585,7 @@ def main():
                 p.send_signal(signal.SIGTERM)
         for p in reversed(procs):
             stop(p)
-        reports = [n for n in os.listdir(ERR_DIR) if "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
+        reports = [n for n in os.listdir(ERR_DIR) if n.endswith(".err") and "Sanitizer" in open(os.path.join(ERR_DIR, n)).read()]
         check("no sanitizer report from any bridge", not reports,
               "".join(open(os.path.join(ERR_DIR, n)).read()[:3000] for n in reports[:1]))
         shutil.rmtree(work, ignore_errors=True)

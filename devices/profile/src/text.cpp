@@ -158,7 +158,8 @@ Result<uint32_t> parse_duration(std::string_view text) noexcept {
       return Error(Errc::invalid_argument, form);
     return a * 60 + b;
   }
-  if (number(text, &a)) return Error(Errc::invalid_argument, "a bare number has no unit: write 30:00 (mm:ss), 30m or 90s");
+  if (number(text, &a))
+    return Error(Errc::invalid_argument, "a bare number has no unit: write 30:00 (mm:ss), 30m or 90s");
   // "30m", "90s", "1m30s".
   if (const size_t m = text.find('m'); m != std::string_view::npos) {
     if (!number(text.substr(0, m), &a)) return Error(Errc::invalid_argument, form);

@@ -6,6 +6,8 @@
 
 #include <fmt/core.h>
 #include <mosquitto.h>
+#include <mqtt_protocol.h>
+#include <sys/random.h>
 
 #include <algorithm>
 #include <atomic>
@@ -37,25 +39,9 @@ struct Command {
   bool retained = false;
 };
 
-// "30:00", "1800" or 1800 -> seconds.
-std::optional<uint32_t> seconds_of(const Json& v) {
-  if (v.is_number_unsigned()) return v.get<uint32_t>();
-  if (v.is_string()) {
-    const Result<uint32_t> s = profile::parse_mm_ss(v.get<std::string>());
-    if (s) return *s;
-  }
-  return std::nullopt;
-}
-
+// A JSON integer 0..65535. Text ("55") is a wrong type: one form per field.
 std::optional<uint16_t> small_number(const Json& v) {
   if (v.is_number_unsigned() && v.get<uint64_t>() <= 0xFFFF) return static_cast<uint16_t>(v.get<uint64_t>());
-  if (v.is_string()) {
-    const std::string s = v.get<std::string>();
-    if (!s.empty() && s.size() <= 5 && s.find_first_not_of("0123456789") == std::string::npos) {
-      const unsigned long n = std::stoul(s);
-      if (n <= 0xFFFF) return static_cast<uint16_t>(n);
-    }
-  }
   return std::nullopt;
 }
 
@@ -80,6 +66,10 @@ std::string quoted(std::string_view s, size_t max) {
     s.remove_prefix(piece.size());
   }
   return out;
+}
+
+bool is_loopback_host(const std::string& host) {
+  return host == "localhost" || host == "::1" || host == "[::1]" || host.rfind("127.", 0) == 0;
 }
 
 bool valid_topic_level(const std::string& id) {
@@ -125,98 +115,123 @@ rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
   return {};
 }
 
-rtukit::Status mqtt_command_body(std::string_view payload, bool retained, double now_s, unsigned max_age_s,
-                                 Json& body) {
-  // Stale: a retained command, or one stamped too long ago. Never run.
-  if (retained) return rtukit::Status(Errc::refused, "stale: a retained command is never run");
-  body = Json::parse(payload, nullptr, false);
-  if (body.is_object() && body.contains("ts") && body["ts"].is_number()) {
-    double ts = body["ts"].get<double>();
-    if (ts > 1e12) ts /= 1000;  // milliseconds
-    const double age = now_s - ts;
-    if (age > max_age_s)
-      return rtukit::Status(Errc::refused,
-                            fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, max_age_s));
-  }
-  // Not JSON (a button's "PRESS", a bare number): the payload as a string.
-  if (body.is_discarded()) body = Json(std::string(payload));
+std::string command_example(std::string_view name) {
+  if (name == "start") return R"({"mode": "timer", "speed": 60, "duration": "30:00", "ts": 1764100000})";
+  if (name == "pause" || name == "resume" || name == "stop") return R"({"ts": 1764100000})";
+  if (name == "speed") return R"({"speed": 55, "ts": 1764100000})";
+  if (name == "plan")
+    return R"({"plan": 2, "segments": [{"speed": 40, "end": "05:00"}, {"speed": 70, "end": "10:00"}], "ts": 1764100000})";
   return {};
 }
 
-rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, const Json& body, Json& result) {
+rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload, bool retained, double now_s,
+                                 unsigned max_age_s, Json& body) {
+  const auto refuse = [&](std::string why) {
+    const std::string example = command_example(name);
+    if (!example.empty()) why += fmt::format("; for example {}", example);
+    return rtukit::Status(Errc::refused, std::move(why));
+  };
+  // Retained: left on the broker by someone, at some time. Never run.
+  if (retained)
+    return rtukit::Status(Errc::refused,
+                          "retained: a retained command is never run (publish commands without the retain "
+                          "flag; clear this one with mosquitto_pub -r -n -t TOPIC)");
+  body = Json::parse(payload, nullptr, false);
+  if (body.is_discarded() || !body.is_object()) {
+    body = Json();
+    return refuse(payload.empty() ? "an empty message is not a command" : "expected one JSON object");
+  }
+  if (!body.contains("ts") || !body["ts"].is_number())
+    return refuse("\"ts\" is required: the time it was sent, in seconds since the epoch");
+  double ts = body["ts"].get<double>();
+  if (ts > 1e12) ts /= 1000;  // milliseconds
+  const double age = now_s - ts;
+  if (!(age <= max_age_s))  // NaN too
+    return rtukit::Status(Errc::refused,
+                          fmt::format("stale: sent {:.0f} s ago (limit {} s)", age, max_age_s));
+  if (-age > kMaxCommandAheadS)
+    return rtukit::Status(
+        Errc::refused, fmt::format("\"ts\" is {:.0f} s in the future (limit {} s): check the sender's clock",
+                                   -age, kMaxCommandAheadS));
+  return {};
+}
+
+rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, const Json& body,
+                                Json& result) {
   const std::string name(name_view);
-  const auto refuse = [](std::string why) {
-    return rtukit::Status(Errc::invalid_argument, std::move(why));
+  const auto refuse = [&](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
+  if (!body.is_object()) return refuse(fmt::format("{}: expected a JSON object", quoted(name, 40)));
+  const auto duration = [&](const char* key, std::optional<uint32_t>& out) -> rtukit::Status {
+    const Json& v = body[key];
+    if (!v.is_string())
+      return refuse(fmt::format("\"{}\": a duration as text: \"30:00\", \"30m\" or \"90s\"", key));
+    const Result<uint32_t> s = profile::parse_duration(v.get<std::string>());
+    if (!s)
+      return refuse(
+          fmt::format("\"{}\" '{}': {}", key, quoted(v.get<std::string>(), 20), s.error().reason()));
+    out = *s;
+    return {};
   };
   if (name == "pause") return client.pause();
   if (name == "resume") return client.resume();
   if (name == "stop") return client.stop();
   if (name == "speed") {
-    const Json v = body.is_object() && body.contains("speed") ? body["speed"] : body;
-    const std::optional<uint16_t> speed = small_number(v);
-    if (!speed) return refuse("speed: expected a number 0..100");
+    const std::optional<uint16_t> speed = body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
+    if (!speed) return refuse("speed: \"speed\" is required, a whole number 0..100");
     return client.set_speed(*speed);
   }
-  if (name == "plan_select") {
-    // Home Assistant's select: "Plan 1".."Plan 4" starts that plan.
-    const std::string v = body.is_string() ? body.get<std::string>() : body.dump();
-    if (v.size() != 6 || v.rfind("Plan ", 0) != 0 || v[5] < '1' || v[5] > '4')
-      return refuse(fmt::format("plan_select: expected Plan 1..Plan 4, got '{}'", quoted(v, 20)));
-    return client.start_plan(static_cast<unsigned>(v[5] - '0'));
-  }
   if (name == "start") {
-    if (!body.is_object()) return client.start_free_from_memory();  // a button's "PRESS"
     // value() throws on a "mode" that is not text ({"mode": 1}), which ended
     // the bridge's or the panel's bus thread (found by fuzz_mqtt_command).
-    if (body.contains("mode") && !body["mode"].is_string())
-      return refuse("start: mode must be free, timer or plan");
-    const std::string mode = body.value("mode", "free");
+    if (!body.contains("mode") || !body["mode"].is_string())
+      return refuse("start: \"mode\" is required: \"free\", \"timer\" or \"plan\"");
+    const std::string mode = body["mode"].get<std::string>();
     if (mode == "free") {
       if (!body.contains("speed")) return client.start_free_from_memory();
       const std::optional<uint16_t> speed = small_number(body["speed"]);
-      if (!speed) return refuse("speed: expected a number 0..100");
+      if (!speed)
+        return refuse("free: \"speed\" must be a whole number 0..100 (leave it out: the remembered speed)");
       return client.start_free(*speed);
     }
     if (mode == "timer") {
       const std::optional<uint16_t> speed =
           body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
-      const std::optional<uint32_t> duration =
-          body.contains("duration") ? seconds_of(body["duration"]) : std::nullopt;
-      if (!speed) return refuse("timer: \"speed\" 0..100 is required");
-      if (!duration || *duration < 1 || *duration > 5999)
-        return refuse("timer: \"duration\" 00:01..99:59 is required");
-      return client.start_timer(*speed, static_cast<uint16_t>(*duration));
+      if (!speed) return refuse("timer: \"speed\" is required, a whole number 0..100");
+      if (!body.contains("duration")) return refuse("timer: \"duration\" is required, for example \"30:00\"");
+      std::optional<uint32_t> seconds;
+      if (rtukit::Status e = duration("duration", seconds)) return e;
+      if (*seconds < 1 || *seconds > 5999) return refuse("timer: \"duration\" must be 00:01..99:59");
+      return client.start_timer(*speed, static_cast<uint16_t>(*seconds));
     }
     if (mode == "plan") {
-      const std::optional<uint16_t> plan =
-          body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+      const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
       if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
-      const std::optional<uint32_t> from =
-          body.contains("from") ? seconds_of(body["from"]) : std::optional<uint32_t>(0);
-      if (!from || *from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
+      std::optional<uint32_t> from = 0;
+      if (body.contains("from"))
+        if (rtukit::Status e = duration("from", from)) return e;
+      if (*from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
       return client.start_plan(*plan, static_cast<uint16_t>(*from));
     }
     return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", quoted(mode, 20)));
   }
   if (name == "plan") {
-    if (!body.is_object() || !body.contains("segments") || !body["segments"].is_array())
+    if (!body.contains("segments") || !body["segments"].is_array())
       return refuse(
-          "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": %, \"end\": \"mm:ss\"}, ...]}");
+          "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": 0..100, \"end\": \"mm:ss\"}, ...]}");
     const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
     if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
     std::vector<ij::Segment> segments;
     for (const Json& s : body["segments"]) {
-      ij::Segment segment;
-      bool ok = false;
-      if (s.is_object() && s.contains("speed") && s.contains("end")) {
-        const std::optional<uint16_t> speed = small_number(s["speed"]);
-        const std::optional<uint32_t> end = seconds_of(s["end"]);
-        ok = speed.has_value() && end.has_value() && end.value_or(0) <= 0xFFFF;
-        if (ok) segment = {speed.value_or(0), static_cast<uint16_t>(end.value_or(0))};
-      }
-      if (!ok)
-        return refuse(fmt::format("plan: segment {} needs \"speed\" and \"end\"", segments.size() + 1));
-      segments.push_back(segment);
+      const std::string at = fmt::format("plan: segment {}", segments.size() + 1);
+      if (!s.is_object() || !s.contains("speed") || !s.contains("end"))
+        return refuse(at + " needs \"speed\" and \"end\"");
+      const std::optional<uint16_t> speed = small_number(s["speed"]);
+      if (!speed) return refuse(at + ": \"speed\" must be a whole number 0..100");
+      const Result<uint32_t> end = s["end"].is_string() ? profile::parse_duration(s["end"].get<std::string>())
+                                                        : Result<uint32_t>(Error(Errc::invalid_argument, ""));
+      if (!end || *end > 0xFFFF)
+        return refuse(at + ": \"end\" must be a duration as text: \"05:00\", \"5m\" or \"90s\"");
+      segments.push_back({*speed, static_cast<uint16_t>(*end)});
     }
     if (rtukit::Status e = ij::validate_plan(segments)) return e;
     if (rtukit::Status e = client.write_plan(*plan, segments)) return e;
@@ -225,7 +240,6 @@ rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, 
   }
   return refuse(fmt::format("unknown command '{}'", quoted(name, 40)));
 }
-
 
 Json machine_state_json(const ij::MachineStatus& s) {
   Json faults = Json::array();
@@ -255,7 +269,6 @@ Json machine_state_json(const ij::MachineStatus& s) {
                 {"driver_hardware", s.driver_hardware}}}};
 }
 
-
 // ---------------------------------------------------------------- one machine
 
 struct Machine {
@@ -273,6 +286,7 @@ struct Machine {
   ij::Client client;
   std::string base;
   mosquitto* mosq = nullptr;
+  std::string client_id;
 
   std::mutex mutex;  ///< guards commands (filled on the MQTT thread)
   std::deque<Command> commands;
@@ -322,7 +336,9 @@ struct Bridge::Impl {
     if (rc != 0) return;  // refused (credentials): libmosquitto retries with back-off
     machine.connected = true;
     const std::string topic = machine.base + "/set/#";
-    mosquitto_subscribe(m, nullptr, topic.c_str(), 1);
+    // Retain as published: a command someone left retained arrives with its
+    // retain flag even while we are subscribed, and is refused as such.
+    mosquitto_subscribe_v5(m, nullptr, topic.c_str(), 1, MQTT_SUB_OPT_RETAIN_AS_PUBLISHED, nullptr);
     machine.announce = true;
   }
 
@@ -337,16 +353,33 @@ struct Bridge::Impl {
     Command c{topic.substr(prefix.size()),
               std::string(static_cast<const char*>(msg->payload), static_cast<size_t>(msg->payloadlen)),
               msg->retain};
-    std::lock_guard lock(machine.mutex);
-    if (machine.commands.size() < 32) machine.commands.push_back(std::move(c));  // a flood is cut, not queued
+    {
+      std::lock_guard lock(machine.mutex);
+      if (machine.commands.size() < kCommandQueueLimit) {
+        machine.commands.push_back(std::move(c));
+        return;
+      }
+    }
+    // A flood is cut, not queued, and every command cut gets its answer:
+    // a sender that hears nothing would not know to try again.
+    Json result{{"command", quoted(c.name, 40)},
+                {"at", iso_now()},
+                {"ok", false},
+                {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
+                                      kCommandQueueLimit)}};
+    if (const Json body = Json::parse(c.payload, nullptr, false); body.is_object() && body.contains("id"))
+      result["id"] = body["id"];
+    machine.publish(machine.base + "/result", result.dump(-1, ' ', false, Json::error_handler_t::replace),
+                    false);
   }
 
   // ---------------------------------------------------------- the bus side (bridge thread)
 
   rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
     Json body;
-    if (rtukit::Status e = mqtt_command_body(c.payload, c.retained, static_cast<double>(std::time(nullptr)),
-                                             options.max_age_s, body))
+    const double now_s =
+        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    if (rtukit::Status e = mqtt_command_body(c.name, c.payload, c.retained, now_s, options.max_age_s, body))
       return e;
     return inverjet_command(m.client, c.name, body, result);
   }
@@ -396,6 +429,7 @@ struct Bridge::Impl {
             {"state_topic", state},
             {"value_template", "{{ value_json.speed }}"},
             {"command_topic", m.base + "/set/speed"},
+            {"command_template", "{\"speed\": {{ value | int }}, \"ts\": {{ now().timestamp() | int }}}"},
             {"min", 0},
             {"max", 100},
             {"step", 1},
@@ -413,14 +447,21 @@ struct Bridge::Impl {
     for (const char* b : {"start", "pause", "resume", "stop"}) {
       std::string name = b;
       name[0] = static_cast<char>(name[0] - 'a' + 'A');
+      // Home Assistant renders command_template when the button is pressed:
+      // the command carries the time it was sent, as every command must.
+      const std::string body = std::string(b) == "start"
+                                   ? "{\"mode\": \"free\", \"ts\": {{ now().timestamp() | int }}}"
+                                   : "{\"ts\": {{ now().timestamp() | int }}}";
       entity("button", b,
-             {{"name", name}, {"command_topic", m.base + "/set/" + b}, {"payload_press", "PRESS"}});
+             {{"name", name}, {"command_topic", m.base + "/set/" + b}, {"command_template", body}});
     }
     entity("select", "plan",
            {{"name", "Training plan"},
             {"state_topic", state},
             {"value_template", "{{ value_json.plan_select }}"},
-            {"command_topic", m.base + "/set/plan_select"},
+            {"command_topic", m.base + "/set/start"},
+            {"command_template",
+             "{\"mode\": \"plan\", \"plan\": {{ value[-1] | int }}, \"ts\": {{ now().timestamp() | int }}}"},
             {"options", Json::array({"Plan 1", "Plan 2", "Plan 3", "Plan 4"})}});
   }
 
@@ -431,7 +472,8 @@ struct Bridge::Impl {
   // few ms: a regular poll at the rate limit is not held back a whole period
   // for being 1 ms early.
   std::chrono::duration<double> min_publish_gap() const {
-    return std::chrono::duration<double>(options.max_rate > 0 ? std::max(0.0, 1.0 / options.max_rate - 0.025) : 0);
+    return std::chrono::duration<double>(options.max_rate > 0 ? std::max(0.0, 1.0 / options.max_rate - 0.025)
+                                                              : 0);
   }
 
   void publish_state(Machine& m, const Json& doc, Clock::time_point now, bool command_effect = false) {
@@ -569,10 +611,14 @@ rtukit::Status Bridge::start() {
   mosquitto_lib_init();
   for (const BridgeMachine& config : b.options.machines) {
     auto m = std::make_unique<Machine>(b.master, config, b.options);
-    const std::string client_id = fmt::format("rtukit-inverjet-{}", config.id);
-    m->mosq = mosquitto_new(client_id.c_str(), true, m.get());
+    // Unique per machine and per run: nobody takes the id from docs or a guess.
+    uint32_t nonce = 0;
+    if (::getrandom(&nonce, sizeof nonce, 0) != sizeof nonce)
+      return rtukit::Status(Errc::io_error, "getrandom: no random number for the client id");
+    m->client_id = fmt::format("rtukit-inverjet-{}-{:08x}", config.id, nonce);
+    m->mosq = mosquitto_new(m->client_id.c_str(), true, m.get());
     if (!m->mosq) return rtukit::Status(Errc::io_error, "libmosquitto: cannot create a client");
-    mosquitto_int_option(m->mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V311);
+    mosquitto_int_option(m->mosq, MOSQ_OPT_PROTOCOL_VERSION, MQTT_PROTOCOL_V5);
     if (!b.options.user.empty())
       mosquitto_username_pw_set(m->mosq, b.options.user.c_str(),
                                 b.options.password.empty() ? nullptr : b.options.password.c_str());
@@ -596,6 +642,30 @@ rtukit::Status Bridge::start() {
   }
   b.thread = std::thread([&b] { b.run(); });
   return {};
+}
+
+std::vector<std::string> Bridge::client_ids() const {
+  std::vector<std::string> ids;
+  for (const auto& m : impl_->machines) ids.push_back(m->client_id);
+  return ids;
+}
+
+std::vector<std::string> Bridge::warnings() const {
+  const BridgeOptions& o = impl_->options;
+  std::vector<std::string> out;
+  if (o.user.empty())
+    out.push_back(
+        fmt::format("warning: no broker credentials (--user): if the broker at {} lets anonymous clients in, "
+                    "every one of "
+                    "them can start the machine (docs/security.md, \"Pool\")",
+                    o.host));
+  if (o.tls_ca.empty() && !is_loopback_host(o.host))
+    out.push_back(
+        fmt::format("warning: plain MQTT to {}: credentials and commands cross the network in the clear (use "
+                    "mqtts:// and "
+                    "--tls-ca)",
+                    o.host));
+  return out;
 }
 
 void Bridge::stop() {

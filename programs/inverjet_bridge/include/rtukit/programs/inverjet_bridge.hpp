@@ -10,27 +10,42 @@
 //    delays the others by more than one response timeout per back-off.
 //  - State: one retained JSON document on change (at most `max_rate` per
 //    second) plus retained per-value topics.
-//  - Commands on .../set/<command>: validated as the typed client validates
-//    (inverjet::Client), answered on .../result with the reason when refused;
-//    never applied halfway. Retained commands and commands whose "ts" is older
-//    than `max_age_s` are dropped (a swimmer must never have the machine start
-//    because a stale message came in late).
+//  - Commands on .../set/<command>: one JSON object each, with "ts" (docs/
+//    inverjet.md has every command's form), checked by mqtt_command_body
+//    then validated as the typed client validates (inverjet::Client), and
+//    answered on .../result, with the reason when refused; never applied
+//    halfway. Anything else (empty, not JSON, a wrong type, a retained
+//    message, a "ts" too old or in the future) is refused and never acts: a
+//    swimmer must never have the machine start because a stale or malformed
+//    message came in. A full command queue refuses with an answer too.
+//  - MQTT 5, subscribed with "retain as published", so a retained command is
+//    seen as one even while the bridge is online. Each machine's client id
+//    is unique per bridge instance (rtukit-inverjet-<id>-<8 random hex>):
+//    another bridge, or a user who read the docs, cannot knock it off with
+//    a well-known id (docs/security.md, "Pool").
 //  - Reconnects to the broker (1 s doubling to 30 s) and to the machine.
 #pragma once
 
 #include <cstdint>
 #include <memory>
-#include <string>
-#include <vector>
-
 #include <nlohmann/json.hpp>
+#include <string>
 #include <string_view>
+#include <vector>
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
+
+/// A command's "ts" may be at most this old, and at most kMaxCommandAheadS
+/// in the future (clocks differ a little; a command from the future is a
+/// replay or a wrong clock).
+inline constexpr unsigned kMaxCommandAgeS = 10;
+inline constexpr unsigned kMaxCommandAheadS = 2;
+/// Commands waiting for the bus per machine; more are refused ("busy").
+inline constexpr size_t kCommandQueueLimit = 32;
 
 struct BridgeMachine {
   uint8_t unit = 21;
@@ -45,7 +60,7 @@ struct BridgeOptions {
   std::string tls_ca;  ///< CA file: TLS to the broker
   double poll_hz = 2;
   double max_rate = 2;                             ///< state documents per second per machine, at most
-  unsigned max_age_s = 5;                          ///< older commands are dropped
+  unsigned max_age_s = kMaxCommandAgeS;            ///< older commands are refused
   std::string discovery_prefix = "homeassistant";  ///< empty: no discovery
   unsigned response_timeout_ms = 300;
 };
@@ -56,24 +71,37 @@ struct BridgeOptions {
 nlohmann::json machine_state_json(const inverjet::MachineStatus& s);
 
 /// Runs one command as the bridge's set/<name> topics and the pool panel take
-/// it: start {mode free|timer|plan, speed, duration, plan, from} (anything
-/// not an object: free mode from memory), pause, resume, stop, speed (a
-/// number or {speed}), plan {plan, segments: [{speed, end}]}, plan_select
-/// ("Plan 1".."Plan 4"). Checked as the typed client checks (it runs them);
-/// never applied halfway. Errors: invalid_argument with the rule, or the
-/// machine's answer (Modbus exception with its reason), timeouts.
+/// it, from a JSON object (the panel's message, or the MQTT payload that
+/// mqtt_command_body accepted; other fields such as "ts", "id", "op" are
+/// ignored here):
+///   start {"mode": "free", "speed"?: 0..100}      (no speed: the machine's remembered one)
+///   start {"mode": "timer", "speed": 0..100, "duration": "30:00" | "30m" | "90s"}
+///   start {"mode": "plan", "plan": 1..4, "from"?: duration}
+///   pause {}, resume {}, stop {}
+///   speed {"speed": 0..100}
+///   plan  {"plan": 1..4, "segments": [{"speed": 0..100, "end": duration}, ...]}
+/// Numbers are JSON integers, durations JSON strings (profile::parse_duration:
+/// a bare number has no unit and is refused). Checked as the typed client
+/// checks (it runs them); never applied halfway. Errors: invalid_argument
+/// with the rule and an example, or the machine's answer (Modbus exception
+/// with its reason), timeouts.
 rtukit::Status inverjet_command(inverjet::Client& client, std::string_view name, const nlohmann::json& body,
                                 nlohmann::json& result);
 
-/// The body of a command message on .../set/<name>, for inverjet_command:
-/// the payload's JSON, or the payload as a JSON string when it is not JSON (a
-/// button's "PRESS"). Stale commands are refused before anything runs: a
-/// retained message, or one whose "ts" (seconds, or milliseconds, since the
-/// epoch) is more than `max_age_s` before `now_s`. Errors: refused with the
-/// reason ("stale: ..."). Pure: the bridge passes the time (and the fuzzer
-/// any payload).
-rtukit::Status mqtt_command_body(std::string_view payload, bool retained, double now_s, unsigned max_age_s,
-                                 nlohmann::json& body);
+/// The body of a command message on .../set/<name>, for inverjet_command.
+/// Refused before anything runs (Errc::refused, the reason says what to
+/// send instead): a retained message; a payload that is not one JSON object
+/// (empty, "PRESS", false, a number); no numeric "ts" (seconds, or
+/// milliseconds, since the epoch), or one more than `max_age_s` before
+/// `now_s` or more than kMaxCommandAheadS after it. Pure: the bridge passes
+/// the time (and the fuzzer any payload).
+rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload, bool retained, double now_s,
+                                 unsigned max_age_s, nlohmann::json& body);
+
+/// A command's documented MQTT payload, as an example for refusals and the
+/// docs ("{\"mode\": \"free\", \"speed\": 60, \"ts\": 1764100000}"); empty for an
+/// unknown command.
+std::string command_example(std::string_view name);
 
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.
@@ -92,6 +120,12 @@ class Bridge {
   rtukit::Status start();
   /// Publishes "offline" for every machine, disconnects, stops.
   void stop();
+  /// Each machine's MQTT client id, in the order of the options (after start()).
+  std::vector<std::string> client_ids() const;
+  /// What an operator should know about this deployment, one line each:
+  /// no broker credentials (anyone on the broker may command, unless its
+  /// ACL says otherwise), no TLS to a broker that is not on this machine.
+  std::vector<std::string> warnings() const;
 
  private:
   struct Impl;
