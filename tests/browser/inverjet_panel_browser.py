@@ -1,9 +1,20 @@
 #!/usr/bin/python3
 """The Inverjet pool panel in a real browser (Debian's Chromium, headless,
-through Selenium), against `rtukit inverjet panel` and the simulated machine
-on a pty. Starts what it needs and stops it by PID; its temporary folder is
-removed at the end. Waits are for events under generous deadlines (DEADLINE),
-never for a fixed time: the test holds on a busy machine.
+through Selenium), against `rtukit inverjet panel` over TLS with a password
+and the simulated machine on a pty. Starts what it needs and stops it by PID;
+its temporary folder is removed at the end. Waits are for events under
+generous deadlines (DEADLINE), never for a fixed time: the test holds on a
+busy machine.
+
+What a swimmer needs, checked in the page: the login; state, time and speed
+readable from the water (time and speed at least 15 % of the screen's height
+on a phone and a wall tablet, the state never cut off); durations in one
+format (a bare "30" refused with an example, nothing sent); an empty speed
+refused; speeds above 80 % and a start over a running run ask first (in-page
+dialog); unsaved plan edits kept across tabs; touch targets of 48 px, 8 px
+apart; a lost machine never looks live (controls off, "No contact since",
+what to do) and the page recovers by itself; faults and refusals with advice
+that clear themselves. Screenshots in OUTDIR.
 
 Usage: inverjet_panel_browser.py RTUKIT OUTDIR
 """
@@ -15,19 +26,27 @@ import subprocess
 import sys
 import tempfile
 
+from selenium.common.exceptions import WebDriverException
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, wait_for  # noqa: E402
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pyhelpers import START_DEADLINE, WebSocket  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 DEADLINE = 20  # s, for what the page, the panel or the simulator shows after an action
+PASSWORD = "lane-four-fast"
 os.makedirs(OUT, exist_ok=True)
 
 
 def text(d, css):
-    return d.find_element(By.CSS_SELECTOR, css).text
+    """The element's text; "" while a page is loading (no such element yet)."""
+    try:
+        return d.find_element(By.CSS_SELECTOR, css).text
+    except WebDriverException:
+        return ""
 
 
 def fill(d, el, value):
@@ -35,34 +54,178 @@ def fill(d, el, value):
     el.send_keys(value)
 
 
+def click(d, css):
+    d.find_element(By.CSS_SELECTOR, css).click()
+
+
+# Every message the page sends, but its pings (what "nothing was sent" means).
+SPY = """
+if (!window.__sent) {
+  window.__sent = [];
+  const send = WebSocket.prototype.send;
+  WebSocket.prototype.send = function (data) {
+    try { const m = JSON.parse(data); if (m.op !== 'ping') window.__sent.push(m); } catch (e) {}
+    return send.call(this, data);
+  };
+}"""
+
+
+def sent(d):
+    return d.execute_script("return window.__sent.map((m) => m.op)")
+
+
+def clear_sent(d):
+    d.execute_script("window.__sent.length = 0")
+
+
+SIZES_JS = """
+const h = innerHeight, r = (id) => document.getElementById(id).getBoundingClientRect();
+const st = document.getElementById('state');
+return {vh: h, time: r('time').height / h, speed: r('speed').height / h,
+        state_fits: st.scrollWidth <= st.clientWidth && st.scrollHeight <= st.clientHeight + 1,
+        state_ellipsis: getComputedStyle(st).textOverflow === 'ellipsis',
+        page_fits: document.documentElement.scrollWidth <= innerWidth};
+"""
+
+# Touch targets: every visible button, input and select at least 48x48 px,
+# and at least 8 px from every other one.
+TARGETS_JS = """
+const vis = (e) => { const r = e.getBoundingClientRect(); return r.width > 0 && r.height > 0 && !e.closest('.hidden'); };
+const els = [...document.querySelectorAll('button, input, select')].filter(vis);
+const name = (e) => e.id || e.getAttribute('aria-label') || e.textContent.trim();
+const small = [], close = [];
+for (const e of els) { const r = e.getBoundingClientRect(); if (r.width < 48 || r.height < 48) small.push(`${name(e)} ${Math.round(r.width)}x${Math.round(r.height)}`); }
+for (let i = 0; i < els.length; ++i) for (let j = i + 1; j < els.length; ++j) {
+  const a = els[i].getBoundingClientRect(), b = els[j].getBoundingClientRect();
+  const gap = Math.max(b.left - a.right, a.left - b.right, b.top - a.bottom, a.top - b.bottom);
+  if (gap < 7.5) close.push(`${name(els[i])} / ${name(els[j])} ${gap.toFixed(1)} px`);
+}
+return {count: els.length, small, close};
+"""
+
+
+def readable(d, where):
+    s = d.execute_script(SIZES_JS)
+    check(f"{where}: time takes >= 15 % of the height", s["time"] >= 0.15, f"{s['time']:.3f}")
+    check(f"{where}: speed takes >= 15 % of the height", s["speed"] >= 0.15, f"{s['speed']:.3f}")
+    check(f"{where}: the state is not cut off", s["state_fits"] and not s["state_ellipsis"], text(d, "#state"))
+    check(f"{where}: nothing scrolls sideways", s["page_fits"])
+
+
+def targets(d, where):
+    t = d.execute_script(TARGETS_JS)
+    check(f"{where}: every touch target >= 48x48 px ({t['count']})", not t["small"], "; ".join(t["small"][:6]))
+    check(f"{where}: touch targets >= 8 px apart", not t["close"], "; ".join(t["close"][:6]))
+
+
+def log_in(d, url):
+    d.get(url + "/")
+    check("without a session the page sends to the login", wait_for(lambda: d.current_url.endswith("/login"), DEADLINE),
+          d.current_url)
+    return d
+
+
 def main():
     work = tempfile.mkdtemp(prefix="rtukit-panel-")
     pty, con_path = os.path.join(work, "jet"), os.path.join(work, "console.sock")
+    pw, cert, key = (os.path.join(work, n) for n in ("panel.pw", "panel.crt", "panel.key"))
     port = free_port()
+    url = f"https://127.0.0.1:{port}"
     procs, drivers = [], []
     try:
-        procs.append(subprocess.Popen([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console",
-                                       "--console", f"unix:{con_path}"], stdout=subprocess.DEVNULL,
-                                      stderr=subprocess.DEVNULL))
-        wait_for(lambda: os.path.exists(pty), DEADLINE)
+        sim = subprocess.Popen([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console",
+                                "--console", f"unix:{con_path}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        procs.append(sim)
+        wait_for(lambda: os.path.exists(pty), START_DEADLINE)
         con = Console(con_path)  # retried until the simulator accepts
+        made = subprocess.run([RTUKIT, "inverjet", "panel-password", pw], input=PASSWORD + "\n", text=True,
+                              capture_output=True)
+        check("panel-password makes the password file", made.returncode == 0, made.stderr)
+        subprocess.run(["openssl", "req", "-x509", "-newkey", "ec", "-pkeyopt", "ec_paramgen_curve:P-256", "-nodes",
+                        "-keyout", key, "-out", cert, "-days", "2", "-subj", "/CN=127.0.0.1", "-addext",
+                        "subjectAltName=IP:127.0.0.1"], check=True, capture_output=True)
         err = open(os.path.join(work, "panel.err"), "w")
-        panel = subprocess.Popen([RTUKIT, "inverjet", "panel", "--port", pty, "--http", f"127.0.0.1:{port}"],
+        panel = subprocess.Popen([RTUKIT, "inverjet", "panel", "--port", pty, "--http", f"127.0.0.1:{port}",
+                                  "--password-file", pw, "--tls-cert", cert, "--tls-key", key],
                                  stdout=subprocess.PIPE, stderr=err, text=True)
         procs.append(panel)
-        check("panel prints its URL", f"http://127.0.0.1:{port}" in panel.stdout.readline())
-        d = browser(390, 844)
+        check("panel prints its https URL", url in panel.stdout.readline())
+
+        # A forged Origin is refused, and the machine does not start.
+        try:
+            WebSocket(port, "/ws", tls=True, headers={"Origin": "https://evil.example"})
+            refused = ""
+        except OSError as e:
+            refused = str(e)
+        check("a WebSocket from a foreign origin is refused", "403" in refused, refused)
+        try:
+            WebSocket(port, "/ws", tls=True, headers={"Origin": url})
+            refused = ""
+        except OSError as e:
+            refused = str(e)
+        check("...and from our origin without a session", "401" in refused, refused)
+        check("the machine did not start", con.ask("get state").startswith("state = off"), con.ask("get state"))
+
+        ignore = ["--ignore-certificate-errors"]
+        d = log_in(browser(390, 844, ignore), url)
         drivers.append(d)
-        d.get(f"http://127.0.0.1:{port}/")
-        check("state as the display shows it", wait_for(lambda: text(d, "#state") == "off"), text(d, "#state"))
-        check("plans read from the machine", wait_for(lambda: len(d.find_elements(By.CSS_SELECTOR, "#segments tbody tr")) == 1))
+        d.save_screenshot(os.path.join(OUT, "panel-login-390x844.png"))
+        fill(d, d.find_element(By.ID, "password"), "not-the-password")
+        click(d, "#login")
+        check("a wrong password is refused on the login page",
+              wait_for(lambda: "Wrong password" in text(d, "#why"), DEADLINE), text(d, "#why"))
+        fill(d, d.find_element(By.ID, "password"), PASSWORD)
+        click(d, "#login")
+        check("the right password opens the panel", wait_for(lambda: d.current_url == url + "/", DEADLINE), d.current_url)
+        check("the session cookie is not readable by scripts (HttpOnly)",
+              "rtukit_panel" not in d.execute_script("return document.cookie"))
+        d.execute_script(SPY)
+        check("state as the display shows it", wait_for(lambda: text(d, "#state") == "off", DEADLINE), text(d, "#state"))
+        check("plans read from the machine",
+              wait_for(lambda: len(d.find_elements(By.CSS_SELECTOR, "#segments .seg")) == 1, DEADLINE))
+        check("the log out button shows with a password", d.find_element(By.CSS_SELECTOR, "#logout button").is_displayed())
+        readable(d, "phone 390x844")
+        targets(d, "phone 390x844")
         layout(d, "panel-phone-390x844", OUT, scrolls=True)
 
-        # a timer run started from the page runs on the simulator
+        # Durations in one format: a bare number is refused with an example, nothing sent.
+        Select(d.find_element(By.ID, "start-mode")).select_by_value("timer")
+        fill(d, d.find_element(By.ID, "speed-in"), "60")
+        fill(d, d.find_element(By.ID, "timer-in"), "30")
+        clear_sent(d)
+        click(d, "#start")
+        check("a bare 30 is refused with an example", wait_for(lambda: "write 30:00, 30m or 90s" in text(d, "#reason"),
+                                                               DEADLINE), text(d, "#reason"))
+        check("...and nothing is sent", sent(d) == [], json.dumps(sent(d)))
+        fill(d, d.find_element(By.ID, "timer-in"), "30m")
+        check("the refusal goes away when the time is right", wait_for(lambda: text(d, "#reason") == "", DEADLINE),
+              text(d, "#reason"))
+        fill(d, d.find_element(By.ID, "speed-in"), "")
+        click(d, "#start")
+        check("an empty speed is refused with the reason", wait_for(lambda: "Speed is empty" in text(d, "#reason"),
+                                                                    DEADLINE), text(d, "#reason"))
+        check("...and nothing is sent (never 0 %)", sent(d) == [], json.dumps(sent(d)))
+        d.save_screenshot(os.path.join(OUT, "panel-phone-refused.png"))
+        # A speed above 80 % asks first; Cancel sends nothing.
+        fill(d, d.find_element(By.ID, "speed-in"), "90")
+        click(d, "#start")
+        check("90 % asks for confirmation", wait_for(lambda: d.find_element(By.ID, "confirm").is_displayed()
+                                                     and "90 %" in text(d, "#confirm-text"), DEADLINE))
+        d.save_screenshot(os.path.join(OUT, "panel-phone-confirm.png"))
+        targets(d, "the confirmation")
+        click(d, "#confirm-no")
+        check("...Cancel sends nothing", not d.find_element(By.ID, "confirm").is_displayed() and sent(d) == [],
+              json.dumps(sent(d)))
+        check("the machine is still off", con.ask("get state").startswith("state = off"), con.ask("get state"))
+
+        # A timer run started from the page runs on the simulator.
         fill(d, d.find_element(By.ID, "speed-in"), "70")
         fill(d, d.find_element(By.ID, "timer-in"), "10:00")
-        Select(d.find_element(By.ID, "start-mode")).select_by_value("timer")
-        d.find_element(By.ID, "start").click()
+        click(d, "#start")
+        check("a 70 % start asks nothing", not d.find_element(By.ID, "confirm").is_displayed())
+        check("the duration is sent as mm:ss", wait_for(lambda: d.execute_script(
+            "return window.__sent.some((m) => m.op === 'start' && m.mode === 'timer' && m.duration === '10:00' "
+            "&& m.speed === 70)"), DEADLINE), json.dumps(d.execute_script("return window.__sent")))
         check("the simulator runs the timer run", wait_for(lambda: "timer" in con.ask("get state")
                                                            and "70" in con.ask("get speed"), DEADLINE),
               con.ask("get state"))
@@ -72,77 +235,163 @@ def main():
               text(d, "#time"))
         check("live charts draw the run", wait_for(lambda: d.execute_script(
             "const p = document.querySelector('#chart-speed polyline'); return p && p.points.length >= 3"), DEADLINE))
-        d.find_element(By.ID, "pause").click()
-        check("pause from the page", wait_for(lambda: "paused" in con.ask("get state"), DEADLINE), con.ask("get state"))
+        wait_for(lambda: text(d, "#state") == "timer running", DEADLINE)
+        readable(d, "phone, running")
+        d.execute_script("window.scrollTo(0, 0)")
+        d.save_screenshot(os.path.join(OUT, "panel-phone-running.png"))
+
+        # Starting over a running run asks first; Yes starts.
+        clear_sent(d)
+        fill(d, d.find_element(By.ID, "speed-in"), "50")
+        click(d, "#start")
+        check("a start over a running run asks", wait_for(lambda: d.find_element(By.ID, "confirm").is_displayed()
+                                                          and "A run is going" in text(d, "#confirm-text"), DEADLINE),
+              text(d, "#confirm-text"))
+        check("...and sends nothing before the answer", sent(d) == [], json.dumps(sent(d)))
+        click(d, "#confirm-yes")
+        check("...Yes starts it again", wait_for(lambda: "50" in con.ask("get speed"), DEADLINE), con.ask("get speed"))
+
+        # The wall tablet.
+        t = log_in(browser(1280, 800, ignore), url)
+        drivers.append(t)
+        fill(t, t.find_element(By.ID, "password"), PASSWORD)
+        click(t, "#login")
+        check("tablet: logged in", wait_for(lambda: t.current_url == url + "/", DEADLINE), t.current_url)
+        check("tablet: shows the run", wait_for(lambda: text(t, "#state") == "timer running", DEADLINE),
+              text(t, "#state"))
+        readable(t, "tablet 1280x800")
+        targets(t, "tablet 1280x800")
+        layout(t, "panel-tablet-1280x800", OUT, scrolls=True)
+
+        # The machine stops answering: nothing looks live, controls off, what to do.
+        sim.send_signal(signal.SIGSTOP)
+        for who, b in (("phone", d), ("tablet", t)):
+            check(f"{who}: no contact shows", wait_for(lambda: "No contact since" in text(b, "#lost-title"),
+                                                      DEADLINE + 10), text(b, "#lost"))
+            check(f"{who}: says what to do", "press Stop on the machine itself" in text(b, "#lost"), text(b, "#lost"))
+            check(f"{who}: every run control is disabled", b.execute_script(
+                "return [...document.querySelectorAll('#run button, #run input, #run select, #plan-save')]"
+                ".every((e) => e.disabled)"))
+            check(f"{who}: the values are greyed", b.execute_script(
+                "return getComputedStyle(document.getElementById('time')).color") != "rgb(255, 255, 255)")
+        readable(d, "phone, lost")
+        d.execute_script("window.scrollTo(0, 0)")
+        d.save_screenshot(os.path.join(OUT, "panel-phone-lost.png"))
+        t.save_screenshot(os.path.join(OUT, "panel-tablet-lost.png"))
+        sim.send_signal(signal.SIGCONT)
+        for who, b in (("phone", d), ("tablet", t)):
+            check(f"{who}: recovers by itself", wait_for(lambda: not b.find_element(By.ID, "lost").is_displayed()
+                                                         and b.find_element(By.ID, "stop").is_enabled(), DEADLINE + 10),
+                  text(b, "#lost"))
+
         d.find_element(By.ID, "stop").click()
         check("stop from the page", wait_for(lambda: con.ask("get state").startswith("state = off"), DEADLINE),
               con.ask("get state"))
 
-        # edit plan 2: two segments, saved
-        d.find_element(By.CSS_SELECTOR, '#plan-tabs [data-plan="2"]').click()
-        rows = d.find_elements(By.CSS_SELECTOR, "#segments tbody tr")
-        speed, end = rows[0].find_elements(By.TAG_NAME, "input")
+        # Plans: unsaved edits survive a change of tab.
+        click(d, '#plan-tabs [data-plan="2"]')
+        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments .seg")[0].find_elements(By.TAG_NAME, "input")
         fill(d, speed, "40")
         fill(d, end, "05:00")
-        d.find_element(By.ID, "seg-add").click()
-        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments tbody tr")[1].find_elements(By.TAG_NAME, "input")
+        click(d, '#plan-tabs [data-plan="3"]')
+        click(d, '#plan-tabs [data-plan="2"]')
+        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments .seg")[0].find_elements(By.TAG_NAME, "input")
+        check("unsaved plan edits are kept across tabs", speed.get_attribute("value") == "40"
+              and end.get_attribute("value") == "05:00", f"{speed.get_attribute('value')} {end.get_attribute('value')}")
+        check("...and the tab says it has unsaved edits", "dirty" in
+              d.find_element(By.CSS_SELECTOR, '#plan-tabs [data-plan="2"]').get_attribute("class"))
+        click(d, "#seg-add")
+        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments .seg")[1].find_elements(By.TAG_NAME, "input")
         fill(d, speed, "70")
         fill(d, end, "10:00")
-        d.find_element(By.ID, "plan-save").click()
+        targets(d, "the plan editor")
+        click(d, "#plan-save")
         check("plan 2 saved", wait_for(lambda: "plan 2 saved" in text(d, "#plan-reason"), DEADLINE),
               text(d, "#plan-reason"))
+        check("the plan's ends are sent as mm:ss", d.execute_script(
+            "return window.__sent.some((m) => m.op === 'plan' && m.segments[1].end === '10:00')"))
         check("the step chart shows it", d.execute_script(
             "return document.querySelector('#plan-chart polyline').points.length") == 4)
 
-        # an invalid plan is refused on the page with the reason, nothing sent
-        d.find_element(By.CSS_SELECTOR, '#plan-tabs [data-plan="3"]').click()
-        d.find_element(By.ID, "seg-add").click()
-        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments tbody tr")[1].find_elements(By.TAG_NAME, "input")
+        # An invalid plan is refused on the page with the reason, nothing sent...
+        click(d, '#plan-tabs [data-plan="3"]')
+        click(d, "#seg-add")
+        speed, end = d.find_elements(By.CSS_SELECTOR, "#segments .seg")[1].find_elements(By.TAG_NAME, "input")
         fill(d, end, "00:30")
-        d.find_element(By.ID, "plan-save").click()
+        clear_sent(d)
+        click(d, "#plan-save")
         check("an invalid plan is refused with the reason",
               wait_for(lambda: "not saved: segment 2: end 00:30 is not after 01:00" in text(d, "#plan-reason"),
-                       DEADLINE),
-              text(d, "#plan-reason"))
+                       DEADLINE), text(d, "#plan-reason"))
+        check("...nothing sent", sent(d) == [], json.dumps(sent(d)))
+        fill(d, end, "30")
+        check("a bare number as an end is refused with the example",
+              wait_for(lambda: "write 30:00, 30m or 90s" in text(d, "#plan-reason"), DEADLINE), text(d, "#plan-reason"))
         d.save_screenshot(os.path.join(OUT, "panel-invalid-plan.png"))
-        # ...and the server refuses one too, even when a page skips the check
+        fill(d, end, "02:00")
+        check("...and the refusal goes away when it is right", wait_for(lambda: text(d, "#plan-reason") == "", DEADLINE),
+              text(d, "#plan-reason"))
+        # ...and the server refuses one too, even when a page skips the check.
         r = d.execute_async_script("""
-const done = arguments[arguments.length - 1]; const ws = new WebSocket(`ws://${location.host}/ws`);
-ws.onopen = () => ws.send(JSON.stringify({op: 'plan', id: 1, plan: 3, segments: [{speed: 120, end: 60}]}));
+const done = arguments[arguments.length - 1]; const ws = new WebSocket(`wss://${location.host}/ws`);
+ws.onopen = () => ws.send(JSON.stringify({op: 'plan', id: 1, plan: 3, segments: [{speed: 120, end: '01:00'}]}));
 ws.onmessage = (e) => { const m = JSON.parse(e.data); if (m.type === 'result') { ws.close(); done(m); } };
 setTimeout(() => done(null), 20000);""")
         check("the server refuses a plan the page did not check", r and not r["ok"] and "120" in r["error"], json.dumps(r))
 
-        # a fault injected on the simulator shows, with what to do
+        # A fault injected on the simulator shows, with what to do; a refused start says what to do; both clear.
         con.ask("fault motor-drive")
         check("the fault shows by name with advice", wait_for(
             lambda: "motor drive" in text(d, "#fault-list") and "motor cable" in text(d, "#fault-list"), DEADLINE),
             text(d, "#fault-list"))
+        Select(d.find_element(By.ID, "start-mode")).select_by_value("free")
+        fill(d, d.find_element(By.ID, "speed-in"), "40")
+        click(d, "#start")
+        check("a start refused by the machine says why and what to do",
+              wait_for(lambda: "fault" in text(d, "#reason") and "fault box" in text(d, "#reason"), DEADLINE),
+              text(d, "#reason"))
+        d.execute_script("window.scrollTo(0, 0)")
         d.save_screenshot(os.path.join(OUT, "panel-fault.png"))
+        wait_for(lambda: "motor drive" in text(t, "#fault-list"), DEADLINE)
+        t.save_screenshot(os.path.join(OUT, "panel-tablet-fault.png"))
         con.ask("fault clear")
+        check("the fault box goes when the fault clears",
+              wait_for(lambda: not d.find_element(By.ID, "faults").is_displayed(), DEADLINE))
+        check("...and so does the refusal", wait_for(lambda: text(d, "#reason") == "", DEADLINE), text(d, "#reason"))
 
-        tablet = browser(1024, 768)
-        drivers.append(tablet)
-        tablet.get(f"http://127.0.0.1:{port}/")
-        wait_for(lambda: text(tablet, "#state") != "--", DEADLINE)
-        layout(tablet, "panel-tablet-1024x768", OUT, scrolls=True)
+        # Log out: back to the login page; the old session opens nothing.
+        t.find_element(By.CSS_SELECTOR, "#logout button").click()
+        check("log out leads to the login page", wait_for(lambda: t.current_url.endswith("/login"), DEADLINE),
+              t.current_url)
 
-        # read back with the CLI once the panel let go of the port
+        # The panel itself goes away: the page says so, with what to do.
         panel.send_signal(signal.SIGTERM)
         check("the panel ends cleanly", panel.wait(DEADLINE) == 0)
+        check("the page says the link to the panel is lost", wait_for(
+            lambda: "No contact since" in text(d, "#lost-title") and "lost the panel" in text(d, "#lost"), DEADLINE),
+            text(d, "#lost"))
+        check("...and every control is off", d.execute_script(
+            "return [...document.querySelectorAll('#run button')].every((e) => e.disabled)"))
+
+        # Read back with the CLI once the panel let go of the port.
         shown = subprocess.run([RTUKIT, "inverjet", "plan", "show", "2", "--port", pty, "--json"], capture_output=True,
                                text=True)
         segments = json.loads(shown.stdout).get("segments") if shown.returncode == 0 else None
-        check("the CLI reads plan 2 back", segments is not None and [(x["speed"], x["end"]) for x in segments]
-              == [(40, 300), (70, 600)], shown.stdout[:400] + shown.stderr)
+        check("the CLI reads plan 2 back", segments is not None and [(x["speed"], x.get("end_s", x["end"]))
+                                                                     for x in segments] == [(40, 300), (70, 600)],
+              shown.stdout[:400] + shown.stderr)
         report = open(os.path.join(work, "panel.err")).read()
         check("no sanitizer report from the panel", "Sanitizer" not in report, report[:2000])
+        check("the panel logged the logins, one line each", report.count("login from") >= 2, report[:2000])
     finally:
         for d in drivers:
             try:
                 d.quit()
             except Exception:
                 pass
+        for p in procs:  # a stopped simulator would not hear SIGTERM
+            if p.poll() is None:
+                p.send_signal(signal.SIGCONT)
         stop_processes(procs)
         shutil.rmtree(work, ignore_errors=True)
     return summary()
