@@ -3,7 +3,7 @@
 // simulator's console decode with it, the state file keeps its persisted
 // rows, and `rtukit inverjet registers` prints the reference in
 // docs/inverjet.md from it. Read it like the device manual
-// (../shared/spec/inverjet.md, seed 002 section 3).
+// (docs/spec/inverjet.md, the seed's section 3).
 //
 // Adding a register is one row here (plus the model line that uses it, if
 // it has behaviour); a persisted setting is one row with `kPersisted`.

@@ -2,7 +2,7 @@
 // truth: the controller model validates with it, the host controller and the
 // CLI decode with it, `rtukit rehand6600 registers|errors` print the
 // references in docs/rehand6600.md from it. Read it like the seed's tables 1,
-// 2 and 3 (../shared/spec/rehand6600.md).
+// 2 and 3 (docs/spec/rehand6600.md).
 //
 // Table 1 (the host reads) are read-only holding registers; table 2 (the
 // host writes) are write-only (D-3: a read there gets exception 02). A row's
