@@ -23,13 +23,19 @@
 //   noise|drop|stray|latency|echo]...
 //                                  [--transactions N] [--ber R] [--seed S]
 // Exit status: 0 when every check held, 1 otherwise, 2 on bad usage.
+#include <fcntl.h>
 #include <signal.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <asio.hpp>
+#include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <filesystem>
 #include <map>
+#include <mutex>
 #include <random>
 #include <set>
 #include <sstream>
@@ -51,6 +57,81 @@ using namespace std::chrono_literals;
 namespace {
 
 using Bytes = std::vector<uint8_t>;
+
+// What a soak leaves if it ends early: its folder under /tmp and its
+// simulator. TempDir and Process clean up when soak() returns, but std::exit
+// (the failure paths below) skips the destructors of locals and a signal
+// (ctest stopping the test, Ctrl-C, a closed terminal) skips everything. So
+// they are also listed here, and cleaned up at exit and, on SIGTERM, SIGINT or
+// SIGHUP, by a thread the handler wakes through a pipe (a handler may only
+// write(2)), which then ends the process by that signal. SIGKILL leaves them.
+struct Leftovers {
+  std::mutex mutex;
+  std::vector<std::string> dirs;
+  std::vector<pid_t> children;
+  int wake[2] = {-1, -1};
+
+  void clean() {
+    std::lock_guard lock(mutex);
+    for (const pid_t p : children) ::kill(p, SIGTERM);
+    for (const std::string& d : dirs) {
+      std::error_code ignored;
+      std::filesystem::remove_all(d, ignored);
+    }
+    children.clear();
+    dirs.clear();
+  }
+};
+Leftovers leftovers;
+
+// Lists a soak's folder, then its simulator, for as long as it lives.
+struct Listed {
+  explicit Listed(std::string dir) : dir_(std::move(dir)) {
+    std::lock_guard lock(leftovers.mutex);
+    leftovers.dirs.push_back(dir_);
+  }
+  void child(pid_t pid) {
+    std::lock_guard lock(leftovers.mutex);
+    leftovers.children.push_back(child_ = pid);
+  }
+  ~Listed() {
+    std::lock_guard lock(leftovers.mutex);
+    std::erase(leftovers.dirs, dir_);
+    std::erase(leftovers.children, child_);
+  }
+  Listed(const Listed&) = delete;
+  Listed& operator=(const Listed&) = delete;
+
+ private:
+  std::string dir_;
+  pid_t child_ = -1;
+};
+
+extern "C" void on_stop_signal(int sig) {
+  const unsigned char s = static_cast<unsigned char>(sig);
+  [[maybe_unused]] const ssize_t n = ::write(leftovers.wake[1], &s, 1);
+}
+
+void clean_up_on_exit_and_signals() {
+  std::atexit([] { leftovers.clean(); });
+  if (::pipe2(leftovers.wake, O_CLOEXEC) != 0) return;
+  std::thread([] {
+    unsigned char s = 0;
+    ssize_t n = 0;
+    while ((n = ::read(leftovers.wake[0], &s, 1)) < 0 && errno == EINTR) {
+    }
+    if (n != 1) return;
+    leftovers.clean();
+    std::signal(s, SIG_DFL);
+    std::raise(s);
+    std::_Exit(128 + s);
+  }).detach();
+  struct sigaction sa {};
+  sa.sa_handler = on_stop_signal;
+  sigemptyset(&sa.sa_mask);
+  sa.sa_flags = SA_RESTART;
+  for (const int sig : {SIGTERM, SIGINT, SIGHUP}) ::sigaction(sig, &sa, nullptr);
+}
 
 /// One request of the workload.
 struct Op {
@@ -237,6 +318,7 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
   rep.device = t.device;
   rep.fault = fault;
   TempDir dir;
+  Listed listed(dir.path());  // declared after dir: unlisted before TempDir removes it
   asio::io_context ctx;
   faults.baud = t.baud;
   faults.bits_per_char = 10;
@@ -251,6 +333,7 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
 
   Process sim({RTUKIT_BIN, "sim", t.device, "--listen", dir / "dev", "--baud", std::to_string(t.baud),
                "--no-state", "--no-console", "-v"});
+  listed.child(sim.pid());
   if (!sim.wait_for_output("listening on", 10s)) {
     std::fprintf(stderr, "the simulator did not start:\n%s\n", sim.output().c_str());
     std::exit(1);
@@ -435,6 +518,7 @@ int main(int argc, char** argv) {
     }
   }
   ::signal(SIGPIPE, SIG_IGN);
+  clean_up_on_exit_and_signals();
   // The Inverjet at its fastest documented rate (D-4), the Rehand at its own.
   const Target targets[] = {
       {"inverjet", &inverjet::kProfile, 19200, inverjet::reg::kAddress, inverjet_op},

@@ -28,11 +28,10 @@ import socket
 import struct
 import subprocess
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import free_port  # noqa: E402
+from pyhelpers import free_port, temp_dir  # noqa: E402
 
 RTUKIT = sys.argv[1]
 CYCLES = int(sys.argv[sys.argv.index("--cycles") + 1]) if "--cycles" in sys.argv else 1000
@@ -42,10 +41,14 @@ SETTINGS = 0x0080  # free_speed, free_time, timer_speed, timer_time
 KILL_WINDOW_S = 0.006
 
 
+started = []  # every simulator started, so none outlives the soak
+
+
 def start(state, port):
     """Starts the simulator; returns (process, its start-up lines)."""
     p = subprocess.Popen([RTUKIT, "sim", "inverjet", "--listen", f"tcp://127.0.0.1:{port}", "--state-file", state,
                           "--no-console"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, bufsize=1)
+    started.append(p)
     lines = []
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline:
@@ -112,8 +115,19 @@ def temporaries(state):
 
 
 def main():
+    # The folder goes at exit, on every path (temp_dir); the simulators first.
+    try:
+        return soak()
+    finally:
+        for p in started:
+            if p.poll() is None:
+                p.kill()
+                p.wait()
+
+
+def soak():
     rng = random.Random(SEED)
-    work = tempfile.mkdtemp(prefix="rtukit-power-cut-")
+    work = temp_dir("rtukit-power-cut-")
     state = os.path.join(work, "inverjet.json")
     port = free_port()
     # First start: defaults, saved.

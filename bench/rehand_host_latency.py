@@ -20,12 +20,11 @@ import os
 import statistics
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, free_port, pct, stop_processes, wait_for  # noqa: E402
+from pyhelpers import Console, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -47,7 +46,7 @@ new MutationObserver(() => window.__log.push([Date.now(), el.textContent])).obse
 
 
 def run(pages):
-    work = tempfile.mkdtemp(prefix="rtukit-bench-host-")
+    work = temp_dir("rtukit-bench-host-")  # removed at exit, on every path
     pty, con_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     pairing = os.path.join(work, "pairing.json")
     with open(pairing, "w") as f:
@@ -80,7 +79,7 @@ def run(pages):
               "--disable-background-networking", "--disable-component-update", "--disable-sync",
               "--disable-dev-shm-usage", "--disable-renderer-backgrounding",
               "--disable-background-timer-throttling", "--disable-backgrounding-occluded-windows",
-              f"--user-data-dir={tempfile.mkdtemp(prefix='rtukit-chromium-')}"]:
+              f"--user-data-dir={temp_dir('rtukit-chromium-')}"]:
         o.add_argument(a)
     o.binary_location = "/usr/bin/chromium"
     d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)

@@ -30,12 +30,11 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, WebSocket, free_port, pct, stop_processes, wait_for  # noqa: E402
+from pyhelpers import Console, WebSocket, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 MASTER_ERROR = 0x1010  # "1010 Master Error": error codes are hex (table 3)
@@ -118,7 +117,7 @@ class Display:
 
 
 def main():
-    work = tempfile.mkdtemp(prefix="rtukit-link-soak-")
+    work = temp_dir("rtukit-link-soak-")  # removed at exit, on every path
     host_pty, chair_pty = os.path.join(work, "host"), os.path.join(work, "chair")
     con_path = os.path.join(work, "console.sock")
     http, phone = free_port(), free_port()

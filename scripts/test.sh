@@ -18,8 +18,21 @@ fi
 preset="${1:-default}"
 shift || true
 scripts/build.sh "$preset"
+# Tests leave nothing behind: rtukit-* folders in the temporary folder that
+# appeared during the run are listed at the end (a test run by someone else
+# at the same time can add its own; folders older than the run are ignored).
+tmp="${TMPDIR:-/tmp}"
+rtukit_dirs() { find "$tmp" -maxdepth 1 -type d -name 'rtukit-*' 2>/dev/null | sort; }
+before="$(rtukit_dirs)"
+rc=0
 if [ "$busy" != "0" ]; then
-  scripts/busy.sh ctest --preset "$preset" -j "$(nproc)" "$@"
+  scripts/busy.sh ctest --preset "$preset" -j "$(nproc)" "$@" || rc=$?
 else
-  ctest --preset "$preset" -j "$(nproc)" "$@"
+  ctest --preset "$preset" -j "$(nproc)" "$@" || rc=$?
 fi
+left="$(comm -13 <(echo "$before") <(rtukit_dirs) | sed '/^$/d')"
+if [ -n "$left" ]; then
+  echo "test.sh: folders left in $tmp during this run (a test that does not clean up?):" >&2
+  echo "$left" | sed 's/^/  /' >&2
+fi
+exit "$rc"

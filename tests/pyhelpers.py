@@ -1,7 +1,7 @@
 """What the Python tests and benchmarks share: a free loopback port, polling
 with a deadline, whether a TCP port accepts, connecting to a server that may
-still be starting, a percentile, a simulator's console and a small WebSocket
-client. Import with the tests/ folder on sys.path.
+still be starting, a percentile, a simulator's console, a small WebSocket
+client and temporary folders that go when the program ends. Import with the tests/ folder on sys.path.
 
 Timing: a test waits for events (a socket that accepts, an answer, a state
 seen) with generous deadlines, never for a fixed time: a deadline only costs
@@ -227,3 +227,37 @@ def stop_processes(procs, timeout=5.0):
             except subprocess.TimeoutExpired:
                 p.kill()
                 p.wait()
+
+
+_temp_dirs = []
+
+
+def temp_dir(prefix):
+    """A new folder under the temporary directory (tempfile.mkdtemp), removed
+    with everything in it when the program ends: normally, by an exception or
+    SystemExit, or by SIGTERM, SIGHUP or SIGINT (ctest's stop, a closed
+    terminal, Ctrl-C; SIGTERM and SIGHUP become SystemExit here, so `finally`
+    blocks stop the program's children first). Only SIGKILL leaves it."""
+    import atexit
+    import signal
+    import tempfile
+    import threading
+    if not _temp_dirs:
+        atexit.register(_remove_temp_dirs)
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, signal.SIGHUP):
+                if signal.getsignal(sig) == signal.SIG_DFL:
+                    signal.signal(sig, _exit_on_signal)
+    d = tempfile.mkdtemp(prefix=prefix)
+    _temp_dirs.append(d)
+    return d
+
+
+def _exit_on_signal(signum, frame):
+    raise SystemExit(128 + signum)
+
+
+def _remove_temp_dirs():
+    import shutil
+    while _temp_dirs:
+        shutil.rmtree(_temp_dirs.pop(), ignore_errors=True)

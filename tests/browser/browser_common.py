@@ -2,16 +2,13 @@
 chromedriver), checks that print one line each, polling with a deadline,
 the simulators' console sockets, and the layout check (no control overlaps
 another or leaves the screen, every text fits)."""
-import atexit
 import os
 import re
-import shutil
 import sys
 import socket
-import tempfile
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import connect_unix, free_port, stop_processes, wait_for  # noqa: E402,F401 (the browser tests take them from here)
+from pyhelpers import connect_unix, free_port, stop_processes, temp_dir, wait_for  # noqa: E402,F401 (the browser tests take them from here)
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -84,9 +81,8 @@ def browser(width, height, extra=()):
     command-line flags (e.g. a pinned certificate's
     --ignore-certificate-errors-spki-list)."""
     o = webdriver.ChromeOptions()
-    udd = tempfile.mkdtemp(prefix='rtukit-chromium-')
-    # Removed when the test ends (after it quit the browser): no profile left in the temp folder.
-    atexit.register(shutil.rmtree, udd, True)
+    # Removed when the test ends, also by SIGTERM (after it quit the browser): no profile left in the temp folder.
+    udd = temp_dir('rtukit-chromium-')
     for a in [*extra, "--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
               "--disable-background-networking", "--disable-component-update", "--disable-sync",
               "--disable-dev-shm-usage", "--autoplay-policy=no-user-gesture-required",

@@ -17,7 +17,6 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -26,7 +25,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, wait_for  # noqa: E402
+from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, temp_dir, wait_for  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 os.makedirs(OUT, exist_ok=True)
@@ -57,7 +56,7 @@ def text(d, css):
 
 
 def main():
-    work = tempfile.mkdtemp(prefix="rtukit-rehand-host-")
+    work = temp_dir("rtukit-rehand-host-")  # removed at exit, on every path
     pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     http_port, phone_port = free_port(), free_port()
     pairing = os.path.join(work, "pairing.json")
