@@ -327,6 +327,7 @@ def main():
         fill(d, end, "30")
         check("a bare number as an end is refused with the example",
               wait_for(lambda: "write 30:00, 30m or 90s" in text(d, "#plan-reason"), DEADLINE), text(d, "#plan-reason"))
+        d.execute_script("document.getElementById('plan-reason').scrollIntoView({block: 'end'})")
         d.save_screenshot(os.path.join(OUT, "panel-invalid-plan.png"))
         fill(d, end, "02:00")
         check("...and the refusal goes away when it is right", wait_for(lambda: text(d, "#plan-reason") == "", DEADLINE),
@@ -350,7 +351,7 @@ setTimeout(() => done(null), 20000);""")
         check("a start refused by the machine says why and what to do",
               wait_for(lambda: "fault" in text(d, "#reason") and "fault box" in text(d, "#reason"), DEADLINE),
               text(d, "#reason"))
-        d.execute_script("window.scrollTo(0, 0)")
+        d.execute_script("document.getElementById('faults').scrollIntoView({block: 'start'})")  # the box and the refusal
         d.save_screenshot(os.path.join(OUT, "panel-fault.png"))
         wait_for(lambda: "motor drive" in text(t, "#fault-list"), DEADLINE)
         t.save_screenshot(os.path.join(OUT, "panel-tablet-fault.png"))

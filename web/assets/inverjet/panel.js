@@ -73,10 +73,10 @@ function parseSpeed(text) {
 
 // ---- messages: each knows what clears it
 const shown = { '#reason': null, '#plan-reason': null };
-function say(where, text, kind, extra = '') {
+function say(where, text, kind, extra = '', gone = null) {
   const el = $(where);
   el.replaceChildren();
-  shown[where] = text ? { kind, key: stateKey() } : null;
+  shown[where] = text ? { kind, gone } : null;
   if (!text) return;
   el.append(text);
   if (extra) {
@@ -86,7 +86,14 @@ function say(where, text, kind, extra = '') {
     el.append(a);
   }
 }
-function stateKey() { return state ? `${state.online}|${state.state}|${(state.faults || []).join(',')}` : ''; }
+// When a refused command's cause is gone: the fault cleared, the link back,
+// or else the machine's state changed.
+function causeGone(error) {
+  const was = state && state.state;
+  if (/fault/.test(error)) return () => state && state.online === true && !(state.faults || []).length;
+  if (/timeout|no response|I\/O error|not connected|connection/i.test(error)) return () => !linkLost();
+  return () => !state || state.state !== was;
+}
 
 // ---- the link
 function connect() {
@@ -145,7 +152,7 @@ function renderLink() {
   // A message about the link goes away when the link is back.
   for (const where of Object.keys(shown)) {
     const s = shown[where];
-    if (s && s.kind === 'command' && s.key !== stateKey()) say(where, '');
+    if (s && s.kind === 'command' && s.gone && s.gone()) say(where, '');
   }
   updateControls();
 }
@@ -160,7 +167,7 @@ function send(op, fields = {}) {
 async function act(op, fields, where = '#reason') {
   say(where, '');
   const r = await send(op, fields);
-  if (!r.ok) say(where, `${op}: ${r.error}`, 'command', advice(r.error));
+  if (!r.ok) say(where, `${op}: ${r.error}`, 'command', advice(r.error), causeGone(r.error));
   return r;
 }
 
@@ -276,7 +283,9 @@ function markTabs() {
   for (const b of document.querySelectorAll('#plan-tabs button')) {
     const p = Number(b.dataset.plan);
     b.classList.toggle('on', p === editing);
-    b.classList.toggle('dirty', drafts.has(p) && drafts.get(p).dirty);
+    const dirty = drafts.has(p) && drafts.get(p).dirty;
+    b.classList.toggle('dirty', dirty);
+    b.title = dirty ? `plan ${p}: unsaved edits` : '';
   }
 }
 
@@ -401,14 +410,14 @@ $('#start').onclick = async () => {
   if (f.error) { say('#reason', f.error, 'input'); return; }
   const what = f.fields.mode === 'plan' ? `plan ${f.fields.plan}` : `a ${f.fields.mode} run at ${f.fields.speed} %`;
   if (running() && !await confirmFirst(`A run is going (${state.state}, ${state.time}). Stop it and start ${what}?`, 'Yes, start again')) return;
-  if (f.fields.speed > FAST && !await confirmFirst(`Start at ${f.fields.speed} %? That is very fast.`, `Yes, ${f.fields.speed} %`)) return;
+  if (f.fields.speed > FAST && !await confirmFirst(`Start at ${f.fields.speed} %? That is very fast.`, `Yes, ${f.fields.speed}\u00a0%`)) return;
   act('start', f.fields);
 };
 $('#pause').onclick = () => act('pause');
 $('#resume').onclick = () => act('resume');
 $('#stop').onclick = () => act('stop');
 async function setSpeed(speed) {
-  if (speed > FAST && speed > (state ? state.speed : 0) && !await confirmFirst(`Go to ${speed} %? That is very fast.`, `Yes, ${speed} %`)) return;
+  if (speed > FAST && speed > (state ? state.speed : 0) && !await confirmFirst(`Go to ${speed} %? That is very fast.`, `Yes, ${speed}\u00a0%`)) return;
   $('#speed-in').value = speed;
   recheck();
   act('speed', { speed });
