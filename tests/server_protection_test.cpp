@@ -13,13 +13,18 @@
 
 #include <asio.hpp>
 #include <atomic>
+#include <condition_variable>
 #include <fstream>
+#include <future>
+#include <mutex>
 #include <thread>
 
 #include "process.hpp"
 #include "rtukit/core/crc.hpp"
+#include "rtukit/driver/gateway.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
+#include "rtukit/driver/memory_link.hpp"
 #include "rtukit/driver/slave_server.hpp"
 
 using namespace rtukit;
@@ -115,11 +120,153 @@ bool closed_by_peer(int fd, std::chrono::milliseconds within) {
       within);
 }
 
-bool read_ok(const std::string& port) {
-  Master m(io::make_link(*io::parse_port(port, false)), MasterOptions{.response_timeout = 500ms});
+bool read_ok(const std::string& port, std::chrono::milliseconds timeout = 500ms) {
+  Master m(io::make_link(*io::parse_port(port, false)), MasterOptions{.response_timeout = timeout});
   std::array<uint16_t, 4> regs{};
   return m.read_holding_registers(UnitId{1}, 0, regs).ok();
 }
+
+// Raw Modbus TCP: requests to unit 1.
+std::vector<uint8_t> fc03_request(uint16_t transaction) {
+  return {static_cast<uint8_t>(transaction >> 8),
+          static_cast<uint8_t>(transaction),
+          0,
+          0,
+          0,
+          6,
+          1,
+          3,
+          0,
+          0,
+          0,
+          4};
+}
+std::vector<uint8_t> fc06_request(uint16_t address, uint16_t value) {
+  return {0,
+          1,
+          0,
+          0,
+          0,
+          6,
+          1,
+          6,
+          static_cast<uint8_t>(address >> 8),
+          static_cast<uint8_t>(address),
+          static_cast<uint8_t>(value >> 8),
+          static_cast<uint8_t>(value)};
+}
+
+bool send_all(int fd, const std::vector<uint8_t>& bytes) {
+  return ::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL) == static_cast<ssize_t>(bytes.size());
+}
+
+// One whole ADU (header + length), waiting up to 10 s; empty on EOF or time out.
+std::vector<uint8_t> read_adu(int fd) {
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+  const timeval wait{10, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &wait, sizeof wait);
+  const auto read_exactly = [&](uint8_t* p, size_t n) {
+    for (size_t got = 0; got < n;) {
+      const ssize_t r = ::recv(fd, p + got, n - got, 0);
+      if (r <= 0) return false;
+      got += static_cast<size_t>(r);
+    }
+    return true;
+  };
+  std::vector<uint8_t> adu(7);
+  if (!read_exactly(adu.data(), 7)) return {};
+  const size_t length = (size_t{adu[4]} << 8) | adu[5];
+  if (length < 2) return {};
+  adu.resize(6 + length);
+  if (!read_exactly(adu.data() + 7, length - 1)) return {};
+  return adu;
+}
+
+// Leaves `partial` on the connection as the start of a request, known to
+// have reached the server: it goes in one send() (one segment, read at once)
+// behind a whole request, whose answer is then read.
+bool send_partial_request(int fd, const std::vector<uint8_t>& partial) {
+  std::vector<uint8_t> bytes = fc03_request(99);
+  bytes.insert(bytes.end(), partial.begin(), partial.end());
+  return send_all(fd, bytes) && read_adu(fd).size() == 9u + 2 * 4;
+}
+
+// Not closed by the server: nothing to read, no EOF.
+bool still_open(int fd) {
+  uint8_t b[256];
+  const ssize_t n = ::recv(fd, b, sizeof b, MSG_DONTWAIT);
+  return n < 0 && (errno == EAGAIN || errno == EWOULDBLOCK);
+}
+
+// A gateway (in process) in front of a bus whose device answers only when
+// the test releases it: a request stays in flight for as long as needed.
+class GatewayOnHeldBus {
+ public:
+  explicit GatewayOnHeldBus(unsigned max_connections, bool hold = true)
+      : hold_(hold),
+        bus_(std::make_unique<MemoryLink>(
+                 clock_, [this](std::span<const uint8_t> request) { return answer(request); }),
+             MasterOptions{.response_timeout = 30000ms}) {
+    EXPECT_TRUE(engine_.add_unit(UnitId{1}, bank_).ok());
+    GatewayOptions o;
+    o.server.max_connections = max_connections;
+    const io::PortSpec listen = *io::parse_port("tcp://127.0.0.1:0", true);
+    auto g = Gateway::start(ctx_, bus_, std::span<const io::PortSpec>(&listen, 1), o);
+    EXPECT_TRUE(g.ok()) << g.error().reason();
+    gateway_ = std::move(*g);
+    thread_ = std::thread([this] {
+      auto work = asio::make_work_guard(ctx_);
+      ctx_.run();
+    });
+  }
+  ~GatewayOnHeldBus() {
+    release();
+    asio::post(ctx_, [this] {
+      gateway_.reset();
+      ctx_.stop();
+    });
+    thread_.join();
+  }
+  uint16_t port() const { return gateway_->tcp_port(); }
+  uint64_t requests() { return gateway_->stats().requests; }
+  // Requests that reached the device and wait there.
+  bool wait_until_held(unsigned n) {
+    std::unique_lock lock(mutex_);
+    return cv_.wait_for(lock, 10s, [&] { return held_ >= n; });
+  }
+  void release() {
+    std::lock_guard lock(mutex_);
+    hold_ = false;
+    cv_.notify_all();
+  }
+  uint16_t holding(size_t address) {
+    std::lock_guard lock(mutex_);
+    return bank_.holding[address];
+  }
+
+ private:
+  MemoryLink::Reply answer(std::span<const uint8_t> request) {
+    std::unique_lock lock(mutex_);
+    ++held_;
+    cv_.notify_all();
+    cv_.wait_for(lock, 20s, [&] { return !hold_; });
+    std::array<uint8_t, kMaxRtuAduSize> tx{};
+    const auto [n, bank] = engine_.handle_rtu(request, tx);
+    return {{tx.begin(), tx.begin() + static_cast<std::ptrdiff_t>(n)}, 100us};
+  }
+
+  asio::io_context ctx_;
+  std::mutex mutex_;
+  std::condition_variable cv_;
+  bool hold_;
+  unsigned held_ = 0;
+  MemoryBank bank_{200};
+  SlaveEngine engine_;
+  SteadyClock clock_;
+  Master bus_;
+  std::unique_ptr<Gateway> gateway_;
+  std::thread thread_;
+};
 
 // CPU seconds (user + system) a process has used.
 double cpu_seconds(pid_t pid) {
@@ -150,7 +297,7 @@ TEST(ServerProtection, AClientThatNeverReadsStallsNobody) {
   ::close(attacker);
 }
 
-TEST(ServerProtection, ConnectionLimitAndIdleTimeout) {
+TEST(ServerProtection, IdleTimeout) {
   ServerOptions o;
   o.max_connections = 4;
   o.idle_timeout = 300ms;
@@ -158,16 +305,196 @@ TEST(ServerProtection, ConnectionLimitAndIdleTimeout) {
   std::vector<int> idle;
   for (int i = 0; i < 4; ++i) idle.push_back(connect_to(server.listener->tcp_port()));
   ASSERT_TRUE(eventually([&] { return server.connections() == 4; }));
-  const int fifth = connect_to(server.listener->tcp_port());
-  ASSERT_GE(fifth, 0);
-  EXPECT_TRUE(closed_by_peer(fifth, 1000ms));  // refused at once, not left hanging
-  EXPECT_EQ(server.stats().connections_refused, 1u);
-  // Silent connections are closed after the idle timeout; then there is room again.
+  // Silent connections are closed after the idle timeout.
   for (int fd : idle) EXPECT_TRUE(closed_by_peer(fd, 2000ms));
   EXPECT_EQ(server.stats().idle_closed, 4u);
   EXPECT_TRUE(read_ok(server.listener->where()));
   for (int fd : idle) ::close(fd);
+}
+
+// Issue 28, item 1 (a): a full server closes the connection idle longest to
+// admit a new one (the Modbus TCP implementation guide's rule). Before, N
+// idle connections locked every new client out until their idle timeout.
+TEST(ServerProtection, TheOldestIdleConnectionMakesRoom) {
+  ServerOptions o;
+  o.max_connections = 8;  // idle_timeout stays 60 s: nothing here may wait for it
+  Server server("tcp://127.0.0.1:0", o);
+  std::vector<int> idle;
+  for (unsigned i = 0; i < 8; ++i) {
+    idle.push_back(connect_to(server.listener->tcp_port()));
+    ASSERT_TRUE(eventually([&] { return server.connections() == i + 1; }));  // accepted in this order
+  }
+  // One that has been served is idle too, and now the most recent.
+  ASSERT_TRUE(send_all(idle[1], fc03_request(7)));
+  ASSERT_EQ(read_adu(idle[1]).size(), 9u + 2 * 4);
+  const auto t0 = std::chrono::steady_clock::now();
+  const int good = connect_to(server.listener->tcp_port());
+  ASSERT_TRUE(send_all(good, fc03_request(8)));
+  EXPECT_EQ(read_adu(good).size(), 9u + 2 * 4);
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 10s);  // far from the 60-s idle timeout
+  EXPECT_TRUE(closed_by_peer(idle[0], 2000ms));           // the oldest idle one made room
+  for (size_t i = 1; i < idle.size(); ++i) EXPECT_TRUE(still_open(idle[i])) << i;
+  ServerStats stats = server.stats();
+  EXPECT_EQ(stats.idle_evicted, 1u);
+  EXPECT_EQ(stats.connections_refused, 0u);
+  // The next newcomer takes the slot of the next oldest idle: idle[2] (idle[1] was served since).
+  const int next = connect_to(server.listener->tcp_port());
+  ASSERT_TRUE(send_all(next, fc03_request(9)));
+  EXPECT_EQ(read_adu(next).size(), 9u + 2 * 4);
+  EXPECT_TRUE(closed_by_peer(idle[2], 2000ms));
+  EXPECT_TRUE(still_open(idle[1]));
+  EXPECT_TRUE(still_open(good));
+  stats = server.stats();
+  EXPECT_EQ(stats.idle_evicted, 2u);
+  EXPECT_EQ(stats.connections_refused, 0u);
+  for (int fd : idle) ::close(fd);
+  ::close(good);
+  ::close(next);
+}
+
+// When no connection is idle (each holds a partial request) a newcomer is
+// refused at once, as before.
+TEST(ServerProtection, RefusedWhenNoConnectionIsIdle) {
+  ServerOptions o;
+  o.max_connections = 4;
+  Server server("tcp://127.0.0.1:0", o);
+  std::vector<int> busy;
+  for (unsigned i = 0; i < 4; ++i) {
+    busy.push_back(connect_to(server.listener->tcp_port()));
+    ASSERT_TRUE(send_partial_request(busy.back(), {0, 1, 0}));  // 3 bytes of a header
+  }
+  const int fifth = connect_to(server.listener->tcp_port());
+  ASSERT_GE(fifth, 0);
+  EXPECT_TRUE(closed_by_peer(fifth, 2000ms));  // refused at once, not left hanging
+  EXPECT_EQ(server.stats().connections_refused, 1u);
+  for (int fd : busy) EXPECT_TRUE(still_open(fd));
+  for (int fd : busy) ::close(fd);
   ::close(fifth);
+}
+
+// Issue 28, item 1 (b): slowloris. N clients send a request one byte a
+// second; each is closed when its request is not whole request_timeout after
+// its first byte, and a good client is served. Before, each byte re-armed the
+// 60-s idle timeout: the slots stayed taken and the good client was refused.
+TEST(ServerProtection, SlowlorisIsClosedAtTheRequestDeadline) {
+  ServerOptions o;
+  o.max_connections = 8;
+  o.request_timeout = 2000ms;
+  Server server("tcp://127.0.0.1:0", o);
+  std::vector<int> slow;
+  // An FC10 of 123 registers: 260 bytes, 260 s at this pace. Its first byte
+  // goes with a whole request, so it is known to be there before the good
+  // client comes (none of the slow ones is idle, none may be taken for it).
+  const std::vector<uint8_t> frame = {0, 1, 0, 0, 0, 254, 1, 0x10, 0, 0, 0, 123, 246};
+  const auto t0 = std::chrono::steady_clock::now();
+  for (unsigned i = 0; i < 8; ++i) {
+    slow.push_back(connect_to(server.listener->tcp_port()));
+    ASSERT_TRUE(send_partial_request(slow.back(), {frame[0]}));
+  }
+  std::atomic<bool> stop{false};
+  std::thread loris([&] {
+    for (size_t i = 1; !stop; ++i) {
+      for (int t = 0; t < 100 && !stop; ++t) std::this_thread::sleep_for(10ms);
+      for (int fd : slow) ::send(fd, &frame[i % frame.size()], 1, MSG_NOSIGNAL | MSG_DONTWAIT);
+    }
+  });
+  // The good client gets in once the slow ones are gone: deadline + a generous margin.
+  EXPECT_TRUE(eventually([&] { return read_ok(server.listener->where(), 1000ms); }, 2000ms + 8000ms));
+  for (int fd : slow) EXPECT_TRUE(closed_by_peer(fd, 2000ms + 8000ms));
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, 2000ms + 10000ms);
+  EXPECT_EQ(server.stats().request_timeouts, 8u);
+  EXPECT_EQ(server.stats().idle_evicted, 0u);
+  stop = true;
+  loris.join();
+  for (int fd : slow) ::close(fd);
+}
+
+// Issue 28, item 1 (c): a connection whose request is on the bus (a gateway
+// in front of a device that has not answered yet) is never the one closed
+// to make room, even though it is the oldest; and when every connection has
+// a request in flight, a newcomer is refused.
+TEST(ServerProtection, ARequestInFlightIsNeverClosedToMakeRoom) {
+  GatewayOnHeldBus gw(4);
+  const int waiting = connect_to(gw.port());
+  ASSERT_TRUE(send_all(waiting, fc03_request(1)));
+  ASSERT_TRUE(gw.wait_until_held(1));  // on the bus, not answered
+  std::vector<int> idle;
+  for (int i = 0; i < 3; ++i) idle.push_back(connect_to(gw.port()));
+  // Accepted in the order they connected (the listen backlog is FIFO), so
+  // the newcomer comes after the three.
+  const int newcomer = connect_to(gw.port());
+  ASSERT_TRUE(send_all(newcomer, fc03_request(2)));
+  EXPECT_TRUE(closed_by_peer(idle[0], 5000ms));  // the oldest idle one, not `waiting`
+  EXPECT_TRUE(still_open(waiting));
+  EXPECT_TRUE(still_open(idle[1]));
+  gw.release();
+  EXPECT_EQ(read_adu(waiting).size(), 9u + 2 * 4);   // its answer came
+  EXPECT_EQ(read_adu(newcomer).size(), 9u + 2 * 4);  // and the newcomer's
+  for (int fd : idle) ::close(fd);
+  ::close(waiting);
+  ::close(newcomer);
+}
+
+TEST(ServerProtection, EveryConnectionInFlight_NewcomerRefused) {
+  GatewayOnHeldBus gw(3);
+  std::vector<int> busy;
+  for (uint16_t i = 0; i < 3; ++i) {
+    busy.push_back(connect_to(gw.port()));
+    ASSERT_TRUE(send_all(busy.back(), fc03_request(i)));
+  }
+  ASSERT_TRUE(gw.wait_until_held(1));
+  ASSERT_TRUE(eventually([&] { return gw.requests() == 3; }));  // two queued behind the first
+  const int newcomer = connect_to(gw.port());
+  EXPECT_TRUE(closed_by_peer(newcomer, 2000ms));
+  for (int fd : busy) EXPECT_TRUE(still_open(fd));
+  gw.release();
+  for (int fd : busy) EXPECT_EQ(read_adu(fd).size(), 9u + 2 * 4);
+  for (int fd : busy) ::close(fd);
+  ::close(newcomer);
+}
+
+// Issue 28, item 2: a write followed in the same segment by an impossible
+// MBAP header. The write ran; its answer must reach the client before the
+// connection closes. Before, the answer was dropped with the connection.
+TEST(ServerProtection, AnExecutedWriteIsConfirmedBeforeAnOutOfStepClose) {
+  Server server("tcp://127.0.0.1:0", ServerOptions{});
+  const std::vector<std::vector<uint8_t>> garbage = {
+      {0, 2, 0, 1, 0, 6, 1, 3, 0, 0, 0, 1},  // protocol id 1
+      {0, 2, 0, 0, 0xFF, 0xFF, 1},           // length out of range
+      {0, 2, 0, 0, 0, 1, 1},                 // length under 2
+  };
+  uint16_t value = 0x1230;
+  for (const auto& bad : garbage) {
+    ++value;
+    std::vector<uint8_t> bytes = fc06_request(5, value);
+    const std::vector<uint8_t> echo = bytes;
+    bytes.insert(bytes.end(), bad.begin(), bad.end());
+    const int fd = connect_to(server.listener->tcp_port());
+    ASSERT_TRUE(send_all(fd, bytes));  // one write(): one segment
+    EXPECT_EQ(read_adu(fd), echo);
+    EXPECT_TRUE(closed_by_peer(fd, 2000ms));
+    ::close(fd);
+    Master m(io::make_link(*io::parse_port(server.listener->where(), false)),
+             MasterOptions{.response_timeout = 2000ms});
+    std::array<uint16_t, 1> r{};
+    ASSERT_TRUE(m.read_holding_registers(UnitId{1}, 5, r).ok());
+    EXPECT_EQ(r[0], value);
+  }
+}
+
+// The same through the gateway: the write goes to the bus after the bad
+// header has been seen; its answer still comes before the close.
+TEST(ServerProtection, GatewayConfirmsAWriteBeforeAnOutOfStepClose) {
+  GatewayOnHeldBus gw(4, /*hold=*/false);
+  std::vector<uint8_t> bytes = fc06_request(5, 0x4321);
+  const std::vector<uint8_t> echo = bytes;
+  bytes.insert(bytes.end(), {0, 2, 0, 1, 0, 6, 1, 3, 0, 0, 0, 1});
+  const int fd = connect_to(gw.port());
+  ASSERT_TRUE(send_all(fd, bytes));
+  EXPECT_EQ(read_adu(fd), echo);
+  EXPECT_TRUE(closed_by_peer(fd, 2000ms));
+  EXPECT_EQ(gw.holding(5), 0x4321);
+  ::close(fd);
 }
 
 TEST(ServerProtection, OutOfFileDescriptors_NoSpin_ThenServesAgain) {

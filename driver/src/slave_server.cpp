@@ -47,6 +47,7 @@ class RtuResponder {
   }
 
   RtuFramer& framer() { return framer_; }
+  const RtuFramer& framer() const { return framer_; }
 
  private:
   // The framer's CRC errors are the line's (FC08 0x0C): hand new ones to the engine.
@@ -246,9 +247,23 @@ class EngineSession final : public TcpSession {
       std::array<uint8_t, kMaxMbapAduSize> tx{};
       const auto [out, bank] = engine_.handle_tcp(adu, tx);
       if (log_) log_(adu, {tx.data(), out});
-      if (out) queue({tx.data(), out});
+      if (out)
+        queue({tx.data(), out});
+      else
+        answered_nothing();  // listen-only mode
       if (bank) bank->after_response();
     });
+  }
+
+  // Every request is answered as it arrives, on this thread: the connection
+  // is busy only while a request is partly received.
+  bool busy() const override { return partial_request(); }
+  bool partial_request() const override {
+    return framing_ == Framing::rtu ? rtu_.framer().buffered() > 0 : rx_len_ > 0;
+  }
+  // An RTU frame that silence will close is answered before an ending connection closes.
+  bool answer_coming() const override {
+    return framing_ == Framing::rtu && rtu_.framer().silence_deadline().has_value();
   }
 
   // A frame whose length its function does not tell (an unknown function
@@ -265,6 +280,7 @@ class EngineSession final : public TcpSession {
     silence_.async_wait([this, self](const std::error_code& ec) {
       if (ec || closed()) return;
       rtu_.drain(io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
+      request_progress();
       send_queued();
     });
   }

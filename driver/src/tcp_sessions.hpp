@@ -5,7 +5,15 @@
 //    that sends and never reads is disconnected when the buffer passes
 //    ServerOptions::max_pending_output, and nobody else ever waits for it;
 //  - a connection that sends nothing for idle_timeout is closed;
-//  - at most max_connections at once; more are accepted and closed at once;
+//  - a request must be whole request_timeout after its first byte (a client
+//    that trickles a frame, slowloris, is closed);
+//  - at most max_connections at once. A new connection past the limit closes
+//    the one idle longest (nothing being received, executed or answered:
+//    the Modbus TCP implementation guide's rule) and takes its place; when
+//    every connection is busy it is closed at once;
+//  - a connection that ends (the client's end of stream, a stream out of
+//    step) first answers every request it took: an executed write is always
+//    confirmed;
 //  - accept() failing (EMFILE: out of descriptors) pauses 100 ms instead of
 //    spinning.
 // Everything runs on the io_context's thread, except reply_from_any_thread().
@@ -15,6 +23,7 @@
 #include <asio.hpp>
 #include <cstring>
 #include <functional>
+#include <list>
 #include <memory>
 #include <span>
 #include <string>
@@ -25,27 +34,54 @@
 
 namespace rtukit {
 
+class TcpSession;
+
 /// What an acceptor and its sessions share. Sessions hold it by shared_ptr,
 /// so a session that outlives its server stays valid.
 struct TcpShared {
   ServerOptions options;
   ServerStats stats;
-  unsigned live = 0;
+  unsigned live = 0;                ///< connections open (a slot each)
+  std::list<TcpSession*> sessions;  ///< the open ones, to pick one to close for a newcomer
+  uint64_t activity = 0;            ///< a counter, not a clock: orders the sessions' last activity
 };
 
 class TcpSession : public std::enable_shared_from_this<TcpSession> {
  public:
   TcpSession(asio::ip::tcp::socket socket, std::shared_ptr<TcpShared> shared)
-      : socket_(std::move(socket)), idle_(socket_.get_executor()), shared_(std::move(shared)) {
+      : socket_(std::move(socket)),
+        idle_(socket_.get_executor()),
+        deadline_(socket_.get_executor()),
+        shared_(std::move(shared)) {
     ++shared_->live;
+    entry_ = shared_->sessions.insert(shared_->sessions.end(), this);
+    touch();
   }
-  virtual ~TcpSession() { --shared_->live; }
+  // A session is normally closed (on the io thread) long before it is
+  // destroyed; one never closed (its loop stopped) gives its slot back here.
+  virtual ~TcpSession() { release_slot(); }
   TcpSession(const TcpSession&) = delete;
   TcpSession& operator=(const TcpSession&) = delete;
 
   void start() {
     arm_idle();
     read();
+  }
+
+  /// Nothing being received, executed or answered: may be closed to make
+  /// room for a new connection. One ending already (answered everything,
+  /// waiting for the client's end of stream) counts as idle.
+  bool idle() const {
+    if (closed_) return false;
+    if (lingering_) return true;
+    return !finishing_ && !busy() && !writing_ && pending_.empty();
+  }
+  /// Orders sessions by their last activity (connect, bytes in, an answer out).
+  uint64_t last_activity() const { return last_activity_; }
+  /// Closes an idle session to admit a new one (the acceptor, io thread).
+  void evict() {
+    ++shared_->stats.idle_evicted;
+    close();
   }
 
   /// Queues `bytes` for this client from any thread (the gateway's bus
@@ -73,8 +109,14 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     size_t pos = 0;
     for (;;) {
       const Result<size_t> size = mbap_adu_size({rx_.data() + pos, rx_len_ - pos});
-      if (!size.ok()) return false;
+      if (!size.ok()) {
+        // Out of step: nothing after this can be framed. The requests before
+        // it have run; finish() sends their answers before closing.
+        rx_len_ = 0;
+        return false;
+      }
       if (*size == 0 || *size > rx_len_ - pos) break;
+      ++owed_;  // until queue() or answered_nothing()
       f(std::span<const uint8_t>(rx_.data() + pos, *size));
       if (closed_) return true;
       pos += *size;
@@ -84,9 +126,11 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     return true;
   }
 
-  /// Adds an answer to the output buffer (sent by flush()).
+  /// Adds an answer to the output buffer (sent by flush()). One answer per
+  /// request: it settles the oldest request still owed.
   void queue(std::span<const uint8_t> out) {
     if (closed_) return;
+    settle();
     if (pending_.size() + in_flight_.size() + out.size() > shared_->options.max_pending_output) {
       ++shared_->stats.slow_closed;  // it sends but does not read: it would only grow
       close();
@@ -94,6 +138,9 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     }
     pending_.insert(pending_.end(), out.begin(), out.end());
   }
+  /// A request taken through each_mbap_adu that gets no answer (the engine
+  /// in listen-only mode): it is no longer owed.
+  void answered_nothing() { settle(); }
 
   void close() {
     if (closed_) return;
@@ -102,12 +149,52 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
     socket_.close(ignored);
     idle_.cancel();
+    deadline_.cancel();
+    release_slot();
     on_closed();
   }
   /// Called once when the connection closes (the gateway drops its queue).
   virtual void on_closed() {}
   /// Sends what queue() added, outside a read (a timer's answer).
   void send_queued() { flush(); }
+
+  /// A request is partly received or not yet answered: the connection is
+  /// not idle. The default fits a session that answers later, from another
+  /// thread (the gateway): MBAP requests owed an answer, a partial MBAP
+  /// frame, or bytes received since the last answer (RTU frames, which
+  /// this class does not see). A session that answers at once overrides it.
+  virtual bool busy() const { return owed_ > 0 || heard_ || partial_request(); }
+  /// Bytes of a request that is not whole yet (request_timeout runs).
+  virtual bool partial_request() const { return rx_len_ > 0; }
+  /// An answer will come without more input (an RTU frame that silence
+  /// will close): an ending connection waits for it.
+  virtual bool answer_coming() const { return false; }
+  /// Starts or stops the request deadline after the buffered request
+  /// changed outside a read (a silence timer).
+  void request_progress() {
+    if (closed_ || finishing_) return;
+    const bool partial = partial_request();
+    if (partial && !timing_request_) {
+      timing_request_ = true;
+      arm_deadline(shared_->options.request_timeout, Deadline::request);
+    } else if (!partial && timing_request_) {
+      timing_request_ = false;
+      ++deadline_generation_;
+      deadline_.cancel();
+    }
+  }
+  /// Stops taking requests; answers every request taken (their answers
+  /// sent), then closes: an executed write is always confirmed.
+  void finish() {
+    if (closed_ || finishing_) return;
+    finishing_ = true;
+    timing_request_ = false;
+    rx_len_ = 0;
+    // A bound for answers that never come (a request the bus never ends).
+    const auto timeout = shared_->options.idle_timeout;
+    arm_deadline(timeout.count() > 0 ? timeout : std::chrono::milliseconds(60000), Deadline::finish);
+    flush();
+  }
   /// The executor of the connection's loop (for a session's own timers).
   asio::any_io_executor executor() { return socket_.get_executor(); }
   bool closed() const { return closed_; }
@@ -116,21 +203,39 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   size_t rx_len_ = 0;
 
  private:
+  enum class Deadline { request, finish, linger };
+
   void read() {
     auto self = shared_from_this();
     socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
                             [this, self](const std::error_code& ec, size_t n) {
-                              if (ec || closed_) return close();
-                              arm_idle();
-                              if (!on_received(n)) return close();
                               if (closed_) return;
+                              if (ec == asio::error::eof) {
+                                // The client has sent all it will; what it sent is still answered.
+                                peer_done_ = true;
+                                if (lingering_) return close();
+                                return finish();
+                              }
+                              if (ec) return close();
+                              if (finishing_) return read();  // after the end: read and dropped
+                              heard_ = true;
+                              touch();
+                              arm_idle();
+                              if (!on_received(n)) {
+                                finish();  // answers what ran before the bad header
+                                if (!closed_) read();
+                                return;
+                              }
+                              if (closed_) return;
+                              request_progress();
                               flush();
                               read();
                             });
   }
 
   void flush() {
-    if (writing_ || pending_.empty() || closed_) return;
+    if (writing_ || closed_) return;
+    if (pending_.empty()) return ending();
     writing_ = true;
     in_flight_.swap(pending_);
     pending_.clear();
@@ -143,13 +248,54 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     });
   }
 
+  // Finishing, everything answered and written: the end of our stream
+  // (the client reads its last answers, then EOF), then wait briefly for the
+  // client's own end, so that closing does not reset what it has not read.
+  void ending() {
+    if (!finishing_ || lingering_ || closed_ || owed_ > 0 || answer_coming()) return;
+    lingering_ = true;
+    if (peer_done_) return close();
+    std::error_code ignored;
+    socket_.shutdown(asio::ip::tcp::socket::shutdown_send, ignored);
+    arm_deadline(std::chrono::milliseconds(2000), Deadline::linger);
+  }
+
+  void settle() {
+    if (owed_ > 0) --owed_;
+    if (owed_ == 0) heard_ = false;
+    touch();
+  }
+  void touch() { last_activity_ = ++shared_->activity; }
+  void release_slot() {
+    if (!counted_) return;
+    counted_ = false;
+    --shared_->live;
+    shared_->sessions.erase(entry_);
+  }
+
+  // One timer for whichever deadline applies: the request's, then, once
+  // finishing, the bound on the answers still owed and on the linger.
+  void arm_deadline(std::chrono::milliseconds after, Deadline what) {
+    const uint64_t generation = ++deadline_generation_;
+    if (after.count() <= 0) return;  // request_timeout 0: never
+    deadline_.expires_after(after);
+    auto self = shared_from_this();
+    deadline_.async_wait([this, self, generation, what](const std::error_code& ec) {
+      // Stale: stopped or replaced (cancel() cannot stop a handler already queued).
+      if (ec || closed_ || generation != deadline_generation_) return;
+      if (what == Deadline::request) ++shared_->stats.request_timeouts;
+      close();
+    });
+  }
+
   void arm_idle() {
     const auto timeout = shared_->options.idle_timeout;
     if (timeout.count() <= 0) return;
     idle_.expires_after(timeout);
+    const uint64_t generation = ++idle_generation_;
     auto self = shared_from_this();
-    idle_.async_wait([this, self](const std::error_code& ec) {
-      if (ec || closed_) return;  // re-armed by a request, or closed
+    idle_.async_wait([this, self, generation](const std::error_code& ec) {
+      if (ec || closed_ || generation != idle_generation_) return;  // re-armed by a request, or closed
       ++shared_->stats.idle_closed;
       close();
     });
@@ -157,7 +303,19 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
 
   asio::ip::tcp::socket socket_;
   asio::steady_timer idle_;
+  asio::steady_timer deadline_;
   std::shared_ptr<TcpShared> shared_;
+  std::list<TcpSession*>::iterator entry_;
+  bool counted_ = true;  // holds a slot (live, sessions)
+  uint64_t last_activity_ = 0;
+  uint64_t idle_generation_ = 0;
+  uint64_t deadline_generation_ = 0;
+  unsigned owed_ = 0;            // MBAP requests taken, not yet answered
+  bool heard_ = false;           // bytes received since the last answer
+  bool timing_request_ = false;  // request_timeout runs for a partial request
+  bool finishing_ = false;       // takes no more requests; closes once they are answered
+  bool lingering_ = false;       // all answered, our end sent; waiting for the client's
+  bool peer_done_ = false;       // the client's end of stream came
   std::vector<uint8_t> pending_;
   std::vector<uint8_t> in_flight_;
   bool writing_ = false;
@@ -222,6 +380,7 @@ class TcpAcceptor {
         return;
       }
       std::error_code ignored;
+      if (shared_->live >= shared_->options.max_connections) make_room();
       if (shared_->live >= shared_->options.max_connections) {
         ++shared_->stats.connections_refused;  // a clean close: the client sees at once it was refused
         socket.close(ignored);
@@ -231,6 +390,15 @@ class TcpAcceptor {
       }
       accept();
     });
+  }
+
+  // Full: close the connection idle longest, if any is idle (never one whose
+  // request is being received, executed or answered).
+  void make_room() {
+    TcpSession* oldest = nullptr;
+    for (TcpSession* s : shared_->sessions)
+      if (s->idle() && (!oldest || s->last_activity() < oldest->last_activity())) oldest = s;
+    if (oldest) oldest->evict();
   }
 
   asio::ip::tcp::acceptor acceptor_;

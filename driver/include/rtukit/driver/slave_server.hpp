@@ -44,10 +44,15 @@ using RequestLog = std::function<void(std::span<const uint8_t> request, std::spa
 /// event loop (and the device models and watchdogs on it) never waits for a
 /// client that does not read.
 struct ServerOptions {
-  /// TCP: connections served at once; more are accepted and closed at once.
+  /// TCP: connections served at once. When all are taken, a new connection
+  /// closes the one idle longest (no request being received, executed or
+  /// answered) and takes its place; when none is idle it is closed at once.
   unsigned max_connections = 64;
   /// TCP: a connection that sends no request for this long is closed (0: never).
   std::chrono::milliseconds idle_timeout{60000};
+  /// TCP: a request must be whole this long after its first byte, or the
+  /// connection is closed (a client that trickles a frame: slowloris). 0: never.
+  std::chrono::milliseconds request_timeout{5000};
   /// Bytes of answers waiting for a peer that does not read. Past it a TCP
   /// connection is closed; on a serial port or pty the answer is dropped.
   size_t max_pending_output = 16 * 1024;
@@ -61,7 +66,9 @@ struct ServerOptions {
 
 /// Counters of what a server refused or dropped (to check the protections).
 struct ServerStats {
-  uint64_t connections_refused = 0;  ///< over max_connections
+  uint64_t connections_refused = 0;  ///< over max_connections, none idle
+  uint64_t idle_evicted = 0;         ///< closed to admit a new connection: the one idle longest
+  uint64_t request_timeouts = 0;     ///< closed: a request not whole within request_timeout
   uint64_t idle_closed = 0;          ///< closed by idle_timeout
   uint64_t slow_closed = 0;          ///< closed: a client that does not read its answers
   uint64_t answers_dropped = 0;      ///< serial/pty: the peer does not read
