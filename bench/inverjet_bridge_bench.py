@@ -25,6 +25,7 @@ Prints a Markdown table for bench/README.md.
 import json
 import os
 import random
+import shutil
 import statistics
 import subprocess
 import sys
@@ -130,7 +131,7 @@ def run(n):
         procs.extend(pubs.values())
         for i in sample:  # running, so a speed applies at once
             subprocess.run(["mosquitto_pub", "-p", str(port), "-q", "1", "-t", f"rtukit/inverjet/jet{i:03d}/set/start",
-                            "-m", '{"mode":"timer","speed":20,"duration":"30:00"}'])
+                            "-m", json.dumps({"mode": "timer", "speed": 20, "duration": "30:00", "ts": int(time.time())})])
         wait_for(lambda: all("timer running" in consoles[i].ask("get state") for i in sample), 15, 0.2)
         jitter = random.Random(2)
         for rep in range(10):
@@ -150,7 +151,7 @@ def run(n):
                 # command -> register (speed accepted in any state)
                 speed = 20 + rep + (i % 5)
                 t0 = time.monotonic()
-                pubs[i].stdin.write(f"{speed}\n")
+                pubs[i].stdin.write(json.dumps({"speed": speed, "ts": int(time.time())}) + "\n")
                 pubs[i].stdin.flush()
                 if wait_for(lambda: f"speed = {speed} %" in consoles[i].ask("get speed"), 3, 0.0):
                     command.append((time.monotonic() - t0) * 1000)
@@ -175,6 +176,7 @@ def run(n):
                     rss=statistics.mean(rss), late=late, gap=worst_gap, polls=polls, reporting=len(health))
     finally:
         stop_processes(procs)
+        shutil.rmtree(work, ignore_errors=True)
 
 
 def main():
