@@ -20,18 +20,17 @@ Usage: inverjet_panel_browser.py RTUKIT OUTDIR
 """
 import json
 import os
-import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 
 from selenium.common.exceptions import WebDriverException
 from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, free_port, layout, stop_processes, summary, wait_for  # noqa: E402
+from browser_common import (Console, browser, check, free_port, layout, stop_processes, summary,  # noqa: E402
+                            temp_dir, wait_for)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from pyhelpers import START_DEADLINE, WebSocket  # noqa: E402
 
@@ -126,7 +125,7 @@ def log_in(d, url):
 
 
 def main():
-    work = tempfile.mkdtemp(prefix="rtukit-panel-")
+    work = temp_dir("rtukit-panel-")  # removed at exit, on every path
     pty, con_path = os.path.join(work, "jet"), os.path.join(work, "console.sock")
     pw, cert, key = (os.path.join(work, n) for n in ("panel.pw", "panel.crt", "panel.key"))
     port = free_port()
@@ -394,7 +393,6 @@ setTimeout(() => done(null), 20000);""")
             if p.poll() is None:
                 p.send_signal(signal.SIGCONT)
         stop_processes(procs)
-        shutil.rmtree(work, ignore_errors=True)
     return summary()
 
 

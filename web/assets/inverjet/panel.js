@@ -210,6 +210,7 @@ function updateControls() {
   for (const id of ['#slower', '#faster', '#set-speed']) $(id).disabled = !/running|starting|paused/.test(st);
   const how = $('#start-mode').value;
   $('#timer-field').classList.toggle('hidden', how !== 'timer');
+  $('#timer-hint').classList.toggle('hidden', how !== 'timer');
   $('#speed-field').classList.toggle('hidden', how.startsWith('plan'));
 }
 
