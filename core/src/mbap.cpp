@@ -4,6 +4,7 @@
 
 #include "rtukit/core/pdu.hpp"
 
+#if RTUKIT_CORE_TCP
 namespace rtukit {
 
 Result<size_t> mbap_encode(uint16_t transaction, uint8_t unit, std::span<const uint8_t> pdu,
@@ -32,3 +33,4 @@ MbapHeader mbap_header(std::span<const uint8_t> adu) noexcept {
 }
 
 }  // namespace rtukit
+#endif  // RTUKIT_CORE_TCP

@@ -6,22 +6,32 @@ namespace rtukit {
 
 bool is_supported_function(uint8_t function) noexcept {
   switch (function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
-    case fc(Function::read_holding_registers):
-    case fc(Function::read_input_registers):
     case fc(Function::write_single_coil):
-    case fc(Function::write_single_register):
     case fc(Function::write_multiple_coils):
-    case fc(Function::write_multiple_registers):
+#endif
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register):
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers):
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
     case fc(Function::diagnostics):
     case fc(Function::get_comm_event_counter):
     case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
     case fc(Function::encapsulated_interface):
+#endif
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_registers):
       return true;
     default:
       return false;
@@ -34,11 +44,15 @@ bool is_read_function(uint8_t function) noexcept {
 
 bool is_broadcastable(uint8_t function) noexcept {
   switch (function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
-    case fc(Function::write_single_register):
     case fc(Function::write_multiple_coils):
-    case fc(Function::write_multiple_registers):
+#endif
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register):
+#endif
+    case fc(Function::write_single_register):
+    case fc(Function::write_multiple_registers):
       return true;
     default:
       return false;
@@ -92,14 +106,16 @@ namespace {
 
 uint16_t max_quantity(uint8_t function) noexcept {
   switch (function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
       return kMaxReadBits;
+    case fc(Function::write_multiple_coils):
+      return kMaxWriteBits;
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers):
       return kMaxReadRegisters;
-    case fc(Function::write_multiple_coils):
-      return kMaxWriteBits;
     case fc(Function::write_multiple_registers):
       return kMaxWriteRegisters;
     default:
@@ -116,6 +132,7 @@ Errc check_range(uint8_t function, uint16_t address, uint16_t quantity) noexcept
   return Errc::ok;
 }
 
+#if RTUKIT_CORE_READ_WRITE
 // FC17: both quantities first (03), then both ranges (02).
 Errc check_read_write(const Request& r) noexcept {
   if (r.quantity < 1 || r.quantity > kMaxReadRegisters || r.write_quantity < 1 ||
@@ -126,6 +143,7 @@ Errc check_read_write(const Request& r) noexcept {
     return Errc::illegal_data_address;
   return Errc::ok;
 }
+#endif
 
 }  // namespace
 
@@ -134,14 +152,20 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
   Request r;
   r.function = pdu[0];
   if (!is_supported_function(r.function)) return Errc::illegal_function;
+#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
   switch (r.function) {
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
     case fc(Function::get_comm_event_counter):
     case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
+#endif
       // The function code alone.
       if (pdu.size() != 1) return Errc::illegal_data_value;
       return r;
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::diagnostics):
       if (pdu.size() < 3) return Errc::malformed;
       r.sub_function = load_be16(&pdu[1]);
@@ -150,6 +174,8 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.value = load_be16(&pdu[3]);
       return r;
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::encapsulated_interface):
       if (pdu.size() < 2) return Errc::malformed;
       r.mei_type = pdu[1];
@@ -159,14 +185,18 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       r.object_id = pdu[3];
       if (r.read_code < 1 || r.read_code > 4) return Errc::illegal_data_value;
       return r;
+#endif
     default:
       break;
   }
+#endif
   if (pdu.size() < 5) return Errc::malformed;
   r.address = load_be16(&pdu[1]);
   switch (r.function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers): {
       if (pdu.size() != 5) return Errc::illegal_data_value;
@@ -174,19 +204,24 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
       return r;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
+#endif
     case fc(Function::write_single_register): {
       if (pdu.size() != 5) return Errc::illegal_data_value;
       r.quantity = 1;
       r.value = load_be16(&pdu[3]);
-      if (r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0x0000)
+      if (RTUKIT_CORE_COILS && r.function == fc(Function::write_single_coil) && r.value != 0xFF00 &&
+          r.value != 0x0000)
         return Errc::illegal_data_value;
       return r;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_multiple_coils):
+#endif
     case fc(Function::write_multiple_registers): {
       r.quantity = load_be16(&pdu[3]);
-      const size_t expected_bytes = r.function == fc(Function::write_multiple_registers)
+      const size_t expected_bytes = !RTUKIT_CORE_COILS || r.function == fc(Function::write_multiple_registers)
                                         ? size_t{2} * r.quantity
                                         : packed_size(r.quantity);
       if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
@@ -207,6 +242,7 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
       return r;
     }
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register): {
       if (pdu.size() != 7) return pdu.size() < 7 ? Errc::malformed : Errc::illegal_data_value;
       r.quantity = 1;
@@ -214,6 +250,8 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       r.or_mask = load_be16(&pdu[5]);
       return r;
     }
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers): {
       if (pdu.size() < 10) return Errc::malformed;
       r.quantity = load_be16(&pdu[3]);
@@ -225,21 +263,30 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
       r.data = pdu.subspan(10);
       return r;
     }
+#endif
     default:
       return Errc::illegal_function;
   }
 }
 
+#if RTUKIT_CORE_MASTER
+
 Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept {
   if (!is_supported_function(r.function)) return Errc::invalid_argument;
   if (out.empty()) return Errc::buffer_too_small;
+#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
   switch (r.function) {
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
     case fc(Function::get_comm_event_counter):
     case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
+#endif
       out[0] = r.function;
       return size_t{1};
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::diagnostics): {
       // The data field: return query data (00) carries `data`, any length;
       // every other sub-function its 2-byte `value`.
@@ -255,6 +302,8 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
         store_be16(&out[3], r.value);
       return 3 + bytes;
     }
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::encapsulated_interface):
       if (r.read_code < 1 || r.read_code > 4) return Errc::invalid_argument;
       if (out.size() < 4) return Errc::buffer_too_small;
@@ -263,13 +312,17 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       out[2] = r.read_code;
       out[3] = r.object_id;
       return size_t{4};
+#endif
     default:
       break;
   }
+#endif
   size_t n = 0;
   switch (r.function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers):
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
@@ -277,19 +330,24 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.quantity);
       break;
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
+#endif
     case fc(Function::write_single_register):
-      if (r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0)
+      if (RTUKIT_CORE_COILS && r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0)
         return Errc::invalid_argument;
       n = 5;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.value);
       break;
+#if RTUKIT_CORE_COILS
     case fc(Function::write_multiple_coils):
+#endif
     case fc(Function::write_multiple_registers): {
       if (check_range(r.function, r.address, r.quantity) != Errc::ok) return Errc::invalid_argument;
-      const size_t bytes = r.function == fc(Function::write_multiple_registers) ? size_t{2} * r.quantity
-                                                                                : packed_size(r.quantity);
+      const size_t bytes = !RTUKIT_CORE_COILS || r.function == fc(Function::write_multiple_registers)
+                               ? size_t{2} * r.quantity
+                               : packed_size(r.quantity);
       if (r.data.size() != bytes) return Errc::invalid_argument;
       const bool short_form = r.function == fc(Function::write_multiple_registers) && r.without_byte_count;
       const size_t header = short_form ? 5 : 6;
@@ -300,12 +358,15 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       std::memcpy(&out[header], r.data.data(), bytes);
       break;
     }
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register):
       n = 7;
       if (out.size() < n) return Errc::buffer_too_small;
       store_be16(&out[3], r.and_mask);
       store_be16(&out[5], r.or_mask);
       break;
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers): {
       if (check_read_write(r) != Errc::ok) return Errc::invalid_argument;
       const size_t bytes = size_t{2} * r.write_quantity;
@@ -319,6 +380,7 @@ Result<size_t> encode_request(const Request& r, std::span<uint8_t> out) noexcept
       std::memcpy(&out[10], r.data.data(), bytes);
       break;
     }
+#endif
     default:
       return Errc::invalid_argument;
   }
@@ -347,6 +409,7 @@ Result<size_t> encode_write_single_register(uint16_t address, uint16_t value,
   return encode_request(r, out);
 }
 
+#if RTUKIT_CORE_COILS
 Result<size_t> encode_write_single_coil(uint16_t address, bool on, std::span<uint8_t> out) noexcept {
   Request r;
   r.function = fc(Function::write_single_coil);
@@ -355,6 +418,7 @@ Result<size_t> encode_write_single_coil(uint16_t address, bool on, std::span<uin
   r.value = on ? 0xFF00 : 0x0000;
   return encode_request(r, out);
 }
+#endif
 
 Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const uint16_t> values,
                                                std::span<uint8_t> out, bool with_byte_count) noexcept {
@@ -370,6 +434,7 @@ Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const
   return header + 2 * values.size();
 }
 
+#if RTUKIT_CORE_COILS
 Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uint8_t> bits,
                                            std::span<uint8_t> out) noexcept {
   if (bits.empty() || bits.size() > kMaxWriteBits) return Errc::invalid_argument;
@@ -384,7 +449,9 @@ Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uin
   for (size_t i = 0; i < bits.size(); ++i) set_bit(out.subspan(6), i, bits[i] != 0);
   return 6 + bytes;
 }
+#endif
 
+#if RTUKIT_CORE_MASK_WRITE
 Result<size_t> encode_mask_write_register(uint16_t address, uint16_t and_mask, uint16_t or_mask,
                                           std::span<uint8_t> out) noexcept {
   Request r;
@@ -395,7 +462,9 @@ Result<size_t> encode_mask_write_register(uint16_t address, uint16_t and_mask, u
   r.or_mask = or_mask;
   return encode_request(r, out);
 }
+#endif
 
+#if RTUKIT_CORE_READ_WRITE
 Result<size_t> encode_read_write_multiple_registers(uint16_t read_address, uint16_t read_quantity,
                                                     uint16_t write_address,
                                                     std::span<const uint8_t> write_data,
@@ -410,6 +479,7 @@ Result<size_t> encode_read_write_multiple_registers(uint16_t read_address, uint1
   if (write_data.size() % 2 != 0) return Errc::invalid_argument;
   return encode_request(r, out);
 }
+#endif
 
 Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu,
                                  FrameQuirks quirks) noexcept {
@@ -423,6 +493,7 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
   Response r;
   r.function = pdu[0];
   switch (request.function) {
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
       if (pdu.size() != 2) return Errc::malformed;
       r.body = pdu.subspan(1);
@@ -431,14 +502,22 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       if (pdu.size() != 5) return Errc::malformed;
       r.body = pdu.subspan(1);
       return r;
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
+#endif
       // A byte count, then that many bytes (FC0C: at least status, event
       // count and message count).
       if (pdu.size() < 2 || pdu[1] != pdu.size() - 2) return Errc::malformed;
       if (request.function == fc(Function::get_comm_event_log) && pdu[1] < 6) return Errc::malformed;
       r.body = pdu.subspan(1);
       return r;
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::diagnostics):
       if (pdu.size() < 3) return Errc::malformed;
       if (load_be16(&pdu[1]) != request.sub_function) return Errc::unexpected_response;
@@ -446,6 +525,8 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
         return Errc::malformed;
       r.body = pdu.subspan(1);
       return r;
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::encapsulated_interface): {
       // 2B 0E code conformity more-follows next-id count, then count objects
       // of id, length, value.
@@ -460,6 +541,8 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       r.body = pdu.subspan(1);
       return r;
     }
+#endif
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register): {
       // The answer echoes the request.
       if (pdu.size() != 7) return Errc::malformed;
@@ -469,6 +552,8 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
         return Errc::unexpected_response;
       return r;
     }
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers): {
       const size_t expected = size_t{2} * request.quantity;
       if (pdu.size() < 2) return Errc::malformed;
@@ -476,11 +561,14 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       r.data = pdu.subspan(2);
       return r;
     }
+#endif
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers): {
-      const bool registers = request.function >= fc(Function::read_holding_registers);
+      const bool registers = !RTUKIT_CORE_COILS || request.function >= fc(Function::read_holding_registers);
       const size_t expected = registers ? size_t{2} * request.quantity : packed_size(request.quantity);
       if (pdu.size() >= 2 && pdu[1] == expected && pdu.size() == 2 + expected) {
         r.data = pdu.subspan(2);
@@ -497,9 +585,11 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       }
       return r;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
-    case fc(Function::write_single_register):
     case fc(Function::write_multiple_coils):
+#endif
+    case fc(Function::write_single_register):
     case fc(Function::write_multiple_registers): {
       if (pdu.size() != 5) return Errc::malformed;
       r.address = load_be16(&pdu[1]);
@@ -513,6 +603,7 @@ Result<Response> decode_response(const Request& request, std::span<const uint8_t
       return Errc::invalid_argument;
   }
 }
+#endif  // RTUKIT_CORE_MASTER
 
 size_t encode_exception_response(uint8_t function, Errc exception, std::span<uint8_t> out) noexcept {
   if (out.size() < 2) return 0;

@@ -112,13 +112,20 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       c.predictable = false;
       return c;
     }
+    // (A function whose family is compiled out is not supported: it ends at silence.)
+#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
     switch (function) {
+#if RTUKIT_CORE_DIAGNOSTICS
       case fc(Function::read_exception_status):
       case fc(Function::get_comm_event_counter):
       case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
       case fc(Function::report_server_id):
+#endif
         add(4);  // address, function, CRC
         return c;
+#if RTUKIT_CORE_DIAGNOSTICS
       case fc(Function::diagnostics):
         // Return query data (sub-function 0) echoes any data: its end is silence.
         c.need = 4;
@@ -128,6 +135,8 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
         else
           add(8);
         return c;
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
       case fc(Function::encapsulated_interface):
         c.need = 3;
         if (avail < 3) return c;
@@ -136,19 +145,25 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
         else
           c.predictable = false;  // another MEI type: 01 once silence ends it
         return c;
+#endif
       default:
         break;
     }
+#endif
+#if RTUKIT_CORE_MASK_WRITE
     if (function == fc(Function::mask_write_register)) {
       add(10);  // address, function, address, AND mask, OR mask, CRC
       return c;
     }
+#endif
+#if RTUKIT_CORE_READ_WRITE
     if (function == fc(Function::read_write_multiple_registers)) {
       c.need = 11;
       if (avail < 11) return c;
       add(13 + size_t{p[10]});  // 9 bytes of fields, the byte count, the data, CRC
       return c;
     }
+#endif
     if (function != fc(Function::write_multiple_coils) &&
         function != fc(Function::write_multiple_registers)) {
       add(8);  // reads and single writes: address, function, 4 bytes, CRC
@@ -163,14 +178,17 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
     }
     return c;
   }
+#if RTUKIT_CORE_MASTER
   // Response shapes.
   if (function & kExceptionBit) {
     add(5);
     return c;
   }
   switch (function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers): {
       if (avail < 3) return c;
@@ -186,15 +204,20 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       }
       return c;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
-    case fc(Function::write_single_register):
     case fc(Function::write_multiple_coils):
+#endif
+    case fc(Function::write_single_register):
     case fc(Function::write_multiple_registers):
       add(8);
       return c;
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register):
       add(10);  // the request echoed
       return c;
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
       add(5);
       return c;
@@ -202,10 +225,16 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       add(8);  // status and event count
       return c;
     case fc(Function::get_comm_event_log):
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
       if (avail < 3) return c;
       add(5 + size_t{p[2]});  // byte count
       return c;
+#endif
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::diagnostics):
       c.need = 4;
       if (avail < 4) return c;
@@ -216,6 +245,8 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       else
         c.predictable = false;
       return c;
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::encapsulated_interface): {
       // No byte count: walk the objects (id, length, value) as they arrive.
       if (avail >= 3 && p[2] != kMeiDeviceIdentification) {
@@ -239,14 +270,22 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
       add(at + 2);
       return c;
     }
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers):
       if (avail < 3) return c;
       add(5 + size_t{p[2]});
       return c;
+#endif
     default:
       c.predictable = false;
       return c;
   }
+#else
+  // No master compiled in: responses are framed by silence and CRC only.
+  c.predictable = false;
+  return c;
+#endif
 }
 
 // Looks for a frame at buf_[pos], with `avail` bytes available from pos.

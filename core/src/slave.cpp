@@ -3,7 +3,7 @@
 #include <cstring>
 
 #include "rtukit/core/crc.hpp"
-#include "rtukit/core/mbap.hpp"
+#include "rtukit/core/mbap.hpp"  // kMbapHeaderSize; the functions with RTUKIT_CORE_TCP
 #include "rtukit/core/rtu.hpp"
 
 namespace rtukit {
@@ -58,6 +58,7 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
                           size_t* length) noexcept {
   out[0] = r.function;
   switch (r.function) {
+#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs): {
       const size_t bytes = packed_size(r.quantity);
@@ -70,6 +71,7 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       *length = 2 + bytes;
       return Errc::ok;
     }
+#endif
     case fc(Function::read_holding_registers):
     case fc(Function::read_input_registers): {
       std::array<uint16_t, kMaxReadRegisters> regs{};
@@ -83,23 +85,27 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       *length = 2 + 2 * size_t{r.quantity};
       return Errc::ok;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil): {
       const uint8_t bit = r.value == 0xFF00 ? 1 : 0;
       const Errc e = bank.write_coils(r.address, 1, {&bit, 1});
       if (e != Errc::ok) return e;
       break;
     }
+#endif
     case fc(Function::write_single_register): {
       const uint16_t value = r.value;
       const Errc e = bank.write_holding_registers(r.address, {&value, 1});
       if (e != Errc::ok) return e;
       break;
     }
+#if RTUKIT_CORE_COILS
     case fc(Function::write_multiple_coils): {
       const Errc e = bank.write_coils(r.address, r.quantity, r.data);
       if (e != Errc::ok) return e;
       break;
     }
+#endif
     case fc(Function::write_multiple_registers): {
       std::array<uint16_t, kMaxWriteRegisters> regs{};
       load_registers(r.data, {regs.data(), r.quantity});
@@ -107,6 +113,7 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       if (e != Errc::ok) return e;
       break;
     }
+#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register): {
       // Read, modify, write: one register, so the bank's write is the commit.
       uint16_t current = 0;
@@ -119,6 +126,8 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       *length = 7;
       return Errc::ok;
     }
+#endif
+#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers): {
       // The write comes first (the specification's order), all or nothing.
       // The read range is tried before it, so that a read that must fail
@@ -137,12 +146,13 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
       *length = 2 + 2 * size_t{r.quantity};
       return Errc::ok;
     }
+#endif
     default:
       return Errc::illegal_function;
   }
   // Write responses echo address and value (single) or quantity (multiple).
   store_be16(&out[1], r.address);
-  store_be16(&out[3], r.function == fc(Function::write_single_coil) ||
+  store_be16(&out[3], (RTUKIT_CORE_COILS && r.function == fc(Function::write_single_coil)) ||
                               r.function == fc(Function::write_single_register)
                           ? r.value
                           : r.quantity);
@@ -150,11 +160,13 @@ Errc SlaveEngine::execute(RegisterBank& bank, const Request& r, std::span<uint8_
   return Errc::ok;
 }
 
+#if RTUKIT_CORE_DIAGNOSTICS
 void SlaveEngine::log_event(uint8_t event) noexcept {
   events_[event_head_] = event;
   event_head_ = (event_head_ + 1) % events_.size();
   if (event_len_ < events_.size()) ++event_len_;
 }
+#endif
 
 void SlaveEngine::note_crc_errors(uint32_t n) noexcept {
   for (uint32_t i = 0; i < n; ++i) {
@@ -169,6 +181,7 @@ void SlaveEngine::note_overrun() noexcept {
   log_event(static_cast<uint8_t>(0x80 | 0x10 | (listen_only_ ? 0x20 : 0)));  // receive event, overrun
 }
 
+#if RTUKIT_CORE_DIAGNOSTICS
 // FC08. `silent`: the request is done but must not be answered.
 Errc SlaveEngine::diagnose(const Request& r, std::span<uint8_t> out, size_t* length, bool* silent) noexcept {
   const auto echo = [&] {
@@ -254,7 +267,9 @@ Errc SlaveEngine::diagnose(const Request& r, std::span<uint8_t> out, size_t* len
   }
   return Errc::illegal_function;  // 03 (ASCII delimiter) and anything else
 }
+#endif
 
+#if RTUKIT_CORE_IDENTIFICATION
 // FC11 and FC2B/0E, from the bank's identification objects.
 Errc SlaveEngine::identify(RegisterBank& bank, UnitId unit, const Request& r, std::span<uint8_t> out,
                            size_t* length) noexcept {
@@ -327,6 +342,7 @@ Errc SlaveEngine::identify(RegisterBank& bank, UnitId unit, const Request& r, st
   *length = at;
   return Errc::ok;
 }
+#endif
 
 SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_t> pdu,
                                              std::span<uint8_t> out, Framing framing) noexcept {
@@ -342,6 +358,9 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
       bank = units_[0].bank;
       self = UnitId{units_[0].address};
     }
+#if !RTUKIT_CORE_IDENTIFICATION
+    (void)self;  // only identification answers with its own address
+#endif
     if (bank == nullptr) {
       ++counters_.ignored;
       return {};
@@ -356,6 +375,7 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
                                                      : bank->quirks();
   const Result<Request> request = decode_request(pdu, quirks);
 
+#if RTUKIT_CORE_DIAGNOSTICS
   if (listen_only_) {
     // Watch, never act: only "restart communications" addressed to us ends
     // it (and is not answered either).
@@ -369,6 +389,7 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
     ++line_.server_no_response;
     return {0, bank};
   }
+#endif
 
   if (broadcast) {
     // Only writes are executed; nobody answers, whatever the outcome.
@@ -383,7 +404,9 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
       (void)execute(*units_[i].bank, *request, scratch, &len);
       units_[i].bank->after_response();
     }
+#if RTUKIT_CORE_DIAGNOSTICS
     ++event_count_;
+#endif
     return {};
   }
 
@@ -418,6 +441,7 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
   bool silent = false;
   Errc e = Errc::ok;
   switch (request->function) {
+#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
       out[0] = request->function;
       out[1] = bank->exception_status();
@@ -443,10 +467,13 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
       len = 8 + event_len_;
       break;
     }
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
     case fc(Function::encapsulated_interface):
       e = identify(*bank, self, *request, out, &len);
       break;
+#endif
     default:
       e = execute(*bank, *request, out, &len);
       break;
@@ -458,10 +485,12 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
   }
   ++counters_.responses;
   log_event(0x40);  // send event, no exception
+#if RTUKIT_CORE_DIAGNOSTICS
   // The comm event counter counts completed requests, not the polls of it.
   if (request->function != fc(Function::get_comm_event_counter) &&
       request->function != fc(Function::get_comm_event_log))
     ++event_count_;
+#endif
   return {len, bank};
 }
 
@@ -478,6 +507,7 @@ SlaveEngine::Handled SlaveEngine::handle_rtu(std::span<const uint8_t> adu, std::
   return h;
 }
 
+#if RTUKIT_CORE_TCP
 SlaveEngine::Handled SlaveEngine::handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept {
   if (adu.size() < kMbapHeaderSize + 1 || out.size() < kMaxMbapAduSize) return {};
   Handled h = handle_pdu(UnitId{adu[6]}, mbap_pdu(adu), out.subspan(kMbapHeaderSize), Framing::tcp);
@@ -489,5 +519,6 @@ SlaveEngine::Handled SlaveEngine::handle_tcp(std::span<const uint8_t> adu, std::
   h.length = kMbapHeaderSize + n;
   return h;
 }
+#endif
 
 }  // namespace rtukit

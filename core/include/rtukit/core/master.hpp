@@ -6,6 +6,7 @@
 // (unit, function, length, CRC, transaction id, echo) until the response is
 // complete or proven wrong. Outcomes are values: a Response, a Modbus
 // exception, or a local failure. No heap; one object per transaction in flight.
+// Compiled in with RTUKIT_CORE_MASTER (config.hpp); Modbus TCP with RTUKIT_CORE_TCP.
 #pragma once
 
 #include <array>
@@ -14,11 +15,13 @@
 #include <optional>
 #include <span>
 
+#include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
 
+#if RTUKIT_CORE_MASTER
 namespace rtukit {
 
 class MasterTransaction {
@@ -27,7 +30,8 @@ class MasterTransaction {
   /// be broadcast, and no response is expected. `transaction_id` is used by
   /// Modbus TCP only. With `fc10_without_byte_count` FC10 is sent in the
   /// Inverjet document's short form (for devices that need it; never default).
-  /// Errors: invalid_argument (a read broadcast, a request the codec refuses).
+  /// Errors: invalid_argument (a read broadcast, a request the codec refuses,
+  /// Framing::tcp without RTUKIT_CORE_TCP).
   Error begin(Framing framing, UnitId unit, const Request& request, uint16_t transaction_id = 0) noexcept;
 
   /// The ADU to send. Valid until the next begin().
@@ -51,7 +55,9 @@ class MasterTransaction {
 
   /// Checks a complete MBAP ADU. nullopt: another transaction id (a late
   /// answer to an earlier request that timed out), keep waiting.
+#if RTUKIT_CORE_TCP
   std::optional<Result<Response>> accept_tcp(std::span<const uint8_t> adu) const noexcept;
+#endif
 
  private:
   std::array<uint8_t, kMaxMbapAduSize> tx_{};
@@ -65,3 +71,4 @@ class MasterTransaction {
 };
 
 }  // namespace rtukit
+#endif  // RTUKIT_CORE_MASTER

@@ -2,19 +2,23 @@
 //
 // An MBAP ADU = transaction id (2) + protocol id (2, always 0) + length (2,
 // counts unit id + PDU) + unit id (1) + PDU. No CRC: TCP guards the bytes.
-// All fields big-endian.
+// All fields big-endian. The functions are compiled in with RTUKIT_CORE_TCP
+// (config.hpp); the sizes are always there.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
+#include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
 
 namespace rtukit {
 
 inline constexpr size_t kMbapHeaderSize = 7;
 inline constexpr size_t kMaxMbapAduSize = kMbapHeaderSize + 253;
+
+#if RTUKIT_CORE_TCP
 
 struct MbapHeader {
   uint16_t transaction = 0;
@@ -40,5 +44,6 @@ MbapHeader mbap_header(std::span<const uint8_t> adu) noexcept;
 inline std::span<const uint8_t> mbap_pdu(std::span<const uint8_t> adu) noexcept {
   return adu.subspan(kMbapHeaderSize);
 }
+#endif  // RTUKIT_CORE_TCP
 
 }  // namespace rtukit

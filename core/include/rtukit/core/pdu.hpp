@@ -13,13 +13,15 @@
 // get comm event log; 11 report server ID, 2B/0E read device identification.
 // Limits (Modbus Application Protocol v1.1b3): reads 1..125 registers or
 // 1..2000 bits; multiple writes 1..123 registers or 1..1968 bits; FC17 reads
-// 1..125 and writes 1..121 registers.
+// 1..125 and writes 1..121 registers. Which of them are compiled in is
+// config.hpp's choice (all, unless a switch turns a family off).
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
 
+#include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
 
 namespace rtukit {
@@ -127,7 +129,7 @@ inline constexpr FunctionSet kDiagnosticFunctions =
 /// 11 and 2B/0E: who the device is (RegisterBank::device_object).
 inline constexpr FunctionSet kIdentificationFunctions =
     function_bit(Function::report_server_id) | function_bit(Function::encapsulated_interface);
-/// True for the function codes of `Function`.
+/// True for the function codes of `Function` whose family is compiled in (config.hpp).
 bool is_supported_function(uint8_t function) noexcept;
 /// True for 01..04.
 bool is_read_function(uint8_t function) noexcept;
@@ -192,6 +194,7 @@ struct Request {
 /// slave drops it without answering).
 Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks = {}) noexcept;
 
+#if RTUKIT_CORE_MASTER
 /// Encodes `request` into `out` (FC10 without byte count if
 /// `request.without_byte_count`). The same validation as decode_request,
 /// returned as invalid_argument for local mistakes; buffer_too_small if `out` is short.
@@ -202,22 +205,30 @@ Result<size_t> encode_read_request(Function function, uint16_t address, uint16_t
                                    std::span<uint8_t> out) noexcept;
 Result<size_t> encode_write_single_register(uint16_t address, uint16_t value,
                                             std::span<uint8_t> out) noexcept;
+#if RTUKIT_CORE_COILS
 Result<size_t> encode_write_single_coil(uint16_t address, bool on, std::span<uint8_t> out) noexcept;
+#endif
 Result<size_t> encode_write_multiple_registers(uint16_t address, std::span<const uint16_t> values,
                                                std::span<uint8_t> out, bool with_byte_count = true) noexcept;
+#if RTUKIT_CORE_COILS
 /// `bits` holds one coil per element (0 = off, anything else = on).
 Result<size_t> encode_write_multiple_coils(uint16_t address, std::span<const uint8_t> bits,
                                            std::span<uint8_t> out) noexcept;
+#endif
 
+#if RTUKIT_CORE_MASK_WRITE
 /// FC16: the register at `address` becomes (current AND and_mask) OR (or_mask AND NOT and_mask).
 Result<size_t> encode_mask_write_register(uint16_t address, uint16_t and_mask, uint16_t or_mask,
                                           std::span<uint8_t> out) noexcept;
+#endif
+#if RTUKIT_CORE_READ_WRITE
 /// FC17: writes `write_data` (big-endian registers, 1..121) at `write_address`,
 /// then reads `read_quantity` (1..125) registers from `read_address`.
 Result<size_t> encode_read_write_multiple_registers(uint16_t read_address, uint16_t read_quantity,
                                                     uint16_t write_address,
                                                     std::span<const uint8_t> write_data,
                                                     std::span<uint8_t> out) noexcept;
+#endif
 
 /// A response PDU, decoded and checked against the request it answers.
 struct Response {
@@ -240,6 +251,7 @@ struct Response {
 /// (other function, byte count or echo that does not match the request).
 Result<Response> decode_response(const Request& request, std::span<const uint8_t> pdu,
                                  FrameQuirks quirks = {}) noexcept;
+#endif  // RTUKIT_CORE_MASTER
 
 // Response encoders for a slave. Each returns the PDU length written to `out`.
 size_t encode_exception_response(uint8_t function, Errc exception, std::span<uint8_t> out) noexcept;

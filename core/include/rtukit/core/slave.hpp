@@ -8,7 +8,8 @@
 //
 // Sans-IO: a driver hands the engine complete frames (from RtuFramer or an
 // MBAP stream) and sends back what the engine writes. No heap; register data
-// passes through a 250-byte stack buffer.
+// passes through a 250-byte stack buffer. The function families it serves are
+// config.hpp's choice (a family compiled out is answered with 01).
 #pragma once
 
 #include <array>
@@ -17,6 +18,7 @@
 #include <span>
 #include <string_view>
 
+#include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/pdu.hpp"
 
@@ -142,9 +144,11 @@ class SlaveEngine {
   /// response ADU to `out` (>= 256 bytes).
   Handled handle_rtu(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
 
+#if RTUKIT_CORE_TCP
   /// Modbus TCP: `adu` is a complete MBAP ADU. Writes the response ADU to
   /// `out` (>= 260 bytes).
   Handled handle_tcp(std::span<const uint8_t> adu, std::span<uint8_t> out) noexcept;
+#endif
 
   /// Modbus TCP only: answer requests for any unit id with the first hosted
   /// unit (a gateway-less TCP device that ignores the id). Off by default:
@@ -155,7 +159,7 @@ class SlaveEngine {
   const LineCounters& line_counters() const noexcept { return line_; }
   /// True after FC08 "force listen only mode": every request is watched
   /// (counted) but nothing runs and nothing is answered, until FC08
-  /// "restart communications".
+  /// "restart communications". Always false without RTUKIT_CORE_DIAGNOSTICS.
   bool listen_only() const noexcept { return listen_only_; }
   /// The driver saw `n` frames fail their CRC (the framer's count): bus
   /// communication errors (FC08 0x0C) and a receive event with its error bit.
@@ -172,21 +176,33 @@ class SlaveEngine {
     RegisterBank* bank = nullptr;
   };
   Errc execute(RegisterBank& bank, const Request& request, std::span<uint8_t> out, size_t* length) noexcept;
+#if RTUKIT_CORE_DIAGNOSTICS
   Errc diagnose(const Request& request, std::span<uint8_t> out, size_t* length, bool* silent) noexcept;
+  void log_event(uint8_t event) noexcept;
+#else
+  void log_event(uint8_t /*event*/) noexcept {}
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
   Errc identify(RegisterBank& bank, UnitId unit, const Request& request, std::span<uint8_t> out,
                 size_t* length) noexcept;
-  void log_event(uint8_t event) noexcept;
+#endif
 
   std::array<Unit, kMaxUnits> units_{};
   size_t count_ = 0;
   Counters counters_{};
   LineCounters line_{};
+#if RTUKIT_CORE_DIAGNOSTICS
   uint16_t diagnostic_register_ = 0;
   uint16_t event_count_ = 0;  // FC0B: successful completions
   bool listen_only_ = false;
+#else
+  static constexpr bool listen_only_ = false;
+#endif
   bool any_unit_ = false;
+#if RTUKIT_CORE_DIAGNOSTICS
   std::array<uint8_t, kEventLogSize> events_{};  // ring, events_[event_head_ - 1] newest
   size_t event_head_ = 0, event_len_ = 0;
+#endif
 };
 
 }  // namespace rtukit
