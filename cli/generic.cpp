@@ -1,13 +1,17 @@
 // The generic subcommands: read, write, scan, slave. Protocol work is done by
 // the library; this file only turns arguments into calls and results into text.
 #include <fmt/core.h>
+#include <fmt/format.h>
 
 #include <asio.hpp>
 #include <bit>
+#include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -37,13 +41,54 @@ const char* table_name(Table t) {
   return "?";
 }
 
-// An address as people coming from other tools type it: 0-based ("33",
-// "0x21"), 1-based with --one-based, or in the reference notation
-// (40001 = holding register 0, 30001 = input register 0, 10001 = discrete
-// input 0, 00001 = coil 0; six digits likewise: 400001).
+// One entry of a table, singular or plural: "holding register", "coils".
+std::string table_noun(Table t, bool plural) {
+  const char* noun = t == Table::holding ? "holding register"
+                     : t == Table::input ? "input register"
+                     : t == Table::coils ? "coil"
+                                         : "discrete input";
+  return plural ? std::string(noun) + "s" : noun;
+}
+
+// How an address was typed: 0-based ("33", "0x21"), 1-based with
+// --one-based, or in the reference notation (40001 = holding register 1,
+// 0-based 0; 30001 input register, 10001 discrete input, 00001 coil; six
+// digits likewise: 400001). Output shows addresses the same way, with the
+// address on the wire (0-based) in hex beside them: "40003 (0x0002)".
+struct Notation {
+  enum class Kind { zero_based, one_based, reference } kind = Kind::zero_based;
+  char prefix = '4';        ///< reference: 0 coils, 1 discrete inputs, 3 input, 4 holding registers
+  bool six_digits = false;  ///< reference: typed as 400001 rather than 40001
+
+  /// The wire address `pdu` as the user writes it.
+  std::string text(size_t pdu) const {
+    if (kind == Kind::zero_based) return std::to_string(pdu);
+    if (kind == Kind::one_based) return std::to_string(pdu + 1);
+    // Five digits reach 9999; past it, six.
+    if (!six_digits && pdu + 1 <= 9999) return fmt::format("{}{:04}", prefix, pdu + 1);
+    return fmt::format("{}{:05}", prefix, pdu + 1);
+  }
+  /// "40003 (0x0002)".
+  std::string where(size_t pdu) const { return fmt::format("{} (0x{:04X})", text(pdu), pdu); }
+  /// "40003..40004 (0x0002..0x0003)", or where(first) for one.
+  std::string span(size_t first, size_t count) const {
+    if (count <= 1) return where(first);
+    const size_t last = first + count - 1;
+    return fmt::format("{}..{} (0x{:04X}..0x{:04X})", text(first), text(last), first, last);
+  }
+  /// JSON: "address" counted as typed (1-based for a reference, whose
+  /// prefix is the "table" key), and "pdu_address", the address on the wire,
+  /// when that count is not 0-based.
+  void put(Json& doc, size_t pdu) const {
+    doc["address"] = kind == Kind::zero_based ? pdu : pdu + 1;
+    if (kind != Kind::zero_based) doc["pdu_address"] = pdu;
+  }
+};
+
 struct Address {
   uint16_t address = 0;
   std::optional<Table> table;
+  Notation notation;
 };
 
 Address parse_address(const std::string& text, bool one_based) {
@@ -51,23 +96,35 @@ Address parse_address(const std::string& text, bool one_based) {
                          text.find_first_not_of("0123456789") == std::string::npos &&
                          (text[0] == '0' || text[0] == '1' || text[0] == '3' || text[0] == '4');
   if (reference) {
+    const char prefix = text[0];
+    const bool six = text.size() == 6;
     const long n = std::stol(text.substr(1));
-    if (n < 1 || n > 65536)
-      throw Failure{kUsage, fmt::format("reference {} is outside {}0001..{}65536", text, text[0], text[0])};
-    const Table t = text[0] == '4'   ? Table::holding
-                    : text[0] == '3' ? Table::input
-                    : text[0] == '1' ? Table::discrete
-                                     : Table::coils;
-    // Never silent: the same digits are also a plain 0-based address.
-    fmt::print(
-        stderr,
-        "note: {} is taken as a reference: {} register {} (0-based {}; for address {} write 0x{:04X})\n",
-        text, table_name(t), n, n - 1, std::stol(text), std::stol(text) <= 0xFFFF ? std::stol(text) : 0);
-    return Address{static_cast<uint16_t>(n - 1), t};
+    const Table t = prefix == '4'   ? Table::holding
+                    : prefix == '3' ? Table::input
+                    : prefix == '1' ? Table::discrete
+                                    : Table::coils;
+    // The same digits as a plain address, when they are one: what to type to mean it.
+    const long plain = std::stol(text);
+    const bool is_plain = one_based ? plain >= 1 && plain <= 0x10000 : plain <= 0xFFFF;
+    const std::string as_plain = is_plain ? fmt::format("for address {} write 0x{:04X}", plain, plain) : "";
+    if (n < 1 || n > (six ? 65536 : 9999)) {
+      const std::string five_range = fmt::format("{0}0001..{0}9999", prefix);
+      const std::string six_range = fmt::format("{0}00001..{0}65536", prefix);
+      throw Failure{
+          kUsage, fmt::format("{} is not a reference: {} are {} ({} digits: {}){}", text, table_noun(t, true),
+                              six ? six_range : five_range, six ? "five" : "six",
+                              six ? five_range : six_range, as_plain.empty() ? "" : "; " + as_plain)};
+    }
+    // Never silent: the same digits may also be a plain address.
+    fmt::print(stderr, "note: {} is taken as a reference: {} {} (0-based {}{})\n", text, table_noun(t, false),
+               n, n - 1, as_plain.empty() ? "" : "; " + as_plain);
+    return Address{static_cast<uint16_t>(n - 1), t, Notation{Notation::Kind::reference, prefix, six}};
   }
   if (one_based)
-    return Address{static_cast<uint16_t>(parse_number(text, "address (1-based)", 1, 0x10000) - 1), {}};
-  return Address{static_cast<uint16_t>(parse_number(text, "address", 0, 0xFFFF)), {}};
+    return Address{static_cast<uint16_t>(parse_number(text, "address (1-based)", 1, 0x10000) - 1),
+                   {},
+                   Notation{Notation::Kind::one_based}};
+  return Address{static_cast<uint16_t>(parse_number(text, "address", 0, 0xFFFF)), {}, {}};
 }
 
 struct ValueType {
@@ -87,25 +144,47 @@ nlohmann::json decode_value(const std::string& type, const uint16_t* r, bool low
   return std::bit_cast<float>(v);
 }
 
-// One value of `type` -> registers (appended).
+// One value of `type` -> registers (appended). Throws Failure{kUsage} when
+// the type cannot hold it: integers in decimal must fit the type's range
+// (hex gives the raw bits: 0xFFFF is an i16's -1), a float must be finite
+// and within f32's range.
 void encode_value(const std::string& type, const std::string& text, bool low_first,
                   std::vector<uint16_t>& out) {
   uint32_t bits = 0;
-  if (type == "u16") {
-    out.push_back(static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF)));
-    return;
-  }
-  if (type == "i16") {
-    out.push_back(static_cast<uint16_t>(parse_number(text, "value", -32768, 0xFFFF)));
-    return;
-  }
-  if (type == "u32") bits = static_cast<uint32_t>(parse_number(text, "value", 0, 0xFFFFFFFFLL));
-  if (type == "i32") bits = static_cast<uint32_t>(parse_number(text, "value", INT32_MIN, 0xFFFFFFFFLL));
   if (type == "f32") {
     char* end = nullptr;
-    const float f = std::strtof(text.c_str(), &end);
+    errno = 0;
+    const double d = std::strtod(text.c_str(), &end);
     if (text.empty() || *end != '\0') throw Failure{kUsage, fmt::format("value '{}' is not a number", text)};
-    bits = std::bit_cast<uint32_t>(f);
+    if (std::isnan(d) || (std::isinf(d) && errno != ERANGE))
+      throw Failure{kUsage, fmt::format("f32 value {} is not a finite number", text)};
+    if (std::fabs(d) > std::numeric_limits<float>::max())
+      throw Failure{kUsage, fmt::format("f32 value {} is out of range (at most {} either side of 0)", text,
+                                        std::numeric_limits<float>::max())};
+    bits = std::bit_cast<uint32_t>(static_cast<float>(d));
+  } else {
+    const bool wide = type == "u32" || type == "i32";
+    const int64_t all_bits = wide ? 0xFFFFFFFFLL : 0xFFFF;
+    const bool hex = text.starts_with("0x") || text.starts_with("0X");
+    const std::string what = type + " value";
+    int64_t v = 0;
+    if (type[0] == 'u' || hex) {
+      v = parse_number(text, what, 0, all_bits);
+    } else {
+      const int64_t lo = wide ? INT32_MIN : INT16_MIN;
+      const int64_t hi = wide ? INT32_MAX : INT16_MAX;
+      const int64_t n = parse_number(text, what, INT64_MIN / 4, INT64_MAX / 4);
+      if (n < lo || n > hi)
+        throw Failure{kUsage,
+                      fmt::format("{} {} is out of range {}..{} (or 0x{:0{}X}..0x{:X} in hex, the raw bits)",
+                                  what, text, lo, hi, 0, wide ? 8 : 4, all_bits)};
+      v = n;
+    }
+    if (!wide) {
+      out.push_back(static_cast<uint16_t>(v));
+      return;
+    }
+    bits = static_cast<uint32_t>(v);
   }
   const auto hi = static_cast<uint16_t>(bits >> 16);
   const auto lo = static_cast<uint16_t>(bits & 0xFFFF);
@@ -146,6 +225,7 @@ struct ReadPlan {
   uint16_t count = 1;
   unsigned per_value = 1;
   bool bits = false;
+  Notation notation;  ///< how the address was typed: how to print addresses
 };
 
 ReadPlan plan_read(ReadArgs& a) {
@@ -171,6 +251,7 @@ ReadPlan plan_read(ReadArgs& a) {
     p.table = *where.table;
   }
   p.address = where.address;
+  p.notation = where.notation;
   p.bits = p.table == Table::coils || p.table == Table::discrete;
   p.per_value = p.bits ? 1 : ValueType{a.type}.registers();
   const auto max_count = p.bits ? kMaxReadBits : kMaxReadRegisters / p.per_value;
@@ -185,8 +266,8 @@ std::string read_context(const ReadPlan& p, const Master& master) {
                            : p.table == Table::input ? 0x04
                            : p.table == Table::coils ? 0x01
                                                      : 0x02;
-  return fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} from unit {} on {}", function, function_name(function),
-                     p.address, p.address, p.bits ? p.count : p.count * p.per_value, p.unit.value,
+  return fmt::format("FC{:02X} {} at {} x{} from unit {} on {}", function, function_name(function),
+                     p.notation.where(p.address), p.bits ? p.count : p.count * p.per_value, p.unit.value,
                      master.describe());
 }
 
@@ -238,7 +319,7 @@ int run_read(ReadArgs a) {
   if (a.json) {
     Json out = json_document({}, p.unit.value);
     out["table"] = table_name(p.table);
-    out["address"] = p.address;
+    p.notation.put(out, p.address);
     out["type"] = p.bits ? "bit" : a.type;
     out["values"] = values;
     print_json(out);
@@ -246,7 +327,7 @@ int run_read(ReadArgs a) {
   }
   for (size_t i = 0; i < p.count; ++i) {
     const size_t at = p.address + i * p.per_value;
-    fmt::print("{} (0x{:04X}): {}\n", at, at, value_text(values[i], a, p));
+    fmt::print("{}: {}\n", p.notation.where(at), value_text(values[i], a, p));
   }
   return kOk;
 }
@@ -266,7 +347,7 @@ int run_poll(PollArgs args) {
   const std::string context = read_context(p, *master);
   if (args.output == "csv") {
     std::string header = "time";
-    for (size_t i = 0; i < p.count; ++i) header += fmt::format(",{}", p.address + i * p.per_value);
+    for (size_t i = 0; i < p.count; ++i) header += "," + p.notation.text(p.address + i * p.per_value);
     fmt::print("{},error\n", header);
   }
   Error last;
@@ -280,7 +361,7 @@ int run_poll(PollArgs args) {
     const std::string time = line["time"];
     if (args.output == "jsonl") {
       line["table"] = table_name(p.table);
-      line["address"] = p.address;
+      p.notation.put(line, p.address);
       line["type"] = p.bits ? "bit" : a.type;
       if (last) {
         line["ok"] = false;
@@ -297,7 +378,8 @@ int run_poll(PollArgs args) {
       std::string row = time;
       if (last) row += fmt::format("  error: {}", last.text());
       for (size_t i = 0; !last && i < p.count; ++i)
-        row += fmt::format("  [{}]={}", p.address + i * p.per_value, value_text(values[i], a, p));
+        row += fmt::format("  [{}]={}", p.notation.text(p.address + i * p.per_value),
+                           value_text(values[i], a, p));
       fmt::print("{}\n", row);
     }
   });
@@ -318,62 +400,101 @@ struct WriteArgs {
   std::string order = "high-first";
   bool one_based = false;
   bool json = false;
+  bool quiet = false;             ///< no line on success
   std::vector<std::string> mask;  ///< FC16: AND OR
 };
+
+// The values of a write as the confirmation names them: "5, 6"; past 8,
+// "1, 2, 3, 4, ..., 10 (10 values)".
+std::string values_text(const std::vector<std::string>& values) {
+  if (values.size() <= 8) return fmt::format("{}", fmt::join(values, ", "));
+  return fmt::format("{}, {}, {}, {}, ..., {} ({} values)", values[0], values[1], values[2], values[3],
+                     values.back(), values.size());
+}
 
 int run_write(const WriteArgs& a) {
   if (!a.mask.empty() && (a.coils || a.multiple || !a.values.empty()))
     throw Failure{kUsage, "--mask AND OR writes one register: no values, --coils or --multiple with it"};
   if (a.mask.empty() && a.values.empty()) throw Failure{kUsage, "write needs values (or --mask AND OR)"};
-  const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
+  const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
+  const UnitId unit = parse_unit(a.unit, tcp);
   const Address where = parse_address(a.address, a.one_based);
-  if (where.table && *where.table != (a.coils ? Table::coils : Table::holding))
+  const Table table = a.coils ? Table::coils : Table::holding;
+  if (where.table == Table::coils && !a.coils)
+    throw Failure{kUsage, fmt::format("address {} names a coil: add --coils to write coils", a.address)};
+  if (where.table && *where.table != table)
     throw Failure{kUsage,
                   fmt::format("address {} names the {} registers, which cannot be written{}", a.address,
                               table_name(*where.table), a.coils ? "" : " (holding registers are 4xxxx)")};
   const uint16_t address = where.address;
-  auto master = a.link.make_master();
-  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2
-  // (0x0002) x3".
-  const auto context_of = [&](uint8_t function, size_t count) {
-    return fmt::format("FC{:02X} {} at {} (0x{:04X}) x{} to unit {} on {}", function, function_name(function),
-                       address, address, count, unit.value, master->describe());
-  };
-  std::string context;
-  Error e;
+  // Every value is checked and encoded before the port is opened: a value
+  // the type cannot hold is a usage error, whatever the link.
+  uint16_t and_mask = 0, or_mask = 0;
+  std::vector<uint8_t> bits;
+  std::vector<uint16_t> regs;
+  size_t count = 1;  // registers or coils written
   if (!a.mask.empty()) {
-    const auto and_mask = static_cast<uint16_t>(parse_number(a.mask[0], "AND mask", 0, 0xFFFF));
-    const auto or_mask = static_cast<uint16_t>(parse_number(a.mask[1], "OR mask", 0, 0xFFFF));
-    context = context_of(0x16, 1);
-    e = master->mask_write_register(unit, address, and_mask, or_mask);
+    and_mask = static_cast<uint16_t>(parse_number(a.mask[0], "AND mask", 0, 0xFFFF));
+    or_mask = static_cast<uint16_t>(parse_number(a.mask[1], "OR mask", 0, 0xFFFF));
   } else if (a.coils) {
-    std::vector<uint8_t> bits;
     for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
     if (bits.size() > kMaxWriteBits)
       throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
-    const bool single = bits.size() == 1 && !a.multiple;
-    context = context_of(single ? 0x05 : 0x0F, bits.size());
-    e = single ? master->write_single_coil(unit, address, bits[0] != 0)
-               : master->write_multiple_coils(unit, address, bits);
+    if (size_t{address} + bits.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
+    count = bits.size();
   } else {
-    std::vector<uint16_t> regs;
     for (const auto& v : a.values) encode_value(a.type, v, a.order == "low-first", regs);
     if (regs.size() > kMaxWriteRegisters)
       throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
     if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
+    count = regs.size();
+  }
+  auto master = a.link.make_master();
+  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2
+  // (0x0002) x3".
+  const auto context_of = [&](uint8_t function) {
+    return fmt::format("FC{:02X} {} at {} x{} to unit {} on {}", function, function_name(function),
+                       where.notation.where(address), count, unit.value, master->describe());
+  };
+  std::string context;
+  Error e;
+  if (!a.mask.empty()) {
+    context = context_of(0x16);
+    e = master->mask_write_register(unit, address, and_mask, or_mask);
+  } else if (a.coils) {
+    const bool single = bits.size() == 1 && !a.multiple;
+    context = context_of(single ? 0x05 : 0x0F);
+    e = single ? master->write_single_coil(unit, address, bits[0] != 0)
+               : master->write_multiple_coils(unit, address, bits);
+  } else {
     const bool single = regs.size() == 1 && !a.multiple;
-    context = context_of(single ? 0x06 : 0x10, regs.size());
+    context = context_of(single ? 0x06 : 0x10);
     e = single ? master->write_single_register(unit, address, regs[0])
                : master->write_multiple_registers(unit, address, regs);
   }
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
+  // What was written, in one line: "wrote 1234 to holding register 40001 (0x0000) of unit 1".
+  const std::string target =
+      fmt::format("{} {}", table_noun(table, count > 1), where.notation.span(address, count));
+  const bool broadcast = unit == kBroadcast && !tcp;
+  const std::string to_whom =
+      broadcast ? "of every unit (a broadcast: no unit answers it)" : fmt::format("of unit {}", unit.value);
+  std::string text;
+  if (!a.mask.empty())
+    text = fmt::format("masked {} {} with AND {} OR {}", target, to_whom, a.mask[0], a.mask[1]);
+  else
+    text = fmt::format("wrote {}{} to {} {}", values_text(a.values),
+                       a.coils || a.type == "u16" ? "" : " (" + a.type + ")", target, to_whom);
   if (a.json) {
     Json out = json_document({}, unit.value);
     out["table"] = a.coils ? "coils" : "holding";
-    out["address"] = address;
+    where.notation.put(out, address);
     out["written"] = a.values.size();
+    out["text"] = text;
     print_json(out);
+  } else if (!a.quiet) {
+    fmt::print("{}\n", text);
   }
   return kOk;
 }
@@ -385,13 +506,24 @@ struct ReadWriteArgs {
   unsigned count = 1;
   std::vector<std::string> values;
   bool json = false;
+  bool one_based = false;
 };
 
 int run_readwrite(const ReadWriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (unit == kBroadcast) throw Failure{kUsage, "FC17 reads: it cannot be broadcast (unit 0)"};
-  const uint16_t read_at = static_cast<uint16_t>(parse_number(a.read_address, "read address", 0, 0xFFFF));
-  const uint16_t write_at = static_cast<uint16_t>(parse_number(a.write_address, "write address", 0, 0xFFFF));
+  // Both addresses as any address is typed (0-based, --one-based, 40001); FC17 is for holding registers.
+  const auto holding = [&](const std::string& text) {
+    const Address at = parse_address(text, a.one_based);
+    if (at.table && *at.table != Table::holding)
+      throw Failure{kUsage, fmt::format("{} names the {} registers: FC17 reads and writes holding registers",
+                                        text, table_name(*at.table))};
+    return at;
+  };
+  const Address read_where = holding(a.read_address);
+  const Address write_where = holding(a.write_address);
+  const uint16_t read_at = read_where.address;
+  const uint16_t write_at = write_where.address;
   std::vector<uint16_t> values;
   for (const auto& v : a.values) values.push_back(static_cast<uint16_t>(parse_number(v, "value", 0, 0xFFFF)));
   if (values.size() > kMaxReadWriteWriteRegisters)
@@ -405,20 +537,23 @@ int run_readwrite(const ReadWriteArgs& a) {
   if (a.link.stats) print_stats(*master);
   if (e)
     fail(e,
-         fmt::format(
-             "FC17 read/write multiple registers: write {} at {} (0x{:04X}), read {} at {} (0x{:04X}) "
-             "from unit {} on {}",
-             values.size(), write_at, write_at, a.count, read_at, read_at, unit.value, master->describe()));
+         fmt::format("FC17 read/write multiple registers: write {} at {}, read {} at {} from unit {} on {}",
+                     values.size(), write_where.notation.where(write_at), a.count,
+                     read_where.notation.where(read_at), unit.value, master->describe()));
   if (a.json) {
     Json doc = json_document({}, unit.value);
     doc["table"] = "holding";
-    doc["written"] = {{"address", write_at}, {"count", values.size()}};
-    doc["address"] = read_at;
+    Json written;
+    write_where.notation.put(written, write_at);
+    written["count"] = values.size();
+    doc["written"] = written;
+    read_where.notation.put(doc, read_at);
     doc["values"] = out;
     print_json(doc);
     return kOk;
   }
-  for (size_t i = 0; i < out.size(); ++i) fmt::print("{} (0x{:04X}): {}\n", read_at + i, read_at + i, out[i]);
+  for (size_t i = 0; i < out.size(); ++i)
+    fmt::print("{}: {}\n", read_where.notation.where(read_at + i), out[i]);
   return kOk;
 }
 
@@ -654,7 +789,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
       app, action, "write", "write registers (FC06 / FC10) or coils (FC05 / FC0F)",
       [](CLI::App& cmd, WriteArgs& a) {
         cmd.add_option("--unit,-u", a.unit, "slave unit address (0 = broadcast)")->capture_default_str();
-        cmd.add_option("address", a.address, "first address, 0-based")->required();
+        cmd.add_option("address", a.address, "first address, 0-based (33 or 0x21; 40001 notation)")
+            ->required();
         cmd.add_option("values", a.values, "values to write");
         cmd.add_option("--mask", a.mask,
                        "FC16: the register becomes (value AND A) OR (O AND NOT A), in one request")
@@ -665,6 +801,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
         cmd.add_flag("--one-based", a.one_based,
                      "addresses count from 1, as mbpoll and Modbus Poll show them");
         cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
+        cmd.add_flag("--quiet,-q", a.quiet,
+                     "print nothing on success (without it: what was written, one line)");
         add_type_options(cmd, a.type, a.order);
         a.link.add_to(cmd, false);
         examples(cmd,
@@ -678,11 +816,16 @@ void add_generic_commands(CLI::App& app, Action& action) {
       app, action, "readwrite", "write registers, then read registers, in one request (FC17)",
       [](CLI::App& cmd, ReadWriteArgs& a) {
         cmd.add_option("--unit,-u", a.unit, "slave unit address")->capture_default_str();
-        cmd.add_option("read_address", a.read_address, "first register to read, 0-based")->required();
+        cmd.add_option("read_address", a.read_address, "first register to read, 0-based (or 40001 notation)")
+            ->required();
         cmd.add_option("count", a.count, "registers to read (1..125)")->required()->check(CLI::Range(1, 125));
-        cmd.add_option("write_address", a.write_address, "first register to write, 0-based")->required();
+        cmd.add_option("write_address", a.write_address,
+                       "first register to write, 0-based (or 40001 notation)")
+            ->required();
         cmd.add_option("values", a.values, "values to write (1..121), written before the read")->required();
         cmd.add_flag("--json", a.json, "print the result as JSON (docs/json.md)");
+        cmd.add_flag("--one-based", a.one_based,
+                     "addresses count from 1, as mbpoll and Modbus Poll show them");
         a.link.add_to(cmd, false);
         examples(
             cmd,

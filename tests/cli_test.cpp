@@ -6,6 +6,7 @@
 
 #include <fstream>
 #include <thread>
+#include <tuple>
 
 #include "process.hpp"
 
@@ -91,13 +92,81 @@ TEST_F(Cli, Write_SingleMultipleAndCoils) {
       std::string::npos);
   const RunResult w = rtukit({"write", "--port", port_, "--unit", "5", "40", "7", "--json"});
   EXPECT_EQ(w.code, 0) << w.output;
-  EXPECT_NE(w.output.find(R"("ok":true,"unit":5,"table":"holding","address":40,"written":1})"),
+  EXPECT_NE(w.output.find(R"("ok":true,"unit":5,"table":"holding","address":40,"written":1,)"
+                          R"("text":"wrote 7 to holding register 40 (0x0028) of unit 5"})"),
             std::string::npos)
       << w.output;
   EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "--coils", "7", "2"}).output,
             "7 (0x0007): 1\n8 (0x0008): 1\n");
   // The slave logged FC06, FC10 (and FC10 for the --multiple single value), FC0F.
   EXPECT_TRUE(eventually([&] { return !slave_->output().empty(); }));
+}
+
+// A write says what it wrote, in one line, with the address as it was typed
+// and the address on the wire (issue 28); --quiet says nothing.
+TEST_F(Cli, Write_SaysWhatWasWritten) {
+  RunResult r = rtukit({"write", "--port", port_, "--unit", "5", "30", "0x2A"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "wrote 0x2A to holding register 30 (0x001E) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "31", "5", "6"});
+  EXPECT_EQ(r.output, "wrote 5, 6 to holding registers 31..32 (0x001F..0x0020) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "33", "-2", "--type", "i16"});
+  EXPECT_EQ(r.output, "wrote -2 (i16) to holding register 33 (0x0021) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "34", "1.5", "--type", "f32"});
+  EXPECT_EQ(r.output, "wrote 1.5 (f32) to holding registers 34..35 (0x0022..0x0023) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "--coils", "7", "1"});
+  EXPECT_EQ(r.output, "wrote 1 to coil 7 (0x0007) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "--coils", "7", "1", "0"});
+  EXPECT_EQ(r.output, "wrote 1, 0 to coils 7..8 (0x0007..0x0008) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "--mask", "0x00F2", "0x0025", "50"});
+  EXPECT_EQ(r.output, "masked holding register 50 (0x0032) of unit 5 with AND 0x00F2 OR 0x0025\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "--one-based", "31", "9"});
+  EXPECT_EQ(r.output, "wrote 9 to holding register 31 (0x001E) of unit 5\n");
+  r = rtukit(
+      {"write", "--port", port_, "--unit", "5", "0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "10"});
+  EXPECT_EQ(r.output,
+            "wrote 1, 2, 3, 4, ..., 10 (10 values) to holding registers 0..9 (0x0000..0x0009) of unit 5\n");
+  r = rtukit({"write", "--port", port_, "--unit", "5", "30", "7", "--quiet"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "");
+  EXPECT_EQ(rtukit({"read", "--port", port_, "--unit", "5", "30", "2"}).output,
+            "30 (0x001E): 7\n31 (0x001F): 5\n");
+}
+
+// A value its type cannot hold is a usage error (exit 2), found before the
+// port is opened: here the port does not exist, and the refusal is still
+// about the value (issue 28).
+TEST_F(Cli, Write_UnencodableValue_Exit2_BeforeThePortOpens) {
+  const std::string missing = dir_ / "missing";
+  for (const auto& [value, type, message] : std::vector<std::tuple<std::string, std::string, std::string>>{
+           {"1e50", "f32",
+            "rtukit: f32 value 1e50 is out of range (at most 3.4028235e+38 either side of 0)\n"},
+           {"-1e39", "f32",
+            "rtukit: f32 value -1e39 is out of range (at most 3.4028235e+38 either side of 0)\n"},
+           {"nan", "f32", "rtukit: f32 value nan is not a finite number\n"},
+           {"40000", "i16",
+            "rtukit: i16 value 40000 is out of range -32768..32767 (or 0x0000..0xFFFF in hex, the raw "
+            "bits)\n"},
+           {"-32769", "i16",
+            "rtukit: i16 value -32769 is out of range -32768..32767 (or 0x0000..0xFFFF in hex, the raw "
+            "bits)\n"},
+           {"70000", "u16", "rtukit: u16 value 70000 is out of range 0..65535\n"},
+           {"4294967296", "u32", "rtukit: u32 value 4294967296 is out of range 0..4294967295\n"},
+           {"2147483648", "i32",
+            "rtukit: i32 value 2147483648 is out of range -2147483648..2147483647 (or 0x00000000..0xFFFFFFFF "
+            "in hex, the raw bits)\n"}}) {
+    const RunResult r = rtukit({"write", "--port", missing, "0", "--type", type, "--", value});
+    EXPECT_EQ(r.code, 2) << value << " " << type << ": " << r.output;
+    EXPECT_EQ(r.output, message);
+  }
+  // A coil value or a mask, likewise.
+  EXPECT_EQ(rtukit({"write", "--port", missing, "--coils", "0", "2"}).code, 2);
+  EXPECT_EQ(rtukit({"write", "--port", missing, "--mask", "0x10000", "0", "5"}).code, 2);
+  // Values that fit get as far as the port: hex gives an i16 its raw bits.
+  RunResult r = rtukit({"write", "--port", missing, "0", "--type", "i16", "0xFFFF"});
+  EXPECT_EQ(r.code, 4) << r.output;
+  r = rtukit({"write", "--port", missing, "0", "--type", "f32", "3.4e38"});
+  EXPECT_EQ(r.code, 4) << r.output;
 }
 
 // FC16 and FC17 (issue 14) from the command line.

@@ -125,14 +125,117 @@ TEST(CliUsability, OneBasedAndReferenceAddresses) {
   EXPECT_NE(w.output.find("note: 40003 is taken as a reference: holding register 3 (0-based 2"),
             std::string::npos)
       << w.output;
+  EXPECT_NE(w.output.find("wrote 77 to holding register 40003 (0x0002) of unit 1\n"), std::string::npos)
+      << w.output;
+  // Addresses are printed as they were typed (1-based here), the address on the wire in hex beside them.
   RunResult r = rtukit({"read", "--port", slave.tty, "--one-based", "3"});
   EXPECT_EQ(r.code, 0);
-  EXPECT_EQ(r.output, "2 (0x0002): 77\n");
+  EXPECT_EQ(r.output, "3 (0x0002): 77\n");
   r = rtukit({"read", "--port", slave.tty, "2"});
   EXPECT_EQ(r.output, "2 (0x0002): 77\n");
   r = rtukit({"write", "--port", slave.tty, "30001", "5"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("names the input registers, which cannot be written"), std::string::npos)
+      << r.output;
+}
+
+// --one-based prints 1-based addresses everywhere the command prints one:
+// text, JSON, poll's table, CSV header and JSON lines, the failure's request;
+// a reference prints as a reference (issue 28).
+TEST(CliUsability, OneBasedAndReferenceAddressesPrintAsTyped) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  ASSERT_EQ(rtukit({"write", "--port", slave.tty, "2", "77", "78"}).code, 0);
+  RunResult r = rtukit({"read", "--port", slave.tty, "--one-based", "3", "2"});
+  EXPECT_EQ(r.output, "3 (0x0002): 77\n4 (0x0003): 78\n");
+  r = rtukit({"read", "--port", slave.tty, "--one-based", "3", "2", "--json"});
+  EXPECT_NE(r.output.find(R"("table":"holding","address":3,"pdu_address":2,"type":"u16","values":[77,78]})"),
+            std::string::npos)
+      << r.output;
+  r = rtukit({"read", "--port", slave.tty, "--one-based", "3", "--type", "u32", "2", "--format", "hex"});
+  EXPECT_EQ(r.output, "3 (0x0002): 0x004D004E\n5 (0x0004): 0x00000000\n");
+  r = rtukit({"poll", "--port", slave.tty, "--one-based", "3", "2", "--count", "1", "-o", "csv"});
+  EXPECT_TRUE(r.output.starts_with("time,3,4,error\n20")) << r.output;
+  r = rtukit({"poll", "--port", slave.tty, "--one-based", "3", "2", "--count", "1"});
+  EXPECT_NE(r.output.find("Z  [3]=77  [4]=78\n"), std::string::npos) << r.output;
+  r = rtukit({"poll", "--port", slave.tty, "--one-based", "3", "--count", "1", "-o", "jsonl"});
+  EXPECT_NE(r.output.find(R"("address":3,"pdu_address":2,"type")"), std::string::npos) << r.output;
+  r = rtukit({"read", "--port", slave.tty, "--one-based", "200"});
+  EXPECT_EQ(r.code, 1);
+  EXPECT_EQ(r.output, "rtukit: FC03 read holding registers at 200 (0x00C7) x1 from unit 1 on " + slave.tty +
+                          " 9600 8N1: Modbus exception 02 (illegal data address)\n");
+  // The reference notation prints references, five or six digits as typed.
+  r = rtukit({"read", "--port", slave.tty, "40003", "2"});
+  EXPECT_EQ(r.output,
+            "note: 40003 is taken as a reference: holding register 3 (0-based 2; for address 40003 write "
+            "0x9C43)\n40003 (0x0002): 77\n40004 (0x0003): 78\n");
+  r = rtukit({"read", "--port", slave.tty, "400003", "--json"});
+  EXPECT_NE(r.output.find(R"("table":"holding","address":3,"pdu_address":2,"type":"u16","values":[77]})"),
+            std::string::npos)
+      << r.output;
+  r = rtukit({"read", "--port", slave.tty, "400003"});
+  EXPECT_EQ(r.output,
+            "note: 400003 is taken as a reference: holding register 3 (0-based 2)\n400003 (0x0002): 77\n");
+  r = rtukit({"write", "--port", slave.tty, "--coils", "00002", "1"});
+  EXPECT_EQ(r.output,
+            "note: 00002 is taken as a reference: coil 2 (0-based 1; for address 2 write 0x0002)\n"
+            "wrote 1 to coil 00002 (0x0001) of unit 1\n");
+  r = rtukit({"write", "--port", slave.tty, "00002", "1"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("rtukit: address 00002 names a coil: add --coils to write coils\n"),
+            std::string::npos)
+      << r.output;
+}
+
+// A 400001 is not a plain address (past 65535), so the note offers no hex
+// form; 10000 is no reference (discrete inputs are 10001..19999): refused,
+// with the forms that mean what the user may have meant (issue 28).
+TEST(CliUsability, ReferenceRefusalsNameTheRightForms) {
+  RunResult r = rtukit({"read", "--port", "/dev/ttyUSB0", "10000"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(
+      r.output,
+      "rtukit: 10000 is not a reference: discrete inputs are 10001..19999 (six digits: 100001..165536); "
+      "for address 10000 write 0x2710\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "40000"});
+  EXPECT_EQ(
+      r.output,
+      "rtukit: 40000 is not a reference: holding registers are 40001..49999 (six digits: 400001..465536); "
+      "for address 40000 write 0x9C40\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "400000"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_EQ(r.output,
+            "rtukit: 400000 is not a reference: holding registers are 400001..465536 (five digits: "
+            "40001..49999)\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "365537"});
+  EXPECT_EQ(
+      r.output,
+      "rtukit: 365537 is not a reference: input registers are 300001..365536 (five digits: 30001..39999)\n");
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "--one-based", "00000"});
+  EXPECT_EQ(r.output,
+            "rtukit: 00000 is not a reference: coils are 00001..09999 (six digits: 000001..065536)\n");
+}
+
+// readwrite (FC17) takes the reference notation and --one-based for both
+// addresses, and prints the read addresses as typed (issue 28).
+TEST(CliUsability, ReadWriteTakesReferencesForBothAddresses) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  RunResult r = rtukit({"readwrite", "--port", slave.tty, "40001", "2", "40002", "7", "8"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("40001 (0x0000): 0\n40002 (0x0001): 7\n"), std::string::npos) << r.output;
+  EXPECT_EQ(rtukit({"read", "--port", slave.tty, "1", "2"}).output, "1 (0x0001): 7\n2 (0x0002): 8\n");
+  r = rtukit({"readwrite", "--port", slave.tty, "--one-based", "2", "1", "3", "9", "--json"});
+  EXPECT_NE(r.output.find(R"("written":{"address":3,"pdu_address":2,"count":1},"address":2,"pdu_address":1,)"
+                          R"("values":[7]})"),
+            std::string::npos)
+      << r.output;
+  r = rtukit({"readwrite", "--port", slave.tty, "0", "1", "30001", "9"});
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.output.find("rtukit: 30001 names the input registers: FC17 reads and writes holding registers"),
+            std::string::npos)
       << r.output;
 }
 
