@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <csignal>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -307,7 +309,7 @@ TEST_F(InverjetSim, CommandsAnswerJson) {
 
 TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   std::ofstream(dir_ / "plan.csv")
-      << "# warm-up, sprint, cool-down\nspeed,end\n30,05:00\n80, 6:00\n\n40,600\n";
+      << "# warm-up, sprint, cool-down\nspeed,end\n30,05:00\n80, 6:00\n\n40,10m\n";
   RunResult r = cli({"inverjet", "plan", "set", "1", dir_ / "plan.csv"});
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("3 segment(s) written, ends at 10:00"), std::string::npos) << r.output;
@@ -322,7 +324,7 @@ TEST_F(InverjetSim, Cli_PlanSetShow_CsvAndJson) {
   ASSERT_EQ(cli({"inverjet", "plan", "set", "2", dir_ / "shown.json"}).code, 0);
   EXPECT_EQ(json::parse(cli({"inverjet", "plan", "show", "2", "--json"}).output)["segments"],
             json::parse(r.output)["segments"]);
-  std::ofstream(dir_ / "plan.json") << R"([{"speed": 25, "end": "01:30"}, {"speed": 55, "end": 300}])";
+  std::ofstream(dir_ / "plan.json") << R"([{"speed": 25, "end": "01:30"}, {"speed": 55, "end": "5m"}])";
   ASSERT_EQ(cli({"inverjet", "plan", "set", "4", dir_ / "plan.json"}).code, 0);
   r = cli({"inverjet", "plan", "show", "4"});
   EXPECT_NE(r.output.find("speed,end\n25,01:30\n55,05:00\n"), std::string::npos) << r.output;
@@ -346,9 +348,11 @@ TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
   std::ofstream(dir_ / "broken.json") << R"([{"speed": 20, "end": "01:00"},)";
   const std::vector<Case> cases = {
       {{"inverjet", "speed", "101"}, 2, "speed (%) 101 is out of range 0..100"},
-      {{"inverjet", "start", "--timer", "6000", "--speed", "50"}, 2, "out of range 1..5999 s"},
+      {{"inverjet", "start", "--timer", "100m", "--speed", "50"}, 2, "out of range 1..5999 s"},
+      // A bare number has no unit: refused with the forms that work (a timer of "30" once ran 30 s).
+      {{"inverjet", "start", "--timer", "30", "--speed", "50"}, 2, "write 30:00 (mm:ss), 30m or 90s"},
       {{"inverjet", "start", "--timer", "100:00", "--speed", "50"}, 2, "out of range 1..5999 s"},
-      {{"inverjet", "start", "--timer", "ten", "--speed", "50"}, 2, "not mm:ss"},
+      {{"inverjet", "start", "--timer", "ten", "--speed", "50"}, 2, "for example 30:00, 30m, 90s"},
       {{"inverjet", "start", "--free", "--timer", "1:00"}, 2, "choose one of"},
       {{"inverjet", "plan", "set", "1", dir_ / "decreasing.csv"}, 2, "line 3: end 01:00 is not after 02:00"},
       {{"inverjet", "plan", "set", "1", dir_ / "fast.csv"}, 2, "line 1: speed 101 % is out of range"},
@@ -509,6 +513,92 @@ TEST_F(InverjetSim, LibmodbusClient_TimerRun) {
   const RunResult r = run({INVERJET_LIBMODBUS_RUN_BIN, tty_});
   EXPECT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("OK"), std::string::npos) << r.output;
+}
+
+// ------------------------------------------------------------ the link: baud changes, the pty's path
+
+// A baud-rate write (0x0001) is answered at the old rate, then the line
+// changes. On a serial path (here a socat pty pair, as a USB adapter whose
+// tcdrain returns before its FIFO is empty) the reconfiguration once
+// flushed output too and threw the answer away: 6-8 answers in 20 lost.
+TEST(InverjetSimLink, EveryBaudRateWriteIsAnswered_OnASerialPath) {
+  TempDir dir;
+  PtyPair pair(dir);
+  ASSERT_TRUE(pair.ready());
+  Process sim({kRtukit, "sim", "inverjet", "--listen", pair.a(), "--no-state", "--no-console"});
+  ASSERT_TRUE(sim.wait_for_output("listening on")) << sim.output();
+  // A pty carries any rate, so the master stays at 9600 while the simulator
+  // switches between 19200 (code 4) and 9600 (code 3).
+  Master m(io::make_link(*io::parse_port(pair.b(), false)),
+           MasterOptions{.response_timeout = 1000ms, .retries = 0});
+  int answered = 0;
+  for (int i = 0; i < 200; ++i) {
+    const Error e = m.write_single_register(UnitId{21}, 0x0001, i % 2 == 0 ? 4 : 3);
+    if (e.ok()) ++answered;
+  }
+  EXPECT_EQ(answered, 200) << sim.output().substr(0, 2000);
+  std::array<uint16_t, 1> baud{};
+  ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x0001, baud).ok());
+  EXPECT_EQ(baud[0], 3);
+}
+
+// A second simulator on the same pty path never takes the first one's link:
+// exit 2 and one line; the first stays reachable; once it is gone the path
+// is free again, also when its owner was killed and left its link behind.
+TEST(InverjetSimLink, ASecondSimulatorOnTheSamePathIsRefused_AStaleLinkIsReplaced) {
+  TempDir dir;
+  const std::string tty = dir / "tty";
+  auto sim = [&](bool console = false) {
+    std::vector<std::string> argv{kRtukit, "sim", "inverjet", "--listen", "pty:" + tty, "--no-state"};
+    if (!console) argv.push_back("--no-console");
+    return std::make_unique<Process>(argv);
+  };
+  auto reachable = [&] {
+    return run_cli(kRtukit, {"read", "--unit", "21", "0", "1", "--timeout", "1000"}, tty).code == 0;
+  };
+  auto first = sim();
+  ASSERT_TRUE(first->wait_for_output("listening on")) << first->output();
+  ASSERT_TRUE(reachable());
+
+  auto second = sim();
+  EXPECT_EQ(second->wait(), 2) << second->output();
+  const std::string said = second->output();
+  EXPECT_NE(said.find(tty + " is in use by pid " + std::to_string(first->pid())), std::string::npos) << said;
+  EXPECT_NE(said.find("rtukit sim inverjet"), std::string::npos) << said;
+  EXPECT_EQ(std::count(said.begin(), said.end(), '\n'), 1) << said;
+  EXPECT_TRUE(first->running());
+  EXPECT_TRUE(reachable()) << "the second simulator took the link";
+
+  first->stop();  // SIGTERM: it removes its link and its lock
+  EXPECT_FALSE(path_exists(tty));
+  auto third = sim();
+  ASSERT_TRUE(third->wait_for_output("listening on")) << third->output();
+  EXPECT_TRUE(reachable());
+
+  ::kill(third->pid(), SIGKILL);  // no clean-up: the link stays, pointing at nothing
+  EXPECT_EQ(third->wait(), 128 + SIGKILL);
+  struct stat st {};
+  EXPECT_EQ(::lstat(tty.c_str(), &st), 0);
+  auto fourth = sim();
+  ASSERT_TRUE(fourth->wait_for_output("listening on")) << fourth->output();
+  EXPECT_TRUE(reachable());
+}
+
+// A link that is not ours but points at a live pty (a socat pair) is not
+// taken either.
+TEST(InverjetSimLink, ALinkToAnotherProgramsLivePtyIsNotTaken) {
+  TempDir dir;
+  PtyPair pair(dir);
+  ASSERT_TRUE(pair.ready());
+  const RunResult r =
+      run({kRtukit, "sim", "inverjet", "--listen", "pty:" + pair.a(), "--no-state", "--no-console"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find(pair.a() + " is in use: it points at /dev/pts/"), std::string::npos) << r.output;
+  EXPECT_FALSE(path_exists(pair.a() + ".lock"));
+  // socat's pair still works: our slave on one end, our master on the other
+  Process slave({kRtukit, "slave", "--listen", pair.a(), "--unit", "1"});
+  ASSERT_TRUE(slave.wait_for_output("listening on")) << slave.output();
+  EXPECT_EQ(run_cli(kRtukit, {"read", "--unit", "1", "0", "1"}, pair.b()).code, 0);
 }
 
 }  // namespace
