@@ -151,7 +151,12 @@ Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& s) {
       caps.low_latency = ioctl(fd, TIOCSSERIAL, &ss) == 0;
     }
   }
-  ioctl(fd, TCFLSH, TCIOFLUSH);
+  // Input only. This also runs on a port in use, to change its baud rate
+  // right after an answer: tcdrain() returns before the last byte has left
+  // on a pty (the peer may not have read it yet) and on USB adapters whose
+  // chip still holds it in its FIFO, and an output flush then throws the
+  // answer away (socat pair: 6-8 answers in 20 lost to baud-rate writes).
+  ioctl(fd, TCFLSH, TCIFLUSH);
   return caps;
 }
 

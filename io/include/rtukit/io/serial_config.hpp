@@ -23,6 +23,9 @@ struct SerialCapabilities {
 /// TIOCSRS485 when the driver supports it (else the caller toggles RTS).
 /// Errors: io_error with the OS error number. A pty accepts all of this
 /// except RS-485 and low latency, which are then reported as unavailable.
+/// Unread input is discarded, output never: this is also how a port in use
+/// changes its baud rate at run time (after tcdrain), and what was written
+/// just before must still go out.
 Result<SerialCapabilities> configure_serial(int fd, const SerialSettings& settings);
 
 /// Opens `path` non-blocking and configures it (configure_serial). Returns the
