@@ -161,6 +161,8 @@ void encode_value(const std::string& type, const std::string& text, bool low_fir
     if (std::fabs(d) > std::numeric_limits<float>::max())
       throw Failure{kUsage, fmt::format("f32 value {} is out of range (at most {} either side of 0)", text,
                                         std::numeric_limits<float>::max())};
+    if (d != 0 && static_cast<float>(d) == 0)
+      throw Failure{kUsage, fmt::format("f32 value {} is too small for f32: it would be written as 0", text)};
     bits = std::bit_cast<uint32_t>(static_cast<float>(d));
   } else {
     const bool wide = type == "u32" || type == "i32";

@@ -144,6 +144,7 @@ TEST_F(Cli, Write_UnencodableValue_Exit2_BeforeThePortOpens) {
            {"-1e39", "f32",
             "rtukit: f32 value -1e39 is out of range (at most 3.4028235e+38 either side of 0)\n"},
            {"nan", "f32", "rtukit: f32 value nan is not a finite number\n"},
+           {"1e-50", "f32", "rtukit: f32 value 1e-50 is too small for f32: it would be written as 0\n"},
            {"40000", "i16",
             "rtukit: i16 value 40000 is out of range -32768..32767 (or 0x0000..0xFFFF in hex, the raw "
             "bits)\n"},
