@@ -19,10 +19,17 @@ class Pty {
   ~Pty();
 
   /// Creates a pty in raw mode. With a non-empty `link`, a symlink to the
-  /// slave side is created there (an existing symlink is replaced; any other
-  /// file there is an error). The slave side is kept open by us too, so the
+  /// slave side is created there. The link is ours while we live: we hold a
+  /// lock on `link + ".lock"` beside it (an advisory flock; the file holds
+  /// our pid and goes when we do). A link another live process serves is
+  /// never replaced: its lock is held (invalid_argument, "LINK is in use by
+  /// pid N (its command line)"), or, without a lock file, it points at a pty
+  /// that was there when the link was made and is still open (a socat pair,
+  /// an older rtukit). A stale link (its owner died) is replaced; any other
+  /// file there is an error. The slave side is kept open by us too, so the
   /// pty survives clients that open and close it.
-  /// Errors: io_error with the OS error number; `why` says which step failed.
+  /// Errors: io_error with the OS error number; invalid_argument for a link
+  /// in use; `why` says which step failed.
   static Outcome<Pty> create(const std::string& link);
 
   /// The master side, for the slave server to read and write. Ownership stays here
@@ -35,11 +42,25 @@ class Pty {
   /// The symlink, if one was made; else path().
   const std::string& name() const noexcept { return link_.empty() ? path_ : link_; }
 
+  /// Stops holding the slave side open (its raw mode stays). From then on
+  /// the master tells whether a client has the port open (slave_open()),
+  /// and reads on it fail with EIO while nobody has.
+  void release_slave() noexcept;
+  /// Whether some process has the slave side open (after release_slave();
+  /// before it, always true). Asks the kernel: POLLHUP on the master.
+  bool slave_open() const noexcept;
+  /// Throws away what was written to the master and not read on the slave
+  /// side (bytes a client left unread when it closed the port). The kernel
+  /// keeps them for the next client otherwise.
+  Error discard_unread() noexcept;
+
  private:
   int master_ = -1;
   int keep_open_ = -1;
+  int lock_ = -1;
   std::string path_;
   std::string link_;
+  std::string lock_path_;
 };
 
 }  // namespace rtukit::io
