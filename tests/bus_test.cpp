@@ -3,6 +3,7 @@
 // simulated devices plus foreign masters sharing one line.
 #include <fcntl.h>
 #include <gtest/gtest.h>
+#include <sys/ioctl.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -241,6 +242,105 @@ TEST(VirtualBus, PtysArePacedForReal) {
     ctx.stop();
   });
   runner.join();
+}
+
+// Bytes waiting to be read on `fd` right now (FIONREAD).
+int readable(int fd) {
+  int n = -1;
+  ::ioctl(fd, FIONREAD, &n);
+  return n;
+}
+
+int open_raw(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+  if (fd < 0) return fd;
+  termios t{};
+  ::tcgetattr(fd, &t);
+  ::cfmakeraw(&t);
+  ::tcsetattr(fd, TCSANOW, &t);
+  return fd;
+}
+
+// A port nobody has open hears nothing, as an adapter that is not open: a
+// master opening it later must not read old traffic first. And what a
+// client left unread when it closed the port is gone for the next one.
+TEST(VirtualBus, ClosedPortsHearNothing_UnreadBytesGoWithTheLastClient) {
+  TempDir dir;
+  asio::io_context ctx;
+  auto bus = VirtualBus::start(
+      ctx, {.ports = 3, .links = {dir / "a", dir / "b", dir / "late"}, .line = {.baud = 115200}});
+  ASSERT_TRUE(bus.ok()) << bus.error().reason();
+  std::thread runner([&] { ctx.run(); });
+  const int a = open_raw(dir / "a");
+  const int b = open_raw(dir / "b");
+  ASSERT_GE(a, 0);
+  ASSERT_GE(b, 0);
+  // The bus delivers a character to every port in one go: once b has the
+  // frame, a closed port would have had it too.
+  const std::vector<uint8_t> frame(20, 0x5A);
+  auto cross = [&] {
+    EXPECT_EQ(::write(a, frame.data(), frame.size()), 20);
+    size_t got = 0;
+    uint8_t buf[64];
+    EXPECT_TRUE(eventually([&] {
+      const ssize_t n = ::read(b, buf, sizeof buf);
+      if (n > 0) got += static_cast<size_t>(n);
+      return got >= frame.size();
+    }));
+  };
+  cross();
+  int late = open_raw(dir / "late");
+  ASSERT_GE(late, 0);
+  EXPECT_EQ(readable(late), 0) << "a port nobody had open heard the line";
+
+  // Open: it hears the line. Closed with the bytes unread: they go.
+  cross();
+  EXPECT_TRUE(eventually([&] { return readable(late) == 20; })) << readable(late);
+  ::close(late);
+  EXPECT_TRUE(eventually([&] { return (*bus)->unread_discarded() >= 1; }));
+  late = open_raw(dir / "late");
+  ASSERT_GE(late, 0);
+  EXPECT_EQ(readable(late), 0) << "the last client's unread bytes reached the next one";
+  cross();  // and the port works as before
+  EXPECT_TRUE(eventually([&] { return readable(late) == 20; })) << readable(late);
+  for (int fd : {a, b, late}) ::close(fd);
+  asio::post(ctx, [&] {
+    bus->reset();
+    ctx.stop();
+  });
+  runner.join();
+}
+
+// mbpoll (which does not flush when it opens a port) opening a bus port
+// after traffic crossed the line: its first read is its own answer, not
+// old bytes ("Invalid CRC").
+TEST(VirtualBus, MbpollOpeningAPortLateReadsItsOwnAnswer) {
+  TempDir dir;
+  Process bus({kRtukit, "bus", "--ports", "3", "--links",
+               (dir / "jet") + "," + (dir / "host") + "," + (dir / "late"), "--baud", "9600"});
+  ASSERT_TRUE(bus.wait_for_output("listening on")) << bus.output();
+  Process jet({kRtukit, "sim", "inverjet", "--listen", dir / "jet", "--no-state", "--no-console"});
+  ASSERT_TRUE(jet.wait_for_output("listening on")) << jet.output();
+  {
+    Master m(io::make_link(*io::parse_port(dir / "host", false)),
+             MasterOptions{.response_timeout = 500ms, .retries = 2});
+    for (int i = 0; i < 10; ++i) {
+      std::array<uint16_t, 4> state{};
+      ASSERT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, state).ok()) << i;
+    }
+  }
+  for (int round = 0; round < 3; ++round) {
+    const RunResult mb = run({"mbpoll", "-m", "rtu", "-b", "9600", "-P", "none", "-a", "21", "-r", "1", "-c",
+                              "1", "-1", dir / "late"});
+    EXPECT_EQ(mb.code, 0) << mb.output;
+    EXPECT_EQ(mb.output.find("CRC"), std::string::npos) << mb.output;
+    EXPECT_NE(mb.output.find("[1]: \t21"), std::string::npos) << mb.output;  // the address register
+    // more traffic while nobody holds `late`
+    Master m(io::make_link(*io::parse_port(dir / "host", false)),
+             MasterOptions{.response_timeout = 500ms, .retries = 2});
+    std::array<uint16_t, 4> state{};
+    EXPECT_TRUE(m.read_holding_registers(UnitId{21}, 0x21, state).ok());
+  }
 }
 
 // Two devices on one line, each answering only its own address, and masters

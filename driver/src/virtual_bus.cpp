@@ -4,6 +4,7 @@
 
 #include <array>
 #include <asio.hpp>
+#include <atomic>
 #include <cerrno>
 #include <cstring>
 
@@ -25,6 +26,9 @@ struct VirtualBus::Impl {
     std::array<uint8_t, 512> rx{};
     std::vector<uint8_t> pending, in_flight;
     bool writing = false;
+    // Bytes went to the pty since it was last seen closed: a client may
+    // have left some unread.
+    bool unread = false;
   };
 
   Impl(asio::io_context& c, VirtualBusOptions o)
@@ -41,8 +45,8 @@ struct VirtualBus::Impl {
       if (ec == asio::error::operation_aborted) return;
       Port& port = *ports[i];
       if (ec) {
-        // EIO until a client opens the port again (we keep the slave side
-        // open, so rarely): look again a little later.
+        // EIO: nobody has the port open. Look again a little later.
+        hung_up(i);
         port.retry.expires_after(std::chrono::milliseconds(20));
         port.retry.async_wait([this, i](const std::error_code& e) {
           if (!e) read(i);
@@ -69,8 +73,14 @@ struct VirtualBus::Impl {
     tapped.clear();
     line.advance(now(), deliveries, options.tap ? &tapped : nullptr);
     for (const BusCharacter& c : tapped) options.tap(c);
+    // A port nobody has open hears nothing, as an adapter that is not open
+    // does not: the kernel would keep the bytes for the next client, which
+    // would read them before its first answer.
+    open.assign(ports.size(), -1);
     for (const BusDelivery& d : deliveries) {
       Port& p = *ports[d.port];
+      if (open[d.port] < 0) open[d.port] = p.pty.slave_open() ? 1 : 0;
+      if (open[d.port] == 0) continue;
       if (p.pending.size() < kMaxPending) p.pending.push_back(d.byte);
     }
     for (size_t i = 0; i < ports.size(); ++i) flush(i);
@@ -80,7 +90,12 @@ struct VirtualBus::Impl {
   void flush(size_t i) {
     Port& p = *ports[i];
     if (p.writing || p.pending.empty()) return;
+    if (!p.pty.slave_open()) {
+      hung_up(i);
+      return;
+    }
     p.writing = true;
+    p.unread = true;
     p.in_flight.swap(p.pending);
     p.pending.clear();
     asio::async_write(p.stream, asio::buffer(p.in_flight), [this, i](const std::error_code& ec, size_t) {
@@ -88,8 +103,19 @@ struct VirtualBus::Impl {
       Port& port = *ports[i];
       port.writing = false;
       port.in_flight.clear();
+      if (!port.pty.slave_open()) hung_up(i);  // closed while we wrote
       flush(i);
     });
+  }
+
+  // The last client closed the port: what it left unread goes (the next
+  // client starts with an empty line, as with a real adapter).
+  void hung_up(size_t i) {
+    Port& p = *ports[i];
+    p.pending.clear();
+    if (!p.unread || p.writing) return;
+    p.unread = false;
+    if (!p.pty.discard_unread()) discarded.fetch_add(1, std::memory_order_relaxed);
   }
 
   asio::io_context& ctx;
@@ -100,6 +126,8 @@ struct VirtualBus::Impl {
   std::vector<std::unique_ptr<Port>> ports;
   std::vector<BusDelivery> deliveries;
   std::vector<BusCharacter> tapped;
+  std::vector<int> open;  // per port in one pump: -1 not asked yet, 0 closed, 1 open
+  std::atomic<uint64_t> discarded{0};
 };
 
 VirtualBus::VirtualBus(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -120,6 +148,8 @@ Outcome<std::unique_ptr<VirtualBus>> VirtualBus::start(asio::io_context& ctx, Vi
     const std::string link = i < impl->options.links.size() ? impl->options.links[i] : std::string();
     Outcome<io::Pty> pty = io::Pty::create(link);
     if (!pty.ok()) return pty.error();
+    // The bus does not hold its ports open: it must see whether a client does.
+    pty->release_slave();
     const int fd = ::dup(pty->master_fd());
     if (fd < 0) return Status(Error(Errc::io_error, errno), std::string("dup: ") + std::strerror(errno));
     impl->ports.push_back(std::make_unique<Impl::Port>(ctx, std::move(*pty), fd));
@@ -141,6 +171,10 @@ void VirtualBus::set_faults(const BusConfig& faults) {
 
 BusLineStats VirtualBus::stats() const {
   return impl_->line.stats();
+}
+
+uint64_t VirtualBus::unread_discarded() const {
+  return impl_->discarded.load(std::memory_order_relaxed);
 }
 
 uint64_t VirtualBus::now_us() const {

@@ -2,7 +2,10 @@
 // joined as one half-duplex line (BusLine): every byte written on one port
 // reaches all the others at the line's baud rate, with collisions and the
 // configured faults. Simulators, our master and foreign tools (mbpoll,
-// libmodbus, pymodbus) open the ports as if they were serial ports.
+// libmodbus, pymodbus) open the ports as if they were serial ports. A port
+// nobody has open hears nothing (as an adapter that is not open), and what
+// a client left unread when it closed the port is thrown away: the next
+// client's first read is its own answer, never old traffic.
 //
 //   asio::io_context ctx;
 //   auto bus = rtukit::VirtualBus::start(ctx, {.ports = 3, .links = {"/tmp/bus0", ...}, .line = {...}});
@@ -53,6 +56,9 @@ class VirtualBus {
   BusLineStats stats() const;
   /// The bus's clock: microseconds since it started (the time base of the tap).
   uint64_t now_us() const;
+  /// How many times a port's last client closed it with bytes unread, which
+  /// were then thrown away. Safe from any thread.
+  uint64_t unread_discarded() const;
 
   struct Impl;
 
