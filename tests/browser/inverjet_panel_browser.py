@@ -18,11 +18,14 @@ that clear themselves. Screenshots in OUTDIR.
 
 Usage: inverjet_panel_browser.py RTUKIT OUTDIR
 """
+import functools
+import http.server
 import json
 import os
 import signal
 import subprocess
 import sys
+import threading
 
 from selenium.common.exceptions import WebDriverException
 from selenium.webdriver.common.by import By
@@ -124,6 +127,27 @@ def log_in(d, url):
     return d
 
 
+# A page of another origin, in the same browser, that tries what a web page on
+# the pool's network would: open the panel's WebSocket and start the machine.
+FOREIGN_PAGE = """<!doctype html><title>waiting</title><script>
+const ws = new WebSocket("wss://127.0.0.1:%d/ws");
+ws.onopen = () => { document.title = "open";
+  ws.send(JSON.stringify({op: "start", id: 1, mode: "free", speed: 35})); };
+ws.onclose = () => { if (document.title !== "open") document.title = "refused"; };
+</script>"""
+
+
+def serve_foreign_page(folder, panel_port):
+    """Serves FOREIGN_PAGE on a port of its own (another origin); its URL."""
+    with open(os.path.join(folder, "evil.html"), "w") as f:
+        f.write(FOREIGN_PAGE % panel_port)
+    handler = functools.partial(http.server.SimpleHTTPRequestHandler, directory=folder)
+    handler.log_message = lambda *a: None
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return f"http://127.0.0.1:{server.server_address[1]}/evil.html"
+
+
 def main():
     work = temp_dir("rtukit-panel-")  # removed at exit, on every path
     pty, con_path = os.path.join(work, "jet"), os.path.join(work, "console.sock")
@@ -178,6 +202,16 @@ def main():
         check("the right password opens the panel", wait_for(lambda: d.current_url == url + "/", DEADLINE), d.current_url)
         check("the session cookie is not readable by scripts (HttpOnly)",
               "rtukit_panel" not in d.execute_script("return document.cookie"))
+        # The attack in the browser itself, logged in: a page of another
+        # origin opens the panel's WebSocket (the old panel started the
+        # machine at 35 % this way). Refused before any handler (Origin).
+        evil_dir = os.path.join(work, "evil")
+        os.mkdir(evil_dir)
+        d.get(serve_foreign_page(evil_dir, port))
+        check("Chromium: a page of another origin cannot open the panel's WebSocket",
+              wait_for(lambda: d.title in ("refused", "open"), DEADLINE) and d.title == "refused", d.title)
+        check("...and the machine did not start", con.ask("get state").startswith("state = off"), con.ask("get state"))
+        d.get(url + "/")
         d.execute_script(SPY)
         check("state as the display shows it", wait_for(lambda: text(d, "#state") == "off", DEADLINE), text(d, "#state"))
         check("plans read from the machine",
