@@ -325,6 +325,7 @@ UnitId parse_unit(const std::string& text, bool tcp) {
 
 namespace {
 std::atomic<bool> g_interrupted{false};
+volatile std::sig_atomic_t g_stop_signal = 0;
 volatile std::sig_atomic_t g_output_broken = 0;
 
 // Called on SIGPIPE, also from a signal handler: only async-signal-safe
@@ -346,7 +347,10 @@ bool take_broken_output() {
 }
 
 void on_stop_signal(int sig) {
-  if (sig != SIGPIPE || take_broken_output()) g_interrupted = true;
+  if (sig != SIGPIPE || take_broken_output()) {
+    if (g_stop_signal == 0) g_stop_signal = sig;
+    g_interrupted = true;
+  }
 }
 
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
@@ -389,6 +393,7 @@ void stop_on_signals(asio::signal_set& signals, asio::io_context& ctx) {
 
 Interruptible::Interruptible() {
   g_interrupted = g_output_broken != 0;
+  g_stop_signal = g_output_broken != 0 ? SIGPIPE : 0;
   for (int sig : kStopSignals) std::signal(sig, on_stop_signal);
 }
 
@@ -400,12 +405,37 @@ bool Interruptible::interrupted() const {
   return g_interrupted;
 }
 
+int Interruptible::signal() const {
+  return g_stop_signal;
+}
+
 bool Interruptible::sleep(std::chrono::milliseconds d) const {
   // Small steps, so Ctrl-C ends the command at once.
   const auto until = std::chrono::steady_clock::now() + d;
   while (!g_interrupted && std::chrono::steady_clock::now() < until)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   return !g_interrupted;
+}
+
+Progress::Progress() : active_(::isatty(STDERR_FILENO) != 0) {}
+
+Progress::~Progress() {
+  clear();
+}
+
+void Progress::show(std::string_view text) {
+  if (!active_) return;
+  // Carriage return and erase-line: the line is rewritten, never scrolled.
+  fmt::print(stderr, "\r\x1b[K{}", text.substr(0, 79));
+  std::fflush(stderr);
+  shown_ = true;
+}
+
+void Progress::clear() {
+  if (!active_ || !shown_) return;
+  fmt::print(stderr, "\r\x1b[K");
+  std::fflush(stderr);
+  shown_ = false;
 }
 
 void WatchOptions::add_to(CLI::App& cmd) {

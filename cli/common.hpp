@@ -145,8 +145,31 @@ class Interruptible {
   Interruptible(const Interruptible&) = delete;
   Interruptible& operator=(const Interruptible&) = delete;
   bool interrupted() const;
+  /// The signal that interrupted (SIGINT for Ctrl-C), 0 when none did.
+  int signal() const;
   /// Sleeps `d` in small steps; false when interrupted meanwhile.
   bool sleep(std::chrono::milliseconds d) const;
+};
+
+/// One line of progress on stderr, redrawn in place, for the waits that
+/// would otherwise be silent (scan, doctor, hold). Only when stderr is a
+/// terminal: a pipe or a file gets none of it. Cleared when it goes.
+class Progress {
+ public:
+  Progress();
+  ~Progress();
+  Progress(const Progress&) = delete;
+  Progress& operator=(const Progress&) = delete;
+  /// Whether anything is shown (stderr is a terminal).
+  bool active() const { return active_; }
+  /// Replaces the line with `text` (cut to 79 columns).
+  void show(std::string_view text);
+  /// Removes the line (before printing something else on the terminal).
+  void clear();
+
+ private:
+  bool active_;
+  bool shown_ = false;
 };
 
 /// --interval and --count of a `watch` command.

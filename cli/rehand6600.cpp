@@ -5,6 +5,7 @@
 #include <fmt/core.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -235,20 +236,34 @@ int run_watch(const ChairArgs& a) {
   return kOk;
 }
 
-// "up", "down", "stand", "sit", "forward", "back", "extend", "retract", "on" or a number.
+// A hold's direction, by the name the command table gives it ("up", "down",
+// "stand", "sit", "forward", "back", "extend", "retract") or its number. A
+// command with two directions must name one: `hold seat_lift` alone, or a
+// direction the command does not have, is refused (nothing is sent). One with
+// a single non-zero value (phone_forward: on) needs none.
 uint16_t command_value(const rh::Register& r, const std::string& text) {
-  if (text.empty()) return 1;
-  for (const profile::Named& c : r.names) {
-    if (c.name == text && c.value != 0) return c.value;
+  std::vector<const profile::Named*> directions;
+  for (const profile::Named& c : r.names)
+    if (c.value != 0) directions.push_back(&c);
+  if (text.empty() && directions.size() <= 1) return directions.empty() ? 1 : directions[0]->value;
+  for (const profile::Named* c : directions)
+    if (c->name == text) return c->value;
+  // The number, when it is one of the listed values (seat_lift 1 = up).
+  char* end = nullptr;
+  const unsigned long n = std::strtoul(text.c_str(), &end, 0);
+  if (!text.empty() && *end == '\0') {
+    for (const profile::Named* c : directions)
+      if (c->value == n) return c->value;
   }
-  const auto value = static_cast<uint16_t>(parse_number(text, "value", 0, 0xFFFF));
-  if (rh::check_value(r, value) != Errc::ok) {
-    std::string names;
-    for (const profile::Named& c : r.names)
-      names += fmt::format("{}{} {}", names.empty() ? "" : ", ", c.value, c.name);
-    throw Failure{kUsage, fmt::format("{}: value {} is not one of: {}", r.key, text, names)};
+  std::string names;
+  for (size_t i = 0; i < directions.size(); ++i) {
+    if (i > 0) names += i + 1 == directions.size() ? " or " : ", ";
+    names += fmt::format("{} ({})", directions[i]->name, directions[i]->value);
   }
-  return value;
+  if (text.empty())
+    throw Failure{kUsage, fmt::format("hold {} needs a direction: {} (nothing sent)", r.key, names)};
+  throw Failure{kUsage, fmt::format("hold {}: '{}' is not one of its directions: {} (nothing sent)", r.key,
+                                    text, names)};
 }
 
 const rh::Register& command_register(const std::string& key, rh::Kind kind) {
@@ -300,27 +315,40 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   std::string context;
   auto host = start_host(a, &context);
   const Interruptible interrupt;
+  Progress countdown;  // on a terminal only
   const auto start = std::chrono::steady_clock::now();
   // Renew the lease well within its 300 ms, as a UI does while the button is held.
   while (!interrupt.interrupted() && std::chrono::steady_clock::now() - start < length) {
     if (const rtukit::Status e = host->hold(r.address, value)) {
+      countdown.clear();
       host->stop();
       refused_or_fail(e, context, key, "hold");
     }
+    const auto left = std::chrono::duration<double>(length - (std::chrono::steady_clock::now() - start));
+    countdown.show(fmt::format("holding {} {}: {:.1f} s left (Ctrl-C releases)", key,
+                               rh::format_value(r, value), std::max(0.0, left.count())));
     interrupt.sleep(std::chrono::milliseconds(100));
   }
+  countdown.clear();
   (void)host->release(r.address);
   (void)host->wait_poll(std::chrono::milliseconds(500));
   const rh::Snapshot s = host->snapshot();
   host->stop();
   const auto held = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  // Ctrl-C (or SIGTERM, SIGHUP) ends the hold early: released all the same,
+  // and the exit code says it was cut short (128 + the signal: 130 for Ctrl-C).
+  const int sig = interrupt.signal();
+  const int code = sig == 0 || sig == SIGPIPE ? kOk : 128 + sig;
+  const std::string text = fmt::format("held {} = {} for {:.1f} s, released{}", key,
+                                       rh::format_value(r, value), held, code == kOk ? "" : " (interrupted)");
   if (a.json) {
-    done(a, "hold", fmt::format("held {} = {} for {:.1f} s, released", key, rh::format_value(r, value), held),
+    done(a, "hold", text,
          {{std::string(r.key), profile::entry_json(r, value)},
           {"held", json_quantity(std::round(held * 10) / 10, "s", fmt::format("{:.1f} s", held))}});
-    return kOk;
+    return code;
   }
-  fmt::print("held {} = {} for {:.1f} s, released\n", key, rh::format_value(r, value), held);
+  fmt::print("{}\n", text);
+  if (code != kOk) return code;
   fmt::print("{}", panel(s, a.mph));
   return kOk;
 }
@@ -450,7 +478,9 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                "phone_forward, phone_reverse, phone_left, phone_right, phone_horn, sos")
             ->required();
         cmd.add_option("VALUE", a.value,
-                       "up|down, stand|sit, forward|back, extend|retract, on, or the number (default 1)");
+                       "the direction, required where the command has two: stand|sit, up|down (seat_lift, "
+                       "leg_rotate), forward|back (backrest, seat_tilt, plate_tilt), extend|retract "
+                       "(leg_extend); none for the others");
         cmd.add_option("--for", a.duration, "how long (2s, 500ms)")->capture_default_str();
         add_link(cmd, a, false);
         examples(cmd, {"rtukit rehand6600 hold " + port + " seat_lift up --for 2s",

@@ -294,8 +294,8 @@ TEST_F(RehandSim, Cli_FailuresExitCodes) {
   };
   const std::vector<Case> usage = {
       {{"rehand6600", "hold", "fly"}, 2, "'fly' is not a hold command"},
-      {{"rehand6600", "hold", "seat_lift", "7"}, 2, "seat_lift: value 7 is not one of"},
-      {{"rehand6600", "hold", "seat_lift", "--for", "0s"}, 2, "duration '0s'"},
+      {{"rehand6600", "hold", "seat_lift", "7"}, 2, "hold seat_lift: '7' is not one of its directions"},
+      {{"rehand6600", "hold", "seat_lift", "up", "--for", "0s"}, 2, "duration '0s'"},
       {{"rehand6600", "pulse", "stand"}, 2, "'stand' is not a pulse command"},
       {{"rehand6600", "set", "speed-level", "6"}, 2, "speed_level: 6 is outside 1..5"},
       {{"rehand6600", "set", "drive-mode", "fast"},
@@ -327,6 +327,78 @@ TEST_F(RehandSim, Cli_FailuresExitCodes) {
     EXPECT_NE(r.output.find("1010 Master Error: handshake: device ID 0x42, expected 0x68"), std::string::npos)
         << r.output;
   }
+}
+
+// A hold names its direction (issue 28: `hold seat_lift` alone moved up,
+// `hold stand` stood the user up). No direction, or one the command does not
+// have, is refused before the port is even opened (exit 2, not 4 on a port
+// that does not exist), naming the directions there are; a command with one
+// value (phone_horn: on) needs none, and numbers the table lists still work.
+TEST_F(RehandSim, Hold_NeedsADirection_NothingSent) {
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> refused = {
+      {{"hold", "seat_lift"}, "hold seat_lift needs a direction: up (1) or down (2) (nothing sent)"},
+      {{"hold", "stand"}, "hold stand needs a direction: stand (1) or sit (2) (nothing sent)"},
+      {{"hold", "backrest", "up"},
+       "hold backrest: 'up' is not one of its directions: forward (1) or back (2)"},
+      {{"hold", "leg_extend", "out"},
+       "hold leg_extend: 'out' is not one of its directions: extend (1) or "
+       "retract (2)"},
+      {{"hold", "seat_lift", "0"}, "hold seat_lift: '0' is not one of its directions: up (1) or down (2)"},
+      {{"hold", "phone_horn", "loud"}, "hold phone_horn: 'loud' is not one of its directions: on (1)"},
+  };
+  for (const Case& c : refused) {
+    std::vector<std::string> args{"rehand6600"};
+    args.insert(args.end(), c.args.begin(), c.args.end());
+    args.insert(args.end(), {"--port", dir_ / "nothing"});
+    const RunResult r = cli(args, false);
+    EXPECT_EQ(r.code, 2) << r.output;
+    EXPECT_NE(r.output.find(c.says), std::string::npos) << r.output;
+    EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  }
+  RunResult r = cli({"rehand6600", "hold", "phone_horn", "--for", "200ms"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("held phone_horn = on (1)"), std::string::npos) << r.output;
+  r = cli({"rehand6600", "hold", "seat_lift", "2", "--for", "200ms"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("held seat_lift = down (2)"), std::string::npos) << r.output;
+}
+
+// Ctrl-C during a hold releases the command and exits 130 (128 + SIGINT),
+// not 0: a script learns the hold was cut short.
+TEST_F(RehandSim, Hold_CtrlC_Releases_Exit130) {
+  const auto held = [&] {
+    console("status");
+    const std::string out = sim_->output();
+    const size_t at = out.rfind("held commands:");
+    return at == std::string::npos ? std::string() : out.substr(at, out.find('\n', at) - at);
+  };
+  Process hold({kRtukit, "rehand6600", "hold", "seat_lift", "up", "--for", "30s", "--port", tty_});
+  ASSERT_TRUE(eventually([&] { return held().find("seat_lift=1") != std::string::npos; })) << sim_->output();
+  ::kill(hold.pid(), SIGINT);
+  EXPECT_EQ(hold.wait(), 130) << hold.output();
+  EXPECT_NE(hold.output().find("held seat_lift = up (1) for "), std::string::npos) << hold.output();
+  EXPECT_NE(hold.output().find(", released (interrupted)"), std::string::npos) << hold.output();
+  EXPECT_TRUE(eventually([&] { return held().find("seat_lift") == std::string::npos; })) << sim_->output();
+}
+
+// On a terminal (a pty from `script`) a hold counts down; in a pipe it
+// prints only its result.
+TEST_F(RehandSim, Hold_CountsDownOnATerminal_NothingExtraInAPipe) {
+  const RunResult piped = cli({"rehand6600", "hold", "seat_lift", "up", "--for", "500ms"});
+  ASSERT_EQ(piped.code, 0) << piped.output;
+  EXPECT_TRUE(piped.output.starts_with("held seat_lift = up (1) for ")) << piped.output;
+  EXPECT_EQ(piped.output.find("left (Ctrl-C releases)"), std::string::npos) << piped.output;
+  EXPECT_EQ(piped.output.find('\r'), std::string::npos) << piped.output;
+  const RunResult tty = run(
+      {"script", "-qec", kRtukit + " rehand6600 hold seat_lift down --for 1s --port " + tty_, "/dev/null"});
+  ASSERT_EQ(tty.code, 0) << tty.output;
+  EXPECT_NE(tty.output.find("holding seat_lift down (2): 0.9 s left (Ctrl-C releases)"), std::string::npos)
+      << tty.output;
+  EXPECT_NE(tty.output.find("held seat_lift = down (2) for "), std::string::npos) << tty.output;
 }
 
 // ------------------------------------------------------------ peers we did not write
