@@ -15,9 +15,11 @@
 #include <openssl/rand.h>
 #include <openssl/x509.h>
 #include <openssl/x509v3.h>
+#include <sys/random.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <memory>
 #include <optional>
 #include <string_view>
@@ -222,6 +224,17 @@ Outcome<std::string> spki_sha256_base64(const std::string& cert_path) {
   unsigned char b64[4 * ((EVP_MAX_MD_SIZE + 2) / 3) + 1];
   const int out = EVP_EncodeBlock(b64, md, static_cast<int>(n));
   return std::string(reinterpret_cast<const char*>(b64), static_cast<size_t>(out));
+}
+
+bool random_bytes(unsigned char* out, size_t n) noexcept {
+  size_t got = 0;
+  while (got < n) {
+    const ssize_t r = ::getrandom(out + got, n - got, 0);
+    if (r < 0 && errno == EINTR) continue;  // a signal before any byte: ask again
+    if (r <= 0) return false;
+    got += static_cast<size_t>(r);
+  }
+  return true;
 }
 
 }  // namespace rtukit::web

@@ -20,6 +20,7 @@
 #include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <ctime>
 #include <deque>
 #include <map>
@@ -36,6 +37,7 @@
 #include "rtukit/programs/inverjet_bridge.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
+#include "rtukit/web/tls.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -59,17 +61,6 @@ struct Job {
   uint64_t socket = 0;
   Json message;
 };
-
-bool random_bytes(unsigned char* out, size_t n) {
-  size_t got = 0;
-  while (got < n) {
-    const ssize_t r = ::getrandom(out + got, n - got, 0);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) return false;
-    got += static_cast<size_t>(r);
-  }
-  return true;
-}
 
 std::string hex(const unsigned char* data, size_t n) {
   std::string out;
@@ -226,7 +217,7 @@ int64_t unix_ms() {
 
 rtukit::Outcome<std::string> make_password_record(std::string_view password, unsigned iterations) {
   std::vector<unsigned char> salt(kSaltBytes);
-  if (!random_bytes(salt.data(), salt.size()))
+  if (!web::random_bytes(salt.data(), salt.size()))
     return rtukit::Status(Errc::io_error, "no random bytes from the OS (getrandom)");
   std::array<unsigned char, kKeyBytes> key{};
   if (!derive(password, salt, iterations, key.data(), key.size()))
@@ -422,7 +413,7 @@ struct Panel::Impl {
       return refuse(401, "Wrong password: try again. Ask the pool staff for the panel's password.");
     }
     std::array<unsigned char, kTokenBytes> raw{};
-    if (!random_bytes(raw.data(), raw.size())) return refuse(500, "no random bytes from the OS");
+    if (!web::random_bytes(raw.data(), raw.size())) return refuse(500, "no random bytes from the OS");
     const std::string token = base64url(raw.data(), raw.size());
     if (sessions.size() >= kMaxSessions) {
       auto oldest = sessions.begin();
@@ -698,6 +689,15 @@ rtukit::Status Panel::start() {
     if (!r) return r.error();
     p.record = std::move(*r);
   }
+  // A port that does not exist (or is no serial port) is a start failure: a
+  // panel that could never show the machine must not look as if it served it.
+  if (Error e = p.master.open())
+    return rtukit::Status(
+        Errc::io_error,
+        fmt::format("port {}: {}", p.master.describe(),
+                    e.os_error() == ENOTTY ? std::string("not a serial port")
+                    : e.os_error() != 0    ? std::string(std::strerror(e.os_error()))
+                                           : std::string(e.text())));
   p.server.every(30'000, [&p] { p.expire_sessions(); });
   if (rtukit::Status e = p.server.start()) return e;
   impl_->thread = std::thread([this] { impl_->run(); });

@@ -7,7 +7,6 @@
 #include <fmt/core.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
-#include <sys/random.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/rehand_host.hpp"
+#include "rtukit/web/tls.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -35,17 +35,6 @@ std::string hex(const unsigned char* data, size_t n) {
 
 }  // namespace
 
-bool random_bytes(unsigned char* out, size_t n) {
-  size_t got = 0;
-  while (got < n) {
-    const ssize_t r = ::getrandom(out + got, n - got, 0);
-    if (r < 0 && errno == EINTR) continue;
-    if (r <= 0) return false;
-    got += static_cast<size_t>(r);
-  }
-  return true;
-}
-
 std::string sha256_hex(std::string_view text) {
   std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
   unsigned int n = 0;
@@ -55,7 +44,7 @@ std::string sha256_hex(std::string_view text) {
 
 std::string random_hex(size_t bytes) {
   std::array<unsigned char, 64> b{};
-  if (bytes > b.size() || !random_bytes(b.data(), bytes)) return {};
+  if (bytes > b.size() || !web::random_bytes(b.data(), bytes)) return {};
   return hex(b.data(), bytes);
 }
 

@@ -102,7 +102,7 @@ std::string qr_svg(const std::string& text) {
 std::string random_code() {
   for (;;) {
     uint32_t r = 0;
-    if (!random_bytes(reinterpret_cast<unsigned char*>(&r), sizeof r)) return {};
+    if (!web::random_bytes(reinterpret_cast<unsigned char*>(&r), sizeof r)) return {};
     if (r >= 4294000000U) continue;  // 4294000000 is a multiple of 10^6
     return fmt::format("{:06d}", r % 1000000U);
   }

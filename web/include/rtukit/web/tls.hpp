@@ -6,6 +6,7 @@
 // fingerprint with the one the device's own screen shows.
 #pragma once
 
+#include <cstddef>
 #include <string>
 
 #include "rtukit/io/status.hpp"
@@ -42,5 +43,10 @@ rtukit::Outcome<std::string> certificate_fingerprint(const std::string& cert_pat
 /// the pin Chromium's `--ignore-certificate-errors-spki-list` takes (and
 /// HPKP's pin-sha256). Errors as certificate_fingerprint.
 rtukit::Outcome<std::string> spki_sha256_base64(const std::string& cert_path);
+
+/// Fills `out` from the OS random source (getrandom), for secrets: session
+/// and phone tokens, salts, pairing codes. False when the OS gives none;
+/// there is never a weaker fallback.
+bool random_bytes(unsigned char* out, size_t n) noexcept;
 
 }  // namespace rtukit::web

@@ -83,8 +83,6 @@ class PairingStore {
   bool writable_ = true;
 };
 
-/// `n` bytes from the OS random source (getrandom); false when it fails.
-bool random_bytes(unsigned char* out, size_t n);
 /// SHA-256 of `text`, lower-case hex.
 std::string sha256_hex(std::string_view text);
 
