@@ -124,7 +124,12 @@ int run_doctor(const DoctorArgs& a) {
   const auto timeout = std::chrono::milliseconds(std::max(a.link.timeout_ms, 200U));
   std::vector<double> first, extra;
   unsigned answered = 0, echoes = 0, batched = 0;
+  // Each step on a terminal as it runs (stderr; nothing in pipes and files):
+  // a silent unit costs rounds x timeout before the doctor can say so.
+  Progress progress;
   for (unsigned i = 0; i < a.rounds; ++i) {
+    progress.show(fmt::format("doctor: step 1 of 2, echo and turnaround: probe {} of {} ({} answered)", i + 1,
+                              a.rounds, answered));
     const Probe p = probe(*link, request, response_size, timeout);
     if (p.echo) ++echoes;
     if (!p.answered) continue;
@@ -160,6 +165,8 @@ int run_doctor(const DoctorArgs& a) {
     Master m(io::make_link(spec), o);
     unsigned errors = 0;
     for (unsigned i = 0; i < a.rounds; ++i) {
+      progress.show(fmt::format("doctor: step 2 of 2, error-free gap: {} ms, request {} of {} ({} failed)",
+                                gap, i + 1, a.rounds, errors));
       uint16_t v = 0;
       if (Error e = m.read_holding_registers(unit, address, {&v, 1}); e && !e.is_exception()) ++errors;
     }
@@ -171,6 +178,7 @@ int run_doctor(const DoctorArgs& a) {
     errors_at_best = errors;
   }
 
+  progress.clear();
   const double p50 = percentile(first, 50), p99 = percentile(first, 99);
   // The device's turnaround: first answer byte, less the request on the wire and that byte itself.
   const double request_wire_us = char_us * static_cast<double>(request.size());

@@ -563,43 +563,52 @@ struct ScanArgs {
   LinkOptions link;
   std::string units = "1-247";
   bool json = false;
-  bool timeout_given = false;
 };
 
-int run_scan(ScanArgs a, const CLI::App& cmd) {
-  a.timeout_given = cmd.count("--timeout") > 0;
+int run_scan(const ScanArgs& a) {
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
   const std::vector<unsigned> units = parse_units(a.units, tcp ? 255 : 247);
-  // Scanning: a short default timeout, but never in place of one the user chose
-  // (at 1200 baud a unit needs more than 100 ms to answer).
-  if (!a.timeout_given) a.link.timeout_ms = 100;
   auto master = a.link.make_master();
   if (Error e = master->open()) fail(e, fmt::format("scan on {}", master->describe()));
+  // 247 units at 100 ms is 25 s of silence: on a terminal, a line says how far
+  // the scan is and what it found (stderr; pipes and files get none of it).
+  Progress progress;
   nlohmann::json found = nlohmann::json::array();
-  for (const unsigned u : units) {
+  std::string found_text;
+  for (size_t i = 0; i < units.size(); ++i) {
+    const unsigned u = units[i];
+    progress.show(fmt::format("scan: unit {} ({} of {}), {} found{}{}", u, i + 1, units.size(), found.size(),
+                              found.empty() ? "" : ": ", found_text));
     uint16_t reg = 0;
     const Error e = master->read_holding_registers(UnitId{static_cast<uint8_t>(u)}, 0, {&reg, 1});
     // An exception is an answer too: the unit is there.
     if (e.ok() || e.is_exception()) {
       found.push_back(u);
-      if (!a.json)
+      found_text += fmt::format("{}{}", found_text.empty() ? "" : ", ", u);
+      if (!a.json) {
+        progress.clear();
         fmt::print("unit {} answers{}\n", u,
                    e.ok() ? "" : fmt::format(" (exception {:02X})", e.exception_code()));
+        std::fflush(stdout);
+      }
     } else if (e.code() == Errc::io_error || e.code() == Errc::not_connected) {
+      progress.clear();
       fail(e, fmt::format("scan on {}", master->describe()));
     }
   }
+  progress.clear();
   if (a.link.stats) print_stats(*master);
-  if (a.json) {
-    Json out = json_document();
-    out["units"] = found;
-    print_json(out);
-  }
+  // Nothing found is a failure: its one document is the failure's (main prints it).
   if (found.empty()) {
     throw Failure{
         kNoResponse,
         fmt::format("scan on {}: no unit of {} answered (timeout {} ms; a slow line may need --timeout)",
                     master->describe(), a.units, a.link.timeout_ms)};
+  }
+  if (a.json) {
+    Json out = json_document();
+    out["units"] = found;
+    print_json(out);
   }
   return kOk;
 }
@@ -840,11 +849,14 @@ void add_generic_commands(CLI::App& app, Action& action) {
       [](CLI::App& cmd, ScanArgs& a) {
         cmd.add_option("--units", a.units, "units to try: 1-247, 21, 1,5,21-30")->capture_default_str();
         cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+        // Scanning waits on silent units: a short timeout by default, shown as
+        // such in --help (at 1200 baud a unit needs more than 100 ms: --timeout).
+        a.link.timeout_ms = 100;
         a.link.add_to(cmd, false);
         examples(cmd, {"rtukit scan --port /dev/ttyUSB0 --baud 19200 --parity even",
                        "rtukit scan --port /dev/ttyUSB0 --units 1,5,21-30 --timeout 300"});
       },
-      [](ScanArgs& a, const CLI::App& cmd) { return run_scan(a, cmd); });
+      [](const ScanArgs& a) { return run_scan(a); });
   add_command<SlaveArgs>(
       app, action, "slave", "a generic in-memory slave (holding, input, coils, discrete)",
       [](CLI::App& cmd, SlaveArgs& a) {

@@ -116,6 +116,46 @@ TEST(CliUsability, ScanTakesListsAndHonoursTimeout) {
   EXPECT_NE(r.output.find("no unit of 7 answered (timeout 250 ms"), std::string::npos) << r.output;
 }
 
+// Long waits speak (issue 28): on a terminal (a pty from `script`) the scan
+// shows how far it is and what it found, the doctor each step as it runs; in
+// a pipe neither prints anything extra. `scan --json` prints one document
+// even when nothing answers, and its help gives the timeout it really uses.
+TEST(CliUsability, ScanAndDoctorShowProgressOnATerminalOnly) {
+  TempDir dir;
+  Slave slave(dir);
+  ASSERT_TRUE(slave.ready());
+  RunResult r = rtukit({"scan", "--port", slave.tty, "--units", "1-3"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_EQ(r.output, "unit 1 answers\n");  // a pipe: the result, nothing else
+  r = run({"script", "-qec", kBin + " scan --port " + slave.tty + " --units 1-3", "/dev/null"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("scan: unit 1 (1 of 3), 0 found"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("scan: unit 3 (3 of 3), 1 found: 1"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("unit 1 answers"), std::string::npos) << r.output;
+  // --json: one document, also when no unit answers (then the failure's).
+  r = rtukit({"scan", "--port", slave.tty, "--units", "7-8", "--json"});
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_EQ(r.output.find(R"({"time")"), r.output.rfind(R"({"time")")) << r.output;  // one document
+  EXPECT_NE(r.output.find(R"("ok":false,"error":{"exit":3,"kind":"no_response")"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("no unit of 7-8 answered (timeout 100 ms"), std::string::npos) << r.output;
+  r = rtukit({"scan", "--help"});
+  EXPECT_NE(r.output.find("--timeout UINT=100 "), std::string::npos) << r.output;
+
+  r = rtukit({"doctor", "--port", slave.tty, "--rounds", "3"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_TRUE(r.output.starts_with("doctor: " + slave.tty + " unit 1, 3 probes, 3 answered\n")) << r.output;
+  EXPECT_EQ(r.output.find("step 1 of 2"), std::string::npos) << r.output;
+  r = run({"script", "-qec", kBin + " doctor --port " + slave.tty + " --rounds 3", "/dev/null"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("doctor: step 1 of 2, echo and turnaround: probe 3 of 3 (2 answered)"),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("doctor: step 2 of 2, error-free gap: 0 ms, request 1 of 3"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("recommended: "), std::string::npos) << r.output;
+}
+
 TEST(CliUsability, OneBasedAndReferenceAddresses) {
   TempDir dir;
   Slave slave(dir);

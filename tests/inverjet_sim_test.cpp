@@ -380,6 +380,45 @@ TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
 // never overwritten: the simulator refuses to start with one line and exit
 // 5, leaves the file as it was, and never blocks on a FIFO. --force-state
 // replaces it.
+// The panel and the bridge fail at start, one line and exit 4, on a port
+// that does not exist or is not a serial port (issue 28: they ran on,
+// polling nothing). A broker that does not answer at start is no failure:
+// the bridge keeps retrying, and says so on stderr instead of in silence.
+TEST_F(InverjetSim, PanelAndBridge_FailAtStartOnABadPort_BridgeSaysItRetriesTheBroker) {
+  const std::string regular = dir_ / "not-a-tty";
+  std::ofstream(regular) << "x";
+  const std::string broker = "mqtt://127.0.0.1:" + std::to_string(free_tcp_port());
+  struct Case {
+    std::vector<std::string> args;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {{"inverjet", "panel", "--http", "127.0.0.1:0", "--port", dir_ / "nothing"},
+       "rtukit: inverjet panel: port " + dir_ / "nothing" + " 9600 8N1: No such file or directory\n"},
+      {{"inverjet", "panel", "--http", "127.0.0.1:0", "--port", regular},
+       "rtukit: inverjet panel: port " + regular + " 9600 8N1: not a serial port\n"},
+      {{"inverjet", "bridge", "--id", "pool1", "--mqtt", broker, "--port", dir_ / "nothing"},
+       "rtukit: inverjet bridge: port " + dir_ / "nothing" + " 9600 8N1: No such file or directory\n"},
+      {{"inverjet", "bridge", "--id", "pool1", "--mqtt", broker, "--port", regular},
+       "rtukit: inverjet bridge: port " + regular + " 9600 8N1: not a serial port\n"},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = cli(c.args, false);
+    EXPECT_EQ(r.code, 4) << r.output;
+    EXPECT_EQ(r.output, c.says);
+  }
+  Process bridge(
+      {kRtukit, "inverjet", "bridge", "--id", "pool1", "--mqtt", broker, "--user", "jet", "--port", tty_});
+  ASSERT_TRUE(bridge.wait_for_output("retrying every 1 s")) << bridge.output();
+  EXPECT_NE(bridge.output().find("inverjet bridge: the broker at 127.0.0.1:" + broker.substr(17) +
+                                 " does not answer (Connection refused); retrying every 1 s, then less often "
+                                 "(every 30 s at most)\n"),
+            std::string::npos)
+      << bridge.output();
+  EXPECT_TRUE(bridge.running());
+  bridge.stop();
+}
+
 TEST(InverjetSimStateFile, AFileThatIsNotOursIsRefused_ForceStateReplacesIt) {
   TempDir dir;
   const std::string other = dir / "settings.json", tty = dir / "tty";

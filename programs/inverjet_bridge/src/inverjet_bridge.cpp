@@ -11,8 +11,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <condition_variable>
+#include <cstring>
 #include <ctime>
 #include <deque>
 #include <map>
@@ -291,6 +293,7 @@ struct Machine {
   std::mutex mutex;  ///< guards commands (filled on the MQTT thread)
   std::deque<Command> commands;
   std::atomic<bool> connected{false};
+  std::atomic<int> connack{-1};       ///< the broker's last answer to a connect (0 accepted), -1 none yet
   std::atomic<bool> announce{false};  ///< (re)connected: discovery and availability again
   std::atomic<unsigned> acked{0};     ///< QoS 1 publishes the broker acknowledged
 
@@ -328,11 +331,13 @@ struct Bridge::Impl {
   std::mutex mutex;
   std::condition_variable wake;
   bool stopping = false;
+  std::string broker_problem;  ///< set by start() when the broker did not take us at once
 
   // ---------------------------------------------------------- MQTT side (network thread)
 
   static void on_connect(mosquitto* m, void* self, int rc) {
     auto& machine = *static_cast<Machine*>(self);
+    machine.connack = rc;
     if (rc != 0) return;  // refused (credentials): libmosquitto retries with back-off
     machine.connected = true;
     const std::string topic = machine.base + "/set/#";
@@ -608,7 +613,16 @@ rtukit::Status Bridge::start() {
     if (!units.insert(m.unit).second)
       return rtukit::Status(Errc::invalid_argument, fmt::format("unit {} twice", m.unit));
   }
+  // A port that does not exist (or is no serial port) is a start failure, not
+  // something to poll in silence: the machine would never be seen.
+  if (Error e = b.master.open())
+    return rtukit::Status(Errc::io_error,
+                          fmt::format("port {}: {}", b.master.describe(),
+                                      e.os_error() == ENOTTY ? std::string("not a serial port")
+                                      : e.os_error() != 0    ? std::string(std::strerror(e.os_error()))
+                                                             : std::string(e.text())));
   mosquitto_lib_init();
+  int connect_rc = MOSQ_ERR_SUCCESS, connect_errno = 0;
   for (const BridgeMachine& config : b.options.machines) {
     auto m = std::make_unique<Machine>(b.master, config, b.options);
     // Unique per machine and per run: nobody takes the id from docs or a guess.
@@ -636,11 +650,44 @@ rtukit::Status Bridge::start() {
     mosquitto_publish_callback_set(m->mosq, &Impl::on_publish);
     mosquitto_reconnect_delay_set(m->mosq, 1, 30, true);
     // A broker that is down now is retried by the loop (connect_async).
-    mosquitto_connect_async(m->mosq, b.options.host.c_str(), b.options.port, 30);
+    errno = 0;
+    if (const int rc = mosquitto_connect_async(m->mosq, b.options.host.c_str(), b.options.port, 30);
+        rc != MOSQ_ERR_SUCCESS && connect_rc == MOSQ_ERR_SUCCESS) {
+      connect_rc = rc;
+      connect_errno = errno;
+    }
     mosquitto_loop_start(m->mosq);
     b.machines.push_back(std::move(m));
   }
   b.thread = std::thread([&b] { b.run(); });
+  // The broker answers within moments when it is there. When it does not, the
+  // bridge keeps retrying, and says so once (warnings()) instead of in silence.
+  const auto all_connected = [&b] {
+    return std::all_of(b.machines.begin(), b.machines.end(),
+                       [](const auto& m) { return m->connected.load(); });
+  };
+  const auto refused = [&b] {
+    for (const auto& m : b.machines)
+      if (m->connack > 0) return m->connack.load();
+    return 0;
+  };
+  const auto wait_until = Clock::now() + std::chrono::seconds(3);
+  while (!all_connected() && refused() == 0 && Clock::now() < wait_until)
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  if (!all_connected()) {
+    std::string why;
+    if (const int rc = refused())
+      why = fmt::format("it refuses the connection: {}", mosquitto_reason_string(rc));
+    else if (connect_rc == MOSQ_ERR_ERRNO && connect_errno != 0)
+      why = std::strerror(connect_errno);
+    else if (connect_rc != MOSQ_ERR_SUCCESS)
+      why = mosquitto_strerror(connect_rc);
+    else
+      why = "no answer within 3 s";
+    b.broker_problem = fmt::format(
+        "the broker at {}:{} does not answer ({}); retrying every 1 s, then less often (every 30 s at most)",
+        b.options.host, b.options.port, why);
+  }
   return {};
 }
 
@@ -653,6 +700,7 @@ std::vector<std::string> Bridge::client_ids() const {
 std::vector<std::string> Bridge::warnings() const {
   const BridgeOptions& o = impl_->options;
   std::vector<std::string> out;
+  if (!impl_->broker_problem.empty()) out.push_back(impl_->broker_problem);
   if (o.user.empty())
     out.push_back(
         fmt::format("warning: no broker credentials (--user): if the broker at {} lets anonymous clients in, "
