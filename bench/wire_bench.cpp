@@ -15,7 +15,15 @@
 // own transactions, both as a fraction of the bus limit, with per-client
 // latency.
 //
-//   build/default/bench/wire_bench [--seconds S] [--markdown] [--only wire|gateway]
+// Third table: a dead unit beside a live one (issue 28, item 6). The same
+// gateway; one client polls unit 1 (the simulator) as fast as it can, alone,
+// then with a second client polling a unit nobody answers (every 100 ms,
+// as a SCADA poller does), with the gateway's quarantine off
+// (--quarantine-after 0) and on (its defaults): the live unit's served rate
+// against its rate alone.
+//
+//   build/default/bench/wire_bench [--seconds S] [--dead-seconds S] [--markdown]
+//                                  [--only wire|gateway|dead-unit]
 #include <modbus/modbus.h>
 #include <signal.h>
 
@@ -209,14 +217,103 @@ GatewayRow run_gateway(unsigned clients, unsigned cache_ms, double seconds) {
   return row;
 }
 
+struct DeadUnitRow {
+  bool dead_poller;
+  int quarantine_after;  // -1: the gateway's default
+  double seconds;
+  double live;         // unit 1's answers per second over the whole window
+  double live_steady;  // ... from `steady_from` seconds on (0: not measured)
+  double steady_from;
+  unsigned dead_on_bus;   // the dead unit's requests that reached the bus ("unanswered (0B)")
+  unsigned dead_at_once;  // ... answered 0B at once ("quarantined (0B at once)")
+  unsigned live_failed;
+};
+
+// The number before `label` in the gateway's exit line ("..., 3 probes, ...").
+unsigned count_before(const std::string& out, const std::string& label) {
+  const size_t at = out.rfind(label);
+  if (at == std::string::npos) return 0;
+  size_t start = out.rfind(' ', at - 1);
+  start = start == std::string::npos ? 0 : start + 1;
+  return static_cast<unsigned>(std::stoul(out.substr(start, at - start)));
+}
+
+DeadUnitRow run_dead_unit(bool dead_poller, int quarantine_after, double seconds, double steady_from) {
+  const std::string rtukit = RTUKIT_BIN;
+  const uint32_t baud = 115200;
+  const uint16_t count = 48;
+  const uint8_t dead_unit = 99;  // nobody on the bus answers it
+  DeadUnitRow row{dead_poller, quarantine_after, seconds, 0, 0, steady_from, 0, 0, 0};
+  TempDir dir;
+  Process bus({rtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
+               std::to_string(baud)});
+  if (!bus.wait_for_output("listening on")) return row;
+  Process sim({rtukit, "sim", "rehand6600", "--listen", dir / "dev", "--baud", std::to_string(baud),
+               "--no-state", "--no-console"});
+  if (!sim.wait_for_output("listening on")) return row;
+  const std::string where = "tcp://127.0.0.1:" + std::to_string(free_tcp_port());
+  std::vector<std::string> argv{
+      rtukit,     "gateway", "--port",    dir / "host", "--baud", std::to_string(baud),
+      "--listen", where,     "--timeout", "1000"};
+  if (quarantine_after >= 0)
+    argv.insert(argv.end(), {"--quarantine-after", std::to_string(quarantine_after)});
+  Process gateway(argv);
+  if (!gateway.wait_for_output("listening on")) return row;
+
+  std::vector<Clock::time_point> answered;  // unit 1's answers
+  std::atomic<unsigned> failed{0};
+  const auto t0 = Clock::now();
+  const auto until = t0 + std::chrono::duration<double>(seconds);
+  std::thread live([&] {
+    Master m(io::make_link(*io::parse_port(where, false)), MasterOptions{.response_timeout = 10000ms});
+    std::vector<uint16_t> regs(count);
+    while (Clock::now() < until) {
+      if (m.read_holding_registers(UnitId{1}, 0, regs).ok())
+        answered.push_back(Clock::now());
+      else
+        ++failed;
+    }
+  });
+  std::thread dead;
+  if (dead_poller)
+    dead = std::thread([&] {
+      Master m(io::make_link(*io::parse_port(where, false)), MasterOptions{.response_timeout = 10000ms});
+      std::vector<uint16_t> regs(count);
+      while (Clock::now() < until) {
+        (void)m.read_holding_registers(UnitId{dead_unit}, 0, regs);
+        std::this_thread::sleep_for(100ms);
+      }
+    });
+  live.join();
+  if (dead.joinable()) dead.join();
+  const double elapsed = std::chrono::duration<double>(Clock::now() - t0).count();
+  ::kill(gateway.pid(), SIGTERM);
+  gateway.wait();
+  const std::string out = gateway.output();
+  row.dead_on_bus = count_before(out, " unanswered (0B)");
+  row.dead_at_once = count_before(out, " quarantined (0B at once)");
+  row.live = static_cast<double>(answered.size()) / elapsed;
+  if (steady_from > 0 && elapsed > steady_from) {
+    const auto from =
+        t0 + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(steady_from));
+    const auto n =
+        std::count_if(answered.begin(), answered.end(), [&](Clock::time_point t) { return t >= from; });
+    row.live_steady = static_cast<double>(n) / (elapsed - steady_from);
+  }
+  row.live_failed = failed;
+  return row;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   double seconds = 5;
+  double dead_seconds = 90;
   bool markdown = false;
   std::string only;
   for (int i = 1; i < argc; ++i) {
     if (!std::strcmp(argv[i], "--seconds") && i + 1 < argc) seconds = std::stod(argv[++i]);
+    if (!std::strcmp(argv[i], "--dead-seconds") && i + 1 < argc) dead_seconds = std::stod(argv[++i]);
     if (!std::strcmp(argv[i], "--markdown")) markdown = true;
     if (!std::strcmp(argv[i], "--only") && i + 1 < argc) only = argv[++i];
   }
@@ -228,7 +325,7 @@ int main(int argc, char** argv) {
   const std::pair<const Workload*, uint32_t> runs[] = {
       {&workloads[0], 9600}, {&workloads[1], 9600}, {&workloads[0], 19200}, {&workloads[1], 115200}};
   for (const auto& [wp, baud] : runs) {
-    if (only == "gateway") break;
+    if (!only.empty() && only != "wire") break;
     const Workload& w = *wp;
     {
       TempDir dir;
@@ -251,7 +348,7 @@ int main(int argc, char** argv) {
                    limit, r.ours, r.libmodbus, r.pymodbus);
     }
   }
-  if (only != "gateway")
+  if (only.empty() || only == "wire")
     std::printf(
         markdown
             ? "| workload | baud | limit tx/s | rtukit | libmodbus | pymodbus |\n|---|---|---|---|---|---|\n"
@@ -272,7 +369,8 @@ int main(int argc, char** argv) {
   if (only == "wire") return 0;
 
   std::vector<GatewayRow> gateway_rows;
-  for (const unsigned cache_ms : {0u, 100u})
+  for (const unsigned cache_ms : {0u, 100u}) {
+    if (only == "dead-unit") break;
     for (const unsigned clients : {1u, 16u, 64u}) {
       gateway_rows.push_back(run_gateway(clients, cache_ms, seconds));
       const GatewayRow& g = gateway_rows.back();
@@ -280,10 +378,12 @@ int main(int argc, char** argv) {
                    "gateway, %u clients, cache %u ms: %.1f/s served, %.1f/s on the bus (limit %.1f)\n",
                    g.clients, g.cache_ms, g.served, g.on_bus, g.limit);
     }
-  std::printf(markdown ? "\n| clients | --cache-ms | served req/s | bus tx/s | p50 ms | p99 ms | failed "
-                         "|\n|---|---|---|---|---|---|---|\n"
-                       : "\n%7s %10s %22s %22s %8s %8s %6s\n",
-              "clients", "--cache-ms", "served req/s", "bus tx/s", "p50 ms", "p99 ms", "failed");
+  }
+  if (only != "dead-unit")
+    std::printf(markdown ? "\n| clients | --cache-ms | served req/s | bus tx/s | p50 ms | p99 ms | failed "
+                           "|\n|---|---|---|---|---|---|---|\n"
+                         : "\n%7s %10s %22s %22s %8s %8s %6s\n",
+                "clients", "--cache-ms", "served req/s", "bus tx/s", "p50 ms", "p99 ms", "failed");
   for (const GatewayRow& g : gateway_rows) {
     // Served: a share of the bus limit, or a multiple of it once coalescing serves more.
     const double share = g.served / g.limit;
@@ -293,6 +393,41 @@ int main(int argc, char** argv) {
                          : "%7u %10u %22s %12.1f (%5.1f %%) %8.2f %8.2f %6u\n",
                 g.clients, g.cache_ms, served.c_str(), g.on_bus, 100 * g.on_bus / g.limit, g.p50_ms, g.p99_ms,
                 g.failed);
+  }
+  if (only == "gateway") return 0;
+
+  // The dead unit: the live unit alone, then beside a poller of a dead unit,
+  // quarantine off and on. The quarantined row runs longer: its first
+  // seconds hold the 3 timeouts that find the dead unit and the first,
+  // closely spaced probes (1, 2, 4, 8, 16 s apart, then 30 s).
+  std::vector<DeadUnitRow> dead_rows;
+  dead_rows.push_back(run_dead_unit(false, -1, seconds, 0));
+  dead_rows.push_back(run_dead_unit(true, 0, seconds, 0));
+  dead_rows.push_back(run_dead_unit(true, -1, dead_seconds, std::min(30.0, dead_seconds / 2)));
+  for (const DeadUnitRow& d : dead_rows)
+    std::fprintf(stderr, "dead unit: poller %d, quarantine-after %d: live %.1f/s (steady %.1f/s)\n",
+                 d.dead_poller, d.quarantine_after, d.live, d.live_steady);
+  const double alone = dead_rows.front().live;
+  std::printf(markdown ? "\n| dead-unit poller | gateway | window s | live unit served req/s | of alone | "
+                         "dead unit: on the bus / 0B at once | live failed |\n|---|---|---|---|---|---|---|\n"
+                       : "\n%-16s %-26s %8s %34s %8s %20s %12s\n",
+              "dead-unit poller", "gateway", "window s", "live unit served req/s", "of alone",
+              "dead: bus / at once", "live failed");
+  for (const DeadUnitRow& d : dead_rows) {
+    const std::string gw =
+        d.quarantine_after == 0 ? "--quarantine-after 0" : "quarantine (defaults: 3, 1 s..30 s)";
+    std::string served = fmt_number(d.live, 0, "%.1f");
+    if (d.live_steady > 0)
+      served += fmt_number(d.steady_from, d.live_steady, "; from %.0f s on: %.1f") +
+                fmt_number(100 * d.live_steady / alone, 0, " (%.1f %%)");
+    const std::string ratio = fmt_number(100 * d.live / alone, 0, "%.1f %%");
+    const std::string dead = d.dead_poller
+                                 ? std::to_string(d.dead_on_bus) + " / " + std::to_string(d.dead_at_once)
+                                 : std::string("-");
+    std::printf(
+        markdown ? "| %s | %s | %.0f | %s | %s | %s | %u |\n" : "%-16s %-26s %8.0f %34s %8s %20s %12u\n",
+        d.dead_poller ? "every 100 ms" : "none", d.dead_poller ? gw.c_str() : "defaults", d.seconds,
+        served.c_str(), ratio.c_str(), dead.c_str(), d.live_failed);
   }
   return 0;
 }

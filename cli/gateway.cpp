@@ -4,6 +4,7 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <asio.hpp>
 #include <csignal>
 
@@ -20,6 +21,9 @@ struct GatewayArgs {
   std::string allow_units;
   unsigned cache_ms = 0;
   unsigned max_queued = 32;
+  unsigned quarantine_after = 3;
+  unsigned probe_ms = 1000;
+  unsigned probe_max_ms = 30000;
   ServerArgs server;
 };
 
@@ -41,6 +45,19 @@ int run_gateway(const GatewayArgs& a) {
     for (unsigned u : parse_units(a.allow_units, 247)) o.allowed_units.push_back(static_cast<uint8_t>(u));
   o.cache = std::chrono::milliseconds(a.cache_ms);
   o.max_queued_per_client = a.max_queued;
+  if (a.probe_ms == 0) throw Failure{kUsage, "--probe-ms: the wait before a probe must be at least 1 ms"};
+  o.quarantine_after = a.quarantine_after;
+  o.probe_backoff = std::chrono::milliseconds(a.probe_ms);
+  o.probe_backoff_max = std::chrono::milliseconds(std::max(a.probe_max_ms, a.probe_ms));
+  o.on_quarantine = [](const GatewayUnitEvent& e) {
+    if (e.quarantined)
+      fmt::print(stderr,
+                 "gateway: unit {} quarantined after {} requests without an answer: answered 0B at once, "
+                 "tried again in {} ms\n",
+                 e.unit, e.timeouts, e.next_probe.count());
+    else
+      fmt::print(stderr, "gateway: unit {} answers again: relayed\n", e.unit);
+  };
   o.server = a.server.options();
   std::unique_ptr<Master> bus = a.link.make_master();
   asio::io_context ctx;
@@ -57,11 +74,15 @@ int run_gateway(const GatewayArgs& a) {
   ctx.run();
   const GatewayStats s = (*gw)->stats();
   gw->reset();
+  std::string quarantined;
+  for (const uint8_t u : s.quarantined_units)
+    quarantined += (quarantined.empty() ? "" : ",") + std::to_string(u);
   fmt::print(
       stderr,
       "gateway: {} requests, {} bus transactions, {} from the cache, {} refused, {} unanswered (0B), {} "
-      "with the bus down (0A)\n",
-      s.requests, s.bus_transactions, s.cache_hits, s.refused, s.no_answer, s.bus_down);
+      "with the bus down (0A), {} quarantined (0B at once), {} probes, units quarantined: {}\n",
+      s.requests, s.bus_transactions, s.cache_hits, s.refused, s.no_answer, s.bus_down, s.quarantined_answers,
+      s.probes, quarantined.empty() ? "none" : quarantined);
   if (a.link.stats) print_stats(*bus);
   return kOk;
 }
@@ -85,6 +106,17 @@ void add_gateway_command(CLI::App& app, Action& action) {
                        "identical reads within this many ms share one bus transaction")
             ->capture_default_str();
         cmd.add_option("--max-queued", a.max_queued, "requests one client may have waiting (more get 06)")
+            ->capture_default_str();
+        cmd.add_option("--quarantine-after", a.quarantine_after,
+                       "a unit that leaves this many requests in a row unanswered is quarantined: its "
+                       "requests get 0B at once, without the bus (0 = never)")
+            ->capture_default_str();
+        cmd.add_option("--probe-ms", a.probe_ms,
+                       "a quarantined unit's next request goes to the bus as a probe after this many ms; "
+                       "doubled after each unanswered probe")
+            ->capture_default_str();
+        cmd.add_option("--probe-max-ms", a.probe_max_ms,
+                       "the longest wait between two probes of a unit (at least --probe-ms)")
             ->capture_default_str();
         a.link.add_to(cmd, false);
         a.server.add_to(cmd, /*serial=*/false);  // its listeners are TCP

@@ -10,14 +10,20 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <asio.hpp>
 #include <atomic>
 #include <map>
+#include <mutex>
 #include <sstream>
 #include <thread>
 
 #include "process.hpp"
 #include "rtukit/core/crc.hpp"
+#include "rtukit/core/slave.hpp"
+#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/driver/memory_bank.hpp"
+#include "rtukit/driver/memory_link.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;
@@ -552,4 +558,225 @@ TEST_F(GatewayReadOnly, IdentificationAndEventLogRelayed_WritesOtherMeiAndUnlist
   std::vector<std::vector<uint8_t>> want = relay;
   want.push_back(last);
   EXPECT_EQ(bus_saw_after(last), want);
+}
+
+// Quarantine (issue 28, item 6): a gateway in this process over a bus in
+// memory. Unit 1 answers; unit 9 answers only while `alive_`. Every request
+// the bus carried is logged by unit. Two virtual clocks: the master's (a
+// timeout passes at once) and the gateway's (only the test moves it), so the
+// back-off is exact and no assertion depends on this machine's speed.
+class GatewayQuarantine : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    bank_.holding[5] = 111;
+    bank9_.holding[5] = 999;
+    ASSERT_TRUE(engine_.add_unit(UnitId{1}, bank_).ok());
+    ASSERT_TRUE(engine_.add_unit(UnitId{9}, bank9_).ok());
+    bus_ = std::make_unique<Master>(
+        std::make_unique<MemoryLink>(bus_clock_, [this](std::span<const uint8_t> r) { return answer(r); }),
+        MasterOptions{.response_timeout = 1000ms, .retries = 1, .clock = &bus_clock_});
+    GatewayOptions o;
+    o.quarantine_after = 3;
+    o.probe_backoff = 1000ms;
+    o.probe_backoff_max = 30000ms;
+    o.clock = &gateway_clock_;
+    o.on_quarantine = [this](const GatewayUnitEvent& e) {
+      std::lock_guard lock(mutex_);
+      events_.push_back(e);
+    };
+    const std::vector<io::PortSpec> listen = {*io::parse_port("tcp://127.0.0.1:0", true),
+                                              *io::parse_port("rtu+tcp://127.0.0.1:0", true)};
+    auto g = Gateway::start(ctx_, *bus_, listen, o);
+    ASSERT_TRUE(g.ok()) << g.error().reason();
+    gateway_ = std::move(*g);
+    thread_ = std::thread([this] {
+      auto work = asio::make_work_guard(ctx_);
+      ctx_.run();
+    });
+  }
+  void TearDown() override {
+    if (!thread_.joinable()) return;
+    asio::post(ctx_, [this] {
+      gateway_.reset();
+      ctx_.stop();
+    });
+    thread_.join();
+  }
+
+  MemoryLink::Reply answer(std::span<const uint8_t> request) {
+    std::lock_guard lock(mutex_);
+    seen_.push_back(request[0]);
+    if (request[0] == 9 && !alive_) return {};
+    std::array<uint8_t, kMaxRtuAduSize> out{};
+    const size_t n = engine_.handle_rtu(request, out).length;
+    return {{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)}, 1ms};
+  }
+  // Requests to `unit` the bus carried (each retry counts).
+  size_t seen(uint8_t unit) {
+    std::lock_guard lock(mutex_);
+    return static_cast<size_t>(std::count(seen_.begin(), seen_.end(), unit));
+  }
+  void set_alive(bool alive) {
+    std::lock_guard lock(mutex_);
+    alive_ = alive;
+  }
+  std::vector<GatewayUnitEvent> events() {
+    std::lock_guard lock(mutex_);
+    return events_;
+  }
+  // A client on the Modbus TCP (0) or RTU-over-TCP (1) listener; generous timeout.
+  std::unique_ptr<Master> client(size_t listener = 0) {
+    return std::make_unique<Master>(io::make_link(*io::parse_port(gateway_->where()[listener], false)),
+                                    MasterOptions{.response_timeout = 10000ms});
+  }
+  Errc read(Master& m, uint8_t unit, uint16_t& v) {
+    return m.read_holding_registers(UnitId{unit}, 5, {&v, 1}).code();
+  }
+
+  ManualClock bus_clock_, gateway_clock_;
+  MemoryBank bank_{100}, bank9_{100};
+  SlaveEngine engine_;
+  std::mutex mutex_;  // seen_, alive_, events_
+  std::vector<uint8_t> seen_;
+  bool alive_ = false;
+  std::vector<GatewayUnitEvent> events_;
+  std::unique_ptr<Master> bus_;
+  asio::io_context ctx_;
+  std::unique_ptr<Gateway> gateway_;
+  std::thread thread_;
+};
+
+// A unit that never answers is quarantined after 3 requests without an
+// answer: from then on its requests get 0B from the gateway without reaching
+// the bus, while unit 1 is served; once its back-off is over the next request
+// is a probe (unanswered: the back-off doubles); when it answers again it is
+// relayed again, without a restart.
+TEST_F(GatewayQuarantine, DeadUnitGets0BAtOnce_LiveUnitServed_ServedAgainAfterItsBackOff) {
+  auto live = client();
+  auto dead = client();
+  uint16_t v = 0;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+    ASSERT_EQ(read(*live, 1, v), Errc::ok);
+    EXPECT_EQ(v, 111);
+  }
+  EXPECT_EQ(seen(9), 6u);  // 3 requests, each a timeout and a retry
+  GatewayStats s = gateway_->stats();
+  EXPECT_EQ(s.quarantined_units, std::vector<uint8_t>{9});
+  EXPECT_EQ(s.quarantines, 1u);
+  EXPECT_EQ(s.no_answer, 3u);
+  const std::vector<GatewayUnitEvent> quarantined = events();
+  EXPECT_EQ(quarantined.size(), 1u);
+  if (quarantined.size() == 1) {
+    EXPECT_EQ(quarantined[0].unit, 9);
+    EXPECT_TRUE(quarantined[0].quarantined);
+    EXPECT_EQ(quarantined[0].timeouts, 3u);
+    EXPECT_EQ(quarantined[0].next_probe, 1000ms);
+  }
+
+  // Quarantined: the answer is exception 0B from the gateway, byte for byte,
+  // and the bus carries nothing for unit 9; unit 1 is served meanwhile.
+  const int fd = connect_to(gateway_->tcp_port());
+  ASSERT_GE(fd, 0);
+  const uint8_t request[] = {0x12, 0x34, 0, 0, 0, 6, 9, 0x03, 0x00, 0x05, 0x00, 0x01};
+  ASSERT_EQ(::send(fd, request, sizeof request, MSG_NOSIGNAL), static_cast<ssize_t>(sizeof request));
+  const std::vector<uint8_t> want = {0x12, 0x34, 0, 0, 0, 3, 9, 0x83, 0x0B};
+  std::vector<uint8_t> got;
+  ASSERT_TRUE(eventually([&] {
+    uint8_t b[64];
+    const ssize_t n = ::recv(fd, b, sizeof b, MSG_DONTWAIT);
+    if (n > 0) got.insert(got.end(), b, b + n);
+    return got.size() >= want.size();
+  }));
+  ::close(fd);
+  EXPECT_EQ(got, want);
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+    ASSERT_EQ(read(*live, 1, v), Errc::ok);
+    EXPECT_EQ(v, 111);
+  }
+  // An RTU-over-TCP client gets it too, in the order of its requests.
+  auto rtu = client(1);
+  EXPECT_EQ(read(*rtu, 9, v), Errc::gateway_target_failed);
+  ASSERT_EQ(read(*rtu, 1, v), Errc::ok);
+  EXPECT_EQ(seen(9), 6u) << "a quarantined unit's request reached the bus";
+  EXPECT_EQ(seen(1), 24u);
+  s = gateway_->stats();
+  EXPECT_EQ(s.quarantined_answers, 22u);
+  EXPECT_EQ(s.probes, 0u);
+
+  // After the back-off (1 s on the gateway's clock) one request is a probe;
+  // unit 9 still does not answer, so the next probe waits 2 s.
+  gateway_clock_.advance(999ms);
+  EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+  EXPECT_EQ(seen(9), 6u);
+  gateway_clock_.advance(1ms);
+  EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+  EXPECT_EQ(seen(9), 8u);  // the probe: a timeout and a retry
+  EXPECT_EQ(gateway_->stats().probes, 1u);
+  EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+  gateway_clock_.advance(1999ms);
+  EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);
+  EXPECT_EQ(seen(9), 8u);
+
+  // It answers again: served at its next probe, and relayed from then on.
+  set_alive(true);
+  EXPECT_EQ(read(*dead, 9, v), Errc::gateway_target_failed);  // its back-off is not over
+  EXPECT_EQ(seen(9), 8u);
+  gateway_clock_.advance(1ms);
+  ASSERT_EQ(read(*dead, 9, v), Errc::ok);
+  EXPECT_EQ(v, 999);
+  ASSERT_EQ(read(*dead, 9, v), Errc::ok);
+  EXPECT_EQ(seen(9), 10u);
+  s = gateway_->stats();
+  EXPECT_TRUE(s.quarantined_units.empty());
+  EXPECT_EQ(s.probes, 2u);
+  ASSERT_EQ(events().size(), 2u);
+  EXPECT_EQ(events()[1].unit, 9);
+  EXPECT_FALSE(events()[1].quarantined);
+}
+
+// The back-off doubles up to its ceiling; a unit that answers (even with its
+// own exception) is never quarantined.
+TEST_F(GatewayQuarantine, BackOffDoublesUpToItsCeiling_AnExceptionIsAnAnswer) {
+  auto m = client();
+  uint16_t v = 0;
+  for (int i = 0; i < 5; ++i)  // unit 1 answers 02 (illegal address): an answer
+    EXPECT_EQ(m->read_holding_registers(UnitId{1}, 500, {&v, 1}).code(), Errc::illegal_data_address);
+  for (int i = 0; i < 3; ++i) EXPECT_EQ(read(*m, 9, v), Errc::gateway_target_failed);
+  EXPECT_EQ(gateway_->stats().quarantined_units, std::vector<uint8_t>{9});
+  // Probes after 1, 2, 4, 8, 16, 30, 30 s: each a timeout and a retry on the bus.
+  size_t on_bus = seen(9);
+  for (const auto wait : {1000ms, 2000ms, 4000ms, 8000ms, 16000ms, 30000ms, 30000ms}) {
+    gateway_clock_.advance(wait - 1ms);
+    EXPECT_EQ(read(*m, 9, v), Errc::gateway_target_failed);
+    EXPECT_EQ(seen(9), on_bus) << "a probe before " << wait.count() << " ms";
+    gateway_clock_.advance(1ms);
+    EXPECT_EQ(read(*m, 9, v), Errc::gateway_target_failed);
+    EXPECT_EQ(seen(9), on_bus += 2) << "no probe after " << wait.count() << " ms";
+  }
+  EXPECT_EQ(gateway_->stats().quarantined_units, std::vector<uint8_t>{9});
+  EXPECT_EQ(gateway_->stats().quarantines, 1u);
+}
+
+// The command line: --quarantine-after and the probe's back-off, a line on
+// stderr when a unit is quarantined, and the counts in the exit line.
+TEST_F(GatewayTest, QuarantineOnTheCommandLine) {
+  start({"--quarantine-after", "2", "--probe-ms", "60000"});
+  auto m = client();
+  uint16_t v = 0;
+  for (int i = 0; i < 5; ++i)
+    EXPECT_EQ(m->read_holding_registers(UnitId{9}, 0, {&v, 1}).code(), Errc::gateway_target_failed);
+  EXPECT_TRUE(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).ok());
+  EXPECT_TRUE(gateway_->wait_for_output("unit 9 quarantined after 2 requests")) << gateway_->output();
+  ::kill(gateway_->pid(), SIGTERM);
+  EXPECT_EQ(gateway_->wait(3000ms), 0);
+  EXPECT_NE(gateway_->output().find("3 quarantined (0B at once), 0 probes, units quarantined: 9"),
+            std::string::npos)
+      << gateway_->output();
+  // The bus carried the two requests that made it quarantined, no more.
+  const std::string log = bus_->output();
+  size_t to_9 = 0;
+  for (size_t at = 0; (at = log.find("rx 09 03", at)) != std::string::npos; ++at) ++to_9;
+  EXPECT_EQ(to_9, 2u) << log;
 }

@@ -1,6 +1,7 @@
 #include "rtukit/driver/gateway.hpp"
 
 #include <algorithm>
+#include <array>
 #include <asio.hpp>
 #include <condition_variable>
 #include <deque>
@@ -118,10 +119,18 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   using CacheKey = std::tuple<uint8_t, uint8_t, uint16_t, uint16_t>;
   struct Cached {
     std::vector<uint8_t> pdu;
-    std::chrono::steady_clock::time_point at;
+    io::Clock::time_point at;
+  };
+  // What the gateway knows of a unit's health (quarantine).
+  struct UnitHealth {
+    unsigned silent = 0;  // requests in a row it left without an answer
+    bool quarantined = false;
+    std::chrono::milliseconds backoff{0};
+    io::Clock::time_point probe_at{};  // quarantined: the next request from then on is a probe
   };
 
-  Impl(Master& m, GatewayOptions o) : bus(m), options(std::move(o)) {}
+  Impl(Master& m, GatewayOptions o)
+      : bus(m), options(std::move(o)), clock(options.clock ? *options.clock : SteadyClock::instance()) {}
 
   // On the io thread: check, answer from the cache, or queue. `ordered`:
   // the client has no transaction ids (RTU over TCP), so even the answers
@@ -134,9 +143,19 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   }
   void run_bus();
   void invalidate(uint8_t unit, const Request& write);
+  // A request for `unit` now: answered 0x0B at once (quarantined, no probe
+  // due)? Called with the lock held.
+  bool held_in_quarantine(uint8_t unit, io::Clock::time_point now) const {
+    const UnitHealth& h = health[unit];
+    return h.quarantined && now < h.probe_at;
+  }
+  // The outcome of a bus transaction to `unit`; returns the event to report,
+  // if any. Called with the lock held.
+  std::optional<GatewayUnitEvent> note_outcome(uint8_t unit, const Error& e, bool probe);
 
   Master& bus;
   GatewayOptions options;
+  DriverClock& clock;
   std::vector<std::unique_ptr<TcpAcceptor>> acceptors;
   std::vector<std::string> schemes;  // each acceptor's: "tcp://", "rtu+tcp://"
   std::thread thread;
@@ -148,6 +167,7 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   uint64_t last_served = 0;
   uint64_t next_client = 1;
   std::map<CacheKey, Cached> cache;
+  std::array<UnitHealth, 256> health{};
   GatewayStats stats;
 };
 
@@ -287,17 +307,30 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
   if (admission.action == GatewayAdmission::Action::drop) return;
   if (admission.action == GatewayAdmission::Action::refuse) return refuse(admission.exception);
   const Request* req = &admission.request;
+  const io::Clock::time_point now = clock.now();
   std::lock_guard lock(mutex);
   // An ordered client's cached read is served by the bus thread in its turn.
   if (options.cache.count() > 0 && is_read(function) && !ordered) {
     const auto hit = cache.find(CacheKey{h.unit, function, req->address, req->quantity});
-    if (hit != cache.end() && std::chrono::steady_clock::now() - hit->second.at < options.cache) {
+    if (hit != cache.end() && now - hit->second.at < options.cache) {
       ++stats.cache_hits;
       session->answer(h.transaction, h.unit, hit->second.pdu, false);
       return;
     }
   }
   std::deque<Job>& q = queues[client];
+  // A quarantined unit: 0x0B at once, nothing queued for the bus (an ordered
+  // client's answer waits behind its earlier requests, as every answer does).
+  if (held_in_quarantine(h.unit, now)) {
+    ++stats.quarantined_answers;
+    if (!ordered)
+      return session->answer(h.transaction, h.unit, exception_pdu(function, Errc::gateway_target_failed),
+                             false);
+    q.push_back(
+        Job{session, h.transaction, h.unit, {}, exception_pdu(function, Errc::gateway_target_failed)});
+    wake.notify_one();
+    return;
+  }
   if (q.size() >= options.max_queued_per_client) {
     ++stats.refused;
     // An ordered client past its limit is out of step: its answers could
@@ -359,7 +392,7 @@ void Gateway::Impl::run_bus() {
       {
         std::lock_guard lock(mutex);
         const auto hit = cache.find(CacheKey{job.unit, req->function, req->address, req->quantity});
-        if (hit != cache.end() && std::chrono::steady_clock::now() - hit->second.at < options.cache) {
+        if (hit != cache.end() && clock.now() - hit->second.at < options.cache) {
           ++stats.cache_hits;
           cached = hit->second.pdu;
         }
@@ -369,16 +402,34 @@ void Gateway::Impl::run_bus() {
         continue;
       }
     }
-    if (write) {
+    bool probe = false;
+    {
       std::lock_guard lock(mutex);
-      invalidate(job.unit, *req);
+      UnitHealth& health_of = health[job.unit];
+      if (health_of.quarantined) {
+        // Quarantined since it was queued, or a probe already went out: 0x0B
+        // at once. Else this request is the probe; until its outcome, the
+        // unit's other requests get 0x0B at once.
+        if (clock.now() < health_of.probe_at) {
+          ++stats.quarantined_answers;
+          session->answer(job.transaction, job.unit,
+                          exception_pdu(req->function, Errc::gateway_target_failed), true);
+          continue;
+        }
+        probe = true;
+        ++stats.probes;
+        health_of.probe_at = io::Clock::time_point::max();
+      }
+      if (write) invalidate(job.unit, *req);
     }
     std::vector<uint8_t> answer;
     const Error e =
         bus.transact(UnitId{job.unit}, *req, [&](const Response& r) { answer = response_pdu(*req, r); });
+    std::optional<GatewayUnitEvent> event;
     {
       std::lock_guard lock(mutex);
       ++stats.bus_transactions;
+      event = note_outcome(job.unit, e, probe);
       // A write that timed out may still have been applied: invalidate again.
       if (write) invalidate(job.unit, *req);
       if (e.ok() && answer.empty() && write) {
@@ -396,13 +447,39 @@ void Gateway::Impl::run_bus() {
         ++stats.bus_down;
         answer = exception_pdu(req->function, Errc::gateway_path_unavailable);
       } else if (options.cache.count() > 0 && is_read(req->function)) {
-        cache[CacheKey{job.unit, req->function, req->address, req->quantity}] =
-            Cached{answer, std::chrono::steady_clock::now()};
+        cache[CacheKey{job.unit, req->function, req->address, req->quantity}] = Cached{answer, clock.now()};
       }
     }
+    if (event && options.on_quarantine) options.on_quarantine(*event);
     if (answer.empty()) continue;  // FC08 force listen only: nobody answers it
     session->answer(job.transaction, job.unit, answer, true);
   }
+}
+
+std::optional<GatewayUnitEvent> Gateway::Impl::note_outcome(uint8_t unit, const Error& e, bool probe) {
+  if (unit == 0 || options.quarantine_after == 0) return std::nullopt;  // a broadcast has no answer
+  UnitHealth& h = health[unit];
+  const bool answered = e.ok() || e.is_exception();
+  if (answered) {
+    h.silent = 0;
+    if (!h.quarantined) return std::nullopt;
+    h.quarantined = false;
+    return GatewayUnitEvent{unit, false, 0, {}};
+  }
+  if (probe) {
+    // No answer to the probe (or garbage, or the bus failed): try again later.
+    h.backoff = std::min(h.backoff * 2, std::max(options.probe_backoff_max, options.probe_backoff));
+    h.probe_at = clock.now() + h.backoff;
+    return std::nullopt;
+  }
+  // Only silence counts: garbage means something answers, a failed bus is not the unit's.
+  if (e.code() != Errc::timeout) return std::nullopt;
+  if (++h.silent < options.quarantine_after) return std::nullopt;
+  h.quarantined = true;
+  h.backoff = options.probe_backoff;
+  h.probe_at = clock.now() + h.backoff;
+  ++stats.quarantines;
+  return GatewayUnitEvent{unit, true, h.silent, h.backoff};
 }
 
 Gateway::Gateway(std::shared_ptr<Impl> impl) : impl_(std::move(impl)) {}
@@ -461,7 +538,10 @@ uint16_t Gateway::tcp_port() const {
 
 GatewayStats Gateway::stats() const {
   std::lock_guard lock(impl_->mutex);
-  return impl_->stats;
+  GatewayStats s = impl_->stats;
+  for (unsigned u = 0; u < impl_->health.size(); ++u)
+    if (impl_->health[u].quarantined) s.quarantined_units.push_back(static_cast<uint8_t>(u));
+  return s;
 }
 
 }  // namespace rtukit

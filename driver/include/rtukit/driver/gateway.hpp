@@ -20,15 +20,27 @@
 // transaction, reads already queued behind it included. Any write through the gateway invalidates the cached
 // reads it may change, whatever its outcome, so a write between two reads is never hidden. Changes made by
 // the device itself can be up to `cache` old.
+//
+// Quarantine (`quarantine_after`): a unit that left that many requests in a
+// row without an answer (each after the master's timeout and retries) is
+// quarantined. Its requests are then answered 0x0B at once by the gateway and
+// never reach the bus, so the other units' clients stop queueing behind its
+// timeouts. After `probe_backoff` the next request for it is let through as a
+// probe: an answer (its response or its own exception) ends the quarantine;
+// no answer doubles the back-off, up to `probe_backoff_max`. A dead unit costs
+// the others one timeout per back-off period, and one that comes back is
+// served again without a restart.
 #pragma once
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
 #include <vector>
 
+#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/port.hpp"
@@ -39,6 +51,14 @@ class io_context;
 }
 
 namespace rtukit {
+
+/// A unit entering or leaving quarantine (GatewayOptions::on_quarantine).
+struct GatewayUnitEvent {
+  uint8_t unit = 0;
+  bool quarantined = false;                 ///< true: entered; false: answered a probe, relayed again
+  unsigned timeouts = 0;                    ///< entered: the requests in a row it left without an answer
+  std::chrono::milliseconds next_probe{0};  ///< entered: when its first probe may go out
+};
 
 struct GatewayOptions {
   /// Relay only the requests that change nothing (relays_when_read_only: an
@@ -53,15 +73,34 @@ struct GatewayOptions {
   unsigned max_queued_per_client = 32;
   /// Connection limit, idle timeout, output bound of the TCP side.
   ServerOptions server;
+  /// Quarantine a unit after this many requests in a row got no answer from it
+  /// (a timeout after the master's retries); 0: never. While quarantined its
+  /// requests get 0x0B at once and never reach the bus.
+  unsigned quarantine_after = 3;
+  /// How long a quarantined unit is left alone before the next request for it
+  /// goes to the bus as a probe; doubled after each probe it leaves
+  /// unanswered, up to `probe_backoff_max`.
+  std::chrono::milliseconds probe_backoff{1000};
+  std::chrono::milliseconds probe_backoff_max{30000};
+  /// The clock of the cache and the quarantine; nullptr: the steady clock.
+  /// Must outlive the gateway. Tests pass a ManualClock.
+  DriverClock* clock = nullptr;
+  /// Called on the bus thread when a unit enters or leaves quarantine (a log
+  /// line); must not call back into the gateway.
+  std::function<void(const GatewayUnitEvent&)> on_quarantine;
 };
 
 struct GatewayStats {
-  uint64_t requests = 0;          ///< requests from clients
-  uint64_t bus_transactions = 0;  ///< requests sent on the bus
-  uint64_t cache_hits = 0;        ///< reads answered from the cache
-  uint64_t refused = 0;           ///< answered by the gateway itself (01, 06, 0A for a unit)
-  uint64_t no_answer = 0;         ///< 0x0B: the device did not answer
-  uint64_t bus_down = 0;          ///< 0x0A: the bus failed
+  uint64_t requests = 0;                   ///< requests from clients
+  uint64_t bus_transactions = 0;           ///< requests sent on the bus
+  uint64_t cache_hits = 0;                 ///< reads answered from the cache
+  uint64_t refused = 0;                    ///< answered by the gateway itself (01, 06, 0A for a unit)
+  uint64_t no_answer = 0;                  ///< 0x0B: the device did not answer
+  uint64_t bus_down = 0;                   ///< 0x0A: the bus failed
+  uint64_t quarantined_answers = 0;        ///< 0x0B at once: the unit is quarantined, the bus not used
+  uint64_t quarantines = 0;                ///< times a unit entered quarantine
+  uint64_t probes = 0;                     ///< requests let through to a quarantined unit
+  std::vector<uint8_t> quarantined_units;  ///< the units quarantined now, in order
 };
 
 /// What the gateway does with one request as it arrives, before its queues
