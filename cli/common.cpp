@@ -83,6 +83,15 @@ char parity_letter(std::string_view text) {
   throw Failure{kUsage, fmt::format("--parity '{}' is not one of none, even, odd (or N, E, O)", text)};
 }
 
+namespace {
+// The port this command was given (its path), for fail()'s "PATH is not a
+// serial port": one command per process, one port.
+std::string& command_port_path() {
+  static std::string path;
+  return path;
+}
+}  // namespace
+
 io::PortSpec LinkOptions::spec(bool listening) const {
   // "127.0.0.1:1502" is a TCP address without its scheme, not a file name.
   const size_t colon = port.rfind(':');
@@ -101,6 +110,7 @@ io::PortSpec LinkOptions::spec(bool listening) const {
   spec->serial.rs485.delay_before_us = rs485_before_us;
   spec->serial.rs485.delay_after_us = rs485_after_us;
   if (Error e = spec->serial.validate()) throw Failure{kUsage, std::string(e.text())};
+  command_port_path() = spec->path;
   return *spec;
 }
 
@@ -533,6 +543,12 @@ void fail(Error e, std::string_view context) {
         context);
   } else if (e.code() == Errc::io_error && !e.reason().empty()) {
     line = fmt::format("{}: {}", context, e.reason());
+  } else if (e.code() == Errc::io_error && e.os_error() == ENOTTY) {
+    // "Inappropriate ioctl for device": the path is a file or a device without a serial line.
+    const std::string& path = command_port_path();
+    line = fmt::format(
+        "{}: {} is not a serial port (give /dev/ttyUSB0, /dev/ttyS0 or a pty, or tcp://HOST:PORT)", context,
+        path.empty() ? std::string("the port") : path);
   } else if (e.code() == Errc::io_error && e.os_error() != 0) {
     line = fmt::format("{}: I/O error: {}", context, std::strerror(e.os_error()));
     if (e.os_error() == EBUSY)

@@ -76,7 +76,9 @@ struct Session {
       : master(a.link.make_master()),
         jet(*master, UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254))}),
         context(fmt::format("Inverjet {} on {}", jet.unit().value, master->describe())),
-        stats(a.link.stats) {}
+        stats(a.link.stats) {
+    identify();
+  }
   ~Session() {
     if (stats) print_stats(*master);
   }
@@ -97,6 +99,27 @@ struct Session {
   }
   void check(const rtukit::Status& e, std::string_view what) {
     if (e) fail(e, what);
+  }
+  // Before anything else, as the Rehand commands check the device ID 0x68:
+  // is the slave at this address an Inverjet? Its motor pole count (holding
+  // 0x0004) is fixed (D-7: 5, the only value a write may carry), so it always
+  // reads that; another value, or an exception for a register every Inverjet
+  // has, is another device. One line, exit 5 (the CLI's "not the expected
+  // device"), and nothing is written to it.
+  void identify() {
+    const profile::Row& r = ij::kMap.row(ij::reg::pole_count);
+    const auto fixed = static_cast<uint16_t>(r.writable_range.min);
+    uint16_t value = 0;
+    const Error e = master->read_holding_registers(jet.unit(), r.address, {&value, 1});
+    if (e && !e.is_exception()) cli::fail(e, context);  // no answer, the port: as for any request
+    if (!e && value == fixed) return;
+    const std::string got =
+        e ? fmt::format("answers Modbus exception {:02X} ({})", e.exception_code(), e.name())
+          : fmt::format("reads {}", value);
+    throw Failure{kRefused,
+                  fmt::format("{}: not an Inverjet: its {} (holding 0x{:04X}) {} where an Inverjet's "
+                              "always reads {}; check --port and --unit",
+                              context, r.title, r.address, got, fixed)};
   }
 
   std::unique_ptr<Master> master;

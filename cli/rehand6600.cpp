@@ -58,10 +58,14 @@ UnitId unit_of(const ChairArgs& a) {
   return UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247))};
 }
 
-// 1010 with its reason; `code` the exit code (3 no answer, 5 another device).
+// 1010 with its reason and what to check; `code` the exit code (3 no answer, 5 another device).
 [[noreturn]] void master_error(const std::string& context, const std::string& reason, int code) {
-  throw Failure{code,
-                fmt::format("{}: {}: {}", context, rh::error_text(rh::kMasterCommunicationError), reason)};
+  const std::string check =
+      code == kRefused ? "check --port and --unit: another device answers there"
+                       : "check that the controller is powered on, the UART cable and its connectors, "
+                         "--baud (115200 unless changed) and --unit (1)";
+  throw Failure{code, fmt::format("{}: {}: {}; {}", context, rh::error_text(rh::kMasterCommunicationError),
+                                  reason, check)};
 }
 
 // The host's handshake, once: read 0x0000, expect 0x68.
@@ -92,6 +96,25 @@ std::string speed_text(const rh::Snapshot& s, bool mph) {
   return mph ? fmt::format("{:.1f} mph", s.speed_mph()) : fmt::format("{} km/h", s.speed_kmh());
 }
 
+// `text` in lines of at most 80 columns, each after `head` (the first) or
+// as many spaces (the rest): the panel's "advice" rows.
+std::string wrapped(std::string_view head, std::string_view text) {
+  std::string out, line(head);
+  size_t at = 0;
+  while (at < text.size()) {
+    size_t end = text.find(' ', at);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view word = text.substr(at, end - at);
+    if (line.size() > head.size() && line.size() + 1 + word.size() > 80) {
+      out += line + "\n";
+      line = std::string(head.size(), ' ');
+    }
+    line += (line.size() > head.size() ? " " : "") + std::string(word);
+    at = end + 1;
+  }
+  return out + line + "\n";
+}
+
 std::string panel(const rh::Snapshot& s, bool mph) {
   std::string out;
   if (s.error_code())
@@ -119,6 +142,7 @@ std::string panel(const rh::Snapshot& s, bool mph) {
   out += fmt::format("buttons   horn {}, 360 view {}\n", v(s, "horn_button"), v(s, "view_button"));
   out += fmt::format("error     {}\n",
                      s.error_code() ? LivePanel::alert(rh::error_text(s.error_code())) : std::string("none"));
+  if (s.error_code()) out += wrapped("advice    ", rh::error_advice(s.error_code()));
   return out;
 }
 
@@ -144,6 +168,8 @@ Json snapshot_document(const rh::Snapshot& s, UnitId unit, bool mph) {
     values["speed_mph"] = json_quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
   values["error_text"] = json_quantity(s.error_code() ? rh::error_text(s.error_code()) : "", {},
                                        s.error_code() ? rh::error_text(s.error_code()) : "none");
+  const std::string advice = s.error_code() ? rh::error_advice(s.error_code()) : std::string();
+  values["error_advice"] = json_quantity(advice, {}, advice.empty() ? "none" : advice);
   return out;
 }
 
@@ -191,8 +217,9 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
     host->stop();
     // The exit code from the error's code: 4 the port, 3 no answer, 5 another device.
     const int code = why.ok() ? kNoResponse : why.code() == Errc::refused ? kRefused : exit_code(why.error());
-    throw Failure{code, fmt::format("{}: {}: {}", *context, rh::error_text(rh::kMasterCommunicationError),
-                                    why.ok() ? std::string("no handshake") : std::string(why.reason()))};
+    // A port that cannot be used is said in words ("/dev/null is not a serial port").
+    if (code == kIoError) fail(why.error(), *context);
+    master_error(*context, why.ok() ? std::string("no handshake") : std::string(why.reason()), code);
   }
   return host;
 }
@@ -297,11 +324,14 @@ std::chrono::milliseconds parse_duration(const std::string& text) {
   return std::chrono::milliseconds(static_cast<long>(v * scale));
 }
 
-// A device rule refused (exit 5, with its reason), or the request failed.
+// A device rule refused (exit 5, with its reason, and what to check when an
+// error is active), or the request failed.
 [[noreturn]] void refused_or_fail(const rtukit::Status& e, const std::string& context, std::string_view key,
-                                  std::string_view verb) {
+                                  std::string_view verb, uint16_t active_error = 0) {
   if (e.code() == Errc::refused)
-    throw Failure{kRefused, fmt::format("{}: {} refused: {}", context, key, e.reason())};
+    throw Failure{kRefused,
+                  fmt::format("{}: {} refused: {}{}{}", context, key, e.reason(), active_error ? ": " : "",
+                              active_error ? rh::error_advice(active_error) : std::string())};
   if (e.code() == Errc::invalid_argument)
     throw Failure{kUsage, fmt::format("{}: {}: {}", context, key, e.reason())};
   fail(e.error(), fmt::format("{}: {} {}", context, verb, key));
@@ -321,8 +351,9 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   while (!interrupt.interrupted() && std::chrono::steady_clock::now() - start < length) {
     if (const rtukit::Status e = host->hold(r.address, value)) {
       countdown.clear();
+      const uint16_t active = host->active_error();
       host->stop();
-      refused_or_fail(e, context, key, "hold");
+      refused_or_fail(e, context, key, "hold", active);
     }
     const auto left = std::chrono::duration<double>(length - (std::chrono::steady_clock::now() - start));
     countdown.show(fmt::format("holding {} {}: {:.1f} s left (Ctrl-C releases)", key,
@@ -358,10 +389,11 @@ int run_pulse(const ChairArgs& a, const std::string& key) {
   std::string context;
   auto host = start_host(a, &context);
   const rtukit::Status e = host->pulse(r.address);
+  const uint16_t active = host->active_error();
   (void)host->wait_poll(std::chrono::milliseconds(500));
   const rh::Snapshot s = host->snapshot();
   host->stop();
-  if (e) refused_or_fail(e, context, key, "pulse");
+  if (e) refused_or_fail(e, context, key, "pulse", active);
   done(a, "pulse",
        fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key, v(s, "main_light"),
                    v(s, "left_signal"), v(s, "right_signal")));
@@ -383,8 +415,9 @@ int run_set(const ChairArgs& a, const std::string& what, const std::string& valu
   const rtukit::Status e = r->address == rh::reg::kDriveMode    ? host->set_drive_mode(raw)
                            : r->address == rh::reg::kSpeedLevel ? host->set_speed_level(raw)
                                                                 : rtukit::Status(host->set_host_fault(raw));
+  const uint16_t active = host->active_error();
   host->stop();
-  if (e) refused_or_fail(e, context, what, "set");
+  if (e) refused_or_fail(e, context, what, "set", active);
   done(a, "set", fmt::format("{} = {}", what, value), {{std::string(r->key), profile::entry_json(*r, raw)}});
   return kOk;
 }
@@ -429,17 +462,30 @@ int run_host(const ChairArgs& a) {
   return kOk;
 }
 
-int run_errors(bool as_json) {
+// Table 3, or one code with what it means and what to check.
+int run_errors(bool as_json, const std::string& code_text) {
+  std::vector<uint16_t> codes(rh::error_codes().begin(), rh::error_codes().end());
+  if (!code_text.empty()) {
+    // As the chair shows it ("10C3") or as a number (0x10C3, 4291).
+    const bool plain_hex =
+        code_text.size() == 4 && code_text.find_first_not_of("0123456789abcdefABCDEF") == std::string::npos;
+    codes = {static_cast<uint16_t>(plain_hex ? std::stoul(code_text, nullptr, 16)
+                                             : parse_number(code_text, "error code", 1, 0xFFFF))};
+  }
   if (!as_json) {
-    fmt::print("{}", rh::errors_markdown());
+    if (code_text.empty())
+      fmt::print("{}", rh::errors_markdown());
+    else
+      fmt::print("{}: {}\n", rh::error_text(codes[0]), rh::error_advice(codes[0]));
     return kOk;
   }
   Json out = json_document("rehand6600");
   Json& list = out["errors"] = Json::array();
-  for (uint16_t c : rh::error_codes())
+  for (uint16_t c : codes)
     list.push_back({{"code", fmt::format("{:04X}", c)},
                     {"function", rh::error_function(c)},
-                    {"text", rh::error_text(c)}});
+                    {"text", rh::error_text(c)},
+                    {"advice", rh::error_advice(c)}});
   print_json(out);
   return kOk;
 }
@@ -538,12 +584,15 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
         return kOk;
       });
   add_command<ChairArgs>(
-      *chair, action, "errors", "table 3: error codes, functions and UI texts",
+      *chair, action, "errors",
+      "table 3: error codes, functions, UI texts, what each means and what to check",
       [](CLI::App& cmd, ChairArgs& a) {
+        cmd.add_option("CODE", a.key, "one code, as the chair shows it (10C3)");
         cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-        examples(cmd, {"rtukit rehand6600 errors", "rtukit rehand6600 errors --json"});
+        examples(cmd, {"rtukit rehand6600 errors", "rtukit rehand6600 errors 10C3",
+                       "rtukit rehand6600 errors --json"});
       },
-      [](const ChairArgs& a) { return run_errors(a.json); });
+      [](const ChairArgs& a) { return run_errors(a.json, a.key); });
 }
 
 }  // namespace rtukit::cli

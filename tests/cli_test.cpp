@@ -281,6 +281,26 @@ TEST_F(Cli, IoError_Exit4) {
   EXPECT_NE(r.output.find("Connection refused"), std::string::npos) << r.output;
 }
 
+// A port that is not a serial port (a regular file, /dev/null) is said in
+// words, not as "Inappropriate ioctl for device" (issue 28).
+TEST_F(Cli, NotASerialPort_SaysSo_Exit4) {
+  const std::string file = dir_ / "file";
+  std::ofstream(file) << "x";
+  for (const std::string& path : {file, std::string("/dev/null")}) {
+    const RunResult r = rtukit({"read", "--port", path, "0"});
+    EXPECT_EQ(r.code, 4) << r.output;
+    EXPECT_NE(r.output.find(": " + path +
+                            " is not a serial port (give /dev/ttyUSB0, /dev/ttyS0 or a pty, or "
+                            "tcp://HOST:PORT)\n"),
+              std::string::npos)
+        << r.output;
+    EXPECT_EQ(r.output.find("Inappropriate ioctl"), std::string::npos) << r.output;
+  }
+  const RunResult r = rtukit({"rehand6600", "status", "--port", file});
+  EXPECT_EQ(r.code, 4) << r.output;
+  EXPECT_NE(r.output.find(file + " is not a serial port"), std::string::npos) << r.output;
+}
+
 TEST_F(Cli, Scan_FindsTheUnit) {
   const RunResult r = rtukit({"scan", "--port", port_, "--units", "3-7", "--timeout", "50"});
   EXPECT_EQ(r.code, 0) << r.output;

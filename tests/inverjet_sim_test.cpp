@@ -419,6 +419,44 @@ TEST_F(InverjetSim, PanelAndBridge_FailAtStartOnABadPort_BridgeSaysItRetriesTheB
   bridge.stop();
 }
 
+// `inverjet status` (every inverjet command) first checks that the slave is
+// an Inverjet, as the Rehand commands check the device ID 0x68: its motor
+// pole count (holding 0x0004) always reads 5. A generic slave at unit 21
+// (reads 0) and one without that register (exception 02) are refused with
+// one line and exit 5, the CLI's "not the expected device"; nothing is written.
+TEST(InverjetIdentity, AnotherDeviceAtTheAddressIsRefused_Exit5) {
+  TempDir dir;
+  const std::string tty = dir / "tty";
+  Process slave({kRtukit, "slave", "--listen", "pty:" + tty, "--unit", "21"});
+  ASSERT_TRUE(slave.wait_for_output("listening on")) << slave.output();
+  const std::string not_jet =
+      "rtukit: Inverjet 21 on " + tty +
+      " 9600 8N1: not an Inverjet: its motor pole count (holding 0x0004) reads 0 where "
+      "an Inverjet's always reads 5; check --port and --unit\n";
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"inverjet", "status"}, {"inverjet", "watch", "--count", "1"}, {"inverjet", "stop"}}) {
+    const RunResult r = run_cli(kRtukit, args, tty);
+    EXPECT_EQ(r.code, 5) << args[1] << ": " << r.output;
+    EXPECT_EQ(r.output, not_jet) << args[1];
+  }
+  const RunResult j = run_cli(kRtukit, {"inverjet", "status", "--json"}, tty);
+  EXPECT_EQ(j.code, 5) << j.output;
+  EXPECT_NE(j.output.find(R"("ok":false,"error":{"exit":5,"kind":"refused")"), std::string::npos) << j.output;
+  // Nothing was written: the holding registers still read 0.
+  EXPECT_EQ(run_cli(kRtukit, {"read", "--unit", "21", "0x21", "4"}, tty).output,
+            "33 (0x0021): 0\n34 (0x0022): 0\n35 (0x0023): 0\n36 (0x0024): 0\n");
+  // A slave without register 0x0004 answers exception 02.
+  Process small({kRtukit, "slave", "--listen", "pty:" + dir / "tty2", "--unit", "21", "--registers", "2"});
+  ASSERT_TRUE(small.wait_for_output("listening on")) << small.output();
+  const RunResult r = run_cli(kRtukit, {"inverjet", "status"}, dir / "tty2");
+  EXPECT_EQ(r.code, 5) << r.output;
+  EXPECT_NE(
+      r.output.find("not an Inverjet: its motor pole count (holding 0x0004) answers Modbus exception 02 "
+                    "(illegal data address) where an Inverjet's always reads 5"),
+      std::string::npos)
+      << r.output;
+}
+
 TEST(InverjetSimStateFile, AFileThatIsNotOursIsRefused_ForceStateReplacesIt) {
   TempDir dir;
   const std::string other = dir / "settings.json", tty = dir / "tty";

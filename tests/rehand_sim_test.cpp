@@ -8,6 +8,7 @@
 
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "process.hpp"
 #include "rtukit/devices/rehand6600/host.hpp"
@@ -270,7 +271,8 @@ TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
   EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 2) << r.output;
   EXPECT_NE(r.output.find("0.0 mph"), std::string::npos) << r.output;
   r = cli({"rehand6600", "errors"}, false);
-  EXPECT_NE(r.output.find("| 10C1..10CB | Seat lift | 10C1 Seat lift Error |"), std::string::npos)
+  EXPECT_NE(r.output.find("| 10C1..10CB | Seat lift | 10C1 Seat lift Error | the seat-lift actuator"),
+            std::string::npos)
       << r.output;
 }
 
@@ -327,6 +329,62 @@ TEST_F(RehandSim, Cli_FailuresExitCodes) {
     EXPECT_NE(r.output.find("1010 Master Error: handshake: device ID 0x42, expected 0x68"), std::string::npos)
         << r.output;
   }
+}
+
+// Device errors carry advice (issue 28): 1010 and each table-3 code say what
+// they mean and what to check, wherever they are printed: the failure line,
+// a refusal, the status panel and its JSON, `errors CODE`.
+TEST_F(RehandSim, DeviceErrorsSayWhatTheyMeanAndWhatToCheck) {
+  RunResult r = cli({"rehand6600", "status", "--unit", "9"});
+  EXPECT_EQ(r.code, 3) << r.output;
+  EXPECT_NE(r.output.find("1010 Master Error: handshake: no answer (timeout); check that the controller is "
+                          "powered on, the UART cable and its connectors, --baud (115200 unless changed) and "
+                          "--unit (1)\n"),
+            std::string::npos)
+      << r.output;
+  console("error 10C3");
+  const std::string seat_lift =
+      "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat "
+      "above "
+      "or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, "
+      "nothing restarts by itself: press the command again";
+  r = cli({"rehand6600", "hold", "seat_lift", "up"});
+  EXPECT_EQ(r.code, 5) << r.output;
+  EXPECT_NE(r.output.find("seat_lift refused: 10C3 Seat lift Error is active; only releasing is possible: " +
+                          seat_lift + "\n"),
+            std::string::npos)
+      << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  r = cli({"rehand6600", "status"});
+  EXPECT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("error     10C3 Seat lift Error\nadvice    the seat-lift actuator (actuator 1) or "
+                          "its drive reports a fault;\n          check: nothing blocks"),
+            std::string::npos)
+      << r.output;
+  std::string line;
+  for (std::istringstream in(r.output); std::getline(in, line);) EXPECT_LE(line.size(), 80u) << line;
+  r = cli({"rehand6600", "status", "--json"});
+  EXPECT_EQ(json::parse(r.output)["values"]["error_advice"]["value"], seat_lift) << r.output;
+  console("error clear");
+  r = cli({"rehand6600", "errors", "10C3"}, false);
+  EXPECT_EQ(r.output, "10C3 Seat lift Error: " + seat_lift + "\n");
+  r = cli({"rehand6600", "errors", "1010"}, false);
+  EXPECT_TRUE(
+      r.output.starts_with("1010 Master Error: the host gets no valid answer from the controller "
+                           "(communication); check: the controller is powered on, the UART cable"))
+      << r.output;
+  r = cli({"rehand6600", "errors", "--json"}, false);
+  const json errors = json::parse(r.output)["errors"];
+  EXPECT_EQ(errors.size(), error_codes().size());
+  for (const json& e : errors)
+    EXPECT_NE(e["advice"].get<std::string>().find("; check: "), std::string::npos) << e;
+  console("id 0x42");
+  r = cli({"rehand6600", "status"});
+  EXPECT_EQ(r.code, 5) << r.output;
+  EXPECT_NE(r.output.find("expected 0x68 (not a Rehand 6600 controller?); check --port and --unit: another "
+                          "device answers there\n"),
+            std::string::npos)
+      << r.output;
 }
 
 // A hold names its direction (issue 28: `hold seat_lift` alone moved up,

@@ -88,6 +88,28 @@ std::string error_text(uint16_t code) {
   return fmt::format("{:04X} {} Error", code, f.empty() ? std::string_view("Unknown") : f);
 }
 
+namespace {
+// After every error (D-8): nothing restarts by itself.
+constexpr std::string_view kAfterwards =
+    "; when it clears, nothing restarts by itself: press the command again";
+}  // namespace
+
+std::string error_advice(uint16_t code) {
+  if (code == kMasterCommunicationError)
+    return fmt::format(
+        "the host gets no valid answer from the controller (communication); check: the controller is powered "
+        "on, the UART cable and its connectors, the baud rate (115200 unless changed) and the unit (1); a "
+        "device "
+        "ID other than 0x68 means another device answers on this port{}",
+        kAfterwards);
+  if (const ErrorAdvice* a = error_group_advice(error_function(code)))
+    return fmt::format("{}; check: {}{}", a->meaning, a->check, kAfterwards);
+  return fmt::format(
+      "a code table 3 does not list: the controller reports a fault we cannot name; check: the controller's "
+      "documentation or the dealer{}",
+      kAfterwards);
+}
+
 std::span<const uint16_t> error_codes() noexcept {
   static const std::vector<uint16_t> codes = [] {
     std::vector<uint16_t> v;
@@ -102,16 +124,24 @@ std::span<const uint16_t> error_codes() noexcept {
 }
 
 std::string errors_markdown() {
-  std::string out = "| codes | function | UI text (example) |\n|---|---|---|\n";
+  std::string out =
+      "| codes | function | UI text (example) | what it means | what to check |\n|---|---|---|---|---|\n";
   for (const ErrorGroup& g : error_groups()) {
     std::string codes = fmt::format("{:04X}..{:04X}", g.first, g.last);
     for (uint16_t e : g.extra) codes += fmt::format(", {:04X}", e);
-    out += fmt::format("| {} | {} | {} |\n", codes, g.function, error_text(g.first));
+    const ErrorAdvice* a = error_group_advice(g.function);
+    out += fmt::format("| {} | {} | {} | {} | {} |\n", codes, g.function, error_text(g.first),
+                       a ? a->meaning : "", a ? a->check : "");
   }
   out +=
-      "\nEvery active error shows as a full-screen overlay and disables every function. 1010 is also raised "
-      "by "
-      "the host itself when the controller does not answer (communication error).\n";
+      "\nEvery active error shows as a full-screen overlay and disables every function; when it clears, "
+      "nothing "
+      "restarts by itself. 1010 is also raised by the host itself when the controller does not answer "
+      "(communication error): check that the controller is powered on, the UART cable and its connectors, "
+      "the "
+      "baud rate (115200 unless changed) and the unit (1); a device ID other than 0x68 means another device "
+      "answers on this port. Table 3 names only the function; the meanings and checks are our reading of it. "
+      "`rtukit rehand6600 errors CODE` prints one code's.\n";
   return out;
 }
 

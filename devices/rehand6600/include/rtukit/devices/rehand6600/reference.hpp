@@ -16,6 +16,11 @@ std::string format_value(const Register& reg, uint16_t raw);
 std::string registers_markdown();
 /// The UI text: "1010 Master Error"; unknown codes: "1234 Unknown Error".
 std::string error_text(uint16_t code);
+/// What `code` means and what to check, for the person at the chair:
+/// "the seat-lift actuator (actuator 1) or its drive reports a fault; check:
+/// nothing blocks ...". 1010 as the host raises it: no answer from the
+/// controller. Every code gets advice (an unknown one: the controller's).
+std::string error_advice(uint16_t code);
 /// Every listed code, ascending.
 std::span<const uint16_t> error_codes() noexcept;
 /// Table 3 as Markdown.

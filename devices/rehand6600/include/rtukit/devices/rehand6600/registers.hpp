@@ -310,6 +310,14 @@ struct ErrorGroup {
   std::span<const uint16_t> extra;  ///< codes outside the range
 };
 
+/// What a code of a group means and what to check, for the person at the
+/// chair. Table 3 names only the function; these are our reading of it.
+struct ErrorAdvice {
+  std::string_view function;  ///< as in ErrorGroup
+  std::string_view meaning;   ///< "the seat-lift actuator (actuator 1) or its drive reports a fault"
+  std::string_view check;     ///< "nothing blocks the seat above or below; ..."
+};
+
 namespace detail {
 inline constexpr uint16_t kMasterExtra[] = {0x101D};
 inline constexpr uint16_t kLegsExtra[] = {0x109A, 0x109B, 0x119A,
@@ -321,6 +329,32 @@ inline constexpr ErrorGroup kGroups[] = {
     {"Tilt", 0x1081, 0x108A, kTiltExtra},     {"Back", 0x10B1, 0x10BB, {}},
     {"Seat lift", 0x10C1, 0x10CB, {}},        {"Stand", 0x10D1, 0x10DA, kStandExtra},
     {"Support wheels", 0x1171, 0x117B, {}},   {"Chassis motor", 0x1271, 0x127B, {}},
+};
+inline constexpr ErrorAdvice kAdvice[] = {
+    {"Master", "the controller's main board reports a fault",
+     "the controller's power and battery connection; switch the chair off and on; a code that comes back "
+     "needs the dealer"},
+    {"Legs", "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault",
+     "nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` "
+     "(over-current)"},
+    {"Tilt",
+     "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive "
+     "reports a fault",
+     "nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in "
+     "`status` (over-current)"},
+    {"Back", "the backrest actuator (actuator 2) or its drive reports a fault",
+     "nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current)"},
+    {"Seat lift", "the seat-lift actuator (actuator 1) or its drive reports a fault",
+     "nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` "
+     "(over-current)"},
+    {"Stand", "the stand/sit movement (actuators 1, 2 and 4 together) reports a fault",
+     "nothing blocks the seat, the backrest or the leg rest; the cables and connectors of actuators 1, 2 and "
+     "4; the user's position"},
+    {"Support wheels", "the support (anti-tip) wheels or their drive report a fault",
+     "the support wheels move freely and touch nothing; their cables and connectors"},
+    {"Chassis motor", "a drive motor or its motor driver reports a fault",
+     "the clutch is in drive, nothing blocks the wheels, the motor cables and connectors, the battery "
+     "charge"},
 };
 
 }  // namespace detail
@@ -338,6 +372,15 @@ constexpr std::string_view error_function(uint16_t code) noexcept {
     }
   }
   return {};
+}
+
+/// What a group's codes mean and what to check (`function` as error_function
+/// gives it); nullptr for a function table 3 does not list.
+constexpr const ErrorAdvice* error_group_advice(std::string_view function) noexcept {
+  for (const ErrorAdvice& a : detail::kAdvice) {
+    if (a.function == function) return &a;
+  }
+  return nullptr;
 }
 
 /// The Master error the host raises for a communication failure.
