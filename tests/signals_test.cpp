@@ -57,7 +57,7 @@ std::vector<Server> servers(TempDir& dir, const std::string& chair_tty) {
        "rehand6600 host: display",
        ""},
       {"inverjet panel",
-       {kRtukit, "inverjet", "panel", "--port", dir / "no-jet", "--http", "127.0.0.1:0"},
+       {kRtukit, "inverjet", "panel", "--port", chair_tty, "--http", "127.0.0.1:0"},
        "http://",
        ""},
   };
