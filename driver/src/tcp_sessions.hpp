@@ -205,12 +205,20 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
  private:
   enum class Deadline { request, finish, linger };
 
+  // The client closed its side. Compared by value and the category's
+  // address: `ec == asio::error::eof` is a member call on the category, and
+  // UBSan checks its vptr by probing memory with a pipe, which fails while a
+  // server is out of descriptors (EMFILE), a false "invalid vptr" there.
+  static bool is_end_of_stream(const std::error_code& ec) {
+    return ec.value() == asio::error::eof && &ec.category() == &asio::error::get_misc_category();
+  }
+
   void read() {
     auto self = shared_from_this();
     socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
                             [this, self](const std::error_code& ec, size_t n) {
                               if (closed_) return;
-                              if (ec == asio::error::eof) {
+                              if (is_end_of_stream(ec)) {
                                 // The client has sent all it will; what it sent is still answered.
                                 peer_done_ = true;
                                 if (lingering_) return close();
