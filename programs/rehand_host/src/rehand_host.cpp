@@ -665,20 +665,23 @@ rtukit::Status HostDaemon::start() {
     d.server->post([&d, e] { d.host_event(e); });
   });
   d.server->every(50, [&d] { d.tick(); });
+  // Read before the server's thread runs: from then on the pairing store and
+  // the phone URL are that thread's (its tick expires pairings).
+  const size_t paired = d.pairing.size();
   if (rtukit::Status e = d.server->start()) return e;
-  d.phone_url = o.phone_url;
-  if (d.phone_url.empty() && !o.phone.empty()) {
-    std::string url = urls()[1];
+  std::string phone_url = o.phone_url;
+  if (phone_url.empty() && !o.phone.empty()) {
+    phone_url = urls()[1];  // the bound port is known only now
     for (const char* any : {"0.0.0.0", "[::]"}) {
-      if (const size_t at = url.find(any); at != std::string::npos)
-        url.replace(at, std::strlen(any), first_lan_address());
+      if (const size_t at = phone_url.find(any); at != std::string::npos)
+        phone_url.replace(at, std::strlen(any), first_lan_address());
     }
-    d.phone_url = url;
   }
+  d.server->post([&d, phone_url] { d.phone_url = phone_url; });
   d.host.start();
   d.started = true;
   d.log(fmt::format("started: display {}, {} phone listener(s), {} paired phone(s)", o.http, o.phone.size(),
-                    d.pairing.size()));
+                    paired));
   return {};
 }
 
