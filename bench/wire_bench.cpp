@@ -32,6 +32,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -156,19 +157,34 @@ std::string fmt_number(double a, double b, const char* format) {
   return text;
 }
 
+// A virtual bus with the Rehand 6600 simulator on its "dev" port; a gateway
+// or a master takes the "host" port. What both gateway benches stand on.
+struct RehandOnBus {
+  explicit RehandOnBus(uint32_t baud)
+      : bus({RTUKIT_BIN, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
+             std::to_string(baud)}),
+        sim_ok(bus.wait_for_output("listening on")) {
+    if (sim_ok)
+      sim = std::make_unique<Process>(std::vector<std::string>{RTUKIT_BIN, "sim", "rehand6600", "--listen",
+                                                               dir / "dev", "--baud", std::to_string(baud),
+                                                               "--no-state", "--no-console"});
+  }
+  bool ready() { return sim_ok && sim && sim->wait_for_output("listening on"); }
+  TempDir dir;  // first: the bus and the simulator use it
+  Process bus;
+  bool sim_ok;
+  std::unique_ptr<Process> sim;
+};
+
 GatewayRow run_gateway(unsigned clients, unsigned cache_ms, double seconds) {
   const std::string rtukit = RTUKIT_BIN;
   const uint32_t baud = 115200;
   const uint16_t count = 48;  // the Rehand 6600's table 1
   GatewayRow row{clients, cache_ms, 0, 0, 0, 0, 0, 0};
   row.limit = 1e6 / ((8 + 5 + 2.0 * count) * 10e6 / baud + 2 * RtuTiming::for_serial(baud, 10).t35_us);
-  TempDir dir;
-  Process bus({rtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
-               std::to_string(baud)});
-  if (!bus.wait_for_output("listening on")) return row;
-  Process sim({rtukit, "sim", "rehand6600", "--listen", dir / "dev", "--baud", std::to_string(baud),
-               "--no-state", "--no-console"});
-  if (!sim.wait_for_output("listening on")) return row;
+  RehandOnBus rig(baud);
+  if (!rig.ready()) return row;
+  const TempDir& dir = rig.dir;
   const std::string where = "tcp://127.0.0.1:" + std::to_string(free_tcp_port());
   std::vector<std::string> argv{
       rtukit, "gateway",   "--port", dir / "host",        "--baud", std::to_string(baud), "--listen",
@@ -244,13 +260,9 @@ DeadUnitRow run_dead_unit(bool dead_poller, int quarantine_after, double seconds
   const uint16_t count = 48;
   const uint8_t dead_unit = 99;  // nobody on the bus answers it
   DeadUnitRow row{dead_poller, quarantine_after, seconds, 0, 0, steady_from, 0, 0, 0};
-  TempDir dir;
-  Process bus({rtukit, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
-               std::to_string(baud)});
-  if (!bus.wait_for_output("listening on")) return row;
-  Process sim({rtukit, "sim", "rehand6600", "--listen", dir / "dev", "--baud", std::to_string(baud),
-               "--no-state", "--no-console"});
-  if (!sim.wait_for_output("listening on")) return row;
+  RehandOnBus rig(baud);
+  if (!rig.ready()) return row;
+  const TempDir& dir = rig.dir;
   const std::string where = "tcp://127.0.0.1:" + std::to_string(free_tcp_port());
   std::vector<std::string> argv{
       rtukit,     "gateway", "--port",    dir / "host", "--baud", std::to_string(baud),
