@@ -250,6 +250,24 @@ TEST(SlaveServer, PtyLinkIsReplacedAndRemoved) {
   EXPECT_FALSE(test::path_exists(link));
 }
 
+// Who holds a pty link is told by its program's name and arguments, also
+// when the program runs under qemu-user through binfmt_misc (the RK3588
+// build's tests): CI's aarch64 stage said "aarch64-binfmt-P /check/...".
+TEST(PtyLink, TheOwnerIsNamedByItsProgram_AlsoUnderAnEmulator) {
+  using namespace std::string_literals;
+  EXPECT_EQ(io::describe_command_line("/usr/bin/rtukit\0sim\0inverjet\0"s), "rtukit sim inverjet");
+  EXPECT_EQ(io::describe_command_line(
+                "/usr/libexec/qemu-binfmt/aarch64-binfmt-P\0/b/aarch64/cli/rtukit\0/b/aarch64/cli/rtukit\0sim\0inverjet\0"s),
+            "rtukit sim inverjet");
+  EXPECT_EQ(io::describe_command_line("/usr/bin/qemu-aarch64-static\0/b/rtukit\0sim\0rehand6600\0"s),
+            "rtukit sim rehand6600");
+  EXPECT_EQ(io::describe_command_line("socat\0-d\0pty,raw\0"s), "socat -d pty,raw");
+  EXPECT_EQ(io::describe_command_line(""), "");
+  const std::string long_line = io::describe_command_line("prog\0"s + std::string(300, 'x'));
+  EXPECT_EQ(long_line.size(), 100u);
+  EXPECT_TRUE(long_line.ends_with("..."));
+}
+
 TEST(PortSpec, ParsesEveryForm) {
   auto serial = io::parse_port("/dev/ttyUSB0", false);
   ASSERT_TRUE(serial.ok());

@@ -9,12 +9,14 @@
 #include <termios.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cctype>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <utility>
+#include <vector>
 
 #include "rtukit/io/serial_config.hpp"
 
@@ -30,17 +32,17 @@ Status os_failure(const std::string& step) {
   return Status(Error(Errc::io_error, err), step + ": " + std::strerror(err));
 }
 
+std::string_view base_name(std::string_view path) {
+  const auto slash = path.find_last_of('/');
+  return slash == std::string_view::npos ? path : path.substr(slash + 1);
+}
+
 // "pid 1234 (rtukit sim inverjet --listen pty:/tmp/x)", as far as /proc tells.
 std::string describe_pid(pid_t pid) {
-  std::string text = "pid " + std::to_string(pid);
+  const std::string text = "pid " + std::to_string(pid);
   std::ifstream in("/proc/" + std::to_string(pid) + "/cmdline", std::ios::binary);
-  std::string cmd((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  while (!cmd.empty() && cmd.back() == '\0') cmd.pop_back();
-  for (char& c : cmd)
-    if (c == '\0') c = ' ';
-  if (const auto slash = cmd.find_last_of('/', cmd.find(' ')); slash != std::string::npos)
-    cmd.erase(0, slash + 1);  // the program's name, not its path
-  if (cmd.size() > 100) cmd = cmd.substr(0, 97) + "...";
+  const std::string raw((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string cmd = describe_command_line(raw);
   return cmd.empty() ? text : text + " (" + cmd + ")";
 }
 
@@ -128,6 +130,34 @@ bool points_at_live_pty(const std::string& link, std::string& target) {
 }
 
 }  // namespace
+
+std::string describe_command_line(std::string_view cmdline) {
+  std::vector<std::string_view> args;
+  for (size_t at = 0; at < cmdline.size();) {
+    const size_t end = std::min(cmdline.find('\0', at), cmdline.size());
+    args.push_back(cmdline.substr(at, end - at));
+    at = end + 1;
+  }
+  while (!args.empty() && args.back().empty()) args.pop_back();
+  // binfmt_misc runs a foreign binary as INTERPRETER PATH [ARGV0] ARGS: with
+  // the P flag (Debian's qemu-user-binfmt names it "*-binfmt-P") argv[0] is
+  // kept, so PATH and ARGV0 usually repeat; the program is PATH.
+  if (args.size() >= 2) {
+    const std::string_view interpreter = base_name(args[0]);
+    if (interpreter.starts_with("qemu-") || interpreter.find("-binfmt-") != std::string_view::npos) {
+      const bool keeps_argv0 = interpreter.ends_with("-binfmt-P") || interpreter.ends_with("-binfmt-PF");
+      args.erase(args.begin());
+      if (keeps_argv0 && args.size() >= 2) args.erase(args.begin() + 1);
+    }
+  }
+  std::string text;
+  for (size_t i = 0; i < args.size(); ++i) {
+    if (i > 0) text += ' ';
+    text += i == 0 ? base_name(args[i]) : args[i];  // the program's name, not its path
+  }
+  if (text.size() > 100) text = text.substr(0, 97) + "...";
+  return text;
+}
 
 Pty::Pty(Pty&& o) noexcept
     : master_(std::exchange(o.master_, -1)),

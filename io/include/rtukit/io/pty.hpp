@@ -3,11 +3,21 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::io {
+
+/// A process's command line, as /proc/PID/cmdline holds it (arguments
+/// separated by NULs), shortened for a message: the program's name without
+/// its path, then its arguments, at most 100 characters. A program run
+/// through an emulator's binfmt_misc interpreter (qemu-user on the RK3588
+/// build's test host: "/usr/libexec/qemu-binfmt/aarch64-binfmt-P
+/// /path/rtukit /path/rtukit sim ...") is named as the program, not the
+/// emulator. Empty in, empty out.
+std::string describe_command_line(std::string_view cmdline);
 
 class Pty {
  public:
