@@ -269,10 +269,10 @@ struct DoctorAdvice {
 
 // `rtukit doctor` on the faulty line; its recommended options as MasterOptions.
 DoctorAdvice ask_doctor(const std::string& port, const Target& t) {
-  const RunResult r = run(
-      {RTUKIT_BIN, "doctor", "--port", port, "--baud", std::to_string(t.baud), "--unit",
-       std::to_string(t.profile->link.unit), "--address", std::to_string(t.doctor_address), "--rounds", "20"},
-      120s);
+  const RunResult r = run({RTUKIT_BIN, "doctor", "--port", port, "--baud", std::to_string(t.baud), "--unit",
+                           std::to_string(profile::link_defaults(*t.profile).unit), "--address",
+                           std::to_string(t.doctor_address), "--rounds", "20"},
+                          120s);
   DoctorAdvice a;
   const size_t at = r.output.find("recommended: ");
   if (r.code != 0 || at == std::string::npos) {
@@ -369,7 +369,7 @@ Report soak(const Target& t, const std::string& fault, BusConfig faults, uint64_
   io::PortSpec spec = *io::parse_port(dir / "host", false);
   spec.serial.baud = t.baud;
   Master m(io::make_link(spec), o);
-  const UnitId unit{t.profile->link.unit};
+  const UnitId unit{profile::link_defaults(*t.profile).unit};
 
   struct Accepted {
     Bytes request;

@@ -329,6 +329,18 @@ std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
   return units;
 }
 
+UnitId device_unit(const std::string& text, const profile::Profile& p) {
+  const profile::UnitRange units = profile::unit_range(p);
+  if (text.empty()) return UnitId{units.fallback};
+  return UnitId{
+      static_cast<uint8_t>(parse_number(text, fmt::format("{} unit", p.name), units.min, units.max))};
+}
+
+std::string device_unit_help(const profile::Profile& p) {
+  const profile::UnitRange units = profile::unit_range(p);
+  return fmt::format("the device's address, {}..{} (default {})", units.min, units.max, units.fallback);
+}
+
 UnitId parse_unit(const std::string& text, bool tcp) {
   return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : 247))};
 }

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
@@ -98,6 +99,13 @@ int64_t parse_number(std::string_view text, std::string_view what, int64_t min, 
 /// broadcast, modbus-rtu.md); Modbus TCP takes 0..255 (0xFF addresses a TCP
 /// device directly). Throws Failure{kUsage} outside the range.
 UnitId parse_unit(const std::string& text, bool tcp = false);
+
+/// A device's unit address from --unit: empty -> its factory address; else
+/// one of the addresses its link-address row (or Profile::link) allows.
+/// Throws Failure{kUsage}: "unit 250 is out of range 1..247 (rehand6600)".
+UnitId device_unit(const std::string& text, const profile::Profile& p);
+/// The help of a device's --unit: "the device's address, 1..254 (default 21)".
+std::string device_unit_help(const profile::Profile& p);
 
 /// "1-247", "21", "1,5,21-30" -> the units in order, each once (1..max).
 /// Throws Failure{kUsage} naming the bad item.

@@ -43,7 +43,7 @@ struct StartArgs {
 // Every inverjet command's options (each command uses the ones it declares).
 struct JetArgs {
   LinkOptions link;
-  std::string unit = "21";
+  std::string unit;  ///< empty: the machine's factory address (the address row's default)
   bool json = false;
   WatchOptions watch{500};
   StartArgs start;
@@ -65,7 +65,7 @@ struct JetArgs {
 
 void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
   a.link.add_to(cmd, false, ij::kDefaultBaud);
-  cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
+  cmd.add_option("--unit,-u", a.unit, device_unit_help(ij::kProfile));
   cmd.add_flag("--json", a.json,
                json_flag ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
 }
@@ -74,7 +74,7 @@ void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
 struct Session {
   explicit Session(const JetArgs& a)
       : master(a.link.make_master()),
-        jet(*master, UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254))}),
+        jet(*master, device_unit(a.unit, ij::kProfile)),
         context(fmt::format("Inverjet {} on {}", jet.unit().value, master->describe())),
         stats(a.link.stats) {
     identify();
@@ -419,12 +419,13 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
   }
   if (value.empty()) throw Failure{kUsage, fmt::format("config {} needs a value", what)};
   if (what == "address") {
-    const auto address = static_cast<uint8_t>(parse_number(value, "address", 1, 254));
+    const uint8_t address = device_unit(value, ij::kProfile).value;
     Session s(a);
     s.check(s.jet.set_address(address), fmt::format("set address {}", address));
-    done(a, s, "config address",
-         fmt::format("address {} -> {} (talk to --unit {} from now on)", a.unit, address, address),
-         {{"address", profile::entry_json(ij::kMap.row(ij::reg::address), address)}});
+    done(
+        a, s, "config address",
+        fmt::format("address {} -> {} (talk to --unit {} from now on)", s.jet.unit().value, address, address),
+        {{"address", profile::entry_json(ij::kMap.row(ij::reg::address), address)}});
   } else if (what == "baud") {
     const auto baud = static_cast<uint32_t>(parse_number(value, "baud", 0, 1000000));
     if (ij::code_of_baud(baud) < 0)
@@ -442,8 +443,11 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
          fmt::format("control mask {}", profile::format_value(ij::kMap.row(ij::reg::control_mask), mask)),
          {{"control_mask", profile::entry_json(ij::kMap.row(ij::reg::control_mask), mask)}});
   } else if (what == "pairing") {
-    const uint16_t mode = value == "off" ? 0 : value == "wifi" ? 1 : value == "remote" ? 2 : 0xFFFF;
-    if (mode == 0xFFFF) throw Failure{kUsage, "pairing: off, wifi or remote"};
+    // The row's value names, as `set pairing` takes them.
+    const profile::Row& row = ij::kMap.row(ij::reg::pairing);
+    const Outcome<int64_t> parsed = profile::parse_value(row, value);
+    if (!parsed.ok()) throw Failure{kUsage, std::string(parsed.error().reason())};
+    const auto mode = static_cast<uint16_t>(*parsed);
     Session s(a);
     s.check(s.jet.set_pairing(mode), "set pairing");
     done(a, s, "config pairing",
@@ -472,11 +476,11 @@ int run_bridge(const JetArgs& a) {
   o.max_rate = a.max_rate;
   o.discovery_prefix = a.no_discovery ? "" : a.discovery_prefix;
   o.response_timeout_ms = a.link.timeout_ms;
-  const std::vector<std::string> units = a.units.empty() ? std::vector<std::string>{"21"} : a.units;
+  const std::vector<std::string> units = a.units.empty() ? std::vector<std::string>{""} : a.units;
   for (const std::string& u : units) {
     const size_t eq = u.find('=');
     programs::BridgeMachine m;
-    m.unit = static_cast<uint8_t>(parse_number(u.substr(0, eq), "unit", 1, 254));
+    m.unit = device_unit(u.substr(0, eq), ij::kProfile).value;
     if (eq != std::string::npos)
       m.id = u.substr(eq + 1);
     else if (units.size() == 1)
@@ -509,7 +513,7 @@ int run_bridge(const JetArgs& a) {
 // file and TLS (Panel::start refuses: one line, exit 2).
 int run_panel(const JetArgs& a) {
   programs::PanelOptions o;
-  o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 254));
+  o.unit = device_unit(a.unit, ij::kProfile).value;
   o.http = a.http;
   o.poll_hz = a.poll_hz;
   o.response_timeout_ms = a.link.timeout_ms;
@@ -639,7 +643,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       "the pool panel: a web page to run the machine and edit its plans (docs/inverjet.md)",
       [&](CLI::App& cmd, JetArgs& a) {
         a.link.add_to(cmd, false, ij::kDefaultBaud);
-        cmd.add_option("--unit,-u", a.unit, "the machine's address, 1..254")->capture_default_str();
+        cmd.add_option("--unit,-u", a.unit, device_unit_help(ij::kProfile));
         cmd.add_option("--http", a.http, "HOST:PORT to serve the page on")->capture_default_str();
         cmd.add_option("--poll-hz", a.poll_hz, "polls per second")->capture_default_str();
         cmd.add_option("--password-file", a.password_file,
@@ -753,7 +757,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
   add_command<JetArgs>(
       *jet, action, "config", "show or set address, baud, mask, pairing",
       [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("WHAT", a.what, "show | address A | baud B | mask M | pairing off|wifi|remote")
+        cmd.add_option("WHAT", a.what, "show | address A | baud B | mask M | pairing off|wifi|remote|0..2")
             ->capture_default_str();
         cmd.add_option("VALUE", a.value, "the new value");
         add_link(cmd, a, true);

@@ -155,15 +155,10 @@ struct DeviceArgs {
   WatchOptions watch{1000};
 };
 
-UnitId device_unit(const DeviceArgs& a, const profile::Profile& p) {
-  return parse_unit(a.unit.empty() ? std::to_string(p.link.unit) : a.unit,
-                    a.link.spec(false).kind == io::PortSpec::Kind::tcp);
-}
-
 int run_get(const DeviceArgs& a, const profile::Profile& p) {
   const std::vector<Selected> selected = select_rows(p, a.keys, false);
   auto master = a.link.make_master();
-  const UnitId unit = device_unit(a, p);
+  const UnitId unit = device_unit(a.unit, p);
   const std::vector<ReadValue> values = read_selected(*master, unit, selected);
   print_values(p, unit, values, a.json);
   for (const ReadValue& v : values) {
@@ -191,7 +186,7 @@ int run_set(const DeviceArgs& a, const profile::Profile& p) {
   std::array<uint16_t, 2> words{};
   profile::RegisterMap::encode(r, *raw, std::span(words.data(), r.words()));
   auto master = a.link.make_master();
-  const UnitId unit = device_unit(a, p);
+  const UnitId unit = device_unit(a.unit, p);
   const uint16_t address = r.entry_address(selected[0].index);
   Error e;
   if (r.space == profile::Space::coil)
@@ -213,7 +208,7 @@ int run_set(const DeviceArgs& a, const profile::Profile& p) {
 int run_watch(const DeviceArgs& a, const profile::Profile& p) {
   const std::vector<Selected> selected = select_rows(p, a.keys, false);
   auto master = a.link.make_master();
-  const UnitId unit = device_unit(a, p);
+  const UnitId unit = device_unit(a.unit, p);
   watch_loop(a.watch, [&](unsigned) {
     const std::vector<ReadValue> values = read_selected(*master, unit, selected);
     print_values(p, unit, values, a.json);
@@ -262,9 +257,9 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
         dev, action, "get", "read registers by name, decoded with units",
         [&p](CLI::App& cmd, DeviceArgs& a) {
           cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
-          cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+          cmd.add_option("--unit,-u", a.unit, device_unit_help(p));
           cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-          a.link.add_to(cmd, false, p.link.baud);
+          a.link.add_to(cmd, false, profile::link_defaults(p).baud);
           const Row& first = p.rows.front();
           examples(cmd, {fmt::format("rtukit {} get --port /dev/ttyUSB0", p.name),
                          fmt::format("rtukit {} get --port /dev/ttyUSB0 {} --json", p.name, first.key)});
@@ -276,9 +271,9 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
         [&p](CLI::App& cmd, DeviceArgs& a) {
           cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
           cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
-          cmd.add_option("--unit,-u", a.unit, fmt::format("unit address (default {})", p.link.unit));
+          cmd.add_option("--unit,-u", a.unit, device_unit_help(p));
           cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-          a.link.add_to(cmd, false, p.link.baud);
+          a.link.add_to(cmd, false, profile::link_defaults(p).baud);
           examples(cmd, {fmt::format("rtukit {} set --port /dev/ttyUSB0 KEY VALUE", p.name),
                          "values as people write them: 80, 80%, outdoor, 30:00, 0x1F"});
         },
@@ -310,16 +305,17 @@ void add_profile_commands(CLI::App& app, Action& action) {
           Json list = Json::array();
           for (const DeviceEntry& e : builtin_devices()) {
             const profile::Profile& p = *e.profile;
+            const profile::LinkDefaults link = profile::link_defaults(p);
             if (*json) {
               list.push_back({{"name", p.name},
                               {"title", p.title},
-                              {"unit", p.link.unit},
-                              {"baud", p.link.baud},
-                              {"parity", std::string(1, p.link.parity)},
+                              {"unit", link.unit},
+                              {"baud", link.baud},
+                              {"parity", std::string(1, link.parity)},
                               {"registers", p.rows.size()}});
             } else {
-              fmt::print("{:<12} {} (unit {}, {} {}{}{})\n", p.name, p.title, p.link.unit, p.link.baud, 8,
-                         p.link.parity, p.link.stop_bits);
+              fmt::print("{:<12} {} (unit {}, {} {}{}{})\n", p.name, p.title, link.unit, link.baud, 8,
+                         link.parity, link.stop_bits);
             }
           }
           if (*json) {
@@ -390,6 +386,20 @@ void add_profile_commands(CLI::App& app, Action& action) {
         examples(cmd, {"rtukit watch --port /dev/ttyUSB0 --map meter.yaml voltage current --interval 2000"});
       },
       [](const DeviceArgs& a) { return run_watch(a, load_map_or_fail(a.map_file)); });
+  add_command<DeviceArgs>(
+      app, action, "set", "write one register by name with a map file (value with unit, name or mm:ss)",
+      [](CLI::App& cmd, DeviceArgs& a) {
+        cmd.add_option("--map", a.map_file, "the device's register-map file")->required();
+        cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
+        cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
+        cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
+        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+        a.link.add_to(cmd, false);
+        examples(cmd, {"rtukit set --port /dev/ttyUSB0 --map meter.yaml demand_period 30:00",
+                       "rtukit set --port /dev/ttyUSB0 --map meter.yaml address 5   (a link-address row: "
+                       "the device answers at 5 from then on)"});
+      },
+      [](const DeviceArgs& a) { return run_set(a, load_map_or_fail(a.map_file)); });
 }
 
 int run_map_read(const LinkOptions& link, const std::string& unit, const std::string& map_file,

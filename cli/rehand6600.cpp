@@ -36,7 +36,7 @@ struct ChairArgs {
   std::string phone_url;                ///< host: what phones open (QR code)
   std::string tls_cert, tls_key;        ///< host: the phone listener's certificate
   std::vector<std::string> host_names;  ///< host: names phones may use for the chair
-  std::string unit = "1";
+  std::string unit;                     ///< empty: the controller's factory address
   bool json = false;
   bool mph = false;
   WatchOptions watch{250};
@@ -48,14 +48,14 @@ struct ChairArgs {
 void add_link(CLI::App& cmd, ChairArgs& a, bool reads) {
   a.link.timeout_ms = 200;
   a.link.add_to(cmd, false, rh::kDefaultBaud);
-  cmd.add_option("--unit,-u", a.unit, "the controller's address")->capture_default_str();
+  cmd.add_option("--unit,-u", a.unit, device_unit_help(rh::kProfile));
   cmd.add_flag("--json", a.json,
                reads ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
   if (reads) cmd.add_flag("--mph", a.mph, "speed in mph (default km/h)");
 }
 
 UnitId unit_of(const ChairArgs& a) {
-  return UnitId{static_cast<uint8_t>(parse_number(a.unit, "unit", 1, 247))};
+  return device_unit(a.unit, rh::kProfile);
 }
 
 // 1010 with its reason and what to check; `code` the exit code (3 no answer, 5 another device).
@@ -560,14 +560,18 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                        "the display's listener (HOST:PORT), loopback only: the kiosk browser on this board")
             ->capture_default_str();
         cmd.add_option("--phone", a.phone,
-                       "a TLS listener for phones (HOST:PORT, repeatable): the chair's hotspot address, e.g. 192.168.4.1:8443");
-        cmd.add_option("--tls-cert", a.tls_cert,
-                       "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
+                       "a TLS listener for phones (HOST:PORT, repeatable): the chair's hotspot address, e.g. "
+                       "192.168.4.1:8443");
+        cmd.add_option(
+            "--tls-cert", a.tls_cert,
+            "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
         cmd.add_option("--tls-key", a.tls_key, "its private key, PEM (with --tls-cert)");
-        cmd.add_option("--host-name", a.host_names,
-                       "a name phones may use for the chair besides its IP address (repeatable), e.g. chair.local");
-        cmd.add_option("--phone-url", a.phone_url,
-                       "what phones open, for the pairing QR code (default https://<this machine's address>:PORT)");
+        cmd.add_option(
+            "--host-name", a.host_names,
+            "a name phones may use for the chair besides its IP address (repeatable), e.g. chair.local");
+        cmd.add_option(
+            "--phone-url", a.phone_url,
+            "what phones open, for the pairing QR code (default https://<this machine's address>:PORT)");
         cmd.add_option(
             "--pairing-file", a.pairing_file,
             "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");

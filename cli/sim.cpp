@@ -121,7 +121,7 @@ struct SimArgs {
 };
 
 void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile) {
-  a.link.add_to(cmd, /*listening=*/true, profile ? profile->link.baud : 9600);
+  a.link.add_to(cmd, /*listening=*/true, profile ? profile::link_defaults(*profile).baud : 9600);
   a.server.add_to(cmd);
   cmd.add_option("--unit,-u", a.unit, "unit address (default: the device's own)");
   cmd.add_option("--state-file", a.state_file,
@@ -141,7 +141,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   profile::SimOptions o;
   o.listen = a.link.spec(/*listening=*/true);
   warn_if_exposed(o.listen, fmt::format("the {} simulator", profile.name));
-  if (!a.unit.empty()) o.unit = static_cast<uint8_t>(parse_number(a.unit, "unit", 1, profile.link.unit_max));
+  if (!a.unit.empty()) o.unit = device_unit(a.unit, profile).value;
   if (a.baud_given) o.baud = a.link.baud;
   bool persists = false;
   for (const profile::Row& r : profile.rows) persists = persists || r.has(profile::kPersisted);
@@ -234,7 +234,7 @@ void add_sim_commands(CLI::App& app, Action& action) {
         // The profile outlives the simulator: both live until the process ends.
         static std::unique_ptr<profile::MapProfile> keep;
         keep = std::move(*map);
-        if (!a.baud_given) a.link.baud = keep->profile().link.baud;
+        if (!a.baud_given) a.link.baud = profile::link_defaults(keep->profile()).baud;
         profile::SimDevice device{profile::make_register_device(keep->profile()), {}, {}};
         return run_sim(a, std::move(device));
       });

@@ -58,9 +58,9 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
   UnitProfiles out;
   const auto split = [](const std::string& s, const char* what) {
     const size_t at = s.rfind('@');
-    if (at == std::string::npos || at == 0)
+    if (at == std::string::npos || at == 0 || at + 1 == s.size())
       throw Failure{kUsage, fmt::format("{} '{}': write NAME@UNIT (inverjet@21)", what, s)};
-    return std::pair{s.substr(0, at), static_cast<uint8_t>(parse_number(s.substr(at + 1), "unit", 1, 247))};
+    return std::pair{s.substr(0, at), s.substr(at + 1)};
   };
   for (const std::string& d : a.devices) {
     const auto [name, unit] = split(d, "--device");
@@ -72,11 +72,12 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
     }
     if (!entry)
       throw Failure{kUsage, fmt::format("--device {}: no such device ({}; or --map FILE@UNIT)", name, known)};
-    out[unit] = entry->profile;
+    out[device_unit(unit, *entry->profile).value] = entry->profile;
   }
   for (const std::string& m : a.maps) {
     const auto [file, unit] = split(m, "--map");
-    out[unit] = &load_map_or_fail(file);
+    const profile::Profile& p = load_map_or_fail(file);
+    out[device_unit(unit, p).value] = &p;
   }
   return out;
 }

@@ -37,8 +37,7 @@ inline std::unique_ptr<profile::Model> make_device(unsigned kind) {
 /// The unit a simulator serves the model at (its stored address, else the
 /// profile's default).
 inline uint8_t device_unit(const profile::Model& m) {
-  if (const auto stored = m.stored_link()) return stored->unit;
-  return m.profile().link.unit;
+  return m.stored_link().unit;
 }
 
 }  // namespace rtukit::fuzz

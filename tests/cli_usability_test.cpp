@@ -37,7 +37,7 @@ TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
   EXPECT_EQ(r.output,
             "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
             "scan, slave, diag, ident, "
-            "inverjet, rehand6600, devices, map, watch, sim, gateway, bus, sniff, doctor, completion)\n");
+            "inverjet, rehand6600, devices, map, watch, set, sim, gateway, bus, sniff, doctor, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),

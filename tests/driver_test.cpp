@@ -256,9 +256,10 @@ TEST(SlaveServer, PtyLinkIsReplacedAndRemoved) {
 TEST(PtyLink, TheOwnerIsNamedByItsProgram_AlsoUnderAnEmulator) {
   using namespace std::string_literals;
   EXPECT_EQ(io::describe_command_line("/usr/bin/rtukit\0sim\0inverjet\0"s), "rtukit sim inverjet");
-  EXPECT_EQ(io::describe_command_line(
-                "/usr/libexec/qemu-binfmt/aarch64-binfmt-P\0/b/aarch64/cli/rtukit\0/b/aarch64/cli/rtukit\0sim\0inverjet\0"s),
-            "rtukit sim inverjet");
+  EXPECT_EQ(
+      io::describe_command_line(
+          "/usr/libexec/qemu-binfmt/aarch64-binfmt-P\0/b/aarch64/cli/rtukit\0/b/aarch64/cli/rtukit\0sim\0inverjet\0"s),
+      "rtukit sim inverjet");
   EXPECT_EQ(io::describe_command_line("/usr/bin/qemu-aarch64-static\0/b/rtukit\0sim\0rehand6600\0"s),
             "rtukit sim rehand6600");
   EXPECT_EQ(io::describe_command_line("socat\0-d\0pty,raw\0"s), "socat -d pty,raw");

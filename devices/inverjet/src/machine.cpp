@@ -53,23 +53,6 @@ Plan Machine::plan(unsigned n) const noexcept {
   return p;
 }
 
-std::optional<profile::LinkDefaults> Machine::stored_link() const noexcept {
-  profile::LinkDefaults link = kProfile.link;
-  link.unit = static_cast<uint8_t>(stored(reg::address));
-  link.baud = baud_of_code(stored(reg::baud));
-  return link;
-}
-
-Error Machine::override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept {
-  if (unit && (*unit < 1 || *unit > 254))
-    return Error(Errc::invalid_argument, "the Inverjet's address is 1..254");
-  if (baud && code_of_baud(*baud) < 0)
-    return Error(Errc::invalid_argument, "the Inverjet runs at 1200, 2400, 4800, 9600 or 19200 baud");
-  if (unit) image().set(reg::address, *unit);
-  if (baud) image().set(reg::baud, code_of_baud(*baud));
-  return Errc::ok;
-}
-
 // ---------------------------------------------------------------- reads
 
 // The live values the image shows: the state machine's registers and the
@@ -133,9 +116,6 @@ Error Machine::apply_write(Space space, uint16_t address, std::span<const uint16
   }
 
   // Apply: stored registers take the values; the rest is behaviour.
-  if (const auto a = written(reg::address); a && *a != stored(reg::address))
-    link_change_.address = static_cast<uint8_t>(*a);
-  if (const auto b = written(reg::baud); b && *b != stored(reg::baud)) link_change_.baud = baud_of_code(*b);
   if (const auto p = written(reg::pairing)) {  // D-6
     pairing_ = *p;
     pairing_until_ = *p ? now_ + kPairingWindowMs : 0;

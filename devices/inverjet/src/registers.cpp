@@ -37,16 +37,13 @@ std::string_view family_name(Family family) noexcept {
   return kNames[static_cast<size_t>(family)];
 }
 
+// The rates are the baud row's value names (D-4: 4 = 19200).
 uint32_t baud_of_code(uint16_t code) noexcept {
-  constexpr uint32_t kRates[] = {1200, 2400, 4800, 9600, 19200};
-  return code < 5 ? kRates[code] : 0;
+  return profile::baud_of(kMap.row(reg::baud), code);
 }
 
 int code_of_baud(uint32_t baud) noexcept {
-  for (uint16_t c = 0; c < 5; ++c) {
-    if (baud_of_code(c) == baud) return c;
-  }
-  return -1;
+  return static_cast<int>(profile::raw_of_baud(kMap.row(reg::baud), baud));
 }
 
 }  // namespace rtukit::inverjet

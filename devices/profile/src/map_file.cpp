@@ -28,7 +28,6 @@ bool is_control(char c) {
   return (b < 0x20 && c != '\t' && c != '\n' && c != '\r') || b == 0x7F;
 }
 
-
 constexpr size_t kMaxMapFile = 4 << 20;
 
 constexpr Space kSpaces[] = {Space::holding, Space::input, Space::coil, Space::discrete};
@@ -181,6 +180,28 @@ Status check_profile(const Profile& profile) {
           return bad(r, fmt::format("default {} is outside its range", r.default_of(i)));
       }
     }
+    if (r.has(kLinkAddress) || r.has(kLinkBaud)) {
+      const Flags flag = r.has(kLinkAddress) ? kLinkAddress : kLinkBaud;
+      if (r.has(kLinkAddress) && r.has(kLinkBaud))
+        return bad(r, "a row is link-address or link-baud, not both");
+      if (row_with(profile, flag) != &r)
+        return bad(r, fmt::format("a second {} row", flag == kLinkAddress ? "link-address" : "link-baud"));
+      if (r.space != Space::holding || r.repeat != 1 || !r.writable())
+        return bad(r, "a link row is one writable holding register");
+      if (flag == kLinkAddress) {
+        const Range v = r.valid_range();
+        if (r.encoding != Encoding::u16 || r.scale != 1 || v.min < 1 || v.max > 255)
+          return bad(r, "a link-address row is a u16 with a range inside 1..255");
+      } else if (r.encoding == Encoding::choice) {
+        for (const Named& n : r.names) {
+          if (baud_of(r, n.value) == 0)
+            return bad(r,
+                       fmt::format("link-baud value {} is named '{}', not a rate (9600)", n.value, n.name));
+        }
+      } else if (r.encoding != Encoding::u16 && r.encoding != Encoding::u32) {
+        return bad(r, "a link-baud row is a choice named by rates, or the rate as u16 or u32");
+      }
+    }
     auto& space = used[static_cast<size_t>(r.space)];
     for (unsigned i = 0; i < r.repeat; ++i) {
       for (unsigned w = 0; w < r.words(); ++w) {
@@ -206,8 +227,8 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
   }
   if (const auto bad = std::find_if(text.begin(), text.end(), is_control); bad != text.end()) {
     const auto line = 1 + std::count(text.begin(), bad, '\n');
-    return Status(Errc::invalid_argument, fmt::format("{}:{}: control character 0x{:02X}", source, line,
-                                                      static_cast<uint8_t>(*bad)));
+    return Status(Errc::invalid_argument,
+                  fmt::format("{}:{}: control character 0x{:02X}", source, line, static_cast<uint8_t>(*bad)));
   }
   try {
     YAML::Node doc;
@@ -278,15 +299,19 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
           reader.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
       }
     }
-    // Device flags: bit 0 is "persisted", the file names the others in order.
-    map->flag_names_.push_back({kPersisted, "persisted"});
+    // The kit's flags (persisted, link-address, link-baud) need no
+    // declaring; the file names its own in order: bits 1..29.
+    for (const FlagName& kit : kKitFlags) map->flag_names_.push_back(kit);
     if (const YAML::Node flags = doc["flags"]) {
       if (!flags.IsSequence()) reader.fail(flags, "flags is a list of names");
+      unsigned bit = 1;
       for (const YAML::Node& f : flags) {
-        if (map->flag_names_.size() >= 32) reader.fail(f, "at most 31 device flags");
         const std::string name = reader.text(f, "flag");
-        if (name == "persisted") continue;
-        map->flag_names_.push_back({Flags{1} << map->flag_names_.size(), map->keep(name)});
+        if (std::any_of(std::begin(kKitFlags), std::end(kKitFlags),
+                        [&](const FlagName& kit) { return kit.name == name; }))
+          continue;
+        if (bit > 29) reader.fail(f, "at most 29 device flags");
+        map->flag_names_.push_back({Flags{1} << bit++, map->keep(name)});
       }
     }
     const YAML::Node regs = doc["registers"];
@@ -370,6 +395,21 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
       if (const Status s = check_profile(Profile{.rows = std::span<const Row>(map->rows_)}); !s.ok())
         reader.fail(n, std::string(s.reason()));
     }
+    // A link row decides the unit or the rate; a device field beside it
+    // must agree (an exported built-in has both), or the file says two things.
+    const Profile rows_only{.rows = std::span<const Row>(map->rows_)};
+    if (const Row* r = row_with(rows_only, kLinkAddress);
+        r && device["unit"] && p.link.unit != r->default_value)
+      reader.fail(device["unit"],
+                  fmt::format("device.unit {} disagrees with the default {} of the link-address "
+                              "row '{}': the row decides, drop device.unit",
+                              p.link.unit, r->default_value, r->key));
+    if (const Row* r = row_with(rows_only, kLinkBaud);
+        r && device["baud"] && p.link.baud != baud_of(*r, r->default_value))
+      reader.fail(device["baud"],
+                  fmt::format("device.baud {} disagrees with the default {} of the link-baud row "
+                              "'{}': the row decides, drop device.baud",
+                              p.link.baud, baud_of(*r, r->default_value), r->key));
   } catch (const Bad& bad) {
     return Status(Errc::invalid_argument, bad.message);
   } catch (const YAML::Exception& e) {
@@ -415,12 +455,7 @@ nlohmann::ordered_json row_document(const Profile& p, const Row& r) {
   if (r.stride != 0) j["stride"] = r.stride;
   if (r.flags) {
     nlohmann::ordered_json flags = nlohmann::ordered_json::array();
-    for (const FlagName& f : p.flag_names) {
-      if (r.has(f.flag)) flags.push_back(f.name);
-    }
-    if (r.has(kPersisted) && std::none_of(p.flag_names.begin(), p.flag_names.end(),
-                                          [](const FlagName& f) { return f.flag == kPersisted; }))
-      flags.insert(flags.begin(), "persisted");
+    for (const std::string_view name : flag_names(p, r)) flags.push_back(name);
     j["flags"] = flags;
   }
   if (!r.names.empty()) {
@@ -441,11 +476,12 @@ nlohmann::ordered_json map_document(const Profile& p) {
   if (!p.vendor.empty()) device["vendor"] = p.vendor;
   if (!p.product_code.empty()) device["product_code"] = p.product_code;
   if (!p.revision.empty()) device["revision"] = p.revision;
-  device["unit"] = p.link.unit;
-  if (p.link.unit_max != 247) device["unit_max"] = p.link.unit_max;
-  device["baud"] = p.link.baud;
-  device["parity"] = std::string(1, p.link.parity);
-  device["stop_bits"] = p.link.stop_bits;
+  const LinkDefaults link = link_defaults(p);
+  device["unit"] = link.unit;
+  if (link.unit_max != 247) device["unit_max"] = link.unit_max;
+  device["baud"] = link.baud;
+  device["parity"] = std::string(1, link.parity);
+  device["stop_bits"] = link.stop_bits;
   nlohmann::ordered_json quirks = nlohmann::ordered_json::array();
   if (p.quirks.fc10_without_byte_count) quirks.push_back("fc10_without_byte_count");
   if (p.quirks.fc03_two_byte_count) quirks.push_back("fc03_two_byte_count");
@@ -453,7 +489,7 @@ nlohmann::ordered_json map_document(const Profile& p) {
   doc["device"] = device;
   // Device flags in bit order (bit 0, persisted, is implicit).
   nlohmann::ordered_json flags = nlohmann::ordered_json::array();
-  for (unsigned bit = 1; bit < 32; ++bit) {
+  for (unsigned bit = 1; bit < 30; ++bit) {
     for (const FlagName& f : p.flag_names) {
       if (f.flag == (Flags{1} << bit)) flags.push_back(f.name);
     }

@@ -58,8 +58,32 @@ std::string_view Model::device_object(uint8_t id) {
 }
 
 Model::Model(const Profile& profile, std::span<uint16_t> storage) noexcept
-    : profile_(&profile), map_(profile.rows), image_(map_, storage), functions_(functions_for(profile)) {
+    : profile_(&profile),
+      map_(profile.rows),
+      image_(map_, storage),
+      functions_(functions_for(profile)),
+      address_row_(row_with(profile, kLinkAddress)),
+      baud_row_(row_with(profile, kLinkBaud)) {
   image_.reset();
+}
+
+LinkDefaults Model::stored_link() const noexcept {
+  LinkDefaults link = link_defaults(*profile_);
+  if (address_row_) link.unit = static_cast<uint8_t>(image_.get(*address_row_));
+  if (baud_row_) {
+    if (const uint32_t b = baud_of(*baud_row_, image_.get(*baud_row_))) link.baud = b;
+  }
+  return link;
+}
+
+Error Model::override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept {
+  if (unit && !unit_range(*profile_).contains(*unit))
+    return Error(Errc::invalid_argument, "unit outside the device's range");
+  const int64_t baud_raw = baud && baud_row_ ? raw_of_baud(*baud_row_, *baud) : 0;
+  if (baud_raw < 0) return Error(Errc::invalid_argument, "no such baud rate");
+  if (unit && address_row_) image_.set(*address_row_, *unit);
+  if (baud && baud_row_) image_.set(*baud_row_, baud_raw);
+  return Errc::ok;
 }
 
 Errc Model::read(Space space, uint16_t address, std::span<uint16_t> out) {
@@ -71,7 +95,17 @@ Errc Model::read(Space space, uint16_t address, std::span<uint16_t> out) {
 
 Errc Model::write(Space space, uint16_t address, std::span<const uint16_t> values) {
   if (const Error e = map_.check_write(space, address, values)) return e.code();
-  return apply_write(space, address, values).code();
+  // A link row the write changed moves the device after the response (the
+  // simulator host asks take_link_change()); a refused write changes nothing.
+  const int64_t unit_before = address_row_ ? image_.get(*address_row_) : 0;
+  const int64_t baud_before = baud_row_ ? image_.get(*baud_row_) : 0;
+  if (const Error e = apply_write(space, address, values)) return e.code();
+  if (address_row_ && image_.get(*address_row_) != unit_before)
+    link_change_.address = static_cast<uint8_t>(image_.get(*address_row_));
+  if (baud_row_ && image_.get(*baud_row_) != baud_before) {
+    if (const uint32_t b = baud_of(*baud_row_, image_.get(*baud_row_))) link_change_.baud = b;
+  }
+  return Errc::ok;
 }
 
 Errc Model::read_bits(Space space, uint16_t address, uint16_t count, std::span<uint8_t> packed_out) {

@@ -90,9 +90,10 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   if (!DeviceClock::valid_scale(options.time_scale))
     return Status(Errc::invalid_argument, "--time-scale must be > 0 (and at most 100000)");
   const Profile& profile = device.model->profile();
-  if (options.unit && (*options.unit < 1 || *options.unit > profile.link.unit_max))
+  const UnitRange units = unit_range(profile);
+  if (options.unit && !units.contains(*options.unit))
     return Status(Errc::invalid_argument,
-                  fmt::format("the {}'s address is 1..{}", profile.name, profile.link.unit_max));
+                  fmt::format("the {}'s address is {}..{}", profile.name, units.min, units.max));
 
   std::unique_ptr<SimHost> host(new SimHost(ctx, std::move(device), std::move(options)));
   Model& model = *host->device_.model;
@@ -117,10 +118,18 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
   }
   const std::vector<uint16_t> stored = persisted_words(model.image());
   if (o.unit || o.baud) {
-    if (const Error e = model.override_link(o.unit, o.baud))
-      return Status(Errc::invalid_argument, std::string(e.text()));
+    if (model.override_link(o.unit, o.baud)) {
+      // Only a baud rate the link-baud row cannot hold gets here (the unit
+      // was checked above): name the rates it can.
+      std::string rates;
+      if (const Row* r = row_with(profile, kLinkBaud)) {
+        for (const Named& n : r->names) rates += (rates.empty() ? "" : ", ") + std::string(n.name);
+      }
+      return Status(Errc::invalid_argument, fmt::format("the {} runs at {} baud", profile.name,
+                                                        rates.empty() ? std::string("other rates") : rates));
+    }
   }
-  const LinkDefaults link = model.stored_link().value_or(profile.link);
+  const LinkDefaults link = model.stored_link();
   host->unit_ = o.unit.value_or(link.unit);
   // The link runs at the device's baud rate unless the command line chose one.
   o.listen.serial.baud = o.baud.value_or(link.baud);

@@ -88,6 +88,18 @@ Outcome<int64_t> checked(const Row& row, int64_t raw, std::string_view typed) {
 
 }  // namespace
 
+std::vector<std::string_view> flag_names(const Profile& profile, const Row& row) {
+  std::vector<std::string_view> out;
+  if (row.has(kPersisted)) out.push_back("persisted");
+  for (const FlagName& f : profile.flag_names) {
+    if ((f.flag & kDeviceFlagBits) && row.has(f.flag)) out.push_back(f.name);
+  }
+  for (const FlagName& kit : kKitFlags) {
+    if (kit.flag != kPersisted && row.has(kit.flag)) out.push_back(kit.name);
+  }
+  return out;
+}
+
 std::string_view name_of(const Row& row, int64_t value) noexcept {
   for (const Named& n : row.names) {
     if (n.value == value) return n.name;
@@ -436,8 +448,8 @@ std::string registers_markdown(const Profile& profile) {
         notes += r.encoding == Encoding::bits ? fmt::format("bit{} {}", n.value, n.name)
                                               : fmt::format("{} {}", n.value, n.name);
       }
-      for (const FlagName& f : profile.flag_names) {
-        if (r.has(f.flag) && f.flag != kPersisted) notes += (notes.empty() ? "" : "; ") + std::string(f.name);
+      for (const std::string_view flag : flag_names(profile, r)) {
+        if (flag != "persisted") notes += (notes.empty() ? "" : "; ") + std::string(flag);
       }
       if (r.has(kPersisted)) notes += notes.empty() ? "persisted" : "; persisted";
       if (!r.notes.empty()) notes += (notes.empty() ? "" : "; ") + std::string(r.notes);

@@ -48,7 +48,7 @@ inline constexpr unsigned kMaxCommandAheadS = 2;
 inline constexpr size_t kCommandQueueLimit = 32;
 
 struct BridgeMachine {
-  uint8_t unit = 21;
+  uint8_t unit = inverjet::kDefaultAddress;
   std::string id;  ///< topic id: rtukit/inverjet/<id>/...
 };
 

@@ -28,13 +28,14 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
 
 struct PanelOptions {
-  uint8_t unit = 21;
+  uint8_t unit = inverjet::kDefaultAddress;
   std::string http = "127.0.0.1:8081";
   double poll_hz = 2;
   unsigned response_timeout_ms = 300;

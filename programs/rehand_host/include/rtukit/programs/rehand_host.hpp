@@ -36,11 +36,11 @@ namespace rtukit::programs {
 
 /// One paired phone as the store keeps it: never its token, only the token's SHA-256.
 struct PairedPhone {
-  std::string id;          ///< 12 hex digits, random: how the display names it in "forget"
-  std::string token_hash;  ///< SHA-256 of the token, hex
-  std::string name;        ///< as the phone asked, shown on the display
-  std::string code;        ///< the pairing code it paired with (the display user saw it)
-  std::string paired_at;   ///< UTC, ISO 8601
+  std::string id;            ///< 12 hex digits, random: how the display names it in "forget"
+  std::string token_hash;    ///< SHA-256 of the token, hex
+  std::string name;          ///< as the phone asked, shown on the display
+  std::string code;          ///< the pairing code it paired with (the display user saw it)
+  std::string paired_at;     ///< UTC, ISO 8601
   int64_t last_contact = 0;  ///< Unix seconds of its last connection
 };
 

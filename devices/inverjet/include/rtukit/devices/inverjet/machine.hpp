@@ -127,12 +127,8 @@ class Machine final : private profile::ImageStorage<kMap.image_size()>, public p
   /// Training plan `n` (1..4) as the image holds it.
   Plan plan(unsigned n) const noexcept;
 
-  // ---- for the simulator host ----
-  /// A written address or baud code waiting to take effect after the response.
-  profile::LinkChange take_link_change() noexcept override { return std::exchange(link_change_, {}); }
-  std::optional<profile::LinkDefaults> stored_link() const noexcept override;
-  /// Errors: invalid_argument for an address outside 1..254 or a baud rate with no code.
-  Error override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept override;
+  // The address and baud rate (0x0000, 0x0001) are link rows: the kit's
+  // Model applies them after the response (take_link_change, stored_link).
 
  protected:
   void refresh(Space space) noexcept override;
@@ -184,8 +180,6 @@ class Machine final : private profile::ImageStorage<kMap.image_size()>, public p
   double mosfet_c_;
   double motor_c_;
   double mains_v_;
-
-  profile::LinkChange link_change_{};
 };
 
 }  // namespace rtukit::inverjet

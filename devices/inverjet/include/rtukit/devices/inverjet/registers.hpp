@@ -27,7 +27,6 @@ using profile::Space;
 
 /// Default link settings (spec D-1, D-2).
 inline constexpr uint8_t kDefaultAddress = 21;
-inline constexpr uint32_t kDefaultBaud = 9600;
 inline constexpr unsigned kPlanCount = 4;
 inline constexpr unsigned kSegmentsPerPlan = 50;
 inline constexpr uint16_t kMaxTime = 5999;  ///< seconds (99:59), every time register
@@ -39,7 +38,8 @@ inline constexpr profile::Flags kMasked = 1U << 1;
 namespace detail {
 inline constexpr Named kBaudCodes[] = {{0, "1200"}, {1, "2400"}, {2, "4800"}, {3, "9600"}, {4, "19200"}};
 inline constexpr Named kMaskBits[] = {{0, "Bluetooth"}, {1, "Modbus-RS485"}, {2, "Wi-Fi"}};
-inline constexpr Named kPairing[] = {{0, "none"}, {1, "Wi-Fi pairing"}, {2, "remote-control pairing"}};
+// Short names: they are what people type (`set pairing wifi`, `config pairing wifi`).
+inline constexpr Named kPairing[] = {{0, "off"}, {1, "wifi"}, {2, "remote"}};
 inline constexpr Named kModes[] = {
     {0, "free & timer"}, {1, "plan P1"}, {2, "plan P2"}, {3, "plan P3"}, {4, "plan P4"}};
 inline constexpr Named kStates[] = {
@@ -137,7 +137,7 @@ inline constexpr Row kRows[] = {
      .title = "slave address",
      .range = {1, 254},
      .default_value = kDefaultAddress,
-     .flags = detail::kSaved,
+     .flags = detail::kSaved | profile::kLinkAddress,
      .notes = "takes effect after the response to the write"},
     {.space = Space::holding,
      .address = 0x0001,
@@ -146,7 +146,7 @@ inline constexpr Row kRows[] = {
      .encoding = Encoding::choice,
      .range = {0, 4},
      .default_value = 3,
-     .flags = detail::kSaved,
+     .flags = detail::kSaved | profile::kLinkBaud,
      .names = detail::kBaudCodes,
      .notes = "takes effect after the response to the write (D-4: 4 = 19200)"},
     {.space = Space::holding,
@@ -283,11 +283,14 @@ inline constexpr profile::Profile kProfile{
     .vendor = "Inverjet",
     .rows = kRows,
     .flag_names = kFlagNames,
-    .link = {.unit = kDefaultAddress, .unit_max = 254, .baud = kDefaultBaud, .parity = 'N', .stop_bits = 1},
+    .link = {.parity = 'N', .stop_bits = 1},  // address and baud: the link rows 0x0000, 0x0001
     .quirks = {.fc10_without_byte_count = true},
 };
 
 inline constexpr profile::RegisterMap kMap{kRows};
+/// The factory baud rate: the baud row's default (code 3).
+inline constexpr uint32_t kDefaultBaud = profile::link_defaults(kProfile).baud;
+static_assert(kDefaultBaud == 9600);
 
 /// Registers used by name in code: compile-time handles (a typo does not compile).
 namespace reg {

@@ -69,17 +69,18 @@ class Model : public RegisterBank {
   virtual void advance_to(uint64_t /*now_ms*/) noexcept {}
   /// The image's persisted rows were replaced from a state file.
   virtual void restored() noexcept {}
-  /// A link change waiting since the last call (see LinkChange).
-  virtual LinkChange take_link_change() noexcept { return {}; }
-  /// The unit address and baud rate the device keeps in its own registers
-  /// (the Inverjet's 0x0000/0x0001), or nullopt for a device that has none
-  /// (the host then uses the profile's LinkDefaults).
-  virtual std::optional<LinkDefaults> stored_link() const noexcept { return std::nullopt; }
-  /// The simulator's --unit / --baud override what is stored. Errors:
-  /// invalid_argument with a static reason ("no baud code for that rate").
-  virtual Error override_link(std::optional<uint8_t> /*unit*/, std::optional<uint32_t> /*baud*/) noexcept {
-    return Errc::ok;
-  }
+  /// A link change waiting since the last call (see LinkChange): a write
+  /// that changed a link row (kLinkAddress, kLinkBaud).
+  LinkChange take_link_change() noexcept { return std::exchange(link_change_, {}); }
+  /// The unit address and baud rate the device keeps in its link rows (the
+  /// Inverjet's 0x0000/0x0001); for a device without them, its
+  /// `link_defaults()`.
+  LinkDefaults stored_link() const noexcept;
+  /// The simulator's --unit / --baud override what the link rows store.
+  /// Errors (nothing changes then): invalid_argument, "unit outside the
+  /// device's range" (its `unit_range()`) or "no such baud rate" (a link-baud
+  /// row that cannot hold it). A device without a link row stores nothing.
+  Error override_link(std::optional<uint8_t> unit, std::optional<uint32_t> baud) noexcept;
 
   // ---- RegisterBank, generic over the map ----
   FunctionSet functions() const noexcept override { return functions_; }
@@ -133,6 +134,9 @@ class Model : public RegisterBank {
   RegisterMap map_;
   Image image_;
   FunctionSet functions_;
+  const Row* address_row_;
+  const Row* baud_row_;
+  LinkChange link_change_;
 };
 
 }  // namespace rtukit::profile

@@ -80,10 +80,20 @@ struct Named {
   std::string_view name;
 };
 
-/// Device flags are a bitmask; bit 0 is the kit's own, the others are named
-/// by each device (`Profile::flag_names`).
+/// Device flags are a bitmask; bits 0, 30 and 31 are the kit's own (named
+/// by `kKitFlags`), the others are named by each device (`Profile::flag_names`).
 using Flags = uint32_t;
 inline constexpr Flags kPersisted = 1U << 0;  ///< kept across power cycles (the state file)
+/// The row holds the device's own unit address (a link row): a write takes
+/// effect after the response to it, the row's range is the range of
+/// addresses the device answers at, its default the factory address.
+inline constexpr Flags kLinkAddress = 1U << 30;
+/// The row holds the device's baud rate (a link row): a choice whose value
+/// names are rates ("9600"), or the rate itself. A write takes effect after
+/// the response to it; the default is the factory rate.
+inline constexpr Flags kLinkBaud = 1U << 31;
+/// The flags a device may use without naming them: bits 1..29.
+inline constexpr Flags kDeviceFlagBits = ~(kPersisted | kLinkAddress | kLinkBaud);
 
 struct FlagName {
   Flags flag = 0;
@@ -162,10 +172,13 @@ struct Row {
   }
 };
 
-/// Link defaults of a device.
+/// Link defaults of a device. For a device with link rows (kLinkAddress,
+/// kLinkBaud) those rows decide the address, its range and the baud rate,
+/// and these fields are not used for them: read them through
+/// `link_defaults()` and `unit_range()`, never directly.
 struct LinkDefaults {
   uint8_t unit = 1;
-  uint8_t unit_max = 247;  ///< highest address the device accepts (the Inverjet: 254)
+  uint8_t unit_max = 247;  ///< highest address the device accepts (Modbus serial line: 247)
   uint32_t baud = 9600;
   char parity = 'N';  ///< 'N', 'E', 'O'
   uint8_t stop_bits = 1;
@@ -184,5 +197,74 @@ struct Profile {
   LinkDefaults link;
   FrameQuirks quirks;  ///< opt-in frame quirks (RTU links only)
 };
+
+/// The kit's own flags by name, as map files and the docs write them.
+inline constexpr FlagName kKitFlags[] = {
+    {kPersisted, "persisted"}, {kLinkAddress, "link-address"}, {kLinkBaud, "link-baud"}};
+
+/// The first row carrying `flag`, or nullptr.
+constexpr const Row* row_with(const Profile& p, Flags flag) noexcept {
+  for (const Row& r : p.rows) {
+    if (r.has(flag)) return &r;
+  }
+  return nullptr;
+}
+
+/// The unit addresses a device answers at, and the one it has from the factory.
+struct UnitRange {
+  uint8_t min = 1;
+  uint8_t max = 247;
+  uint8_t fallback = 1;  ///< the default address
+  constexpr bool contains(int64_t unit) const noexcept { return unit >= min && unit <= max; }
+};
+
+/// From the link-address row (its range and default) when the device has
+/// one, else from `Profile::link` (1..unit_max, unit).
+constexpr UnitRange unit_range(const Profile& p) noexcept {
+  if (const Row* r = row_with(p, kLinkAddress)) {
+    const Range v = r->valid_range();
+    const auto clip = [](int64_t x) { return static_cast<uint8_t>(x < 1 ? 1 : x > 255 ? 255 : x); };
+    return {clip(v.min), clip(v.max), clip(r->default_value)};
+  }
+  return {1, p.link.unit_max, p.link.unit};
+}
+
+/// The rate a link-baud row's raw value stands for: a choice's name read as
+/// a number, or the value itself; 0 when the value names no rate.
+constexpr uint32_t baud_of(const Row& row, int64_t raw) noexcept {
+  if (row.encoding != Encoding::choice) return raw > 0 && raw <= 0xFFFFFFFF ? static_cast<uint32_t>(raw) : 0;
+  for (const Named& n : row.names) {
+    if (n.value != raw) continue;
+    uint64_t rate = 0;
+    for (const char c : n.name) {
+      if (c < '0' || c > '9' || rate > 100000000) return 0;
+      rate = rate * 10 + static_cast<uint64_t>(c - '0');
+    }
+    return static_cast<uint32_t>(rate);
+  }
+  return 0;
+}
+/// The raw value a link-baud row stores for `baud`, or -1 when the device
+/// has no such rate.
+constexpr int64_t raw_of_baud(const Row& row, uint32_t baud) noexcept {
+  if (baud == 0) return -1;
+  if (row.encoding != Encoding::choice) return row.valid_range().contains(baud) ? int64_t{baud} : -1;
+  for (const Named& n : row.names) {
+    if (baud_of(row, n.value) == baud) return n.value;
+  }
+  return -1;
+}
+
+/// The device's factory link: `Profile::link` with the unit and baud rate
+/// taken from its link rows' defaults where it has them.
+constexpr LinkDefaults link_defaults(const Profile& p) noexcept {
+  LinkDefaults link = p.link;
+  link.unit = unit_range(p).fallback;
+  link.unit_max = unit_range(p).max;
+  if (const Row* r = row_with(p, kLinkBaud)) {
+    if (const uint32_t b = baud_of(*r, r->default_value)) link.baud = b;
+  }
+  return link;
+}
 
 }  // namespace rtukit::profile

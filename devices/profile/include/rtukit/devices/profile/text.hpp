@@ -7,6 +7,7 @@
 #include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "rtukit/devices/profile/register_map.hpp"
 #include "rtukit/io/status.hpp"
@@ -39,6 +40,9 @@ Status check_argument(const Row& row, int64_t raw);
 
 /// The name of a choice value or bit ("timer running"), or empty when not listed.
 std::string_view name_of(const Row& row, int64_t value) noexcept;
+/// The names of a row's flags: "persisted" first, then the device's own
+/// (`Profile::flag_names`), then the kit's link flags ("link-address", "link-baud").
+std::vector<std::string_view> flag_names(const Profile& profile, const Row& row);
 
 /// The value for JSON: a number in the row's unit (scaled), a choice's name,
 /// an array of bit names, "mm:ss" stays a number of seconds, a version "1.2".

@@ -1,0 +1,203 @@
+// One device layer (issue 27): a fact of a device is written once, in its
+// table, and every front-end reads it from there.
+//  - Link rows (kLinkAddress, kLinkBaud): the unit range, the factory address
+//    and the baud rate come from the rows; a write to them moves the device
+//    after the response, for a built-in model and for a map file alike.
+//  - The CLI's device verbs, the sniffer and the simulator take the range
+//    the row allows (the Inverjet answers at 1..254, the Rehand at 1..247).
+//  - `set pairing` and `config pairing` take the row's value names.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "process.hpp"
+#include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/rehand6600/registers.hpp"
+
+using namespace rtukit;
+using namespace rtukit::test;
+
+namespace {
+
+const std::string kBin = RTUKIT_BIN;
+const std::string kMeter = std::string(EXAMPLES_DIR) + "/maps/energy-meter.yaml";
+
+}  // namespace
+
+TEST(LinkRows, TheRangeAndDefaultsComeFromTheRows) {
+  const profile::UnitRange jet = profile::unit_range(inverjet::kProfile);
+  EXPECT_EQ(jet.min, 1);
+  EXPECT_EQ(jet.max, 254);
+  EXPECT_EQ(jet.fallback, 21);
+  EXPECT_EQ(profile::link_defaults(inverjet::kProfile).baud, 9600u);
+  const profile::Row& baud = inverjet::kMap.row(inverjet::reg::baud);
+  EXPECT_EQ(profile::baud_of(baud, 4), 19200u);  // D-4
+  EXPECT_EQ(profile::raw_of_baud(baud, 1200), 0);
+  EXPECT_EQ(profile::raw_of_baud(baud, 38400), -1);
+  // The Rehand keeps its address out of its registers: Profile::link decides.
+  const profile::UnitRange chair = profile::unit_range(rehand6600::kProfile);
+  EXPECT_EQ(chair.max, 247);
+  EXPECT_EQ(chair.fallback, 1);
+  EXPECT_EQ(profile::link_defaults(rehand6600::kProfile).baud, 115200u);
+}
+
+TEST(LinkRows, AWriteMovesTheDeviceAfterTheResponse_ARefusedOneDoesNot) {
+  inverjet::Machine m(0);
+  EXPECT_EQ(m.stored_link().unit, 21);
+  const uint16_t address = 0x0000;
+  const std::array<uint16_t, 2> both{7, 4};
+  ASSERT_EQ(m.write_holding_registers(address, both), Errc::ok);
+  const profile::LinkChange change = m.take_link_change();
+  ASSERT_TRUE(change.address);
+  EXPECT_EQ(*change.address, 7);
+  ASSERT_TRUE(change.baud);
+  EXPECT_EQ(*change.baud, 19200u);
+  EXPECT_FALSE(m.take_link_change()) << "taken once";
+  EXPECT_EQ(m.stored_link().unit, 7);
+  EXPECT_EQ(m.stored_link().baud, 19200u);
+  // The same values again: no change to apply.
+  ASSERT_EQ(m.write_holding_registers(address, both), Errc::ok);
+  EXPECT_FALSE(m.take_link_change());
+  // Outside the row's range: 03, nothing changes.
+  const std::array<uint16_t, 1> zero{0};
+  EXPECT_EQ(m.write_holding_registers(address, zero), Errc::illegal_data_value);
+  EXPECT_FALSE(m.take_link_change());
+  EXPECT_EQ(m.override_link(uint8_t{255}, std::nullopt).code(), Errc::invalid_argument);
+  EXPECT_EQ(m.override_link(std::nullopt, 38400u).code(), Errc::invalid_argument);
+  EXPECT_EQ(m.stored_link().unit, 7);
+  EXPECT_TRUE(m.override_link(uint8_t{254}, 1200u).ok());
+  EXPECT_EQ(m.stored_link().unit, 254);
+  EXPECT_EQ(m.stored_link().baud, 1200u);
+}
+
+// A map file's address and baud rows, flagged link-address and link-baud,
+// act like the Inverjet's: the generic model needs no code for it.
+TEST(LinkRows, AMapFilesLinkRowsTakeEffect) {
+  auto map = profile::load_map(kMeter);
+  ASSERT_TRUE(map.ok()) << map.error().reason();
+  const profile::Profile& p = (*map)->profile();
+  EXPECT_EQ(profile::link_defaults(p).unit, 1);
+  EXPECT_EQ(profile::link_defaults(p).baud, 9600u);
+  auto model = profile::make_register_device(p);
+  const std::array<uint16_t, 1> five{5};
+  ASSERT_EQ(model->write_holding_registers(0x0000, five), Errc::ok);
+  const profile::LinkChange change = model->take_link_change();
+  ASSERT_TRUE(change.address);
+  EXPECT_EQ(*change.address, 5);
+  EXPECT_FALSE(change.baud);
+}
+
+TEST(LinkRows, AMapFileThatSaysTwoThingsIsRefused) {
+  const auto check = [](const std::string& yaml) {
+    auto map = profile::parse_map(yaml, "m.yaml");
+    return map.ok() ? std::string("ok") : std::string(map.error().reason());
+  };
+  const std::string head = "format: rtukit-map\ndevice:\n  name: x\n";
+  const std::string address_row =
+      "  - {key: address, address: 0, role: setting, range: [1, 247], default: 3, flags: [link-address]}\n";
+  EXPECT_EQ(check(head + "registers:\n" + address_row), "ok");
+  EXPECT_NE(check(head + "  unit: 4\nregisters:\n" + address_row).find("m.yaml:4: device.unit 4 disagrees"),
+            std::string::npos)
+      << check(head + "  unit: 4\nregisters:\n" + address_row);
+  EXPECT_NE(
+      check(head + "registers:\n" + address_row +
+            "  - {key: a2, address: 1, role: setting, range: [1, 247], default: 3, flags: [link-address]}\n")
+          .find("a second link-address row"),
+      std::string::npos);
+  EXPECT_NE(check(head + "registers:\n" +
+                  "  - {key: baud, address: 1, role: setting, encoding: choice, values: {0: fast}, "
+                  "flags: [link-baud]}\n")
+                .find("link-baud value 0 is named 'fast', not a rate"),
+            std::string::npos);
+  EXPECT_NE(check(head + "registers:\n" +
+                  "  - {key: address, address: 0, role: status, range: [1, 247], flags: [link-address]}\n")
+                .find("one writable holding register"),
+            std::string::npos);
+}
+
+// `rtukit inverjet get --unit 250` and `inverjet status --unit 250` both
+// work (the row allows 1..254; the CLI once capped `get` at 247), and so does
+// the sniffer's inverjet@250; the Rehand's 250 is refused by its own range.
+TEST(DeviceLayerCli, TheUnitRangeIsTheRowsEverywhere) {
+  TempDir dir;
+  const std::string tty = dir / "tty";
+  Process sim(
+      {kBin, "sim", "inverjet", "--listen", "pty:" + tty, "--unit", "250", "--no-state", "--no-console"});
+  ASSERT_TRUE(sim.wait_for_output("listening on")) << sim.output();
+  EXPECT_NE(sim.output().find("unit 250"), std::string::npos) << sim.output();
+
+  const RunResult get = run_cli(kBin, {"inverjet", "get", "--unit", "250", "state"}, tty);
+  EXPECT_EQ(get.code, 0) << get.output;
+  EXPECT_NE(get.output.find("state"), std::string::npos) << get.output;
+  const RunResult status = run_cli(kBin, {"inverjet", "status", "--unit", "250"}, tty);
+  EXPECT_EQ(status.code, 0) << status.output;
+  const RunResult beyond = run_cli(kBin, {"inverjet", "get", "--unit", "255", "state"}, tty);
+  EXPECT_EQ(beyond.code, 2) << beyond.output;
+  EXPECT_NE(beyond.output.find("inverjet unit 255 is out of range 1..254"), std::string::npos)
+      << beyond.output;
+
+  // The sniffer: a device's unit is checked against that device's range
+  // (a port that does not exist then fails as a port: exit 4, not 2).
+  const RunResult sniff_jet = run({kBin, "sniff", "--port", dir / "absent", "--device", "inverjet@250"});
+  EXPECT_EQ(sniff_jet.code, 4) << sniff_jet.output;
+  const RunResult sniff_chair = run({kBin, "sniff", "--port", dir / "absent", "--device", "rehand6600@250"});
+  EXPECT_EQ(sniff_chair.code, 2) << sniff_chair.output;
+  EXPECT_NE(sniff_chair.output.find("rehand6600 unit 250 is out of range 1..247"), std::string::npos)
+      << sniff_chair.output;
+  const RunResult chair = run_cli(kBin, {"rehand6600", "status", "--unit", "250"}, tty);
+  EXPECT_EQ(chair.code, 2) << chair.output;
+}
+
+// `set pairing` (the generic register verb) and `config pairing` (the
+// Inverjet's own) take the same words: the row's value names.
+TEST(DeviceLayerCli, SetPairingAndConfigPairingAgree) {
+  TempDir dir;
+  const std::string tty = dir / "tty";
+  Process sim({kBin, "sim", "inverjet", "--listen", "pty:" + tty, "--no-state", "--no-console"});
+  ASSERT_TRUE(sim.wait_for_output("listening on")) << sim.output();
+  const auto pairing = [&] {
+    const RunResult r = run_cli(kBin, {"inverjet", "get", "pairing", "--json"}, tty);
+    EXPECT_EQ(r.code, 0) << r.output;
+    return r.code == 0 ? nlohmann::json::parse(r.output)["values"]["pairing"]["value"].get<std::string>()
+                       : std::string();
+  };
+  for (const char* word : {"wifi", "off", "remote"}) {
+    const RunResult set = run_cli(kBin, {"inverjet", "set", "pairing", word}, tty);
+    EXPECT_EQ(set.code, 0) << word << ": " << set.output;
+    EXPECT_EQ(pairing(), word);
+    const RunResult config = run_cli(kBin, {"inverjet", "config", "pairing", word}, tty);
+    EXPECT_EQ(config.code, 0) << word << ": " << config.output;
+    EXPECT_EQ(pairing(), word);
+  }
+  const RunResult set_bad = run_cli(kBin, {"inverjet", "set", "pairing", "bluetooth"}, tty);
+  const RunResult config_bad = run_cli(kBin, {"inverjet", "config", "pairing", "bluetooth"}, tty);
+  EXPECT_EQ(set_bad.code, 2) << set_bad.output;
+  EXPECT_EQ(config_bad.code, 2) << config_bad.output;
+  EXPECT_NE(set_bad.output.find("off, wifi, remote"), std::string::npos) << set_bad.output;
+  EXPECT_NE(config_bad.output.find("off, wifi, remote"), std::string::npos) << config_bad.output;
+}
+
+// A map-file device through the same verbs: `set --map` by key, and a
+// write to its link-address row moves the simulator to the new address.
+TEST(DeviceLayerCli, AMapDeviceIsWrittenByKey_ItsAddressRowMovesIt) {
+  TempDir dir;
+  const std::string tty = dir / "tty";
+  Process sim({kBin, "sim", "map", kMeter, "--listen", "pty:" + tty, "--no-state", "--no-console"});
+  ASSERT_TRUE(sim.wait_for_output("listening on")) << sim.output();
+  const RunResult period = run_cli(kBin, {"set", "--map", kMeter, "demand_period", "30:00"}, tty);
+  ASSERT_EQ(period.code, 0) << period.output;
+  const RunResult read = run_cli(kBin, {"read", "--map", kMeter, "demand_period"}, tty);
+  EXPECT_NE(read.output.find("demand_period = 30:00"), std::string::npos) << read.output;
+
+  const RunResult move = run_cli(kBin, {"set", "--map", kMeter, "address", "9"}, tty);
+  ASSERT_EQ(move.code, 0) << move.output;
+  EXPECT_TRUE(sim.wait_for_output("address changed: 1 -> 9")) << sim.output();
+  const RunResult at9 = run_cli(kBin, {"read", "--map", kMeter, "--unit", "9", "address"}, tty);
+  EXPECT_EQ(at9.code, 0) << at9.output;
+  EXPECT_NE(at9.output.find("address = 9"), std::string::npos) << at9.output;
+  const RunResult at1 =
+      run_cli(kBin, {"read", "--map", kMeter, "--unit", "1", "address", "--timeout", "300"}, tty);
+  EXPECT_EQ(at1.code, 3) << "the old address no longer answers: " << at1.output;
+}
