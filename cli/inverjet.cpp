@@ -20,6 +20,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/devices/profile/text.hpp"
@@ -150,56 +151,15 @@ std::string version_text(uint32_t v) {
   return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
 }
 
-// In the fault screen (state 17) the state no longer says whether a free or
-// a timer run was going; a watch remembers the last family it saw so the
-// time keeps its meaning ("remaining" stays remaining).
-ij::Family time_family(const ij::MachineStatus& s, ij::Family remembered) {
-  if (s.family() != ij::Family::none) return s.family();
-  if (s.mode >= 1) return ij::Family::training;  // a plan's time counts up
-  return remembered;
-}
-
-// "remaining", "elapsed" or, when nothing tells, "at the fault".
+// The time's meaning and the status document are the device layer's
+// (devices/inverjet/verbs.hpp): the bridge and the panel show the same.
 std::string_view time_counts(const ij::MachineStatus& s, ij::Family remembered) {
-  switch (time_family(s, remembered)) {
-    case ij::Family::timer:
-      return "remaining";
-    case ij::Family::none:
-      return s.state == 17 ? "at the fault" : "elapsed";
-    default:
-      return "elapsed";
-  }
+  return ij::time_counts_name(ij::time_counts(s, remembered));
 }
 
 Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
   Json out = json_document("inverjet", unit.value);
-  Json& v = out["values"] = Json::object();
-  const auto reg = [&v](profile::Handle h, int64_t raw) {
-    const profile::Row& r = ij::kMap.row(h);
-    v[std::string(r.key)] = profile::entry_json(r, raw);
-  };
-  const auto named = [&v](const char* key, std::string_view value) {
-    v[key] = json_quantity(std::string(value), {}, std::string(value));
-  };
-  reg(ij::reg::work_mode, s.mode);
-  reg(ij::reg::state, s.state);
-  named("phase", ij::phase_name(s.phase()));
-  named("family", ij::family_name(s.family()));
-  reg(ij::reg::speed, s.speed);
-  reg(ij::reg::run_time, s.run_time);
-  named("run_time_counts", time_counts(s, remembered));
-  reg(ij::reg::faults, s.faults);
-  const auto scaled = [](double value, unsigned scale) { return std::lround(value * scale); };
-  reg(ij::kMap.handle("mosfet_temperature"), scaled(s.mosfet_c, 10));
-  reg(ij::kMap.handle("motor_temperature"), scaled(s.motor_c, 10));
-  reg(ij::kMap.handle("motor_current"), scaled(s.current_a, 100));
-  reg(ij::kMap.handle("motor_speed"), s.rpm_x_poles);
-  v["rpm"] = json_quantity(s.rpm, "rpm", fmt::format("{} rpm", s.rpm));
-  reg(ij::kMap.handle("bus_voltage"), scaled(s.bus_v, 10));
-  reg(ij::reg::display_software, s.display_software);
-  reg(ij::reg::display_hardware, s.display_hardware);
-  reg(ij::reg::driver_software, s.driver_software);
-  reg(ij::reg::driver_hardware, s.driver_hardware);
+  out["values"] = ij::status_values(s, remembered);
   return out;
 }
 
@@ -224,7 +184,7 @@ std::string status_panel(const ij::MachineStatus& s, ij::Family remembered) {
       "temps     MOSFET {:.1f} degC, motor {:.1f} degC\n"
       "bus       {:.1f} V\n"
       "versions  display {} (hw {}), driver {} (hw {})\n",
-      s.state == 17 ? LivePanel::alert(s.state_name()) : std::string(s.state_name()), s.state,
+      s.phase() == ij::Phase::fault ? LivePanel::alert(s.state_name()) : std::string(s.state_name()), s.state,
       profile::format_value(ij::kMap.row(ij::reg::work_mode), s.mode), s.speed, s.rpm, s.current_a,
       time_text(s, remembered), s.faults ? LivePanel::alert(faults) : faults, s.mosfet_c, s.motor_c, s.bus_v,
       version_text(s.display_software), version_text(s.display_hardware), version_text(s.driver_software),
@@ -276,8 +236,7 @@ int run_watch(const JetArgs& a) {
       return;
     }
     down_since.clear();
-    if (st->family() != ij::Family::none) remembered = st->family();
-    if (st->state == 0) remembered = ij::Family::none;
+    remembered = ij::remember_family(*st, remembered);
     if (a.json)
       print_json(status_document(*st, s.jet.unit(), remembered));
     else if (tty)

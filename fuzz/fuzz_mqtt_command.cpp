@@ -1,6 +1,6 @@
 // The Inverjet command path the MQTT bridge (.../set/<name> messages) and the
 // pool panel (WebSocket {"op": name, ...}) share: mqtt_command_body (the
-// stale guard and the body) and inverjet_command, run through a typed Client
+// stale guard and the body) and inverjet::run_command, run through a typed Client
 // whose link is an in-process simulated machine (a MemoryLink answered by a
 // slave engine serving the simulator's model, on virtual time).
 // Properties: never crashes and never throws (an exception would end the
@@ -111,7 +111,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       double ts = body["ts"].get<double>();
       if (ts > 1e12) ts /= 1000;
       if (!(kNow - ts <= kMaxAge) || ts - kNow > programs::kMaxCommandAheadS) std::abort();
-      e = programs::inverjet_command(*rig.client, name, body, result);
+      e = inverjet::run_command(*rig.client, name, body, result);
     }
     const unsigned writes = rig.writes - writes_before;
     if (writes > 1) std::abort();

@@ -63,12 +63,12 @@ TEST(InverjetCommand, ARetainedCommandIsRefusedWhateverItSays) {
 
 TEST(InverjetCommand, EveryCommandHasADocumentedExample) {
   for (const char* name : {"start", "pause", "resume", "stop", "speed", "plan"}) {
-    const std::string example = rtukit::programs::command_example(name);
+    const std::string example = rtukit::inverjet::command_example(name);
     ASSERT_FALSE(example.empty()) << name;
     const Json j = Json::parse(example);
     EXPECT_TRUE(j.is_object() && j.contains("ts")) << name;
   }
-  EXPECT_TRUE(rtukit::programs::command_example("fly").empty());
+  EXPECT_TRUE(rtukit::inverjet::command_example("fly").empty());
 }
 
 }  // namespace

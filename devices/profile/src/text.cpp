@@ -2,6 +2,8 @@
 // from the row; nothing here knows a device.
 #include "rtukit/devices/profile/text.hpp"
 
+#include <algorithm>
+
 #include <fmt/core.h>
 
 #include <cctype>
@@ -126,6 +128,24 @@ const Row* find_row(const RegisterMap& map, std::string_view typed) {
     if (fold_name(r.key) == key) return &r;
   }
   return nullptr;
+}
+
+std::string excerpt(std::string_view s, size_t max) {
+  std::string out;
+  while (!s.empty() && out.size() < max) {
+    const size_t valid = valid_utf8_prefix(s);
+    if (valid == 0) {
+      out += '?';
+      s.remove_prefix(1);
+      continue;
+    }
+    std::string_view piece = s.substr(0, std::min(valid, max - out.size()));
+    piece = piece.substr(0, valid_utf8_prefix(piece));  // never half a character
+    if (piece.empty()) break;
+    out += piece;
+    s.remove_prefix(piece.size());
+  }
+  return out;
 }
 
 size_t valid_utf8_prefix(std::string_view s) noexcept {

@@ -25,6 +25,7 @@
 #include <thread>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
 
@@ -40,35 +41,6 @@ struct Command {
   std::string payload;
   bool retained = false;
 };
-
-// A JSON integer 0..65535. Text ("55") is a wrong type: one form per field.
-std::optional<uint16_t> small_number(const Json& v) {
-  if (v.is_number_unsigned() && v.get<uint64_t>() <= 0xFFFF) return static_cast<uint16_t>(v.get<uint64_t>());
-  return std::nullopt;
-}
-
-// Client text quoted in a reason: at most `max` bytes of whole UTF-8
-// characters, bytes that are not UTF-8 as '?'. Reasons go into JSON result
-// documents, and nlohmann::json::dump() throws on invalid UTF-8: a topic,
-// payload or op with a stray byte, or a cut through a character, ended the
-// bridge's or the panel's bus thread (found by fuzz_mqtt_command).
-std::string quoted(std::string_view s, size_t max) {
-  std::string out;
-  while (!s.empty() && out.size() < max) {
-    const size_t valid = profile::valid_utf8_prefix(s);
-    if (valid == 0) {
-      out += '?';
-      s.remove_prefix(1);
-      continue;
-    }
-    std::string_view piece = s.substr(0, std::min(valid, max - out.size()));
-    piece = piece.substr(0, profile::valid_utf8_prefix(piece));  // never half a character
-    if (piece.empty()) break;
-    out += piece;
-    s.remove_prefix(piece.size());
-  }
-  return out;
-}
 
 bool is_loopback_host(const std::string& host) {
   return host == "localhost" || host == "::1" || host == "[::1]" || host.rfind("127.", 0) == 0;
@@ -117,19 +89,10 @@ rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
   return {};
 }
 
-std::string command_example(std::string_view name) {
-  if (name == "start") return R"({"mode": "timer", "speed": 60, "duration": "30:00", "ts": 1764100000})";
-  if (name == "pause" || name == "resume" || name == "stop") return R"({"ts": 1764100000})";
-  if (name == "speed") return R"({"speed": 55, "ts": 1764100000})";
-  if (name == "plan")
-    return R"({"plan": 2, "segments": [{"speed": 40, "end": "05:00"}, {"speed": 70, "end": "10:00"}], "ts": 1764100000})";
-  return {};
-}
-
 rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload, bool retained, double now_s,
                                  unsigned max_age_s, Json& body) {
   const auto refuse = [&](std::string why) {
-    const std::string example = command_example(name);
+    const std::string example = ij::command_example(name);
     if (!example.empty()) why += fmt::format("; for example {}", example);
     return rtukit::Status(Errc::refused, std::move(why));
   };
@@ -156,119 +119,6 @@ rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload
         Errc::refused, fmt::format("\"ts\" is {:.0f} s in the future (limit {} s): check the sender's clock",
                                    -age, kMaxCommandAheadS));
   return {};
-}
-
-rtukit::Status inverjet_command(ij::Client& client, std::string_view name_view, const Json& body,
-                                Json& result) {
-  const std::string name(name_view);
-  const auto refuse = [&](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
-  if (!body.is_object()) return refuse(fmt::format("{}: expected a JSON object", quoted(name, 40)));
-  const auto duration = [&](const char* key, std::optional<uint32_t>& out) -> rtukit::Status {
-    const Json& v = body[key];
-    if (!v.is_string())
-      return refuse(fmt::format("\"{}\": a duration as text: \"30:00\", \"30m\" or \"90s\"", key));
-    const Result<uint32_t> s = profile::parse_duration(v.get<std::string>());
-    if (!s)
-      return refuse(
-          fmt::format("\"{}\" '{}': {}", key, quoted(v.get<std::string>(), 20), s.error().reason()));
-    out = *s;
-    return {};
-  };
-  if (name == "pause") return client.pause();
-  if (name == "resume") return client.resume();
-  if (name == "stop") return client.stop();
-  if (name == "speed") {
-    const std::optional<uint16_t> speed = body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
-    if (!speed) return refuse("speed: \"speed\" is required, a whole number 0..100");
-    return client.set_speed(*speed);
-  }
-  if (name == "start") {
-    // value() throws on a "mode" that is not text ({"mode": 1}), which ended
-    // the bridge's or the panel's bus thread (found by fuzz_mqtt_command).
-    if (!body.contains("mode") || !body["mode"].is_string())
-      return refuse("start: \"mode\" is required: \"free\", \"timer\" or \"plan\"");
-    const std::string mode = body["mode"].get<std::string>();
-    if (mode == "free") {
-      if (!body.contains("speed")) return client.start_free_from_memory();
-      const std::optional<uint16_t> speed = small_number(body["speed"]);
-      if (!speed)
-        return refuse("free: \"speed\" must be a whole number 0..100 (leave it out: the remembered speed)");
-      return client.start_free(*speed);
-    }
-    if (mode == "timer") {
-      const std::optional<uint16_t> speed =
-          body.contains("speed") ? small_number(body["speed"]) : std::nullopt;
-      if (!speed) return refuse("timer: \"speed\" is required, a whole number 0..100");
-      if (!body.contains("duration")) return refuse("timer: \"duration\" is required, for example \"30:00\"");
-      std::optional<uint32_t> seconds;
-      if (rtukit::Status e = duration("duration", seconds)) return e;
-      if (*seconds < 1 || *seconds > 5999) return refuse("timer: \"duration\" must be 00:01..99:59");
-      return client.start_timer(*speed, static_cast<uint16_t>(*seconds));
-    }
-    if (mode == "plan") {
-      const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
-      if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
-      std::optional<uint32_t> from = 0;
-      if (body.contains("from"))
-        if (rtukit::Status e = duration("from", from)) return e;
-      if (*from > 5999) return refuse("plan: \"from\" must be 00:00..99:59");
-      return client.start_plan(*plan, static_cast<uint16_t>(*from));
-    }
-    return refuse(fmt::format("start: mode must be free, timer or plan, not '{}'", quoted(mode, 20)));
-  }
-  if (name == "plan") {
-    if (!body.contains("segments") || !body["segments"].is_array())
-      return refuse(
-          "plan: expected {\"plan\": 1..4, \"segments\": [{\"speed\": 0..100, \"end\": \"mm:ss\"}, ...]}");
-    const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
-    if (!plan || *plan < 1 || *plan > 4) return refuse("plan: \"plan\" 1..4 is required");
-    std::vector<ij::Segment> segments;
-    for (const Json& s : body["segments"]) {
-      const std::string at = fmt::format("plan: segment {}", segments.size() + 1);
-      if (!s.is_object() || !s.contains("speed") || !s.contains("end"))
-        return refuse(at + " needs \"speed\" and \"end\"");
-      const std::optional<uint16_t> speed = small_number(s["speed"]);
-      if (!speed) return refuse(at + ": \"speed\" must be a whole number 0..100");
-      const Result<uint32_t> end = s["end"].is_string() ? profile::parse_duration(s["end"].get<std::string>())
-                                                        : Result<uint32_t>(Error(Errc::invalid_argument, ""));
-      if (!end || *end > 0xFFFF)
-        return refuse(at + ": \"end\" must be a duration as text: \"05:00\", \"5m\" or \"90s\"");
-      segments.push_back({*speed, static_cast<uint16_t>(*end)});
-    }
-    if (rtukit::Status e = ij::validate_plan(segments)) return e;
-    if (rtukit::Status e = client.write_plan(*plan, segments)) return e;
-    result["segments"] = segments.size();
-    return {};
-  }
-  return refuse(fmt::format("unknown command '{}'", quoted(name, 40)));
-}
-
-Json machine_state_json(const ij::MachineStatus& s) {
-  Json faults = Json::array();
-  for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
-  const bool timer = s.family() == ij::Family::timer;
-  return Json{{"mode", s.mode == 0 ? (timer ? "timer" : "free") : fmt::format("plan {}", s.mode)},
-              {"mode_raw", s.mode},
-              {"state", std::string(s.state_name())},
-              {"state_raw", s.state},
-              {"running", s.phase() == ij::Phase::running},
-              {"speed", s.speed},
-              {"time", profile::format_mm_ss(s.run_time)},
-              {"remaining_s", timer ? Json(s.run_time) : Json(nullptr)},
-              {"elapsed_s", timer ? Json(nullptr) : Json(s.run_time)},
-              {"faults", faults},
-              {"fault", !faults.empty()},
-              {"mosfet_c", s.mosfet_c},
-              {"motor_c", s.motor_c},
-              {"current_a", s.current_a},
-              {"rpm", s.rpm},
-              {"bus_v", s.bus_v},
-              {"plan_select", s.mode >= 1 && s.mode <= 4 ? fmt::format("Plan {}", s.mode) : ""},
-              {"versions",
-               {{"display_software", s.display_software},
-                {"display_hardware", s.display_hardware},
-                {"driver_software", s.driver_software},
-                {"driver_hardware", s.driver_hardware}}}};
 }
 
 // ---------------------------------------------------------------- one machine
@@ -298,6 +148,7 @@ struct Machine {
   std::atomic<unsigned> acked{0};     ///< QoS 1 publishes the broker acknowledged
 
   // Bridge thread only.
+  ij::Family remembered = ij::Family::none;  ///< the run family through a fault screen
   bool online = false;
   unsigned failures = 0;
   Clock::time_point next_poll{};
@@ -367,7 +218,7 @@ struct Bridge::Impl {
     }
     // A flood is cut, not queued, and every command cut gets its answer:
     // a sender that hears nothing would not know to try again.
-    Json result{{"command", quoted(c.name, 40)},
+    Json result{{"command", profile::excerpt(c.name, 40)},
                 {"at", iso_now()},
                 {"ok", false},
                 {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
@@ -386,7 +237,7 @@ struct Bridge::Impl {
         std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
     if (rtukit::Status e = mqtt_command_body(c.name, c.payload, c.retained, now_s, options.max_age_s, body))
       return e;
-    return inverjet_command(m.client, c.name, body, result);
+    return ij::run_command(m.client, c.name, body, result);
   }
 
   void publish_discovery(Machine& m) {
@@ -583,7 +434,8 @@ struct Bridge::Impl {
         }
         m.failures = 0;
         set_online(m, true);
-        publish_state(m, machine_state_json(*s), now, command_effect);
+        m.remembered = ij::remember_family(*s, m.remembered);
+        publish_state(m, ij::state_document(*s, m.remembered), now, command_effect);
         if (!command_effect) m.next_poll = now + period;
       }
       lock.lock();

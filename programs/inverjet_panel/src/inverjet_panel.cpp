@@ -31,10 +31,10 @@
 #include <thread>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/atomic_file.hpp"
-#include "rtukit/programs/inverjet_bridge.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
@@ -560,7 +560,7 @@ struct Panel::Impl {
         broadcast(text);
       });
     } else {
-      e = inverjet_command(client, op, m, result);
+      e = inverjet::run_command(client, op, m, result);
       if (!e && op == "plan") {
         Json p = read_plans();  // read back what the machine stored
         server.post([this, text = p.dump()] {
@@ -590,6 +590,7 @@ struct Panel::Impl {
     bool online = false;
     bool said_offline = false;  // the page hears of a machine that never answered too
     unsigned failures = 0;
+    inverjet::Family remembered = inverjet::Family::none;  // the run family through a fault screen
     for (;;) {
       std::deque<Job> todo;
       {
@@ -629,7 +630,8 @@ struct Panel::Impl {
           broadcast(text);
         });
       }
-      Json st = machine_state_json(*s);
+      remembered = inverjet::remember_family(*s, remembered);
+      Json st = inverjet::state_document(*s, remembered);
       st["type"] = "state";
       st["online"] = true;
       st["last_contact_ms"] = contact;

@@ -34,6 +34,7 @@
 #include <vector>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -65,30 +66,8 @@ struct BridgeOptions {
   unsigned response_timeout_ms = 300;
 };
 
-/// The machine's status as the bridge and the pool panel publish it: mode,
-/// state by name, speed, time (remaining or elapsed), faults by name,
-/// temperatures, current, rpm, bus voltage, versions (docs/inverjet.md).
-nlohmann::json machine_state_json(const inverjet::MachineStatus& s);
-
-/// Runs one command as the bridge's set/<name> topics and the pool panel take
-/// it, from a JSON object (the panel's message, or the MQTT payload that
-/// mqtt_command_body accepted; other fields such as "ts", "id", "op" are
-/// ignored here):
-///   start {"mode": "free", "speed"?: 0..100}      (no speed: the machine's remembered one)
-///   start {"mode": "timer", "speed": 0..100, "duration": "30:00" | "30m" | "90s"}
-///   start {"mode": "plan", "plan": 1..4, "from"?: duration}
-///   pause {}, resume {}, stop {}
-///   speed {"speed": 0..100}
-///   plan  {"plan": 1..4, "segments": [{"speed": 0..100, "end": duration}, ...]}
-/// Numbers are JSON integers, durations JSON strings (profile::parse_duration:
-/// a bare number has no unit and is refused). Checked as the typed client
-/// checks (it runs them); never applied halfway. Errors: invalid_argument
-/// with the rule and an example, or the machine's answer (Modbus exception
-/// with its reason), timeouts.
-rtukit::Status inverjet_command(inverjet::Client& client, std::string_view name, const nlohmann::json& body,
-                                nlohmann::json& result);
-
-/// The body of a command message on .../set/<name>, for inverjet_command.
+/// The body of a command message on .../set/<name>, for inverjet::run_command
+/// (devices/inverjet/verbs.hpp: the verbs every front-end runs).
 /// Refused before anything runs (Errc::refused, the reason says what to
 /// send instead): a retained message; a payload that is not one JSON object
 /// (empty, "PRESS", false, a number); no numeric "ts" (seconds, or
@@ -97,11 +76,6 @@ rtukit::Status inverjet_command(inverjet::Client& client, std::string_view name,
 /// the time (and the fuzzer any payload).
 rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload, bool retained, double now_s,
                                  unsigned max_age_s, nlohmann::json& body);
-
-/// A command's documented MQTT payload, as an example for refusals and the
-/// docs ("{\"mode\": \"free\", \"speed\": 60, \"ts\": 1764100000}"); empty for an
-/// unknown command.
-std::string command_example(std::string_view name);
 
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.

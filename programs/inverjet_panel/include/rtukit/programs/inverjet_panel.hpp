@@ -4,11 +4,11 @@
 //
 // One bus thread owns the machine: it polls (2 Hz), runs the pages' commands
 // in arrival order through the same command runner as the MQTT bridge
-// (inverjet_command: the typed client's rules), keeps the run's history for
+// (inverjet::run_command: the verbs every front-end runs), keeps the run's history for
 // the charts, and posts the results to the web thread. A page never waits
 // for the bus and never slows the polling.
 //
-// WebSocket /ws. Server -> page: {"type":"state", ...machine_state_json...,
+// WebSocket /ws. Server -> page: {"type":"state", ...inverjet::state_document...,
 // "online"}, {"type":"sample","t","speed","current_a","mosfet_c","motor_c"},
 // {"type":"history","samples":[...]}, {"type":"plans","plans":[[{speed,end}]x4]},
 // {"type":"result","id","op","ok","error"}. Page -> server: {"op": start |

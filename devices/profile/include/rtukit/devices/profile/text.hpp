@@ -59,6 +59,9 @@ nlohmann::ordered_json entry_json(const Row& row, int64_t raw);
 /// (nlohmann::json::dump() throws otherwise), so outside text is checked with
 /// this before it is kept or quoted.
 size_t valid_utf8_prefix(std::string_view s) noexcept;
+/// Outside text quoted in a reason: at most `max` bytes of whole UTF-8
+/// characters, bytes that are not UTF-8 as '?' (safe to put into JSON).
+std::string excerpt(std::string_view s, size_t max);
 
 /// mm:ss for a number of seconds ("30:00", "99:59").
 std::string format_mm_ss(unsigned seconds);

@@ -1,0 +1,258 @@
+// The Inverjet's verbs and status view: what every front-end shows and runs.
+#include "rtukit/devices/inverjet/verbs.hpp"
+
+#include <fmt/core.h>
+
+#include <cmath>
+#include <nlohmann/json.hpp>
+
+#include "rtukit/devices/profile/text.hpp"
+
+namespace rtukit::inverjet {
+namespace {
+
+using Json = nlohmann::json;
+
+// {"value": ..., "unit"?: ..., "text": ...}: the shape of a computed entry
+// beside the register entries (docs/json.md).
+Json quantity(Json value, std::string_view unit, std::string text) {
+  Json q{{"value", std::move(value)}};
+  if (!unit.empty()) q["unit"] = unit;
+  q["text"] = std::move(text);
+  return q;
+}
+
+// A JSON integer 0..65535. Text ("55") is a wrong type: one form per field.
+std::optional<uint16_t> small_number(const Json& v) {
+  if (v.is_number_unsigned() && v.get<uint64_t>() <= 0xFFFF) return static_cast<uint16_t>(v.get<uint64_t>());
+  return std::nullopt;
+}
+
+// "0..100" from a row's writable range, as the refusals say it.
+std::string range_of(profile::Handle h) {
+  const profile::Range r = kMap.row(h).write_range();
+  return fmt::format("{}..{}", r.min, r.max);
+}
+
+bool writable(profile::Handle h, int64_t raw) { return kMap.row(h).write_range().contains(raw); }
+
+}  // namespace
+
+// ---------------------------------------------------------------- the view
+
+std::string_view time_counts_name(TimeCounts t) noexcept {
+  switch (t) {
+    case TimeCounts::remaining:
+      return "remaining";
+    case TimeCounts::unknown:
+      return "at the fault";
+    default:
+      return "elapsed";
+  }
+}
+
+Family time_family(const MachineStatus& s, Family remembered) noexcept {
+  if (s.family() != Family::none) return s.family();
+  if (plan_of(s)) return Family::training;  // a plan's time counts up
+  return remembered;
+}
+
+TimeCounts time_counts(const MachineStatus& s, Family remembered) noexcept {
+  switch (time_family(s, remembered)) {
+    case Family::timer:
+      return TimeCounts::remaining;
+    case Family::none:
+      return s.phase() == Phase::fault ? TimeCounts::unknown : TimeCounts::elapsed;
+    default:
+      return TimeCounts::elapsed;
+  }
+}
+
+Family remember_family(const MachineStatus& s, Family remembered) noexcept {
+  if (s.family() != Family::none) return s.family();
+  return s.phase() == Phase::off ? Family::none : remembered;
+}
+
+std::optional<unsigned> plan_of(const MachineStatus& s) noexcept {
+  // The work mode's value names are "plan P1".."plan P4" for 1..kPlanCount.
+  if (s.mode >= 1 && s.mode <= kPlanCount) return s.mode;
+  return std::nullopt;
+}
+
+Json status_values(const MachineStatus& s, Family remembered) {
+  Json v = Json::object();
+  const auto reg = [&v](profile::Handle h, int64_t raw) {
+    const profile::Row& r = kMap.row(h);
+    v[std::string(r.key)] = profile::entry_json(r, raw);
+  };
+  // A measured value back to its register's raw value, through the row's scale.
+  const auto measured = [&reg](profile::Handle h, double value) {
+    const Result<int64_t> raw = profile::RegisterMap::from_number(kMap.row(h), value);
+    reg(h, raw ? *raw : 0);
+  };
+  const auto named = [&v](const char* key, std::string_view value) {
+    v[key] = quantity(std::string(value), {}, std::string(value));
+  };
+  reg(reg::work_mode, s.mode);
+  reg(reg::state, s.state);
+  named("phase", phase_name(s.phase()));
+  named("family", family_name(s.family()));
+  reg(reg::speed, s.speed);
+  reg(reg::run_time, s.run_time);
+  named("run_time_counts", time_counts_name(time_counts(s, remembered)));
+  reg(reg::faults, s.faults);
+  measured(kMap.handle("mosfet_temperature"), s.mosfet_c);
+  measured(kMap.handle("motor_temperature"), s.motor_c);
+  measured(kMap.handle("motor_current"), s.current_a);
+  reg(reg::motor_speed, s.rpm_x_poles);
+  v["rpm"] = quantity(s.rpm, "rpm", fmt::format("{} rpm", s.rpm));
+  measured(kMap.handle("bus_voltage"), s.bus_v);
+  reg(reg::display_software, s.display_software);
+  reg(reg::display_hardware, s.display_hardware);
+  reg(reg::driver_software, s.driver_software);
+  reg(reg::driver_hardware, s.driver_hardware);
+  return v;
+}
+
+Json state_document(const MachineStatus& s, Family remembered) {
+  Json faults = Json::array();
+  for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
+  const TimeCounts counts = time_counts(s, remembered);
+  const std::optional<unsigned> plan = plan_of(s);
+  const bool timer = time_family(s, remembered) == Family::timer;
+  return Json{{"mode", plan ? fmt::format("plan {}", *plan) : timer ? "timer" : "free"},
+              {"mode_raw", s.mode},
+              {"state", std::string(s.state_name())},
+              {"state_raw", s.state},
+              {"running", s.phase() == Phase::running},
+              {"speed", s.speed},
+              {"time", profile::format_mm_ss(s.run_time)},
+              {"time_counts", time_counts_name(counts)},
+              {"remaining_s", counts == TimeCounts::remaining ? Json(s.run_time) : Json(nullptr)},
+              {"elapsed_s", counts == TimeCounts::elapsed ? Json(s.run_time) : Json(nullptr)},
+              {"faults", faults},
+              {"fault", !faults.empty()},
+              {"mosfet_c", s.mosfet_c},
+              {"motor_c", s.motor_c},
+              {"current_a", s.current_a},
+              {"rpm", s.rpm},
+              {"bus_v", s.bus_v},
+              {"plan_select", plan ? fmt::format("Plan {}", *plan) : ""},
+              {"versions",
+               {{"display_software", s.display_software},
+                {"display_hardware", s.display_hardware},
+                {"driver_software", s.driver_software},
+                {"driver_hardware", s.driver_hardware}}}};
+}
+
+// ---------------------------------------------------------------- the verbs
+
+std::string command_example(std::string_view name) {
+  if (name == "start") return R"({"mode": "timer", "speed": 60, "duration": "30:00", "ts": 1764100000})";
+  if (name == "pause" || name == "resume" || name == "stop") return R"({"ts": 1764100000})";
+  if (name == "speed") return R"({"speed": 55, "ts": 1764100000})";
+  if (name == "plan")
+    return R"({"plan": 2, "segments": [{"speed": 40, "end": "05:00"}, {"speed": 70, "end": "10:00"}], "ts": 1764100000})";
+  return {};
+}
+
+rtukit::Status run_command(Client& client, std::string_view name_view, const Json& body, Json& result) {
+  const std::string name(name_view);
+  const auto refuse = [&](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
+  if (!body.is_object()) return refuse(fmt::format("{}: expected a JSON object", profile::excerpt(name, 40)));
+  const std::string speeds = range_of(reg::speed);
+  const std::string plans = fmt::format("1..{}", kPlanCount);
+  const auto duration = [&](const char* key, std::optional<uint32_t>& out) -> rtukit::Status {
+    const Json& v = body[key];
+    if (!v.is_string())
+      return refuse(fmt::format("\"{}\": a duration as text: \"30:00\", \"30m\" or \"90s\"", key));
+    const Result<uint32_t> s = profile::parse_duration(v.get<std::string>());
+    if (!s)
+      return refuse(fmt::format("\"{}\" '{}': {}", key, profile::excerpt(v.get<std::string>(), 20),
+                                s.error().reason()));
+    out = *s;
+    return {};
+  };
+  const auto speed_of = [&](const Json& v) -> std::optional<uint16_t> {
+    const std::optional<uint16_t> speed = small_number(v);
+    return speed && writable(reg::speed, *speed) ? speed : std::nullopt;
+  };
+  const auto plan_number = [&]() -> std::optional<uint16_t> {
+    const std::optional<uint16_t> plan = body.contains("plan") ? small_number(body["plan"]) : std::nullopt;
+    return plan && *plan >= 1 && *plan <= kPlanCount ? plan : std::nullopt;
+  };
+  if (name == "pause") return client.pause();
+  if (name == "resume") return client.resume();
+  if (name == "stop") return client.stop();
+  if (name == "speed") {
+    const std::optional<uint16_t> speed = body.contains("speed") ? speed_of(body["speed"]) : std::nullopt;
+    if (!speed) return refuse(fmt::format("speed: \"speed\" is required, a whole number {}", speeds));
+    return client.set_speed(*speed);
+  }
+  if (name == "start") {
+    // value() throws on a "mode" that is not text ({"mode": 1}), which ended
+    // the bridge's or the panel's bus thread (found by fuzz_mqtt_command).
+    if (!body.contains("mode") || !body["mode"].is_string())
+      return refuse("start: \"mode\" is required: \"free\", \"timer\" or \"plan\"");
+    const std::string mode = body["mode"].get<std::string>();
+    if (mode == "free") {
+      if (!body.contains("speed")) return client.start_free_from_memory();
+      const std::optional<uint16_t> speed = speed_of(body["speed"]);
+      if (!speed)
+        return refuse(fmt::format(
+            "free: \"speed\" must be a whole number {} (leave it out: the remembered speed)", speeds));
+      return client.start_free(*speed);
+    }
+    if (mode == "timer") {
+      const std::optional<uint16_t> speed = body.contains("speed") ? speed_of(body["speed"]) : std::nullopt;
+      if (!speed) return refuse(fmt::format("timer: \"speed\" is required, a whole number {}", speeds));
+      if (!body.contains("duration")) return refuse("timer: \"duration\" is required, for example \"30:00\"");
+      std::optional<uint32_t> seconds;
+      if (rtukit::Status e = duration("duration", seconds)) return e;
+      if (!writable(reg::timer_time, *seconds) || *seconds == 0)
+        return refuse(fmt::format("timer: \"duration\" must be 00:01..{}", profile::format_mm_ss(kMaxTime)));
+      return client.start_timer(*speed, static_cast<uint16_t>(*seconds));
+    }
+    if (mode == "plan") {
+      const std::optional<uint16_t> plan = plan_number();
+      if (!plan) return refuse(fmt::format("plan: \"plan\" {} is required", plans));
+      std::optional<uint32_t> from = 0;
+      if (body.contains("from"))
+        if (rtukit::Status e = duration("from", from)) return e;
+      if (*from > kMaxTime)
+        return refuse(fmt::format("plan: \"from\" must be 00:00..{}", profile::format_mm_ss(kMaxTime)));
+      return client.start_plan(*plan, static_cast<uint16_t>(*from));
+    }
+    return refuse(
+        fmt::format("start: mode must be free, timer or plan, not '{}'", profile::excerpt(mode, 20)));
+  }
+  if (name == "plan") {
+    if (!body.contains("segments") || !body["segments"].is_array())
+      return refuse(fmt::format(
+          "plan: expected {{\"plan\": {}, \"segments\": [{{\"speed\": {}, \"end\": \"mm:ss\"}}, ...]}}", plans,
+          speeds));
+    const std::optional<uint16_t> plan = plan_number();
+    if (!plan) return refuse(fmt::format("plan: \"plan\" {} is required", plans));
+    std::vector<Segment> segments;
+    for (const Json& s : body["segments"]) {
+      const std::string at = fmt::format("plan: segment {}", segments.size() + 1);
+      if (!s.is_object() || !s.contains("speed") || !s.contains("end"))
+        return refuse(at + " needs \"speed\" and \"end\"");
+      const std::optional<uint16_t> speed = small_number(s["speed"]);
+      if (!speed) return refuse(fmt::format("{}: \"speed\" must be a whole number {}", at, speeds));
+      const Result<uint32_t> end = s["end"].is_string() ? profile::parse_duration(s["end"].get<std::string>())
+                                                        : Result<uint32_t>(Error(Errc::invalid_argument, ""));
+      if (!end || *end > 0xFFFF)
+        return refuse(at + ": \"end\" must be a duration as text: \"05:00\", \"5m\" or \"90s\"");
+      segments.push_back({*speed, static_cast<uint16_t>(*end)});
+    }
+    // validate_plan checks speeds and ends against the plan rows' ranges.
+    if (rtukit::Status e = validate_plan(segments)) return e;
+    if (rtukit::Status e = client.write_plan(*plan, segments)) return e;
+    result["segments"] = segments.size();
+    return {};
+  }
+  return refuse(fmt::format("unknown command '{}'", profile::excerpt(name, 40)));
+}
+
+}  // namespace rtukit::inverjet
