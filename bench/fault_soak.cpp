@@ -30,7 +30,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <asio.hpp>
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
@@ -50,6 +49,7 @@
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/virtual_bus.hpp"
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/port.hpp"
 
 using namespace rtukit;

@@ -5,7 +5,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <asio.hpp>
 #include <cerrno>
 #include <csignal>
 #include <cstdio>
@@ -15,6 +14,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "rtukit/driver/virtual_bus.hpp"
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
@@ -45,13 +45,13 @@ class TapServer {
       if (!S_ISSOCK(st.st_mode))
         throw Failure{kIoError, fmt::format("--name {}: {} exists and is not a socket", name, path_)};
       Local::socket probe(acceptor_.get_executor());
-      std::error_code ec;
+      boost::system::error_code ec;
       probe.connect(Local::endpoint(path_), ec);
       if (!ec)
         throw Failure{kUsage, fmt::format("--name {}: a bus of that name is running ({})", name, path_)};
       ::unlink(path_.c_str());  // left by a bus that was killed
     }
-    std::error_code ec;
+    boost::system::error_code ec;
     acceptor_.open(Local(), ec);
     if (!ec) acceptor_.bind(Local::endpoint(path_), ec);
     if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
@@ -64,7 +64,7 @@ class TapServer {
     for (auto it = clients_.begin(); it != clients_.end();) {
       Client& c = **it;
       if (c.pending.size() + line.size() > kMaxBehind) {
-        std::error_code ignored;
+        boost::system::error_code ignored;
         c.socket.close(ignored);
         it = clients_.erase(it);
         continue;
@@ -85,7 +85,7 @@ class TapServer {
   };
 
   void accept() {
-    acceptor_.async_accept([this](const std::error_code& ec, Local::socket socket) {
+    acceptor_.async_accept([this](const boost::system::error_code& ec, Local::socket socket) {
       if (ec == asio::error::operation_aborted) return;
       if (!ec) {
         auto c = std::make_shared<Client>(std::move(socket));
@@ -102,17 +102,18 @@ class TapServer {
     c->writing = true;
     c->in_flight.swap(c->pending);
     c->pending.clear();
-    asio::async_write(c->socket, asio::buffer(c->in_flight), [this, c](const std::error_code& ec, size_t) {
-      c->writing = false;
-      c->in_flight.clear();
-      if (ec) {
-        std::error_code ignored;
-        c->socket.close(ignored);
-        clients_.erase(std::remove(clients_.begin(), clients_.end(), c), clients_.end());
-        return;
-      }
-      flush(c);
-    });
+    asio::async_write(c->socket, asio::buffer(c->in_flight),
+                      [this, c](const boost::system::error_code& ec, size_t) {
+                        c->writing = false;
+                        c->in_flight.clear();
+                        if (ec) {
+                          boost::system::error_code ignored;
+                          c->socket.close(ignored);
+                          clients_.erase(std::remove(clients_.begin(), clients_.end(), c), clients_.end());
+                          return;
+                        }
+                        flush(c);
+                      });
   }
 
   Local::acceptor acceptor_;
@@ -204,7 +205,7 @@ int run_bus(const BusArgs& a) {
     bool cut = false, quiet = false;
   } line_state;
   std::function<void()> await_switch = [&] {
-    switches.async_wait([&](const std::error_code& ec, int sig) {
+    switches.async_wait([&](const boost::system::error_code& ec, int sig) {
       if (ec) return;
       if (sig == SIGUSR1) line_state.cut = !line_state.cut;
       if (sig == SIGUSR2) line_state.quiet = !line_state.quiet;

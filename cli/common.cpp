@@ -378,7 +378,7 @@ void on_stop_signal(int sig) {
 constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
 void rearm(asio::signal_set& signals, asio::io_context& ctx) {
-  signals.async_wait([&signals, &ctx](const std::error_code& ec, int sig) {
+  signals.async_wait([&signals, &ctx](const boost::system::error_code& ec, int sig) {
     if (ec) return;
     if (sig == SIGPIPE && !take_broken_output()) return rearm(signals, ctx);
     ctx.stop();

@@ -3,8 +3,8 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <asio/io_context.hpp>
-#include <asio/signal_set.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/signal_set.hpp>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -23,6 +23,7 @@
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::cli {

@@ -11,12 +11,13 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <csignal>
 #include <cstdio>
 #include <functional>
 #include <string>
 #include <thread>
+
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit::cli {
 

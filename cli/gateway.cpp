@@ -5,11 +5,11 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <asio.hpp>
 #include <csignal>
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit::cli {
 namespace {

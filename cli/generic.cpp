@@ -3,7 +3,6 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
-#include <asio.hpp>
 #include <bit>
 #include <cerrno>
 #include <chrono>
@@ -21,6 +20,7 @@
 #include "profiles.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {

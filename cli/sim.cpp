@@ -14,7 +14,6 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <atomic>
 #include <csignal>
 #include <cstdio>
@@ -26,6 +25,7 @@
 #include "registry.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/state_file.hpp"
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -44,7 +44,7 @@ class SocketConsole {
       ::unlink(path.c_str());  // a socket left by an earlier run
     }
     auto c = std::unique_ptr<SocketConsole>(new SocketConsole(ctx, path, std::move(on_line)));
-    std::error_code ec;
+    boost::system::error_code ec;
     c->acceptor_.open(asio::local::stream_protocol(), ec);
     if (!ec) (void)c->acceptor_.bind(asio::local::stream_protocol::endpoint(path), ec);
     if (!ec) (void)c->acceptor_.listen(8, ec);
@@ -55,7 +55,7 @@ class SocketConsole {
     return c;
   }
   ~SocketConsole() {
-    std::error_code ec;
+    boost::system::error_code ec;
     acceptor_.close(ec);
     ::unlink(path_.c_str());
   }
@@ -66,14 +66,14 @@ class SocketConsole {
     void read() {
       auto self = shared_from_this();
       asio::async_read_until(socket, asio::dynamic_buffer(input, 4096), '\n',
-                             [self](const std::error_code& ec, size_t n) {
+                             [self](const boost::system::error_code& ec, size_t n) {
                                if (ec) return;
                                std::string line = self->input.substr(0, n - 1);
                                self->input.erase(0, n);
                                (*self->on_line)(line, [self](std::string text) {
                                  auto out = std::make_shared<std::string>(std::move(text));
                                  asio::async_write(self->socket, asio::buffer(*out),
-                                                   [self, out](const std::error_code&, size_t) {});
+                                                   [self, out](const boost::system::error_code&, size_t) {});
                                });
                                self->read();
                              });
@@ -86,11 +86,12 @@ class SocketConsole {
   SocketConsole(asio::io_context& ctx, std::string path, OnLine on_line)
       : acceptor_(ctx), path_(std::move(path)), on_line_(std::move(on_line)) {}
   void accept() {
-    acceptor_.async_accept([this](const std::error_code& ec, asio::local::stream_protocol::socket s) {
-      if (ec) return;
-      std::make_shared<Session>(std::move(s), &on_line_)->read();
-      accept();
-    });
+    acceptor_.async_accept(
+        [this](const boost::system::error_code& ec, asio::local::stream_protocol::socket s) {
+          if (ec) return;
+          std::make_shared<Session>(std::move(s), &on_line_)->read();
+          accept();
+        });
   }
 
   asio::local::stream_protocol::acceptor acceptor_;

@@ -85,7 +85,7 @@ set(CPACK_COMPONENT_TOOL_DESCRIPTION
     "Modbus-RTU / Modbus TCP command line tool\n rtukit reads and writes registers, scans a bus, serves simulated devices\n (Inverjet, Rehand 6600, any register-map file) on a pty, serial port or TCP.")
 set(CPACK_DEBIAN_DEV_PACKAGE_NAME librtukit-dev)
 set(CPACK_DEBIAN_DEV_PACKAGE_SECTION libdevel)
-set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libasio-dev, libfmt-dev, nlohmann-json3-dev, libyaml-cpp-dev")
+set(CPACK_DEBIAN_DEV_PACKAGE_DEPENDS "libboost-dev (>= 1.74), libfmt-dev, nlohmann-json3-dev, libyaml-cpp-dev")
 set(CPACK_COMPONENT_DEV_DESCRIPTION
     "Modbus-RTU toolkit: headers and static libraries\n The sans-IO Modbus core, Linux transports, master and slave drivers and the\n device profiles of rtukit, with CMake (find_package(rtukit)) and pkg-config files.")
 include(CPack)

@@ -15,7 +15,7 @@ PACKAGES=(
   # build
   cmake ninja-build g++ clang clang-format libclang-rt-14-dev pkg-config
   # libraries we use instead of writing them
-  libasio-dev libcli11-dev libfmt-dev nlohmann-json3-dev libspdlog-dev libyaml-cpp-dev
+  libcli11-dev libfmt-dev nlohmann-json3-dev libspdlog-dev libyaml-cpp-dev
   # packaging: man page, .deb contents check
   help2man dpkg-dev file
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -25,7 +25,8 @@ PACKAGES=(
   libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   # the sniffer's pcap files, decoded by Wireshark's dissector
   tshark
-  # the web layer (Boost.Beast, header-only; TLS listeners on OpenSSL) and its pages tested in a real browser
+  # the event loop of io/, driver/, cli/ and web/ (Boost.Asio, header-only), the web layer (Boost.Beast,
+  # header-only; TLS listeners on OpenSSL) and its pages tested in a real browser
   libboost-dev libssl-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
   # the Inverjet MQTT bridge (libmosquitto) and its tests (a real broker and its clients)
   libmosquitto-dev mosquitto mosquitto-clients

@@ -7,13 +7,13 @@
 #include <termios.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <thread>
 
 #include "process.hpp"
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/virtual_bus.hpp"
+#include "rtukit/io/asio.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;

@@ -2,7 +2,6 @@
 // pty (RTU), Modbus TCP and RTU-over-TCP.
 #include <gtest/gtest.h>
 
-#include <asio.hpp>
 #include <atomic>
 #include <future>
 #include <thread>
@@ -13,6 +12,7 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/pty.hpp"
 #include "rtukit/io/serial_config.hpp"
 

@@ -10,7 +10,6 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <atomic>
 #include <map>
 #include <mutex>
@@ -24,6 +23,7 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
+#include "rtukit/io/asio.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;

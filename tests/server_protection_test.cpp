@@ -11,7 +11,6 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <atomic>
 #include <condition_variable>
 #include <fstream>
@@ -26,6 +25,7 @@
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio.hpp"
 
 using namespace rtukit;
 using namespace std::chrono_literals;
@@ -75,7 +75,7 @@ class Server {
  private:
   void tick() {
     ticker_.expires_after(10ms);
-    ticker_.async_wait([this](const std::error_code& ec) {
+    ticker_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
       ++ticks_;
       tick();

@@ -30,13 +30,13 @@
 #include <string>
 #include <thread>
 
+#include "rtukit/io/asio_fwd.hpp"  // rtukit::asio
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
 
 namespace rtukit::web {
 namespace {
 
-namespace asio = boost::asio;
 namespace ssl = asio::ssl;
 namespace beast = boost::beast;
 namespace http = beast::http;

@@ -14,13 +14,13 @@
 #include <string>
 #include <thread>
 
+#include "rtukit/io/asio_fwd.hpp"  // rtukit::asio
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
 
 namespace rtukit::web {
 namespace {
 
-namespace asio = boost::asio;
 namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;

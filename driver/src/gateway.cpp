@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <asio.hpp>
 #include <condition_variable>
 #include <deque>
 #include <map>
@@ -14,6 +13,7 @@
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
 #include "tcp_sessions.hpp"
 
@@ -240,7 +240,7 @@ class GatewaySession final : public TcpSession {
     const uint64_t now = io::now_us();
     silence_.expires_after(std::chrono::microseconds(*deadline > now ? *deadline - now : 0) +
                            std::chrono::microseconds(100));
-    silence_.async_wait([this, self = shared_from_this()](const std::error_code& ec) {
+    silence_.async_wait([this, self = shared_from_this()](const boost::system::error_code& ec) {
       if (ec || closed()) return;
       take_frames(io::now_us());
       send_queued();

@@ -1,8 +1,9 @@
 #include "rtukit/driver/simulation.hpp"
 
-#include <asio.hpp>
 #include <cctype>
 #include <charconv>
+
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit {
 
@@ -11,7 +12,7 @@ struct PeriodicTimer::Impl {
       : timer(ctx), period(p), tick(std::move(t)) {}
   void arm() {
     timer.expires_after(period);
-    timer.async_wait([this](const std::error_code& ec) {
+    timer.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;  // cancelled: the owner is going away
       tick();
       arm();

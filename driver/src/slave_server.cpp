@@ -4,10 +4,10 @@
 #include <unistd.h>
 
 #include <array>
-#include <asio.hpp>
 #include <cstring>
 #include <deque>
 
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/pty.hpp"
 #include "rtukit/io/serial_config.hpp"
@@ -85,7 +85,7 @@ class RtuStreamServer final : public SlaveListener {
     read();
   }
   ~RtuStreamServer() override {
-    std::error_code ec;
+    boost::system::error_code ec;
     stream_.close(ec);
     timer_.cancel();
     turnaround_timer_.cancel();
@@ -127,13 +127,13 @@ class RtuStreamServer final : public SlaveListener {
   }
 
   void read() {
-    stream_.async_read_some(asio::buffer(rx_), [this](const std::error_code& ec, size_t n) {
+    stream_.async_read_some(asio::buffer(rx_), [this](const boost::system::error_code& ec, size_t n) {
       if (ec == asio::error::operation_aborted) return;
       if (ec) {
         // A pty whose client went away reports EIO until someone opens it
         // again; we hold the slave side open, so this is rare. Back off a bit.
         timer_.expires_after(std::chrono::milliseconds(50));
-        timer_.async_wait([this](const std::error_code& e) {
+        timer_.async_wait([this](const boost::system::error_code& e) {
           if (!e) read();
         });
         return;
@@ -164,7 +164,7 @@ class RtuStreamServer final : public SlaveListener {
     if (queue_.front().not_before > now) {
       waiting_turnaround_ = true;
       turnaround_timer_.expires_at(queue_.front().not_before);
-      turnaround_timer_.async_wait([this](const std::error_code& ec) {
+      turnaround_timer_.async_wait([this](const boost::system::error_code& ec) {
         if (ec) return;
         waiting_turnaround_ = false;
         write_next();
@@ -174,7 +174,7 @@ class RtuStreamServer final : public SlaveListener {
     writing_ = true;
     in_flight_ = std::move(queue_.front().bytes);
     queue_.pop_front();
-    asio::async_write(stream_, asio::buffer(in_flight_), [this](const std::error_code& ec, size_t) {
+    asio::async_write(stream_, asio::buffer(in_flight_), [this](const boost::system::error_code& ec, size_t) {
       if (ec == asio::error::operation_aborted) return;
       writing_ = false;
       queued_bytes_ -= in_flight_.size();
@@ -199,7 +199,7 @@ class RtuStreamServer final : public SlaveListener {
     const uint64_t now = io::now_us();
     const auto wait = std::chrono::microseconds(*deadline > now ? *deadline - now : 0);
     timer_.expires_after(wait + std::chrono::microseconds(100));
-    timer_.async_wait([this](const std::error_code& ec) {
+    timer_.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
       responder_.drain(io::now_us(), [this](std::span<const uint8_t> out) { send(out); });
     });
@@ -277,7 +277,7 @@ class EngineSession final : public TcpSession {
     silence_.expires_after(std::chrono::microseconds(*deadline > now ? *deadline - now : 0) +
                            std::chrono::microseconds(100));
     auto self = shared_from_this();
-    silence_.async_wait([this, self](const std::error_code& ec) {
+    silence_.async_wait([this, self](const boost::system::error_code& ec) {
       if (ec || closed()) return;
       rtu_.drain(io::now_us(), [this](std::span<const uint8_t> out) { queue(out); });
       request_progress();

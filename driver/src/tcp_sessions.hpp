@@ -20,7 +20,6 @@
 #pragma once
 
 #include <array>
-#include <asio.hpp>
 #include <cstring>
 #include <functional>
 #include <list>
@@ -31,6 +30,7 @@
 
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit {
 
@@ -145,7 +145,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   void close() {
     if (closed_) return;
     closed_ = true;
-    std::error_code ignored;
+    boost::system::error_code ignored;
     socket_.shutdown(asio::ip::tcp::socket::shutdown_both, ignored);
     socket_.close(ignored);
     idle_.cancel();
@@ -206,17 +206,19 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   enum class Deadline { request, finish, linger };
 
   // The client closed its side. Compared by value and the category's
-  // address: `ec == asio::error::eof` is a member call on the category, and
-  // UBSan checks its vptr by probing memory with a pipe, which fails while a
-  // server is out of descriptors (EMFILE), a false "invalid vptr" there.
-  static bool is_end_of_stream(const std::error_code& ec) {
+  // address, calling nothing on the category: UBSan checks the vptr of an
+  // object a member call goes to by probing memory with a pipe, which fails
+  // while a server is out of descriptors (EMFILE), a false "invalid vptr"
+  // there (seen with `ec == asio::error::eof`, which calls operator== on the
+  // categories, when we were on standalone Asio and std::error_code).
+  static bool is_end_of_stream(const boost::system::error_code& ec) {
     return ec.value() == asio::error::eof && &ec.category() == &asio::error::get_misc_category();
   }
 
   void read() {
     auto self = shared_from_this();
     socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
-                            [this, self](const std::error_code& ec, size_t n) {
+                            [this, self](const boost::system::error_code& ec, size_t n) {
                               if (closed_) return;
                               if (is_end_of_stream(ec)) {
                                 // The client has sent all it will; what it sent is still answered.
@@ -248,12 +250,13 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     in_flight_.swap(pending_);
     pending_.clear();
     auto self = shared_from_this();
-    asio::async_write(socket_, asio::buffer(in_flight_), [this, self](const std::error_code& ec, size_t) {
-      writing_ = false;
-      in_flight_.clear();
-      if (ec) return close();
-      flush();
-    });
+    asio::async_write(socket_, asio::buffer(in_flight_),
+                      [this, self](const boost::system::error_code& ec, size_t) {
+                        writing_ = false;
+                        in_flight_.clear();
+                        if (ec) return close();
+                        flush();
+                      });
   }
 
   // Finishing, everything answered and written: the end of our stream
@@ -263,7 +266,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     if (!finishing_ || lingering_ || closed_ || owed_ > 0 || answer_coming()) return;
     lingering_ = true;
     if (peer_done_) return close();
-    std::error_code ignored;
+    boost::system::error_code ignored;
     socket_.shutdown(asio::ip::tcp::socket::shutdown_send, ignored);
     arm_deadline(std::chrono::milliseconds(2000), Deadline::linger);
   }
@@ -288,7 +291,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     if (after.count() <= 0) return;  // request_timeout 0: never
     deadline_.expires_after(after);
     auto self = shared_from_this();
-    deadline_.async_wait([this, self, generation, what](const std::error_code& ec) {
+    deadline_.async_wait([this, self, generation, what](const boost::system::error_code& ec) {
       // Stale: stopped or replaced (cancel() cannot stop a handler already queued).
       if (ec || closed_ || generation != deadline_generation_) return;
       if (what == Deadline::request) ++shared_->stats.request_timeouts;
@@ -302,7 +305,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     idle_.expires_after(timeout);
     const uint64_t generation = ++idle_generation_;
     auto self = shared_from_this();
-    idle_.async_wait([this, self, generation](const std::error_code& ec) {
+    idle_.async_wait([this, self, generation](const boost::system::error_code& ec) {
       if (ec || closed_ || generation != idle_generation_) return;  // re-armed by a request, or closed
       ++shared_->stats.idle_closed;
       close();
@@ -341,14 +344,14 @@ class TcpAcceptor {
     shared_->options = std::move(options);
   }
   ~TcpAcceptor() {
-    std::error_code ignored;
+    boost::system::error_code ignored;
     acceptor_.close(ignored);
     retry_.cancel();
   }
 
   /// Binds and starts accepting. `host` empty: 127.0.0.1. Errors: invalid_argument, io_error.
   Status listen(const std::string& host, uint16_t port) {
-    std::error_code ec;
+    boost::system::error_code ec;
     const auto address = asio::ip::make_address(host.empty() ? "127.0.0.1" : host, ec);
     if (ec) return Status(Errc::invalid_argument, "not an IP address: " + host);
     const asio::ip::tcp::endpoint endpoint(address, port);
@@ -374,7 +377,7 @@ class TcpAcceptor {
 
  private:
   void accept() {
-    acceptor_.async_accept([this](const std::error_code& ec, asio::ip::tcp::socket socket) {
+    acceptor_.async_accept([this](const boost::system::error_code& ec, asio::ip::tcp::socket socket) {
       if (ec == asio::error::operation_aborted) return;
       if (ec) {
         // Out of descriptors (EMFILE/ENFILE) or a transient error: the
@@ -382,12 +385,12 @@ class TcpAcceptor {
         // would fail again at once. Pause instead of spinning.
         ++shared_->stats.accept_errors;
         retry_.expires_after(std::chrono::milliseconds(100));
-        retry_.async_wait([this](const std::error_code& e) {
+        retry_.async_wait([this](const boost::system::error_code& e) {
           if (!e) accept();
         });
         return;
       }
-      std::error_code ignored;
+      boost::system::error_code ignored;
       if (shared_->live >= shared_->options.max_connections) make_room();
       if (shared_->live >= shared_->options.max_connections) {
         ++shared_->stats.connections_refused;  // a clean close: the client sees at once it was refused

@@ -3,11 +3,11 @@
 #include <unistd.h>
 
 #include <array>
-#include <asio.hpp>
 #include <atomic>
 #include <cerrno>
 #include <cstring>
 
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/pty.hpp"
 
@@ -41,14 +41,14 @@ struct VirtualBus::Impl {
 
   void read(size_t i) {
     Port& p = *ports[i];
-    p.stream.async_read_some(asio::buffer(p.rx), [this, i](const std::error_code& ec, size_t n) {
+    p.stream.async_read_some(asio::buffer(p.rx), [this, i](const boost::system::error_code& ec, size_t n) {
       if (ec == asio::error::operation_aborted) return;
       Port& port = *ports[i];
       if (ec) {
         // EIO: nobody has the port open. Look again a little later.
         hung_up(i);
         port.retry.expires_after(std::chrono::milliseconds(20));
-        port.retry.async_wait([this, i](const std::error_code& e) {
+        port.retry.async_wait([this, i](const boost::system::error_code& e) {
           if (!e) read(i);
         });
         return;
@@ -63,7 +63,7 @@ struct VirtualBus::Impl {
     const std::optional<uint64_t> due = line.next_due();
     if (!due) return;
     timer.expires_at(t0 + std::chrono::microseconds(*due));
-    timer.async_wait([this](const std::error_code& ec) {
+    timer.async_wait([this](const boost::system::error_code& ec) {
       if (!ec) pump();
     });
   }
@@ -98,14 +98,15 @@ struct VirtualBus::Impl {
     p.unread = true;
     p.in_flight.swap(p.pending);
     p.pending.clear();
-    asio::async_write(p.stream, asio::buffer(p.in_flight), [this, i](const std::error_code& ec, size_t) {
-      if (ec == asio::error::operation_aborted) return;
-      Port& port = *ports[i];
-      port.writing = false;
-      port.in_flight.clear();
-      if (!port.pty.slave_open()) hung_up(i);  // closed while we wrote
-      flush(i);
-    });
+    asio::async_write(p.stream, asio::buffer(p.in_flight),
+                      [this, i](const boost::system::error_code& ec, size_t) {
+                        if (ec == asio::error::operation_aborted) return;
+                        Port& port = *ports[i];
+                        port.writing = false;
+                        port.in_flight.clear();
+                        if (!port.pty.slave_open()) hung_up(i);  // closed while we wrote
+                        flush(i);
+                      });
   }
 
   // The last client closed the port: what it left unread goes (the next
@@ -135,7 +136,7 @@ VirtualBus::VirtualBus(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 VirtualBus::~VirtualBus() {
   impl_->timer.cancel();
   for (auto& p : impl_->ports) {
-    std::error_code ignored;
+    boost::system::error_code ignored;
     p->stream.close(ignored);
     p->retry.cancel();
   }

@@ -1,4 +1,4 @@
-// Links on standalone Asio. Each link owns a private io_context: a blocking
+// Links on Boost.Asio. Each link owns a private io_context: a blocking
 // call starts one async operation and runs the context until the operation
 // completes or the deadline passes (then cancels it and reaps the handler).
 #include "rtukit/io/link.hpp"
@@ -6,16 +6,16 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include <asio.hpp>
 #include <cerrno>
 #include <optional>
 
+#include "rtukit/io/asio.hpp"
 #include "rtukit/io/serial_config.hpp"
 
 namespace rtukit::io {
 namespace {
 
-Error to_error(const std::error_code& ec) {
+Error to_error(const boost::system::error_code& ec) {
   if (ec == asio::error::timed_out || ec == asio::error::would_block) return Errc::timeout;
   return Error(Errc::io_error, ec.category() == asio::error::get_system_category() ? ec.value() : EIO);
 }
@@ -28,7 +28,7 @@ bool run_until(asio::io_context& ctx, Stream& stream, const bool& done, Clock::t
     if (ctx.run_one_until(deadline) == 0) break;
   }
   if (done) return true;
-  std::error_code ignored;
+  boost::system::error_code ignored;
   stream.cancel(ignored);
   ctx.restart();
   while (!done) ctx.run_one();  // reap the cancelled handler
@@ -39,13 +39,13 @@ template <class Stream>
 Result<size_t> timed_read(asio::io_context& ctx, Stream& stream, std::span<uint8_t> out,
                           Clock::time_point deadline) {
   // Bytes already waiting: take them without going through the reactor.
-  std::error_code ec;
+  boost::system::error_code ec;
   stream.non_blocking(true, ec);
   size_t n = stream.read_some(asio::buffer(out.data(), out.size()), ec);
   if (!ec) return n;
   if (ec != asio::error::would_block && ec != asio::error::try_again) return to_error(ec);
   bool done = false;
-  stream.async_wait(Stream::wait_read, [&](const std::error_code& e) {
+  stream.async_wait(Stream::wait_read, [&](const boost::system::error_code& e) {
     ec = e;
     done = true;
   });
@@ -61,7 +61,7 @@ Result<size_t> timed_read(asio::io_context& ctx, Stream& stream, std::span<uint8
 template <class Stream>
 Error timed_write(asio::io_context& ctx, Stream& stream, std::span<const uint8_t> bytes,
                   Clock::time_point deadline) {
-  std::error_code ec;
+  boost::system::error_code ec;
   stream.non_blocking(true, ec);
   size_t sent = 0;
   while (sent < bytes.size()) {
@@ -72,7 +72,7 @@ Error timed_write(asio::io_context& ctx, Stream& stream, std::span<const uint8_t
     }
     if (ec != asio::error::would_block && ec != asio::error::try_again) return to_error(ec);
     bool done = false;
-    stream.async_wait(Stream::wait_write, [&](const std::error_code& e) {
+    stream.async_wait(Stream::wait_write, [&](const boost::system::error_code& e) {
       ec = e;
       done = true;
     });
@@ -84,7 +84,7 @@ Error timed_write(asio::io_context& ctx, Stream& stream, std::span<const uint8_t
 
 template <class Stream>
 void drain_input(Stream& stream) {
-  std::error_code ec;
+  boost::system::error_code ec;
   stream.non_blocking(true, ec);
   uint8_t scratch[512];
   while (!ec) stream.read_some(asio::buffer(scratch), ec);
@@ -106,7 +106,7 @@ class SerialLink final : public Link {
       return caps.error();
     }
     caps_ = *caps;
-    std::error_code ec;
+    boost::system::error_code ec;
     stream_.assign(fd, ec);
     if (ec) {
       ::close(fd);
@@ -119,7 +119,7 @@ class SerialLink final : public Link {
   }
 
   void close() noexcept override {
-    std::error_code ec;
+    boost::system::error_code ec;
     if (stream_.is_open()) stream_.close(ec);
   }
   bool is_open() const noexcept override { return stream_.is_open(); }
@@ -180,15 +180,16 @@ class TcpLink final : public Link {
 
   Error open() override {
     close();
-    std::error_code ec;
+    boost::system::error_code ec;
     asio::ip::tcp::resolver resolver(ctx_);
     const auto endpoints = resolver.resolve(spec_.host, std::to_string(spec_.port), ec);
     if (ec) return Error(Errc::io_error, "cannot resolve the host name");
     bool done = false;
-    asio::async_connect(socket_, endpoints, [&](const std::error_code& e, const asio::ip::tcp::endpoint&) {
-      ec = e;
-      done = true;
-    });
+    asio::async_connect(socket_, endpoints,
+                        [&](const boost::system::error_code& e, const asio::ip::tcp::endpoint&) {
+                          ec = e;
+                          done = true;
+                        });
     if (!run_until(ctx_, socket_, done, Clock::now() + std::chrono::seconds(3))) {
       close();
       return Error(Errc::io_error, ETIMEDOUT);
@@ -202,7 +203,7 @@ class TcpLink final : public Link {
   }
 
   void close() noexcept override {
-    std::error_code ec;
+    boost::system::error_code ec;
     if (socket_.is_open()) socket_.close(ec);
   }
   bool is_open() const noexcept override { return socket_.is_open(); }

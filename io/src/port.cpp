@@ -1,8 +1,10 @@
 #include "rtukit/io/port.hpp"
 
-#include <asio/ip/address.hpp>
+#include <boost/asio/ip/address.hpp>
 #include <charconv>
 #include <string>
+
+#include "rtukit/io/asio_fwd.hpp"
 
 namespace rtukit::io {
 
@@ -37,7 +39,7 @@ std::string host_port_text(std::string_view host, uint16_t port) {
 
 std::string listener_exposure(const PortSpec& spec) {
   if (!spec.is_tcp() || spec.host.empty()) return {};
-  std::error_code ec;
+  boost::system::error_code ec;
   const asio::ip::address a = asio::ip::make_address(spec.host, ec);
   if (ec || a.is_loopback()) return {};  // a bad address is refused when listening, not here
   return a.is_unspecified() ? "every network interface" : "the network";

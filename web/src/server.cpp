@@ -28,10 +28,11 @@
 #include <thread>
 #include <type_traits>
 
+#include "rtukit/io/asio_fwd.hpp"  // rtukit::asio
+
 namespace rtukit::web {
 namespace {
 
-namespace asio = boost::asio;
 namespace ssl = asio::ssl;
 namespace beast = boost::beast;
 namespace http = beast::http;

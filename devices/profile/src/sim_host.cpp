@@ -6,10 +6,10 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <asio.hpp>
 
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/io/asio.hpp"
 
 namespace rtukit::profile {
 

@@ -43,12 +43,9 @@
 #include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/io/status.hpp"
-
-namespace asio {
-class io_context;
-}
 
 namespace rtukit {
 

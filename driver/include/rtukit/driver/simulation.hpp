@@ -12,9 +12,7 @@
 #include <string_view>
 #include <vector>
 
-namespace asio {
-class io_context;
-}
+#include "rtukit/io/asio_fwd.hpp"
 
 namespace rtukit {
 

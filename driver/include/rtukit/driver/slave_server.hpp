@@ -24,12 +24,9 @@
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/rtu.hpp"
 #include "rtukit/core/slave.hpp"
+#include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/io/status.hpp"
-
-namespace asio {
-class io_context;
-}
 
 namespace rtukit {
 

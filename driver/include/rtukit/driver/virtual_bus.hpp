@@ -18,11 +18,8 @@
 #include <vector>
 
 #include "rtukit/driver/bus_line.hpp"
+#include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/status.hpp"
-
-namespace asio {
-class io_context;
-}
 
 namespace rtukit {
 

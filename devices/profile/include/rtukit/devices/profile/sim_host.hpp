@@ -29,12 +29,9 @@
 #include "rtukit/devices/profile/model.hpp"
 #include "rtukit/driver/simulation.hpp"
 #include "rtukit/driver/slave_server.hpp"
+#include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/io/status.hpp"
-
-namespace asio {
-class io_context;
-}
 
 namespace rtukit::profile {
 
