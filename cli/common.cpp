@@ -342,7 +342,7 @@ std::string device_unit_help(const profile::Profile& p) {
 }
 
 UnitId parse_unit(const std::string& text, bool tcp) {
-  return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : 247))};
+  return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : kMaxSerialUnit))};
 }
 
 namespace {

@@ -96,7 +96,8 @@ Probe probe(io::Link& link, std::span<const uint8_t> request, size_t response_si
 int run_doctor(const DoctorArgs& a) {
   const io::PortSpec spec = a.link.spec(false);
   const UnitId unit = parse_unit(a.unit, spec.is_tcp());
-  if (unit.value == 0) throw Failure{kUsage, "the doctor needs a unit that answers (1..247)"};
+  if (unit.value == 0)
+    throw Failure{kUsage, fmt::format("the doctor needs a unit that answers (1..{})", kMaxSerialUnit)};
   const auto address = static_cast<uint16_t>(parse_number(a.address, "address", 0, 0xFFFF));
   if (spec.is_tcp())
     throw Failure{kUsage, "the doctor measures serial lines (a TCP link has no baud rate or echo)"};

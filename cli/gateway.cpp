@@ -42,7 +42,8 @@ int run_gateway(const GatewayArgs& a) {
   GatewayOptions o;
   o.read_only = a.read_only;
   if (!a.allow_units.empty())
-    for (unsigned u : parse_units(a.allow_units, 247)) o.allowed_units.push_back(static_cast<uint8_t>(u));
+    for (unsigned u : parse_units(a.allow_units, kMaxSerialUnit))
+      o.allowed_units.push_back(static_cast<uint8_t>(u));
   o.cache = std::chrono::milliseconds(a.cache_ms);
   o.max_queued_per_client = a.max_queued;
   if (a.probe_ms == 0) throw Failure{kUsage, "--probe-ms: the wait before a probe must be at least 1 ms"};
@@ -100,8 +101,9 @@ void add_gateway_command(CLI::App& app, Action& action) {
         cmd.add_flag("--read-only", a.read_only,
                      "relay only requests that change nothing (FC01-04, FC08 echo/register/counters, "
                      "FC0B, FC0C, FC11, FC2B/0E); everything else gets exception 01");
-        cmd.add_option("--allow-units", a.allow_units,
-                       "units relayed: 1,21 or 1-10 (default 1-247); others get 0A");
+        cmd.add_option(
+            "--allow-units", a.allow_units,
+            fmt::format("units relayed: 1,21 or 1-10 (default 1-{}); others get 0A", kMaxSerialUnit));
         cmd.add_option("--cache-ms", a.cache_ms,
                        "identical reads within this many ms share one bus transaction")
             ->capture_default_str();

@@ -242,8 +242,9 @@ ReadPlan plan_read(ReadArgs& a) {
   p.table = a.input ? Table::input : a.coils ? Table::coils : a.discrete ? Table::discrete : Table::holding;
   if (p.unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
     throw Failure{kUsage,
-                  "unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be read "
-                  "(name a unit 1..247)"};
+                  fmt::format("unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be "
+                              "read (name a unit 1..{})",
+                              kMaxSerialUnit)};
   const Address where = parse_address(a.address, a.one_based);
   if (where.table && *where.table != p.table) {
     if (a.holding + a.input + a.coils + a.discrete > 0)
@@ -561,13 +562,13 @@ int run_readwrite(const ReadWriteArgs& a) {
 
 struct ScanArgs {
   LinkOptions link;
-  std::string units = "1-247";
+  std::string units = fmt::format("1-{}", kMaxSerialUnit);
   bool json = false;
 };
 
 int run_scan(const ScanArgs& a) {
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
-  const std::vector<unsigned> units = parse_units(a.units, tcp ? 255 : 247);
+  const std::vector<unsigned> units = parse_units(a.units, tcp ? 255 : kMaxSerialUnit);
   auto master = a.link.make_master();
   if (Error e = master->open()) fail(e, fmt::format("scan on {}", master->describe()));
   // 247 units at 100 ms is 25 s of silence: on a terminal, a line says how far
@@ -847,7 +848,8 @@ void add_generic_commands(CLI::App& app, Action& action) {
   add_command<ScanArgs>(
       app, action, "scan", "find which unit addresses answer",
       [](CLI::App& cmd, ScanArgs& a) {
-        cmd.add_option("--units", a.units, "units to try: 1-247, 21, 1,5,21-30")->capture_default_str();
+        cmd.add_option("--units", a.units, fmt::format("units to try: 1-{}, 21, 1,5,21-30", kMaxSerialUnit))
+            ->capture_default_str();
         cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
         // Scanning waits on silent units: a short timeout by default, shown as
         // such in --help (at 1200 baud a unit needs more than 100 ms: --timeout).

@@ -20,9 +20,9 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
-#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
@@ -153,10 +153,6 @@ std::string version_text(uint32_t v) {
 
 // The time's meaning and the status document are the device layer's
 // (devices/inverjet/verbs.hpp): the bridge and the panel show the same.
-std::string_view time_counts(const ij::MachineStatus& s, ij::Family remembered) {
-  return ij::time_counts_name(ij::time_counts(s, remembered));
-}
-
 Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
   Json out = json_document("inverjet", unit.value);
   out["values"] = ij::status_values(s, remembered);
@@ -170,7 +166,8 @@ std::string faults_text(const ij::MachineStatus& s) {
 }
 
 std::string time_text(const ij::MachineStatus& s, ij::Family remembered) {
-  return fmt::format("{} {}", profile::format_mm_ss(s.run_time), time_counts(s, remembered));
+  return fmt::format("{} {}", profile::format_mm_ss(s.run_time),
+                     ij::time_counts_name(ij::time_counts(s, remembered)));
 }
 
 // At most 80 columns.

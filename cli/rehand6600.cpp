@@ -146,12 +146,20 @@ std::string panel(const rh::Snapshot& s, bool mph) {
   return out;
 }
 
+// The six actuator positions (0x0015..0x001A, per mille), space-separated.
+std::string actuators(const rh::Snapshot& s) {
+  std::string out;
+  for (uint16_t i = 0; i < 6; ++i)
+    out += fmt::format("{}{}", i ? " " : "", s[static_cast<uint16_t>(rh::reg::kActuatorPosition + i)]);
+  return out;
+}
+
 std::string line(const rh::Snapshot& s, bool mph) {
-  return fmt::format(
-      "battery {}%{} | {} {} | light {} | seat {} stand {} legs {} | act {} {} {} {} {} {} | error {}",
-      s.battery(), s.charging() ? "+" : "", v(s, "motion"), speed_text(s, mph), v(s, "main_light"),
-      v(s, "seat_lift_status"), v(s, "stand_status"), v(s, "leg_rest_status"), s[0x15], s[0x16], s[0x17],
-      s[0x18], s[0x19], s[0x1A], s.error_code() ? rh::error_text(s.error_code()) : "none");
+  return fmt::format("battery {}%{} | {} {} | light {} | seat {} stand {} legs {} | act {} | error {}",
+                     s.battery(), s.charging() ? "+" : "", v(s, "motion"), speed_text(s, mph),
+                     v(s, "main_light"), v(s, "seat_lift_status"), v(s, "stand_status"),
+                     v(s, "leg_rest_status"), actuators(s),
+                     s.error_code() ? rh::error_text(s.error_code()) : "none");
 }
 
 // Table 1 in rtukit's JSON shape (docs/json.md): each status register an

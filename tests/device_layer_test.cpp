@@ -13,6 +13,7 @@
 
 #include "process.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 
@@ -200,4 +201,47 @@ TEST(DeviceLayerCli, AMapDeviceIsWrittenByKey_ItsAddressRowMovesIt) {
   const RunResult at1 =
       run_cli(kBin, {"read", "--map", kMeter, "--unit", "1", "address", "--timeout", "300"}, tty);
   EXPECT_EQ(at1.code, 3) << "the old address no longer answers: " << at1.output;
+}
+
+// The Inverjet's status view: one meaning of the run time for the CLI's
+// status document, the bridge's state topic and the panel (issue 27: the
+// CLI and the bridge once disagreed at the fault screen and in plans).
+TEST(InverjetView, OneMeaningOfTheTime_InEveryDocument) {
+  using namespace rtukit::inverjet;
+  MachineStatus timer;
+  timer.state = state_value(Family::timer, Phase::running);
+  timer.run_time = 600;
+  timer.mosfet_c = 25.0;
+  EXPECT_EQ(time_counts(timer), TimeCounts::remaining);
+  const nlohmann::json doc = state_document(timer);
+  EXPECT_EQ(doc["mode"], "timer");
+  EXPECT_EQ(doc["remaining_s"], 600);
+  EXPECT_TRUE(doc["elapsed_s"].is_null());
+  const nlohmann::json values = status_values(timer);
+  EXPECT_EQ(values["run_time_counts"]["value"], "remaining");
+  EXPECT_EQ(values["mosfet_temperature"]["raw"], 250) << "through the row's scale";
+
+  // The fault screen: the state no longer tells; a watcher that saw the
+  // timer run remembers it, one that saw nothing says so.
+  MachineStatus fault = timer;
+  fault.state = state_value(Family::none, Phase::fault);
+  EXPECT_EQ(time_counts(fault), TimeCounts::unknown);
+  EXPECT_TRUE(state_document(fault)["remaining_s"].is_null());
+  EXPECT_TRUE(state_document(fault)["elapsed_s"].is_null());
+  EXPECT_EQ(state_document(fault)["time_counts"], "at the fault");
+  EXPECT_EQ(status_values(fault)["run_time_counts"]["value"], "at the fault");
+  Family seen = remember_family(timer, Family::none);
+  seen = remember_family(fault, seen);
+  EXPECT_EQ(seen, Family::timer);
+  EXPECT_EQ(state_document(fault, seen)["remaining_s"], 600);
+  MachineStatus off;
+  EXPECT_EQ(remember_family(off, seen), Family::none);
+
+  // A plan's time counts up, also at its fault screen.
+  MachineStatus plan = fault;
+  plan.mode = 2;
+  EXPECT_EQ(plan_of(plan), 2u);
+  EXPECT_EQ(time_counts(plan), TimeCounts::elapsed);
+  EXPECT_EQ(state_document(plan)["mode"], "plan 2");
+  EXPECT_EQ(state_document(plan)["elapsed_s"], 600);
 }

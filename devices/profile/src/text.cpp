@@ -2,10 +2,9 @@
 // from the row; nothing here knows a device.
 #include "rtukit/devices/profile/text.hpp"
 
-#include <algorithm>
-
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
 #include <cmath>

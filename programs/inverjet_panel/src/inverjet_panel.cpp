@@ -694,12 +694,11 @@ rtukit::Status Panel::start() {
   // A port that does not exist (or is no serial port) is a start failure: a
   // panel that could never show the machine must not look as if it served it.
   if (Error e = p.master.open())
-    return rtukit::Status(
-        Errc::io_error,
-        fmt::format("port {}: {}", p.master.describe(),
-                    e.os_error() == ENOTTY ? std::string("not a serial port")
-                    : e.os_error() != 0    ? std::string(std::strerror(e.os_error()))
-                                           : std::string(e.text())));
+    return rtukit::Status(Errc::io_error,
+                          fmt::format("port {}: {}", p.master.describe(),
+                                      e.os_error() == ENOTTY ? std::string("not a serial port")
+                                      : e.os_error() != 0    ? std::string(std::strerror(e.os_error()))
+                                                             : std::string(e.text())));
   p.server.every(30'000, [&p] { p.expire_sessions(); });
   if (rtukit::Status e = p.server.start()) return e;
   impl_->thread = std::thread([this] { impl_->run(); });

@@ -67,9 +67,9 @@ rtukit::Status PairingStore::load() {
         fmt::format("{}: not an rtukit pairing file; move it away or choose another path", path_));
   }
   const bool v1 = format == kFormatV1;
-  const int64_t now = std::chrono::duration_cast<std::chrono::seconds>(
-                          std::chrono::system_clock::now().time_since_epoch())
-                          .count();
+  const int64_t now =
+      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
+          .count();
   for (const nlohmann::json& p : doc["phones"]) {
     if (!p.is_object()) continue;
     PairedPhone phone;
@@ -122,13 +122,14 @@ rtukit::Outcome<PairingStore::Added> PairingStore::add(std::string name, std::st
   if (added.id.empty() || added.token.empty())
     return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
   // Printable and short: the display shows it.
-  name.erase(std::remove_if(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }),
-             name.end());
+  name.erase(
+      std::remove_if(name.begin(), name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }),
+      name.end());
   if (name.empty() || name.size() > 40) name = fmt::format("phone {}", phones_.size() + 1);
   const auto t = std::chrono::system_clock::time_point(std::chrono::seconds(now));
-  phones_.push_back({added.id, sha256_hex(added.token), name, std::move(code),
-                     fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))),
-                     now});
+  phones_.push_back(
+      {added.id, sha256_hex(added.token), name, std::move(code),
+       fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))), now});
   if (rtukit::Status e = save()) {
     phones_.pop_back();
     return e;
@@ -144,7 +145,8 @@ std::optional<std::string> PairingStore::find(std::string_view token) const {
   // Every entry is compared, each in constant time: how long this takes
   // says nothing about which hash, or how much of it, matched.
   for (const PairedPhone& p : phones_) {
-    if (p.token_hash.size() == hash.size() && CRYPTO_memcmp(p.token_hash.data(), hash.data(), hash.size()) == 0)
+    if (p.token_hash.size() == hash.size() &&
+        CRYPTO_memcmp(p.token_hash.data(), hash.data(), hash.size()) == 0)
       found = p.id;
   }
   return found;
@@ -166,7 +168,8 @@ rtukit::Status PairingStore::touch(std::string_view id, int64_t now) {
 }
 
 rtukit::Status PairingStore::remove(std::string_view id) {
-  const auto it = std::find_if(phones_.begin(), phones_.end(), [&](const PairedPhone& p) { return p.id == id; });
+  const auto it =
+      std::find_if(phones_.begin(), phones_.end(), [&](const PairedPhone& p) { return p.id == id; });
   if (it == phones_.end()) return rtukit::Status(Errc::invalid_argument, "no such phone");
   const PairedPhone removed = *it;
   phones_.erase(it);

@@ -38,8 +38,8 @@ using Json = nlohmann::json;
 using Role = HostRole;
 
 constexpr auto kCodeLifetime = std::chrono::minutes(2);
-constexpr int kCodeGuesses = 3;                  ///< wrong codes before the code is replaced
-constexpr int kWrongPerAddress = 10;             ///< wrong codes or tokens per source address...
+constexpr int kCodeGuesses = 3;                         ///< wrong codes before the code is replaced
+constexpr int kWrongPerAddress = 10;                    ///< wrong codes or tokens per source address...
 constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
 
 struct Client {
@@ -186,8 +186,8 @@ struct HostDaemon::Impl {
   std::optional<web::HttpResponse> upgrade(const web::HttpRequest& r) {
     if (r.path != "/ws") return web::HttpResponse{.status = 404, .body = R"({"error":"no such endpoint"})"};
     if (r.query.find("token") != std::string::npos)
-      return web::HttpResponse{.status = 400,
-                               .body = R"({"error":"no credential in a URL: authenticate in the first message"})"};
+      return web::HttpResponse{
+          .status = 400, .body = R"({"error":"no credential in a URL: authenticate in the first message"})"};
     return std::nullopt;
   }
 
@@ -242,7 +242,9 @@ struct HostDaemon::Impl {
     s->send(result.dump());
   }
 
-  static rtukit::Status refuse(std::string reason) { return rtukit::Status(Errc::refused, std::move(reason)); }
+  static rtukit::Status refuse(std::string reason) {
+    return rtukit::Status(Errc::refused, std::move(reason));
+  }
 
   // Wrong codes and tokens from one address, per minute: guessing is slow.
   bool too_many_wrong(const std::string& address) {
@@ -266,7 +268,8 @@ struct HostDaemon::Impl {
       other.phone.clear();
       other.authenticated = false;
       broadcast({{"type", "event"}, {"event", "replaced"}, {"phone", phone}, {"name", name_of(phone)}});
-      log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(phone), phone));
+      log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(phone),
+                      phone));
     }
     c.authenticated = true;
     c.phone = phone;
@@ -341,11 +344,13 @@ struct HostDaemon::Impl {
       }
       case Kind::auth: {
         const std::string& from = c.socket->peer_address();
-        if (too_many_wrong(from)) return refuse("too many wrong tokens or codes from this address: wait a minute");
+        if (too_many_wrong(from))
+          return refuse("too many wrong tokens or codes from this address: wait a minute");
         const std::optional<std::string> phone = pairing.find(k.token);
         if (!phone) {
           count_wrong(from);
-          return refuse("not paired: this phone is unknown or was forgotten; pair again with the display's code");
+          return refuse(
+              "not paired: this phone is unknown or was forgotten; pair again with the display's code");
         }
         admit_phone(c, *phone);
         result["phone"] = *phone;
@@ -358,7 +363,8 @@ struct HostDaemon::Impl {
       }
       case Kind::pair: {
         const std::string& from = c.socket->peer_address();
-        if (too_many_wrong(from)) return refuse("too many wrong tokens or codes from this address: wait a minute");
+        if (too_many_wrong(from))
+          return refuse("too many wrong tokens or codes from this address: wait a minute");
         // One answer for "no code shown", "expired" and "wrong": nothing a
         // stranger can probe tells whether a code is showing.
         if (code.code.empty() || Clock::now() > code.until || k.code.size() != code.code.size() ||
@@ -381,8 +387,8 @@ struct HostDaemon::Impl {
         result["phone"] = added->id;
         result["name"] = name_of(added->id);
         result["client"] = me;
-        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(added->id), added->id,
-                        from));
+        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(added->id),
+                        added->id, from));
         c.socket->send(state_json(false).dump());
         broadcast_state();
         return {};
@@ -435,8 +441,9 @@ struct HostDaemon::Impl {
     }
     const bool live = host.connected() && s.valid;
     const int64_t contact_ms =
-        last_contact ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
-                     : 0;
+        last_contact
+            ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
+            : 0;
     Json postures = Json::array();
     for (const PostureRows& p : kPostures) {
       Json actuators = Json::array();
@@ -493,7 +500,9 @@ struct HostDaemon::Impl {
     if (!for_display) return st;
     st["pairing_code"] = code.code;
     st["pairing_seconds"] =
-        code.code.empty() ? 0 : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
+        code.code.empty()
+            ? 0
+            : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
     st["fingerprint"] = fingerprint;
     Json phones = Json::array();
     for (const PairedPhone& p : pairing.phones()) {
@@ -560,13 +569,14 @@ struct HostDaemon::Impl {
       case T::released: {
         // The owner hears why its press ended (a lapse, an error, Stop).
         if (auto it = clients.find(e.client); it != clients.end())
-          it->second.socket->send(Json{{"type", "event"},
-                                       {"event", "released"},
-                                       {"command", key_of(e.address)},
-                                       {"press", e.press},
-                                       {"reason", e.reason},
-                                       {"emergency", e.emergency}}
-                                      .dump());
+          it->second.socket->send(Json{
+              {"type", "event"},
+              {"event", "released"},
+              {"command", key_of(e.address)},
+              {"press", e.press},
+              {"reason", e.reason},
+              {"emergency",
+               e.emergency}}.dump());
         broadcast_state();
         break;
       }
@@ -574,14 +584,18 @@ struct HostDaemon::Impl {
       case T::emergency_ended:
         log(e.type == T::emergency_started ? "a phone lost control: emergency stop (0x006A)"
                                            : "the chair is still: emergency stop released");
-        broadcast({{"type", "event"}, {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"}});
+        broadcast(
+            {{"type", "event"}, {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"}});
         broadcast_state();
         break;
       case T::driver_changed:
         broadcast_state();
         break;
       case T::write_failed:
-        broadcast({{"type", "event"}, {"event", "write_failed"}, {"command", key_of(e.address)}, {"reason", e.reason}});
+        broadcast({{"type", "event"},
+                   {"event", "write_failed"},
+                   {"command", key_of(e.address)},
+                   {"reason", e.reason}});
         break;
       case T::changed:
         break;
@@ -627,9 +641,10 @@ rtukit::Status HostDaemon::start() {
   const auto bad = [](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
   if (o.pairing_file.empty()) return bad("no pairing file given");
   if (!web::is_loopback(o.http))
-    return bad(fmt::format("the display listener {} must be a loopback address (127.0.0.1:PORT): it has no "
-                           "authentication, only the kiosk browser on this board may reach it",
-                           o.http));
+    return bad(
+        fmt::format("the display listener {} must be a loopback address (127.0.0.1:PORT): it has no "
+                    "authentication, only the kiosk browser on this board may reach it",
+                    o.http));
   if (o.tls_cert.empty() != o.tls_key.empty()) return bad("--tls-cert and --tls-key go together");
   if (rtukit::Status e = d.pairing.load()) return e;
   web::ServerOptions so;

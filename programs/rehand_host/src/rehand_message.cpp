@@ -86,14 +86,14 @@ rtukit::Outcome<HostCommand> press_command(const std::string& op, const Json& m,
     c.press = *id;
     return c;
   }
-  auto row = role == HostRole::display ? command_row(m,
-                                                     [](const rh::Register& r) {
-                                                       return is_posture(r.address) ||
-                                                              r.address == rh::reg::kAntiPinch;
-                                                     })
-                                       : command_row(m, [](const rh::Register& r) {
-                                           return is_phone_drive(r.address) || r.address == rh::reg::kPhoneHorn;
-                                         });
+  auto row = role == HostRole::display
+                 ? command_row(m,
+                               [](const rh::Register& r) {
+                                 return is_posture(r.address) || r.address == rh::reg::kAntiPinch;
+                               })
+                 : command_row(m, [](const rh::Register& r) {
+                     return is_phone_drive(r.address) || r.address == rh::reg::kPhoneHorn;
+                   });
   if (!row) return row.error();
   const rtukit::Outcome<uint16_t> value = row_value(m, **row);
   if (!value) return value.error();
@@ -139,7 +139,8 @@ rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m,
     if (authenticated) return bad("this connection is authenticated already");
     if (op == "auth") {
       const std::optional<std::string> token = text_field(m, "token");
-      if (!token || token->empty() || token->size() > 128) return bad("\"token\" must be the token this phone got");
+      if (!token || token->empty() || token->size() > 128)
+        return bad("\"token\" must be the token this phone got");
       HostCommand c = command(Kind::auth);
       c.token = *token;
       return c;
@@ -153,7 +154,8 @@ rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m,
     c.name = *name;
     return c;
   }
-  if (!authenticated) return refuse("not paired: authenticate first, or pair with the code the display shows");
+  if (!authenticated)
+    return refuse("not paired: authenticate first, or pair with the code the display shows");
   if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::phone);
   if (op == "pulse") {
     auto row = command_row(m, [](const rh::Register& r) {
@@ -175,7 +177,8 @@ HostMessage parse_host_message(std::string_view text, HostRole role, bool authen
   out.envelope = true;
   out.op = m["op"].get<std::string>();
   if (m.contains("id")) out.id = m["id"];
-  out.command = role == HostRole::display ? display_command(out.op, m) : phone_command(out.op, m, authenticated);
+  out.command =
+      role == HostRole::display ? display_command(out.op, m) : phone_command(out.op, m, authenticated);
   return out;
 }
 

@@ -43,6 +43,9 @@ struct UnitId {
   friend constexpr bool operator==(UnitId, UnitId) noexcept = default;
 };
 inline constexpr UnitId kBroadcast{0};
+/// The highest unit address on a serial line (Modbus over serial line, 2.2:
+/// 1..247; 248..255 are reserved). A device's own range is its table's.
+inline constexpr uint8_t kMaxSerialUnit = 247;
 
 /// The function codes this stack implements.
 enum class Function : uint8_t {
