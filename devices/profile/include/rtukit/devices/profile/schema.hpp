@@ -13,6 +13,7 @@
 // exceptions; it builds wherever the core builds.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <string_view>
@@ -202,12 +203,19 @@ struct Profile {
 inline constexpr FlagName kKitFlags[] = {
     {kPersisted, "persisted"}, {kLinkAddress, "link-address"}, {kLinkBaud, "link-baud"}};
 
+/// The index of the first row carrying `flag`, or p.rows.size() when none
+/// does. (Constant expressions use the index: GCC's -fsanitize=undefined
+/// makes comparing a table row's address with nullptr non-constant.)
+constexpr size_t row_index_with(const Profile& p, Flags flag) noexcept {
+  for (size_t i = 0; i < p.rows.size(); ++i) {
+    if (p.rows[i].has(flag)) return i;
+  }
+  return p.rows.size();
+}
 /// The first row carrying `flag`, or nullptr.
 constexpr const Row* row_with(const Profile& p, Flags flag) noexcept {
-  for (const Row& r : p.rows) {
-    if (r.has(flag)) return &r;
-  }
-  return nullptr;
+  const size_t i = row_index_with(p, flag);
+  return i < p.rows.size() ? &p.rows[i] : nullptr;
 }
 
 /// The unit addresses a device answers at, and the one it has from the factory.
@@ -221,10 +229,11 @@ struct UnitRange {
 /// From the link-address row (its range and default) when the device has
 /// one, else from `Profile::link` (1..unit_max, unit).
 constexpr UnitRange unit_range(const Profile& p) noexcept {
-  if (const Row* r = row_with(p, kLinkAddress)) {
-    const Range v = r->valid_range();
+  if (const size_t i = row_index_with(p, kLinkAddress); i < p.rows.size()) {
+    const Row& r = p.rows[i];
+    const Range v = r.valid_range();
     const auto clip = [](int64_t x) { return static_cast<uint8_t>(x < 1 ? 1 : x > 255 ? 255 : x); };
-    return {clip(v.min), clip(v.max), clip(r->default_value)};
+    return {clip(v.min), clip(v.max), clip(r.default_value)};
   }
   return {1, p.link.unit_max, p.link.unit};
 }
@@ -261,8 +270,8 @@ constexpr LinkDefaults link_defaults(const Profile& p) noexcept {
   LinkDefaults link = p.link;
   link.unit = unit_range(p).fallback;
   link.unit_max = unit_range(p).max;
-  if (const Row* r = row_with(p, kLinkBaud)) {
-    if (const uint32_t b = baud_of(*r, r->default_value)) link.baud = b;
+  if (const size_t i = row_index_with(p, kLinkBaud); i < p.rows.size()) {
+    if (const uint32_t b = baud_of(p.rows[i], p.rows[i].default_value)) link.baud = b;
   }
   return link;
 }
