@@ -498,6 +498,15 @@ TEST(ServerProtection, GatewayConfirmsAWriteBeforeAnOutOfStepClose) {
 }
 
 TEST(ServerProtection, OutOfFileDescriptors_NoSpin_ThenServesAgain) {
+#if defined(__SANITIZE_ADDRESS__)
+  // The ASan build is ASan + UBSan. UBSan's vptr check tests memory with a
+  // pipe; out of descriptors that fails, and it reports a false "invalid
+  // vptr" in Boost.System, which reads its category while it constructs the
+  // EMFILE error_code (inside Boost.Asio's accept, before our code runs).
+  // No UBSAN_OPTIONS suppression reaches that check. The default, busy and
+  // TSan suites run this test.
+  GTEST_SKIP() << "UBSan's vptr check cannot run without a free descriptor";
+#endif
   // The real process with 32 descriptors, a connection limit it cannot reach:
   // accept() fails with EMFILE while 60 connections wait.
   const uint16_t port = test::free_tcp_port();
