@@ -142,7 +142,7 @@ struct WallTime {
   long ms = 0;
 };
 WallTime wall_time(bool utc) {
-  const auto now = std::chrono::system_clock::now();
+  const auto now = time_source().wall();
   const std::time_t t = std::chrono::system_clock::to_time_t(now);
   WallTime w;
   if (utc)
@@ -433,8 +433,8 @@ int Interruptible::signal() const {
 
 bool Interruptible::sleep(std::chrono::milliseconds d) const {
   // Small steps, so Ctrl-C ends the command at once.
-  const auto until = std::chrono::steady_clock::now() + d;
-  while (!g_interrupted && std::chrono::steady_clock::now() < until)
+  const auto until = time_source().now() + d;
+  while (!g_interrupted && time_source().now() < until)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   return !g_interrupted;
 }

@@ -24,9 +24,16 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio_fwd.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::cli {
+
+/// The CLI's clock: the real one (the commands are the outermost layer; what
+/// they call below takes a clock of its own).
+inline DriverClock& time_source() {
+  return SteadyClock::instance();
+}
 
 /// Exit codes (documented in README.md).
 enum Exit : int {

@@ -116,11 +116,10 @@ int run_diag(const DiagArgs& a) {
     for (const std::string& d : a.data)
       data.push_back(static_cast<uint8_t>(parse_number(d, "echo byte", 0, 255)));
     if (data.empty()) data = {0xA5, 0x37};
-    const auto t0 = std::chrono::steady_clock::now();
+    const auto t0 = time_source().now();
     if (Error e = master->diagnostics(unit, Diagnostic::return_query_data, data, answer))
       fail(e, "FC08 return query data to " + where);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+    const double ms = std::chrono::duration<double, std::milli>(time_source().now() - t0).count();
     if (answer != data)
       throw Failure{kNoResponse,
                     fmt::format("echo from {} differs: sent {}, got {}", where, hex(data), hex(answer))};

@@ -54,9 +54,9 @@ Probe probe(io::Link& link, std::span<const uint8_t> request, size_t response_si
             std::chrono::milliseconds timeout) {
   Probe p;
   link.discard_input();
-  const auto deadline = io::Clock::now() + timeout;
+  const auto deadline = time_source().now() + timeout;
   if (link.write(request, deadline)) return p;
-  const auto sent = io::Clock::now();
+  const auto sent = time_source().now();
   std::vector<uint8_t> got;
   std::array<uint8_t, 256> buf{};
   size_t want = response_size;
@@ -64,7 +64,7 @@ Probe probe(io::Link& link, std::span<const uint8_t> request, size_t response_si
   while (got.size() < want) {
     const Result<size_t> n = link.read_some(buf, deadline);
     if (!n.ok() || *n == 0) break;
-    const double at = std::chrono::duration<double, std::micro>(io::Clock::now() - sent).count();
+    const double at = std::chrono::duration<double, std::micro>(time_source().now() - sent).count();
     got.insert(got.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(*n));
     // Our own request coming back first is a half-duplex adapter's echo; while
     // what came so far is a prefix of the request, it may still be one.

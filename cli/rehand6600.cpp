@@ -36,6 +36,7 @@ struct ChairArgs {
   std::string phone_url;                ///< host: what phones open (QR code)
   std::string tls_cert, tls_key;        ///< host: the phone listener's certificate
   std::vector<std::string> host_names;  ///< host: names phones may use for the chair
+  unsigned forget_days = 30;            ///< host: a pairing unused this many days is forgotten
   std::string unit;                     ///< empty: the controller's factory address
   bool json = false;
   bool mph = false;
@@ -354,16 +355,16 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   auto host = start_host(a, &context);
   const Interruptible interrupt;
   Progress countdown;  // on a terminal only
-  const auto start = std::chrono::steady_clock::now();
+  const auto start = time_source().now();
   // Renew the lease well within its 300 ms, as a UI does while the button is held.
-  while (!interrupt.interrupted() && std::chrono::steady_clock::now() - start < length) {
+  while (!interrupt.interrupted() && time_source().now() - start < length) {
     if (const rtukit::Status e = host->hold(r.address, value)) {
       countdown.clear();
       const uint16_t active = host->active_error();
       host->stop();
       refused_or_fail(e, context, key, "hold", active);
     }
-    const auto left = std::chrono::duration<double>(length - (std::chrono::steady_clock::now() - start));
+    const auto left = std::chrono::duration<double>(length - (time_source().now() - start));
     countdown.show(fmt::format("holding {} {}: {:.1f} s left (Ctrl-C releases)", key,
                                rh::format_value(r, value), std::max(0.0, left.count())));
     interrupt.sleep(std::chrono::milliseconds(100));
@@ -373,7 +374,7 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   (void)host->wait_poll(std::chrono::milliseconds(500));
   const rh::Snapshot s = host->snapshot();
   host->stop();
-  const auto held = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const auto held = std::chrono::duration<double>(time_source().now() - start).count();
   // Ctrl-C (or SIGTERM, SIGHUP) ends the hold early: released all the same,
   // and the exit code says it was cut short (128 + the signal: 130 for Ctrl-C).
   const int sig = interrupt.signal();
@@ -442,6 +443,7 @@ int run_host(const ChairArgs& a) {
   o.tls_cert = a.tls_cert;
   o.tls_key = a.tls_key;
   o.host_names = a.host_names;
+  o.pairing_max_age = std::chrono::hours(24) * a.forget_days;
   if (o.pairing_file.empty()) {
     const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=
     const char* home = std::getenv("HOME");
@@ -583,6 +585,9 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
         cmd.add_option(
             "--pairing-file", a.pairing_file,
             "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");
+        cmd.add_option("--forget-after", a.forget_days,
+                       "days after which a phone that has not connected is forgotten (default 30)")
+            ->check(CLI::Range(1u, 3650u));
         examples(cmd,
                  {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443"});
       },

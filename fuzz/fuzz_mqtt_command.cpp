@@ -30,9 +30,9 @@
 #include "fuzz_support.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/sim.hpp"
-#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_link.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
 namespace {

@@ -19,11 +19,11 @@
 #include "process.hpp"
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/slave.hpp"
-#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/io/asio.hpp"
+#include "rtukit/io/clock.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;

@@ -9,10 +9,10 @@
 #include <vector>
 
 #include "rtukit/core/slave.hpp"
-#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
+#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 namespace {

@@ -150,7 +150,7 @@ class RtuStreamServer final : public SlaveListener {
       return;
     }
     queued_bytes_ += out.size();
-    queue_.push_back(Answer{{out.begin(), out.end()}, std::chrono::steady_clock::now() + turnaround()});
+    queue_.push_back(Answer{{out.begin(), out.end()}, clock_.now() + turnaround()});
     write_next();
   }
 
@@ -160,10 +160,10 @@ class RtuStreamServer final : public SlaveListener {
       if (pending_baud_) change_baud_now();
       return;
     }
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = clock_.now();
     if (queue_.front().not_before > now) {
       waiting_turnaround_ = true;
-      turnaround_timer_.expires_at(queue_.front().not_before);
+      turnaround_timer_.expires_after(queue_.front().not_before - now);
       turnaround_timer_.async_wait([this](const boost::system::error_code& ec) {
         if (ec) return;
         waiting_turnaround_ = false;
@@ -210,6 +210,9 @@ class RtuStreamServer final : public SlaveListener {
   asio::posix::stream_descriptor stream_;
   asio::steady_timer timer_;
   asio::steady_timer turnaround_timer_;
+  // The turnaround is time on the wire, waited for on Asio's timer, which
+  // runs on the steady clock: so is this.
+  DriverClock& clock_ = SteadyClock::instance();
   RequestLog log_;
   RtuResponder responder_;
   std::string where_;

@@ -32,11 +32,16 @@ struct VirtualBus::Impl {
   };
 
   Impl(asio::io_context& c, VirtualBusOptions o)
-      : ctx(c), options(std::move(o)), line(options.ports, options.line), timer(c), t0(io::Clock::now()) {}
+      : ctx(c),
+        options(std::move(o)),
+        line(options.ports, options.line),
+        timer(c),
+        clock(clock_or_steady(options.clock)),
+        t0(clock.now()) {}
 
   uint64_t now() const {
     return static_cast<uint64_t>(
-        std::chrono::duration_cast<std::chrono::microseconds>(io::Clock::now() - t0).count());
+        std::chrono::duration_cast<std::chrono::microseconds>(clock.now() - t0).count());
   }
 
   void read(size_t i) {
@@ -123,6 +128,7 @@ struct VirtualBus::Impl {
   VirtualBusOptions options;
   BusLine line;
   asio::steady_timer timer;
+  DriverClock& clock;
   io::Clock::time_point t0;
   std::vector<std::unique_ptr<Port>> ports;
   std::vector<BusDelivery> deliveries;

@@ -38,7 +38,7 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 namespace websocket = beast::websocket;
 using tcp = asio::ip::tcp;
-using Clock = std::chrono::steady_clock;
+using Clock = io::Clock;
 using PlainStream = beast::tcp_stream;
 using TlsStream = beast::ssl_stream<beast::tcp_stream>;
 
@@ -428,7 +428,7 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
 
   // A token bucket: `max_messages_per_s`, bursts up to two seconds' worth.
   bool within_rate() {
-    const auto now = Clock::now();
+    const auto now = clock_or_steady(server_.options.clock).now();
     const double rate = server_.options.max_messages_per_s;
     tokens_ = std::min(2 * rate, tokens_ + std::chrono::duration<double>(now - refilled_).count() * rate);
     refilled_ = now;
@@ -477,7 +477,7 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   size_t frames_ = 0;  ///< frames of the message being received
   bool open_ = false, closing_ = false, finished_ = false;
   double tokens_ = 0;
-  Clock::time_point refilled_ = Clock::now() - std::chrono::seconds(2);
+  Clock::time_point refilled_{};  ///< the epoch: a new connection starts with a full bucket
 };
 
 // Whether a request may reach the handlers (RFC 6455 section 10.2; DNS
@@ -858,7 +858,7 @@ struct Ticker : std::enable_shared_from_this<Ticker> {
 
 void Server::every(unsigned period_ms, std::function<void()> fn) {
   auto ticker = std::make_shared<Ticker>();
-  ticker->timer = std::make_shared<asio::steady_timer>(*impl_->io, std::chrono::steady_clock::now());
+  ticker->timer = std::make_shared<asio::steady_timer>(*impl_->io, asio::steady_timer::duration::zero());
   ticker->period = std::chrono::milliseconds(period_ms);
   ticker->fn = std::move(fn);
   impl_->timers.push_back(ticker->timer);

@@ -80,7 +80,10 @@ std::vector<uint16_t> persisted_words(const Image& image) {
 }  // namespace
 
 SimHost::SimHost(asio::io_context& ctx, SimDevice device, SimOptions options)
-    : ctx_(ctx), device_(std::move(device)), options_(std::move(options)), clock_(options_.time_scale) {}
+    : ctx_(ctx),
+      device_(std::move(device)),
+      options_(std::move(options)),
+      clock_(options_.time_scale, clock_or_steady(options_.clock)) {}
 
 SimHost::~SimHost() = default;
 

@@ -13,8 +13,6 @@
 namespace rtukit::rehand6600 {
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
 std::string failure_text(Error e) {
   if (e.is_exception()) return fmt::format("Modbus exception {:02X} ({})", e.exception_code(), e.name());
   return std::string(e.name());
@@ -24,8 +22,10 @@ std::string failure_text(Error e) {
 
 Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
     : options_(options),
+      clock_(clock_or_steady(options.clock)),
       master_(std::move(link), MasterOptions{.response_timeout = options.response_timeout,
                                              .quirks = kProfile.quirks,
+                                             .clock = &clock_,
                                              .trace = options.trace}),
       logic_(options),
       session_(SessionOptions{.lease = options.lease}) {
@@ -59,7 +59,7 @@ void Host::stop() {
   std::vector<uint16_t> held;
   {
     std::lock_guard lock(mutex_);
-    session_.stop_all(Clock::now());
+    session_.stop_all(clock_.now());
     for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
       const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
       if (logic_.target(command) != 0) held.push_back(command);
@@ -267,8 +267,8 @@ void HostLogic::set_target(uint16_t command, uint16_t value) {
 
 bool HostLogic::enqueue(uint16_t address, uint16_t value, uint64_t ticket) {
   if (!connected_) return false;
-  const size_t oneshots =
-      static_cast<size_t>(std::count_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; }));
+  const size_t oneshots = static_cast<size_t>(
+      std::count_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; }));
   if (oneshots >= kQueueLimit) return false;
   urgent_.push_back(Request{Request::Kind::write, address, value, ticket, false});
   return true;
@@ -321,13 +321,15 @@ void Host::run() {
       std::unique_lock lock(mutex_);
       if (stopping_) return;
       work_ = false;
-      sync(Clock::now());
-      request = logic_.next(Clock::now());
+      sync(clock_.now());
+      request = logic_.next(clock_.now());
       events = collect();
       if (!request && events.empty()) {
         auto wake = logic_.wake_at();
         if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
-        cv_.wait_until(lock, wake, [this] { return stopping_ || work_; });
+        // A wait of the clock's duration: the clock may be a virtual one.
+        cv_.wait_for(lock, std::max(wake - clock_.now(), io::Clock::duration::zero()),
+                     [this] { return stopping_ || work_; });
         continue;
       }
     }
@@ -352,7 +354,7 @@ void Host::run() {
     }
     {
       std::lock_guard lock(mutex_);
-      const auto now = Clock::now();
+      const auto now = clock_.now();
       logic_.on_result(now, e, std::span<const uint16_t>(words.data(), e ? 0 : n));
       events = logic_.take_events();
       for (const Event& ev : events)
@@ -407,7 +409,7 @@ void Host::join(ClientId client, ClientKind kind) {
 void Host::leave(ClientId client) {
   {
     std::lock_guard lock(mutex_);
-    session_.leave(client, Clock::now());
+    session_.leave(client, clock_.now());
     work_ = true;
   }
   cv_.notify_all();
@@ -417,7 +419,7 @@ rtukit::Status Host::press(ClientId client, uint16_t command, uint16_t value, Pr
   rtukit::Status e;
   {
     std::lock_guard lock(mutex_);
-    e = session_.press(client, command, value, id, Clock::now());
+    e = session_.press(client, command, value, id, clock_.now());
     work_ = true;
   }
   cv_.notify_all();
@@ -428,7 +430,7 @@ rtukit::Status Host::renew(ClientId client, PressId id) {
   rtukit::Status e;
   {
     std::lock_guard lock(mutex_);
-    e = session_.renew(client, id, Clock::now());
+    e = session_.renew(client, id, clock_.now());
     work_ = true;
   }
   cv_.notify_all();
@@ -438,7 +440,7 @@ rtukit::Status Host::renew(ClientId client, PressId id) {
 void Host::release_press(ClientId client, PressId id) {
   {
     std::lock_guard lock(mutex_);
-    session_.release(client, id, Clock::now());
+    session_.release(client, id, clock_.now());
     work_ = true;
   }
   cv_.notify_all();
@@ -447,7 +449,7 @@ void Host::release_press(ClientId client, PressId id) {
 void Host::stop_all() {
   {
     std::lock_guard lock(mutex_);
-    session_.stop_all(Clock::now());
+    session_.stop_all(clock_.now());
     work_ = true;
   }
   cv_.notify_all();
@@ -462,7 +464,8 @@ rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, ui
     const bool pulse = r.role == Role::pulse;
     // A pulse is two writes with one ticket: its outcome is the last one's.
     if (pulse && logic_.enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0)) {
-      if (!logic_.enqueue(command, 0, t)) return rtukit::Status(Errc::refused, "the controller's queue is full");
+      if (!logic_.enqueue(command, 0, t))
+        return rtukit::Status(Errc::refused, "the controller's queue is full");
     } else if (pulse || !logic_.enqueue(command, value, t)) {
       return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
                                                               : "no communication with the controller");
@@ -530,19 +533,21 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
   {
     std::lock_guard lock(mutex_);
     PressId& mine = local_press_[command - reg::kCommandFirst];
-    const auto now = Clock::now();
-    const bool live = mine != 0 && std::any_of(session_.presses().begin(), session_.presses().end(),
-                                               [&](const Session::Press& p) {
-                                                 return p.client == kLocalClient && p.id == mine && p.value == value;
-                                               });
+    const auto now = clock_.now();
+    const bool live =
+        mine != 0 &&
+        std::any_of(session_.presses().begin(), session_.presses().end(), [&](const Session::Press& p) {
+          return p.client == kLocalClient && p.id == mine && p.value == value;
+        });
     if (live) {
       e = session_.renew(kLocalClient, mine, now);
     } else if (mine != 0) {
       // Ended by the session (a lapse, an error, D-8): refused until the
       // caller releases, so nothing presses again by itself.
-      e = rtukit::Status(Errc::refused,
-                         fmt::format("{} was stopped (the lease ran out, or an error: D-8): release and press again",
-                                     r->key));
+      e = rtukit::Status(
+          Errc::refused,
+          fmt::format("{} was stopped (the lease ran out, or an error: D-8): release and press again",
+                      r->key));
     } else {
       e = session_.press(kLocalClient, command, value, ++local_last_, now);
       if (!e) mine = local_last_;
@@ -559,7 +564,7 @@ Error Host::release(uint16_t command) {
   {
     std::lock_guard lock(mutex_);
     PressId& mine = local_press_[command - reg::kCommandFirst];
-    if (mine) session_.release(kLocalClient, mine, Clock::now());
+    if (mine) session_.release(kLocalClient, mine, clock_.now());
     mine = 0;
     work_ = true;
   }

@@ -28,6 +28,7 @@
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/driver/poll_schedule.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -51,8 +52,8 @@ bool valid_topic_level(const std::string& id) {
          id.find_first_of(" \t\n") == std::string::npos;
 }
 
-std::string iso_now() {
-  const std::time_t t = std::time(nullptr);
+std::string iso_time(io::WallClock::time_point at) {
+  const std::time_t t = io::WallClock::to_time_t(at);
   std::tm tm{};
   ::gmtime_r(&t, &tm);
   char out[32];
@@ -124,11 +125,13 @@ rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload
 // ---------------------------------------------------------------- one machine
 
 struct Machine {
-  Machine(Master& master, BridgeMachine m, const BridgeOptions& o)
+  Machine(Master& master, BridgeMachine m, const BridgeOptions& o, DriverClock& c)
       : config(std::move(m)),
         options(o),
         client(master, UnitId{config.unit}),
-        base("rtukit/inverjet/" + config.id) {}
+        base("rtukit/inverjet/" + config.id),
+        clock(c),
+        schedule(PollPolicy::at_hz(o.poll_hz), c.now()) {}
   ~Machine() {
     if (mosq) mosquitto_destroy(mosq);
   }
@@ -137,6 +140,7 @@ struct Machine {
   const BridgeOptions& options;
   ij::Client client;
   std::string base;
+  DriverClock& clock;
   mosquitto* mosq = nullptr;
   std::string client_id;
 
@@ -150,15 +154,11 @@ struct Machine {
   // Bridge thread only.
   ij::Family remembered = ij::Family::none;  ///< the run family through a fault screen
   bool online = false;
-  unsigned failures = 0;
-  Clock::time_point next_poll{};
-  bool poll_now = false;  ///< a command ran: poll at once, off the regular schedule
+  PollSchedule schedule;  ///< also the health published on .../bridge every 10 s
   Clock::time_point last_state_publish{};
   Json pending_doc;  ///< a changed state held back by --max-rate
-  // Health, published on .../bridge every 10 s: is the bus keeping up?
-  uint64_t polls = 0, late_polls = 0, commands_run = 0;
-  double max_gap_ms = 0;
-  Clock::time_point last_poll{}, last_stats{};
+  uint64_t commands_run = 0;
+  Clock::time_point last_stats{};
   std::string last_state;
   std::map<std::string, std::string> last_values;
   bool state_pending = false;
@@ -172,10 +172,13 @@ struct Machine {
 struct Bridge::Impl {
   Impl(std::unique_ptr<io::Link> link, BridgeOptions o)
       : options(std::move(o)),
+        clock(clock_or_steady(options.clock)),
         master(std::move(link),
-               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms)}) {}
+               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
+                             .clock = &clock}) {}
 
   BridgeOptions options;
+  DriverClock& clock;
   Master master;
   std::vector<std::unique_ptr<Machine>> machines;
   std::thread thread;
@@ -219,7 +222,7 @@ struct Bridge::Impl {
     // A flood is cut, not queued, and every command cut gets its answer:
     // a sender that hears nothing would not know to try again.
     Json result{{"command", profile::excerpt(c.name, 40)},
-                {"at", iso_now()},
+                {"at", iso_time(machine.clock.wall())},
                 {"ok", false},
                 {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
                                       kCommandQueueLimit)}};
@@ -233,8 +236,7 @@ struct Bridge::Impl {
 
   rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
     Json body;
-    const double now_s =
-        std::chrono::duration<double>(std::chrono::system_clock::now().time_since_epoch()).count();
+    const double now_s = std::chrono::duration<double>(clock.wall().time_since_epoch()).count();
     if (rtukit::Status e = mqtt_command_body(c.name, c.payload, c.retained, now_s, options.max_age_s, body))
       return e;
     return ij::run_command(m.client, c.name, body, result);
@@ -365,11 +367,9 @@ struct Bridge::Impl {
 
   void run() {
     std::unique_lock lock(mutex);
-    const auto period =
-        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.poll_hz));
     while (!stopping) {
       lock.unlock();
-      const Clock::time_point now = Clock::now();
+      const Clock::time_point now = clock.now();
       for (auto& mp : machines) {
         Machine& m = *mp;
         if (m.announce.exchange(false)) {
@@ -384,7 +384,7 @@ struct Bridge::Impl {
           todo.swap(m.commands);
         }
         for (const Command& c : todo) {
-          Json result{{"command", c.name}, {"at", iso_now()}};
+          Json result{{"command", c.name}, {"at", iso_time(clock.wall())}};
           // A caller's correlation id comes back with the answer.
           if (const Json body = Json::parse(c.payload, nullptr, false);
               body.is_object() && body.contains("id"))
@@ -398,45 +398,35 @@ struct Bridge::Impl {
           }
           m.publish(m.base + "/result", result.dump(), false);
           ++m.commands_run;
-          if (!e) m.poll_now = true;  // show the effect at once
+          if (!e) m.schedule.poll_soon();  // show the effect at once
         }
         if (m.state_pending && now - m.last_state_publish >= min_publish_gap())
           publish_state(m, Json(m.pending_doc), now);
         if (now - m.last_stats >= std::chrono::seconds(10)) {
           m.last_stats = now;
-          m.publish(m.base + "/bridge",
-                    Json{{"polls", m.polls},
-                         {"late_polls", m.late_polls},
-                         {"max_poll_gap_ms", std::lround(m.max_gap_ms)},
-                         {"commands", m.commands_run}}
-                        .dump(),
-                    false, 0);
+          m.publish(
+              m.base + "/bridge",
+              Json{{"polls", m.schedule.polls()},
+                   {"late_polls", m.schedule.late_polls()},
+                   {"max_poll_gap_ms",
+                    std::lround(std::chrono::duration<double, std::milli>(m.schedule.worst_gap()).count())},
+                   {"commands", m.commands_run}}
+                  .dump(),
+              false, 0);
         }
-        if (now < m.next_poll && !m.poll_now) continue;
-        const bool command_effect = now < m.next_poll;  // an extra poll: the schedule stays
-        m.poll_now = false;
-        if (m.online && m.last_poll != Clock::time_point{}) {
-          const double gap = std::chrono::duration<double, std::milli>(now - m.last_poll).count();
-          m.max_gap_ms = std::max(m.max_gap_ms, gap);
-          if (gap > 1.5 * std::chrono::duration<double, std::milli>(period).count()) ++m.late_polls;
-        }
-        m.last_poll = now;
-        ++m.polls;
+        if (!m.schedule.due(now)) continue;
+        const bool command_effect = now < m.schedule.next();  // an extra poll
         const Result<ij::MachineStatus> s = m.client.status();
+        m.schedule.polled(now, bool(s));
         if (!s) {
-          // Offline: polled again after a back-off, so it costs the others
-          // one response timeout per back-off at most.
-          ++m.failures;
-          if (m.failures >= 2) set_online(m, false);
-          m.next_poll = now + std::min<Clock::duration>(period * (1u << std::min(m.failures, 4u)),
-                                                        std::chrono::seconds(5));
+          // Offline: polled again after the schedule's back-off, so it costs
+          // the others one response timeout per back-off at most.
+          if (m.schedule.offline()) set_online(m, false);
           continue;
         }
-        m.failures = 0;
         set_online(m, true);
         m.remembered = ij::remember_family(*s, m.remembered);
         publish_state(m, ij::state_document(*s, m.remembered), now, command_effect);
-        if (!command_effect) m.next_poll = now + period;
       }
       lock.lock();
       wake.wait_for(lock, std::chrono::milliseconds(20), [this] { return stopping; });
@@ -476,7 +466,7 @@ rtukit::Status Bridge::start() {
   mosquitto_lib_init();
   int connect_rc = MOSQ_ERR_SUCCESS, connect_errno = 0;
   for (const BridgeMachine& config : b.options.machines) {
-    auto m = std::make_unique<Machine>(b.master, config, b.options);
+    auto m = std::make_unique<Machine>(b.master, config, b.options, b.clock);
     // Unique per machine and per run: nobody takes the id from docs or a guess.
     uint32_t nonce = 0;
     if (::getrandom(&nonce, sizeof nonce, 0) != sizeof nonce)
@@ -523,8 +513,8 @@ rtukit::Status Bridge::start() {
       if (m->connack > 0) return m->connack.load();
     return 0;
   };
-  const auto wait_until = Clock::now() + std::chrono::seconds(3);
-  while (!all_connected() && refused() == 0 && Clock::now() < wait_until)
+  const auto wait_until = b.clock.now() + std::chrono::seconds(3);
+  while (!all_connected() && refused() == 0 && b.clock.now() < wait_until)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   if (!all_connected()) {
     std::string why;
@@ -583,9 +573,9 @@ void Bridge::stop() {
     m->acked = 0;
     if (m->connected) m->publish(m->base + "/availability", "offline", true);
   }
-  const auto deadline = Clock::now() + std::chrono::seconds(1);
+  const auto deadline = b.clock.now() + std::chrono::seconds(1);
   for (auto& m : b.machines)
-    while (m->connected && m->acked == 0 && Clock::now() < deadline)
+    while (m->connected && m->acked == 0 && b.clock.now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
   for (auto& m : b.machines) {
     mosquitto_disconnect(m->mosq);

@@ -34,6 +34,7 @@
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
+#include "rtukit/driver/poll_schedule.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
@@ -207,10 +208,8 @@ std::string html_escape(std::string_view text) {
   return out;
 }
 
-int64_t unix_ms() {
-  return std::chrono::duration_cast<std::chrono::milliseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
+int64_t unix_ms(io::WallClock::time_point at) {
+  return std::chrono::duration_cast<std::chrono::milliseconds>(at.time_since_epoch()).count();
 }
 
 }  // namespace
@@ -249,13 +248,15 @@ rtukit::Outcome<std::string> load_password_record(const std::string& path) {
 struct Panel::Impl {
   Impl(std::unique_ptr<io::Link> link, PanelOptions o)
       : options(std::move(o)),
+        clock(clock_or_steady(options.clock)),
         master(std::move(link),
-               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms)}),
+               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
+                             .clock = &clock}),
         client(master, UnitId{options.unit}),
-        server(web::ServerOptions{.listen = {listener()}}, handlers()) {
+        server(web::ServerOptions{.listen = {listener()}, .clock = &clock}, handlers()) {
     if (!options.log)
-      options.log = [](const std::string& line) {
-        const std::time_t now = std::time(nullptr);
+      options.log = [this](const std::string& line) {
+        const std::time_t now = io::WallClock::to_time_t(clock.wall());
         std::tm tm{};
         ::localtime_r(&now, &tm);
         fmt::print(stderr, "{:%Y-%m-%d %H:%M:%S} inverjet panel: {}\n", tm, line);
@@ -264,6 +265,7 @@ struct Panel::Impl {
   }
 
   PanelOptions options;
+  DriverClock& clock;
   Master master;
   ij::Client client;
   web::Server server;
@@ -321,7 +323,7 @@ struct Panel::Impl {
     const std::string id = sha256_hex(token);
     const auto it = sessions.find(id);
     if (it == sessions.end()) return {};
-    if (Clock::now() >= it->second.until) {
+    if (clock.now() >= it->second.until) {
       end_session(id, "expired");
       return {};
     }
@@ -343,7 +345,7 @@ struct Panel::Impl {
   }
 
   void expire_sessions() {
-    const auto now = Clock::now();
+    const auto now = clock.now();
     std::vector<std::string> old;
     for (const auto& [id, s] : sessions)
       if (now >= s.until) old.push_back(id);
@@ -358,7 +360,7 @@ struct Panel::Impl {
   // Wrong passwords from one address, per minute: guessing is slow.
   std::optional<int64_t> locked_for(const std::string& address) {
     auto& w = wrong[address];
-    const auto now = Clock::now();
+    const auto now = clock.now();
     if (now - w.since > kWrongWindow) w = {now, 0};
     if (w.count < kWrongPerAddress) return std::nullopt;
     return std::max<int64_t>(1,
@@ -421,7 +423,7 @@ struct Panel::Impl {
         if (it->second.made < oldest->second.made) oldest = it;
       end_session(oldest->first, "too many sessions: the oldest ended");
     }
-    const auto now = Clock::now();
+    const auto now = clock.now();
     sessions[sha256_hex(token)] = {now + kSessionLife, now};
     log(fmt::format("login from {} ({} session(s))", from, sessions.size()));
     // Secure, except on plain HTTP on loopback (the browser would drop it).
@@ -581,31 +583,32 @@ struct Panel::Impl {
   }
 
   void run() {
-    const auto period =
-        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / options.poll_hz));
-    const auto began = Clock::now();
-    Clock::time_point next_poll = began;
+    const auto began = clock.now();
+    PollSchedule schedule(PollPolicy::at_hz(options.poll_hz), began);
     bool plans_read = false;
     bool running_before = false;
     bool online = false;
     bool said_offline = false;  // the page hears of a machine that never answered too
-    unsigned failures = 0;
     inverjet::Family remembered = inverjet::Family::none;  // the run family through a fault screen
     for (;;) {
       std::deque<Job> todo;
       {
         std::unique_lock lock(mutex);
-        wake.wait_until(lock, next_poll, [this] { return stopping || !jobs.empty(); });
+        // A wait of the clock's duration: the clock may be a virtual one.
+        wake.wait_for(lock, std::max(schedule.next() - clock.now(), Clock::duration::zero()),
+                      [this] { return stopping || !jobs.empty(); });
         if (stopping) return;
         todo.swap(jobs);
       }
       bool poll_now = false;
       for (const Job& j : todo) run_job(j, poll_now);
-      if (!poll_now && Clock::now() < next_poll) continue;
-      next_poll = Clock::now() + period;
+      if (poll_now) schedule.poll_soon();
+      const auto now = clock.now();
+      if (!schedule.due(now)) continue;
       const Result<ij::MachineStatus> s = client.status();
+      schedule.polled(now, bool(s));
       if (!s) {
-        if (++failures >= 2 && (online || !said_offline)) {
+        if (schedule.offline() && (online || !said_offline)) {
           online = false;
           said_offline = true;
           server.post([this] {
@@ -615,13 +618,10 @@ struct Panel::Impl {
             broadcast(last_state);
           });
         }
-        next_poll = Clock::now() + std::min<Clock::duration>(period * (1u << std::min(failures, 3u)),
-                                                             std::chrono::seconds(4));
         continue;
       }
-      failures = 0;
       online = true;
-      const int64_t contact = unix_ms();
+      const int64_t contact = unix_ms(clock.wall());
       if (!plans_read) {
         plans_read = true;
         Json p = read_plans();
@@ -640,7 +640,7 @@ struct Panel::Impl {
       const bool new_run = running && !running_before;
       running_before = running;
       Json sample{{"type", "sample"},
-                  {"t", std::chrono::duration<double>(Clock::now() - began).count()},
+                  {"t", std::chrono::duration<double>(now - began).count()},
                   {"speed", s->phase() == ij::Phase::running ? s->speed : 0},
                   {"current_a", s->current_a},
                   {"mosfet_c", s->mosfet_c},

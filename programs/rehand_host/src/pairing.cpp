@@ -48,7 +48,7 @@ std::string random_hex(size_t bytes) {
   return hex(b.data(), bytes);
 }
 
-rtukit::Status PairingStore::load() {
+rtukit::Status PairingStore::load(int64_t now) {
   phones_.clear();
   writable_ = true;
   if (::access(path_.c_str(), F_OK) != 0) return {};  // no phone paired yet
@@ -67,9 +67,6 @@ rtukit::Status PairingStore::load() {
         fmt::format("{}: not an rtukit pairing file; move it away or choose another path", path_));
   }
   const bool v1 = format == kFormatV1;
-  const int64_t now =
-      std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
-          .count();
   for (const nlohmann::json& p : doc["phones"]) {
     if (!p.is_object()) continue;
     PairedPhone phone;

@@ -50,11 +50,6 @@ struct Client {
   Clock::time_point opened{};
 };
 
-int64_t unix_now() {
-  return std::chrono::duration_cast<std::chrono::seconds>(std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 std::string local_time(int64_t unix_seconds, const char* format) {
   const std::time_t t = unix_seconds;
   std::tm tm{};
@@ -137,13 +132,23 @@ std::string choice(uint16_t address, uint16_t value) {
 
 struct HostDaemon::Impl {
   Impl(std::unique_ptr<io::Link> link, HostDaemonOptions o)
-      : options(std::move(o)), host(std::move(link), options.host), pairing(options.pairing_file) {
+      : options(with_clock(std::move(o))),
+        clock(clock_or_steady(options.clock)),
+        host(std::move(link), options.host),
+        pairing(options.pairing_file) {
     if (!options.log)
-      options.log = [](const std::string& line) {
+      options.log = [this](const std::string& line) {
         fmt::print(stderr, "{} rehand6600 host: {}\n", local_time(unix_now(), "%Y-%m-%d %H:%M:%S"), line);
         std::fflush(stderr);
       };
   }
+
+  // The controller runs on the daemon's clock unless it was given its own.
+  static HostDaemonOptions with_clock(HostDaemonOptions o) {
+    if (!o.host.clock) o.host.clock = o.clock;
+    return o;
+  }
+  int64_t unix_now() const { return clock.unix_seconds(); }
 
   void log(const std::string& line) const { options.log(line); }
 
@@ -194,7 +199,7 @@ struct HostDaemon::Impl {
   // ------------------------------------------------------------ WebSocket
 
   void opened(const web::SocketPtr& s) {
-    Client c{.socket = s, .opened = Clock::now()};
+    Client c{.socket = s, .opened = clock.now()};
     c.role = s->request().listener == 0 ? Role::display : Role::phone;
     c.authenticated = c.role == Role::display;
     clients.emplace(s->id(), c);
@@ -249,7 +254,7 @@ struct HostDaemon::Impl {
   // Wrong codes and tokens from one address, per minute: guessing is slow.
   bool too_many_wrong(const std::string& address) {
     auto& w = wrong[address];
-    if (Clock::now() - w.since > kWrongWindow) w = {Clock::now(), 0};
+    if (clock.now() - w.since > kWrongWindow) w = {clock.now(), 0};
     return w.count >= kWrongPerAddress;
   }
   void count_wrong(const std::string& address) { ++wrong[address].count; }
@@ -316,7 +321,7 @@ struct HostDaemon::Impl {
       case Kind::pair_start: {
         std::string fresh = random_code();
         if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
-        code = {std::move(fresh), Clock::now() + kCodeLifetime, 0};
+        code = {std::move(fresh), clock.now() + kCodeLifetime, 0};
         log("pairing code shown on the display");
         broadcast_state();
         return {};
@@ -367,12 +372,12 @@ struct HostDaemon::Impl {
           return refuse("too many wrong tokens or codes from this address: wait a minute");
         // One answer for "no code shown", "expired" and "wrong": nothing a
         // stranger can probe tells whether a code is showing.
-        if (code.code.empty() || Clock::now() > code.until || k.code.size() != code.code.size() ||
+        if (code.code.empty() || clock.now() > code.until || k.code.size() != code.code.size() ||
             CRYPTO_memcmp(k.code.data(), code.code.data(), code.code.size()) != 0) {
           count_wrong(from);
           if (!code.code.empty() && ++code.guesses >= kCodeGuesses) {
             // Guessed at: a new code replaces it, so the owner can still pair.
-            code = {random_code(), Clock::now() + kCodeLifetime, 0};
+            code = {random_code(), clock.now() + kCodeLifetime, 0};
             log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
             broadcast_state();
           }
@@ -400,7 +405,7 @@ struct HostDaemon::Impl {
   // Every 50 ms on the server thread: unauthenticated phones time out, the
   // pairing code expires, the state follows the clock (last contact).
   void tick() {
-    const auto now = Clock::now();
+    const auto now = clock.now();
     for (auto& [id, c] : clients) {
       if (c.role == Role::phone && !c.authenticated && now - c.opened > options.auth_timeout &&
           c.socket->is_open())
@@ -421,7 +426,7 @@ struct HostDaemon::Impl {
     const rh::Snapshot s = host.snapshot();
     if (host.connected() && s.valid && s.sequence != last_sequence) {
       last_sequence = s.sequence;
-      last_contact = std::chrono::system_clock::now();
+      last_contact = clock.wall();
     }
     const bool near = host.near_obstacle();
     if (near && !near_obstacle) broadcast({{"type", "event"}, {"event", "near_obstacle"}});
@@ -502,7 +507,7 @@ struct HostDaemon::Impl {
     st["pairing_seconds"] =
         code.code.empty()
             ? 0
-            : std::chrono::duration_cast<std::chrono::seconds>(code.until - Clock::now()).count();
+            : std::chrono::duration_cast<std::chrono::seconds>(code.until - clock.now()).count();
     st["fingerprint"] = fingerprint;
     Json phones = Json::array();
     for (const PairedPhone& p : pairing.phones()) {
@@ -603,6 +608,7 @@ struct HostDaemon::Impl {
   }
 
   HostDaemonOptions options;
+  DriverClock& clock;
   rh::Host host;
   PairingStore pairing;
   std::unique_ptr<web::Server> server;
@@ -646,8 +652,9 @@ rtukit::Status HostDaemon::start() {
                     "authentication, only the kiosk browser on this board may reach it",
                     o.http));
   if (o.tls_cert.empty() != o.tls_key.empty()) return bad("--tls-cert and --tls-key go together");
-  if (rtukit::Status e = d.pairing.load()) return e;
+  if (rtukit::Status e = d.pairing.load(d.unix_now())) return e;
   web::ServerOptions so;
+  so.clock = &d.clock;
   so.listen.push_back(web::Listener::from(o.http));
   if (!o.phone.empty()) {
     const std::filesystem::path beside = std::filesystem::path(o.pairing_file).parent_path();

@@ -40,10 +40,10 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/driver/clock.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio_fwd.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/io/status.hpp"
 

@@ -26,7 +26,7 @@
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
-#include "rtukit/driver/clock.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {
@@ -62,7 +62,7 @@ struct MasterOptions {
   /// with a 2-byte byte count). Off by default; RTU framing only.
   FrameQuirks quirks{};
   /// The clock deadlines and delays run on; nullptr: the steady clock. Must
-  /// outlive the master. Tests pass a ManualClock (driver/clock.hpp).
+  /// outlive the master. Tests pass a ManualClock (io/clock.hpp).
   DriverClock* clock = nullptr;
   /// Called (under the master's lock) for each request sent and each
   /// attempt's received bytes. Empty: no tracing, no cost.

@@ -14,7 +14,7 @@
 #include <mutex>
 #include <vector>
 
-#include "rtukit/driver/clock.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {

@@ -1,4 +1,4 @@
-// What device simulators share: device time scaled from the steady clock, a
+// What device simulators share: device time scaled from a DriverClock, a
 // periodic tick on an io_context (so a model advances even when nobody
 // polls), and the small parsers their consoles use.
 #pragma once
@@ -13,17 +13,19 @@
 #include <vector>
 
 #include "rtukit/io/asio_fwd.hpp"
+#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 
-/// Device milliseconds = real milliseconds since construction x `scale`
-/// (60: a device minute per real second). Models take this as their "now".
+/// Device milliseconds = milliseconds of `clock` since construction x
+/// `scale` (60: a device minute per real second). Models take this as their
+/// "now". `clock` must outlive the DeviceClock.
 class DeviceClock {
  public:
-  explicit DeviceClock(double scale = 1.0) noexcept : scale_(scale), t0_(std::chrono::steady_clock::now()) {}
+  explicit DeviceClock(double scale = 1.0, const DriverClock& clock = SteadyClock::instance()) noexcept
+      : scale_(scale), clock_(clock), t0_(clock.now()) {}
   uint64_t now_ms() const noexcept {
-    const auto real =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0_).count();
+    const auto real = std::chrono::duration<double, std::milli>(clock_.now() - t0_).count();
     return static_cast<uint64_t>(real * scale_);
   }
   double scale() const noexcept { return scale_; }
@@ -32,7 +34,8 @@ class DeviceClock {
 
  private:
   double scale_;
-  std::chrono::steady_clock::time_point t0_;
+  const DriverClock& clock_;
+  io::Clock::time_point t0_;
 };
 
 /// Calls `tick` every `period` on `ctx`'s thread until destroyed.

@@ -19,6 +19,7 @@
 
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/io/asio_fwd.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit {
@@ -30,6 +31,8 @@ struct VirtualBusOptions {
   BusConfig line;
   /// Every character as it was on the line, once finished (a tap for a sniffer).
   std::function<void(const BusCharacter&)> tap;
+  /// The bus's time base; nullptr: the steady clock. Must outlive the bus.
+  DriverClock* clock = nullptr;
 };
 
 class VirtualBus {

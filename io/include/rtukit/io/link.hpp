@@ -16,17 +16,10 @@
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/rtu.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::io {
-
-using Clock = std::chrono::steady_clock;
-
-/// Microseconds on the steady clock, the time base handed to the core.
-inline uint64_t now_us() noexcept {
-  return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
-}
 
 class Link {
  public:

@@ -49,6 +49,7 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::web {
@@ -151,6 +152,9 @@ struct ServerOptions {
   unsigned max_messages_per_s = 200;
   size_t max_frames_per_message = 256;   ///< WebSocket frames in one message, empty ones included
   unsigned request_timeout_ms = 10'000;  ///< for a complete HTTP request (and the TLS handshake)
+  /// The message-rate limiter's clock; nullptr: the steady clock. Must
+  /// outlive the server. (Deadlines on sockets run on Asio's timers.)
+  DriverClock* clock = nullptr;
 };
 
 class Server {

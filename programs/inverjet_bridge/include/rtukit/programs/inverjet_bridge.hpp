@@ -35,6 +35,7 @@
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -64,6 +65,9 @@ struct BridgeOptions {
   unsigned max_age_s = kMaxCommandAgeS;            ///< older commands are refused
   std::string discovery_prefix = "homeassistant";  ///< empty: no discovery
   unsigned response_timeout_ms = 300;
+  /// The clock of the poll schedule, the command age check and the time
+  /// stamps; nullptr: the real one. Must outlive the bridge.
+  DriverClock* clock = nullptr;
 };
 
 /// The body of a command message on .../set/<name>, for inverjet::run_command

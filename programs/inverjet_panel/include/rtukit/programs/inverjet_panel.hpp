@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "rtukit/devices/inverjet/registers.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -44,6 +45,9 @@ struct PanelOptions {
   std::string tls_cert, tls_key;        ///< PEM files, both or neither; required off loopback
   /// One line per login, wrong password, lockout, logout (with the time). Default: stderr.
   std::function<void(const std::string&)> log;
+  /// The clock of the poll schedule, the sessions, the login limits and the
+  /// time stamps; nullptr: the real one. Must outlive the panel.
+  DriverClock* clock = nullptr;
 };
 
 /// The panel's password file: one line

@@ -55,7 +55,8 @@ class PairingStore {
   explicit PairingStore(std::string path) : path_(std::move(path)) {}
   /// Reads the file; a missing file is an empty store. Errors: io_error /
   /// invalid_argument with the reason (the store is then read-only).
-  rtukit::Status load();
+  /// `now`: Unix seconds, the pairing time given to a phone of an old file.
+  rtukit::Status load(int64_t now);
   struct Added {
     std::string id, token;  ///< the token (256 bits, hex) goes to the phone once and is never stored
   };
@@ -109,6 +110,10 @@ struct HostDaemonOptions {
   /// One line per security-relevant event (pairing, forgetting, link loss and
   /// recovery, emergency stops, shutdown), without the timestamp. Default: stderr with one.
   std::function<void(const std::string&)> log;
+  /// The clock of the pairing code, the limits, the expiry, the controller's
+  /// poll and leases (unless `host.clock` is set) and the log's time stamps;
+  /// nullptr: the real one. Must outlive the daemon.
+  DriverClock* clock = nullptr;
 };
 
 class HostDaemon {

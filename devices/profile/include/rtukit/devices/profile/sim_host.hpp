@@ -54,6 +54,9 @@ struct SimOptions {
   /// Without it, start() refuses such a file (Errc::refused) and leaves it alone.
   bool force_state = false;
   double time_scale = 1.0;  ///< device seconds per real second, (0, 100000]
+  /// The time the device clock scales; nullptr: the steady clock. Must
+  /// outlive the host. Tests pass a ManualClock and advance it.
+  DriverClock* clock = nullptr;
   std::chrono::milliseconds tick{20};
   RequestLog log;                                ///< every request/response, for -v
   ServerOptions server;                          ///< connection limits, turnaround (slave_server.hpp)

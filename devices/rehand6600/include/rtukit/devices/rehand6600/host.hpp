@@ -33,8 +33,8 @@
 #include <array>
 #include <chrono>
 #include <condition_variable>
-#include <deque>
 #include <cstdint>
+#include <deque>
 #include <functional>
 #include <memory>
 #include <mutex>
@@ -63,6 +63,9 @@ struct HostOptions {
   std::chrono::milliseconds response_timeout{100};
   /// Each frame on the wire (MasterOptions::trace); empty: none.
   std::function<void(const TraceEvent&)> trace;
+  /// The clock of the poll schedule, the leases and the master's deadlines;
+  /// nullptr: the steady clock. Must outlive the Host.
+  DriverClock* clock = nullptr;
 };
 
 struct Event {
@@ -73,7 +76,7 @@ struct Event {
     view,           ///< rising edge of 0x0024: show the 360-degree view
     error_raised,   ///< code = the error (local 0x0026 or 1010)
     error_cleared,  ///< code = the error that went away
-    released,       ///< press `press` of `client` on `address` ended (`reason`; `emergency`: by the stop command)
+    released,  ///< press `press` of `client` on `address` ended (`reason`; `emergency`: by the stop command)
     emergency_started,  ///< a phone lost control: the controller's stop command (0x006A) is held
     emergency_ended,    ///< the chair is still: 0x006A released
     driver_changed,     ///< `client` drives now (0: nobody)
@@ -87,7 +90,7 @@ struct Event {
   uint16_t before = 0;
   uint16_t value = 0;
   uint16_t code = 0;
-  std::string reason;  ///< for error_raised: why (e.g. "device ID 0x69, expected 0x68", "timeout")
+  std::string reason;   ///< for error_raised: why (e.g. "device ID 0x69, expected 0x68", "timeout")
   uint64_t client = 0;  ///< released, driver_changed: the session's client
   uint64_t press = 0;   ///< released: the press
   bool emergency = false;
@@ -166,8 +169,8 @@ class HostLogic {
   TimePoint next_at_{};
   TimePoint cycle_start_{};
   std::optional<Request> in_flight_;
-  std::vector<Request> queue_;    ///< the held commands of this cycle, to write again
-  std::deque<Request> urgent_;    ///< target changes, then one-shots: before the next poll
+  std::vector<Request> queue_;  ///< the held commands of this cycle, to write again
+  std::deque<Request> urgent_;  ///< target changes, then one-shots: before the next poll
   std::vector<std::pair<uint64_t, Error>> results_;
   std::vector<Event> events_;
   bool connected_ = false;
@@ -266,6 +269,7 @@ class Host {
   Error write_command(uint16_t address, uint16_t value);
 
   HostOptions options_;
+  DriverClock& clock_;
   Master master_;
   std::function<void(const Event&)> handler_;
   std::thread thread_;
@@ -277,7 +281,7 @@ class Host {
   HostLogic logic_;
   Session session_;
   uint64_t next_ticket_ = 1;
-  std::deque<std::pair<uint64_t, Error>> finished_;  ///< the last one-shot outcomes, for wait_ticket
+  std::deque<std::pair<uint64_t, Error>> finished_;        ///< the last one-shot outcomes, for wait_ticket
   std::array<PressId, reg::kCommandCount> local_press_{};  ///< kLocalClient's press per command (0: none)
   PressId local_last_ = 0;
 };
