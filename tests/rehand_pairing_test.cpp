@@ -1,0 +1,74 @@
+// The Rehand host's pairing store on a virtual calendar: a phone unused for
+// longer than the daemon's --forget-after is forgotten, and the forgetting
+// survives a restart (the file is rewritten). No test here waits 30 days.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+
+#include "rtukit/io/clock.hpp"
+#include "rtukit/programs/rehand_host.hpp"
+
+namespace rtukit {
+namespace {
+
+using namespace std::chrono_literals;
+using programs::PairingStore;
+
+class PairingExpiry : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* tmp = std::getenv("TMPDIR");
+    dir_ = std::filesystem::path(tmp && *tmp ? tmp : "/tmp") /
+           ("rtukit-pairing-" + std::to_string(::getpid()) + "-" +
+            ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    std::filesystem::create_directories(dir_);
+    path_ = (dir_ / "pairing.json").string();
+  }
+  void TearDown() override { std::filesystem::remove_all(dir_); }
+  std::filesystem::path dir_;
+  std::string path_;
+  ManualClock clock;
+  const int64_t max_age = std::chrono::seconds(std::chrono::hours(24 * 30)).count();
+};
+
+TEST_F(PairingExpiry, AnUnusedPhoneIsForgottenAfterItsAge_AUsedOneIsKept) {
+  PairingStore store(path_);
+  ASSERT_FALSE(store.load(clock.unix_seconds()));
+  const auto old = store.add("Anna's phone", "123456", clock.unix_seconds());
+  const auto used = store.add("Ben's phone", "654321", clock.unix_seconds());
+  ASSERT_TRUE(old && used);
+  clock.advance(std::chrono::hours(24 * 20));
+  ASSERT_FALSE(store.touch(used->id, clock.unix_seconds()));
+  // 30 days to the second: still paired.
+  clock.advance(std::chrono::hours(24 * 10));
+  EXPECT_TRUE(store.expire(clock.unix_seconds(), max_age).empty());
+  clock.advance(1s);
+  const auto gone = store.expire(clock.unix_seconds(), max_age);
+  ASSERT_EQ(gone.size(), 1u);
+  EXPECT_EQ(gone[0].name, "Anna's phone");
+  ASSERT_EQ(store.size(), 1u);
+  EXPECT_EQ(store.phones()[0].name, "Ben's phone");
+  EXPECT_FALSE(store.find(old->token).has_value());
+  EXPECT_TRUE(store.find(used->token).has_value());
+  // After a restart the forgotten phone stays forgotten.
+  PairingStore again(path_);
+  ASSERT_FALSE(again.load(clock.unix_seconds()));
+  EXPECT_EQ(again.size(), 1u);
+  EXPECT_FALSE(again.find(old->token).has_value());
+  // Ben's phone goes too, 30 days after its last contact.
+  clock.advance(std::chrono::hours(24 * 20));
+  EXPECT_EQ(again.expire(clock.unix_seconds(), max_age).size(), 1u);
+  EXPECT_EQ(again.size(), 0u);
+}
+
+TEST_F(PairingExpiry, AShorterAgeForgetsSooner) {
+  PairingStore store(path_);
+  ASSERT_FALSE(store.load(clock.unix_seconds()));
+  ASSERT_TRUE(store.add("phone", "111111", clock.unix_seconds()));
+  clock.advance(std::chrono::hours(24) + 1s);
+  EXPECT_EQ(store.expire(clock.unix_seconds(), 86'400).size(), 1u);
+}
+
+}  // namespace
+}  // namespace rtukit
