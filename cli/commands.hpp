@@ -38,6 +38,10 @@ void add_doctor_command(CLI::App& app, Action& action);
 
 /// sim <device>, sim map FILE (device simulators on the one simulator host).
 void add_sim_commands(CLI::App& app, Action& action);
+/// rtukit devices; rtukit <device> registers|get|set|watch|status for every
+/// registered device (devices/registry); rtukit map check|registers; the
+/// map-file verbs.
+void add_profile_commands(CLI::App& app, Action& action);
 
 struct Failure;
 /// A mistyped command or option in `args` (argv without the program name):

@@ -6,7 +6,6 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "registry.hpp"
 
 int main(int argc, char** argv) {
   using namespace rtukit::cli;

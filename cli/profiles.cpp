@@ -1,6 +1,7 @@
 // Commands built from device profiles: `rtukit devices`, `rtukit <device>
-// registers|get|set`, `rtukit map check`, and reading by name with a map
-// file (`rtukit read --map`, `rtukit watch --map`). Everything a device is
+// registers|get|set|watch|status` for every registered device, and the same
+// verbs for a map file (`rtukit map get|set|watch|status --map FILE`, `rtukit
+// map check|registers FILE`). Everything a device is
 // comes from its table; this file knows no device.
 #include "profiles.hpp"
 
@@ -10,9 +11,9 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "registry.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/registry.hpp"
 
 namespace rtukit::cli {
 
@@ -229,11 +230,100 @@ void print_registers(const DeviceArgs& a, const profile::Profile& p,
     fmt::print("{}", markdown ? markdown() : profile::registers_markdown(p));
 }
 
-// The same verbs for every built-in device.
-// A device's own verb of the same name wins (the Rehand 6600's `set` goes
-// through its host controller's rules; a bare register write must not).
-void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
-  const profile::Profile& p = *entry.profile;
+// Where a verb's device comes from: a registered device, or the map file
+// its --map names (read when the command runs). Both take the same verbs,
+// through the same code.
+struct Source {
+  const profile::DeviceEntry* entry = nullptr;  ///< nullptr: a map file
+
+  const profile::Profile& of(const DeviceArgs& a) const {
+    return entry ? *entry->profile : load_map_or_fail(a.map_file);
+  }
+  std::string command() const {
+    return entry ? fmt::format("rtukit {}", entry->profile->name) : "rtukit map";
+  }
+  std::string device() const { return entry ? "" : " --map meter.yaml"; }
+  // What every bus verb takes: (--map,) --unit, --json, the link.
+  void add_common(CLI::App& cmd, DeviceArgs& a) const {
+    if (entry) {
+      cmd.add_option("--unit,-u", a.unit, device_unit_help(*entry->profile));
+    } else {
+      cmd.add_option("--map", a.map_file, "the device's register-map file (docs/register-maps.md)")
+          ->required();
+      cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
+    }
+    cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
+    if (entry)
+      a.link.add_to(cmd, false, profile::link_defaults(*entry->profile).baud);
+    else
+      a.link.add_to(cmd, false);
+  }
+};
+
+// A device's status: its status rows (what it measures and reports); a
+// device without any: every readable row.
+int run_status(DeviceArgs a, const profile::Profile& p) {
+  a.keys.clear();
+  for (const Row& r : p.rows)
+    if (r.role == profile::Role::status && r.readable()) a.keys.emplace_back(r.key);
+  return run_get(a, p);
+}
+
+// The verbs every device has: get, set, watch, status. A device's own verb
+// of the same name wins (the Rehand 6600's `set` goes through its host
+// controller's rules; a bare register write must not).
+void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
+  const auto has = [&dev](const char* name) {
+    return !dev.get_subcommands([name](CLI::App* s) { return s->get_name() == name; }).empty();
+  };
+  if (!has("get"))
+    add_command<DeviceArgs>(
+        dev, action, "get", "read registers by name, decoded with units",
+        [source](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
+          source.add_common(cmd, a);
+          examples(cmd, {fmt::format("{} get --port /dev/ttyUSB0{}", source.command(), source.device()),
+                         fmt::format("{} get --port /dev/ttyUSB0{} KEY --json", source.command(),
+                                     source.device())});
+        },
+        [source](const DeviceArgs& a) { return run_get(a, source.of(a)); });
+  if (!has("set"))
+    add_command<DeviceArgs>(
+        dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
+        [source](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
+          cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
+          source.add_common(cmd, a);
+          examples(cmd,
+                   {fmt::format("{} set --port /dev/ttyUSB0{} KEY VALUE", source.command(), source.device()),
+                    "values as people write them: 80, 80%, outdoor, 30:00, 0x1F; a link-address row "
+                    "(address 5): the device answers at 5 from then on"});
+        },
+        [source](const DeviceArgs& a) { return run_set(a, source.of(a)); });
+  if (!has("watch"))
+    add_command<DeviceArgs>(
+        dev, action, "watch", "poll registers by name until Ctrl-C",
+        [source](CLI::App& cmd, DeviceArgs& a) {
+          cmd.add_option("keys", a.keys, "register keys; none: every readable register");
+          a.watch.add_to(cmd);
+          source.add_common(cmd, a);
+          examples(cmd, {fmt::format("{} watch --port /dev/ttyUSB0{} --interval 2000", source.command(),
+                                     source.device())});
+        },
+        [source](const DeviceArgs& a) { return run_watch(a, source.of(a)); });
+  if (!has("status"))
+    add_command<DeviceArgs>(
+        dev, action, "status", "read what the device reports (its status registers)",
+        [source](CLI::App& cmd, DeviceArgs& a) {
+          source.add_common(cmd, a);
+          examples(cmd, {fmt::format("{} status --port /dev/ttyUSB0{}", source.command(), source.device()),
+                         fmt::format("{} status --port /dev/ttyUSB0{} --json", source.command(),
+                                     source.device())});
+        },
+        [source](const DeviceArgs& a) { return run_status(a, source.of(a)); });
+}
+
+void add_device_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& entry) {
   const auto has = [&dev](const char* name) {
     return !dev.get_subcommands([name](CLI::App* s) { return s->get_name() == name; }).empty();
   };
@@ -252,32 +342,7 @@ void add_device_verbs(CLI::App& dev, Action& action, const DeviceEntry& entry) {
           print_registers(a, *entry.profile, entry.markdown);
           return int{kOk};
         });
-  if (!has("get"))
-    add_command<DeviceArgs>(
-        dev, action, "get", "read registers by name, decoded with units",
-        [&p](CLI::App& cmd, DeviceArgs& a) {
-          cmd.add_option("keys", a.keys, "register keys (see `registers`); none: every readable register");
-          cmd.add_option("--unit,-u", a.unit, device_unit_help(p));
-          cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-          a.link.add_to(cmd, false, profile::link_defaults(p).baud);
-          const Row& first = p.rows.front();
-          examples(cmd, {fmt::format("rtukit {} get --port /dev/ttyUSB0", p.name),
-                         fmt::format("rtukit {} get --port /dev/ttyUSB0 {} --json", p.name, first.key)});
-        },
-        [&p](const DeviceArgs& a) { return run_get(a, p); });
-  if (!has("set"))
-    add_command<DeviceArgs>(
-        dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
-        [&p](CLI::App& cmd, DeviceArgs& a) {
-          cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
-          cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
-          cmd.add_option("--unit,-u", a.unit, device_unit_help(p));
-          cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-          a.link.add_to(cmd, false, profile::link_defaults(p).baud);
-          examples(cmd, {fmt::format("rtukit {} set --port /dev/ttyUSB0 KEY VALUE", p.name),
-                         "values as people write them: 80, 80%, outdoor, 30:00, 0x1F"});
-        },
-        [&p](const DeviceArgs& a) { return run_set(a, p); });
+  add_bus_verbs(dev, action, Source{&entry});
 }
 
 }  // namespace
@@ -303,8 +368,8 @@ void add_profile_commands(CLI::App& app, Action& action) {
         [](const DeviceArgs& a) {
           const bool* json = &a.json;
           Json list = Json::array();
-          for (const DeviceEntry& e : builtin_devices()) {
-            const profile::Profile& p = *e.profile;
+          for (const profile::DeviceEntry* e : devices::registered()) {
+            const profile::Profile& p = *e->profile;
             const profile::LinkDefaults link = profile::link_defaults(p);
             if (*json) {
               list.push_back({{"name", p.name},
@@ -328,14 +393,14 @@ void add_profile_commands(CLI::App& app, Action& action) {
           return int{kOk};
         });
   }
-  for (const DeviceEntry& entry : builtin_devices()) {
+  for (const profile::DeviceEntry* e : devices::registered()) {
+    const profile::DeviceEntry& entry = *e;
     const std::string name(entry.profile->name);
     CLI::App* dev = app.get_subcommands([&name](CLI::App* s) { return s->get_name() == name; }).empty()
                         ? app.add_subcommand(name, std::string(entry.profile->title))
                         : app.get_subcommand(name);
     dev->require_subcommand(1);
     add_device_verbs(*dev, action, entry);
-    if (entry.add_commands) entry.add_commands(*dev, action);
   }
   auto* map = app.add_subcommand("map", "register-map files: any Modbus device described in YAML or JSON");
   map->require_subcommand(1);
@@ -374,32 +439,7 @@ void add_profile_commands(CLI::App& app, Action& action) {
         print_registers(a, load_map_or_fail(a.map_file), {});
         return int{kOk};
       });
-  add_command<DeviceArgs>(
-      app, action, "watch", "poll registers by name with a map file until Ctrl-C",
-      [](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_option("--map", a.map_file, "the device's register-map file")->required();
-        cmd.add_option("keys", a.keys, "register keys; none: every readable register");
-        cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
-        cmd.add_flag("--json", a.json, "one JSON document per poll (docs/json.md)");
-        a.watch.add_to(cmd);
-        a.link.add_to(cmd, false);
-        examples(cmd, {"rtukit watch --port /dev/ttyUSB0 --map meter.yaml voltage current --interval 2000"});
-      },
-      [](const DeviceArgs& a) { return run_watch(a, load_map_or_fail(a.map_file)); });
-  add_command<DeviceArgs>(
-      app, action, "set", "write one register by name with a map file (value with unit, name or mm:ss)",
-      [](CLI::App& cmd, DeviceArgs& a) {
-        cmd.add_option("--map", a.map_file, "the device's register-map file")->required();
-        cmd.add_option("key", a.key, "register key (key[i] for an entry of a block)")->required();
-        cmd.add_option("value", a.value, "the value: 80, 80%, outdoor, 30:00, 0x1F")->required();
-        cmd.add_option("--unit,-u", a.unit, "unit address (default: the map's)");
-        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-        a.link.add_to(cmd, false);
-        examples(cmd, {"rtukit set --port /dev/ttyUSB0 --map meter.yaml demand_period 30:00",
-                       "rtukit set --port /dev/ttyUSB0 --map meter.yaml address 5   (a link-address row: "
-                       "the device answers at 5 from then on)"});
-      },
-      [](const DeviceArgs& a) { return run_set(a, load_map_or_fail(a.map_file)); });
+  add_bus_verbs(*map, action, Source{});
 }
 
 int run_map_read(const LinkOptions& link, const std::string& unit, const std::string& map_file,

@@ -22,9 +22,9 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "console.hpp"
-#include "registry.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/state_file.hpp"
+#include "rtukit/devices/registry.hpp"
 #include "rtukit/io/asio.hpp"
 
 namespace rtukit::cli {
@@ -119,6 +119,7 @@ struct SimArgs {
   std::string console;
   std::string map_file;
   ServerArgs server;
+  profile::SimSettings settings;  ///< the device's own options (DeviceEntry::sim_options)
 };
 
 void add_sim_options(CLI::App& cmd, SimArgs& a, const profile::Profile* profile) {
@@ -202,13 +203,18 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
 void add_sim_commands(CLI::App& app, Action& action) {
   auto* sim = app.add_subcommand("sim", "simulate a device on a pty, serial port or TCP");
   sim->require_subcommand(1);
-  for (const DeviceEntry& entry : builtin_devices()) {
+  for (const profile::DeviceEntry* e : devices::registered()) {
+    const profile::DeviceEntry& entry = *e;
     const profile::Profile* profile = entry.profile;
     add_command<SimArgs>(
         *sim, action, std::string(profile->name), std::string(profile->title),
         [&entry, profile](CLI::App& cmd, SimArgs& a) {
           add_sim_options(cmd, a, profile);
-          if (entry.add_sim_options) entry.add_sim_options(cmd);
+          for (const profile::SimOption& o : entry.sim_options) {
+            std::string& text = a.settings[std::string(o.name)];
+            text = o.default_value;
+            cmd.add_option(fmt::format("--{}", o.name), text, std::string(o.help))->capture_default_str();
+          }
           const std::string name(profile->name);
           examples(cmd, {fmt::format("rtukit sim {} --listen pty:/tmp/{}", name, name),
                          fmt::format("rtukit sim {} --listen tcp://127.0.0.1:1502 --state-file {}.json", name,
@@ -218,7 +224,10 @@ void add_sim_commands(CLI::App& app, Action& action) {
         },
         [&entry](SimArgs& a, const CLI::App& cmd) {
           a.baud_given = cmd.count("--baud") > 0;
-          return run_sim(a, entry.make_sim());
+          Outcome<profile::SimDevice> device = entry.make_sim(a.settings);
+          if (!device)
+            throw Failure{kUsage, fmt::format("sim {}: {}", entry.profile->name, device.error().reason())};
+          return run_sim(a, std::move(*device));
         });
   }
   add_command<SimArgs>(

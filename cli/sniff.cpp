@@ -21,9 +21,9 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "profiles.hpp"
-#include "registry.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/io/serial_config.hpp"
@@ -64,12 +64,10 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
   };
   for (const std::string& d : a.devices) {
     const auto [name, unit] = split(d, "--device");
-    const DeviceEntry* entry = nullptr;
+    const profile::DeviceEntry* entry = devices::find(name);
     std::string known;
-    for (const DeviceEntry& e : builtin_devices()) {
-      if (e.profile->name == name) entry = &e;
-      known += (known.empty() ? "" : ", ") + std::string(e.profile->name);
-    }
+    for (const profile::DeviceEntry* e : devices::registered())
+      known += (known.empty() ? "" : ", ") + std::string(e->profile->name);
     if (!entry)
       throw Failure{kUsage, fmt::format("--device {}: no such device ({}; or --map FILE@UNIT)", name, known)};
     out[device_unit(unit, *entry->profile).value] = entry->profile;
@@ -465,7 +463,7 @@ void add_sniff_command(CLI::App& app, Action& action) {
       [](CLI::App& cmd, SniffArgs& a) {
         cmd.add_option("--bus", a.bus, "listen to a running `rtukit bus --name NAME` (its exact timing)");
         cmd.add_option("--tap", a.tap, "read a bus tap file (rtukit bus --tap) instead of a port");
-        cmd.add_option("--device", a.devices, "decode a unit as a built-in device: inverjet@21 (repeatable)");
+        cmd.add_option("--device", a.devices, "decode a unit as a registered device (rtukit devices): inverjet@21 (repeatable)");
         cmd.add_option("--map", a.maps, "decode a unit with a register-map file: meter.yaml@3 (repeatable)");
         cmd.add_flag("--json", a.json, "one JSON document per transaction (docs/json.md)");
         cmd.add_option("--pcap", a.pcap,

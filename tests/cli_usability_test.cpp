@@ -34,10 +34,11 @@ struct Slave {
 TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
   RunResult r = rtukit({"raed"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(r.output,
-            "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
-            "scan, slave, diag, ident, "
-            "inverjet, rehand6600, devices, map, watch, set, sim, gateway, bus, sniff, doctor, completion)\n");
+  EXPECT_EQ(
+      r.output,
+      "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
+      "scan, slave, diag, ident, "
+      "inverjet, rehand6600, devices, map, watch, set, sim, gateway, bus, sniff, doctor, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
@@ -314,7 +315,10 @@ TEST(CliUsability, EveryCommandHelpHasExamples) {
                                                           {"scan"},
                                                           {"slave"},
                                                           {"devices"},
-                                                          {"watch"},
+                                                          {"map", "get"},
+                                                          {"map", "set"},
+                                                          {"map", "watch"},
+                                                          {"map", "status"},
                                                           {"completion"},
                                                           {"map", "check"},
                                                           {"map", "registers"},
@@ -346,7 +350,13 @@ TEST(CliUsability, EveryCommandHelpHasExamples) {
                                                           {"rehand6600", "set"},
                                                           {"rehand6600", "errors"},
                                                           {"rehand6600", "registers"},
-                                                          {"rehand6600", "get"}};
+                                                          {"rehand6600", "get"},
+                                                          {"thermostat", "get"},
+                                                          {"thermostat", "set"},
+                                                          {"thermostat", "watch"},
+                                                          {"thermostat", "status"},
+                                                          {"thermostat", "registers"},
+                                                          {"sim", "thermostat"}};
   for (std::vector<std::string> c : commands) {
     c.push_back("--help");
     const RunResult r = rtukit(c);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 
+#include "rtukit/devices/profile/device.hpp"
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/io/asio.hpp"
@@ -280,6 +281,18 @@ std::string SimHost::command(std::string_view line) {
     return *reply;
   }
   return fmt::format("unknown command '{}' (try help)", verb);
+}
+
+}  // namespace rtukit::profile
+
+namespace rtukit::profile {
+
+std::string_view setting(const SimSettings& settings, std::span<const SimOption> options,
+                         std::string_view name) {
+  if (const auto it = settings.find(name); it != settings.end()) return it->second;
+  for (const SimOption& o : options)
+    if (o.name == name) return o.default_value;
+  return {};
 }
 
 }  // namespace rtukit::profile

@@ -1,0 +1,19 @@
+// rtukit devices: the registry, every device this build knows (one
+// rtukit_add_device() line each, see cmake/rtukit_add_device.cmake). The
+// front-ends read it and nothing else to learn which devices exist.
+#pragma once
+
+#include <span>
+#include <string_view>
+
+#include "rtukit/devices/profile/device.hpp"
+
+namespace rtukit::devices {
+
+/// Every registered device, in the order their lines ran (built-ins first).
+std::span<const profile::DeviceEntry* const> registered();
+
+/// The registered device named `name` (its profile's name), or nullptr.
+const profile::DeviceEntry* find(std::string_view name);
+
+}  // namespace rtukit::devices
