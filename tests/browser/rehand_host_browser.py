@@ -56,6 +56,11 @@ def _try(fn):
 DEADLINE = 30
 
 
+def commands_held(con):
+    """The commands the simulated controller holds, but the host's boot-complete flag."""
+    return [h for h in con.held().split() if h != "none" and not h.startswith("host_ready=")]
+
+
 def text(d, css):
     return d.find_element(By.CSS_SELECTOR, css).text
 
@@ -120,6 +125,16 @@ def main():
         check("the display shows the posture moving", wait_for(
             lambda: hmi.find_element(By.ID, "posture-state-seat_lift").get_attribute("data-state") == "moving", DEADLINE),
             hmi.find_element(By.ID, "posture-state-seat_lift").text)
+        # Stand/sit shares actuator 1 with seat lift: only the posture held moves.
+        postures = {p["key"]: p for p in state(http_port)["postures"]}
+        check("the daemon says which posture is held and moves",
+              postures["seat_lift"]["held"] == "up" and postures["seat_lift"]["moving"] is True
+              and postures["stand"]["held"] == "" and postures["stand"]["moving"] is False,
+              json.dumps({k: postures[k] for k in ("seat_lift", "stand")}))
+        stand_state = hmi.find_element(By.ID, "posture-state-stand")
+        check("holding Seat lift does not show Stand / sit moving",
+              stand_state.get_attribute("data-state") != "moving" and "moving" not in stand_state.text
+              and "standing" not in stand_state.text, f"{stand_state.get_attribute('data-state')}: {stand_state.text}")
         hmi.save_screenshot(os.path.join(OUT, "hmi-posture-moving.png"))
         ActionChains(hmi).release(up).perform()
         check("nothing held after release", bool(wait_for(lambda: "seat_lift" not in con.held(), 5, 0.01)))
@@ -189,6 +204,20 @@ setTimeout(() => done({timeout: true}), 5000);
               and "leg_rotate" not in con.held(), f"held: {con.held()}")
         check("overlay stays until acknowledged", hmi.find_element(By.ID, "error-overlay").is_displayed())
         ActionChains(hmi).release().perform()
+        # The error cleared, the overlay still up: another connection may hold
+        # a command again, and Stop on the overlay releases it and every other.
+        r = hmi.execute_async_script(HOLD_JS, f"ws://127.0.0.1:{http_port}/ws?role=display", "seat_tilt", "back")
+        check("under the acknowledged-later overlay a second connection holds seat_tilt", r.get("ok") is True and bool(
+            wait_for(lambda: "seat_tilt=2" in con.held(), DEADLINE)), json.dumps(r))
+        check("the overlay is still shown", hmi.find_element(By.ID, "error-overlay").is_displayed())
+        hmi.find_element(By.ID, "stop").click()
+        check("Stop on the overlay releases every command",
+              bool(wait_for(lambda: not commands_held(con) and state(http_port)["presses"] == [], 3, 0.01)),
+              f"held: {con.held()}")
+        released = wait_for(lambda: hmi.execute_script("return window.__released"), 3)
+        check("...and the holder hears it was Stop", bool(released) and "Stop" in released.get("reason", ""),
+              json.dumps(released))
+        hmi.execute_script("window.__held.close()")
         hmi.find_element(By.ID, "ack").click()
         check("acknowledged overlay goes away",
               wait_for(lambda: not hmi.find_element(By.ID, "error-overlay").is_displayed()))
@@ -325,6 +354,26 @@ setTimeout(() => done('still open'), 10000);
         con.cmd("charger off")
         wait_for(lambda: phone.find_element(By.ID, "fwd").is_enabled(), DEADLINE)
 
+        # The same phone opens the remote in a second tab (its token from
+        # localStorage): the new connection replaces the old one, and the
+        # display says so.
+        first_tab = phone.current_window_handle
+        phone.switch_to.new_window("tab")
+        phone.get(f"https://127.0.0.1:{phone_port}/")
+        check("a second tab of the phone takes over", wait_for(
+            lambda: phone.find_element(By.ID, "remote").is_displayed() and re.fullmatch(r"\d+ %", text(phone, "#battery")),
+            DEADLINE))
+        line = wait_for(lambda: "replaced the old one" in text(hmi, "#phone-event") and text(hmi, "#phone-event"),
+                        DEADLINE)
+        check("the display says a new connection replaced the phone's old one",
+              bool(line) and "Phone Test phone: a new connection replaced the old one" in line, str(line))
+        hmi.save_screenshot(os.path.join(OUT, "hmi-phone-replaced.png"))
+        phone.switch_to.window(first_tab)
+        check("the old tab says it was replaced",
+              wait_for(lambda: phone.find_element(By.ID, "replaced").is_displayed(), DEADLINE))
+        phone.close()
+        phone.switch_to.window(phone.window_handles[0])
+
         # pairing survives a restart of the daemon (stored atomically); the
         # page authenticates again by itself, in its first message
         check("pairing file is private", (os.stat(pairing).st_mode & 0o077) == 0)
@@ -360,9 +409,15 @@ setTimeout(() => done('still open'), 10000);
               text(phone, "#lost"))
         check("the phone's controls are disabled", not phone.find_element(By.ID, "fwd").is_enabled())
         phone.save_screenshot(os.path.join(OUT, "phone-lost-390x844.png"))
-        for d in drivers[1:]:
-            if d is not phone and d.get_window_size()["width"] < 1100:
-                d.save_screenshot(os.path.join(OUT, "hmi-lost-1024x600.png"))
+        # The board's 1024x600 panel with the link lost, its overlay acknowledged.
+        small = next(d for d in drivers[1:] if d is not phone and d.get_window_size()["width"] < 1100)
+        wait_for(lambda: small.find_element(By.ID, "error-overlay").is_displayed(), DEADLINE)
+        small.find_element(By.ID, "ack").click()
+        check("1024x600: the lost link shown, acknowledged", wait_for(
+            lambda: small.find_element(By.ID, "error-contact").is_displayed()
+            and "No contact since" in text(small, "#error-contact") and text(small, "#ack").startswith("Acknowledged"),
+            DEADLINE), text(small, "#error-contact"))
+        small.save_screenshot(os.path.join(OUT, "hmi-lost-1024x600.png"))
     finally:
         for d in drivers:
             try:

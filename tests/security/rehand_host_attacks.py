@@ -11,7 +11,9 @@ check failed. Starts what it needs and stops it by PID.
 """
 import json
 import os
+import re
 import shutil
+import signal
 import socket
 import ssl
 import subprocess
@@ -199,9 +201,15 @@ def main():
         first = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(first)
         check("the phone authenticates in its first message", (first.request({"op": "auth", "token": token}) or {}).get("ok"))
+        watcher = WebSocket(display_port, "/ws?role=display")  # what the display hears
+        sockets.append(watcher)
         second = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(second)
         check("a second connection with the same token is accepted", (second.request({"op": "auth", "token": token}) or {}).get("ok"))
+        told = next_message(watcher, "event", 5, event="replaced")
+        check("...and the display is told, with the phone's name",
+              told is not None and told.get("name") == "Anna's phone", json.dumps(told))
+        watcher.close()
         try:
             while first.recv(5) is not None:
                 pass
@@ -354,16 +362,42 @@ def main():
               json.dumps(right))
         guesser.close()
 
-        # ---- the log: one line each, with a timestamp
+        # ---- the controller's link lost (the simulator stopped) and back, then shutdown
+        logged_before = len(open(log_path).read())
+        os.kill(sim.pid, signal.SIGSTOP)
+        try:
+            lost = wait_for(lambda: not state(display_port)["connected"], 10, 0.02)
+        finally:
+            os.kill(sim.pid, signal.SIGCONT)
+        check("the link is lost while the simulator is stopped", bool(lost))
+        check("...and recovers when it goes on", bool(wait_for(lambda: state(display_port)["connected"], 30)))
+        host.send_signal(signal.SIGTERM)
+        code = host.wait(20)
+        check("the daemon ends cleanly on SIGTERM", code == 0, f"exit {code}")
+
+        # ---- the log: one line each, with a timestamp (the default logger's "YYYY-MM-DD HH:MM:SS")
         text = open(log_path).read()
+        stamp = re.compile(r"^\d{4}-\d{2}-\d{2} \d{2}:\d{2}:\d{2} rehand6600 host: ")
         for what in ("paired", "forgotten", "disconnected", "lost control"):
-            check(f"the daemon logs '{what}'", what in text)
+            lines = [line for line in text.splitlines() if what in line]
+            check(f"the daemon logs '{what}', timestamped", bool(lines) and all(stamp.match(x) for x in lines),
+                  "; ".join(lines[:3]))
+        since = text[logged_before:].splitlines()
+        for what, words in (("the link lost", "link to the controller lost"),
+                            ("the link recovered", "link to the controller recovered"),
+                            ("the shutdown", "stopped: every command released")):
+            lines = [line for line in since if words in line]
+            check(f"the daemon logs {what} in one timestamped line", len(lines) == 1 and bool(stamp.match(lines[0])),
+                  "; ".join(lines) or "none")
     finally:
         for s in sockets:
             try:
                 s.close()
             except Exception:  # noqa: BLE001
                 pass
+        for p in procs:
+            if p.poll() is None:
+                os.kill(p.pid, signal.SIGCONT)  # a simulator stopped by the link-loss check ends too
         stop_processes(procs)
         shutil.rmtree(work, ignore_errors=True)
     return summary()

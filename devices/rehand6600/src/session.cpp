@@ -25,18 +25,6 @@ bool is_posture(uint16_t a) {
 bool is_phone_drive(uint16_t a) {
   return a >= reg::kPhoneForward && a <= reg::kPhoneRight;
 }
-// The hold commands each kind of client may press.
-bool may_press(ClientKind kind, uint16_t a) {
-  const bool local = is_posture(a) || a == reg::kAntiPinch;
-  const bool remote = is_phone_drive(a) || a == reg::kPhoneHorn;
-  return kind == ClientKind::display ? local : kind == ClientKind::phone ? remote : local || remote;
-}
-// The one-shot commands (pulses, settings) each kind may send.
-bool may_send(ClientKind kind, uint16_t a) {
-  const bool local = a == reg::kLight || a == reg::kDriveMode || a == reg::kSpeedLevel;
-  const bool remote = a == reg::kPhoneLight || a == reg::kPhoneLeftSignal || a == reg::kPhoneRightSignal;
-  return kind == ClientKind::display ? local : kind == ClientKind::phone ? remote : local || remote;
-}
 
 std::string key_of(uint16_t command) {
   const Register* r = find_register(command);
@@ -44,6 +32,19 @@ std::string key_of(uint16_t command) {
 }
 
 }  // namespace
+
+bool may_press(ClientKind kind, uint16_t command) noexcept {
+  const bool local = is_posture(command) || command == reg::kAntiPinch;
+  const bool remote = is_phone_drive(command) || command == reg::kPhoneHorn;
+  return kind == ClientKind::display ? local : kind == ClientKind::phone ? remote : local || remote;
+}
+
+bool may_send(ClientKind kind, uint16_t command) noexcept {
+  const bool local = command == reg::kLight || command == reg::kDriveMode || command == reg::kSpeedLevel;
+  const bool remote =
+      command == reg::kPhoneLight || command == reg::kPhoneLeftSignal || command == reg::kPhoneRightSignal;
+  return kind == ClientKind::display ? local : kind == ClientKind::phone ? remote : local || remote;
+}
 
 Session::Client* Session::find(ClientId id) {
   for (Client& c : clients_)

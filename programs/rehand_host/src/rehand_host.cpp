@@ -103,19 +103,24 @@ std::string random_code() {
   }
 }
 
-// Which posture each command moves: its status register and actuators (table 1).
+// Which posture each command moves: its status register, the values of that
+// register that are this posture's (the leg rest's register tells rotation,
+// 1 and 2, from extension, 3), and its actuators (table 1). Postures share
+// actuators (stand/sit moves 1, 2 and 4; seat lift moves 1), so an actuator
+// that moves does not say which posture moves it: the command held does.
 struct PostureRows {
   uint16_t command, status;
-  std::array<int, 3> actuators;  ///< 1-based, 0 = none
+  std::array<uint16_t, 2> status_values;  ///< the status values that are this posture's motion
+  std::array<int, 3> actuators;           ///< 1-based, 0 = none
 };
 constexpr PostureRows kPostures[] = {
-    {rh::reg::kStandSit, rh::reg::kStandStatus, {1, 2, 4}},
-    {rh::reg::kSeatLift, rh::reg::kSeatLiftStatus, {1, 0, 0}},
-    {rh::reg::kBackrest, rh::reg::kBackrestStatus, {2, 0, 0}},
-    {rh::reg::kSeatTilt, rh::reg::kSeatTiltStatus, {3, 0, 0}},
-    {rh::reg::kLegRotate, rh::reg::kLegRestStatus, {4, 0, 0}},
-    {rh::reg::kLegExtend, rh::reg::kLegRestStatus, {5, 0, 0}},
-    {rh::reg::kPlateTilt, 0, {6, 0, 0}},
+    {rh::reg::kStandSit, rh::reg::kStandStatus, {1, 2}, {1, 2, 4}},
+    {rh::reg::kSeatLift, rh::reg::kSeatLiftStatus, {1, 2}, {1, 0, 0}},
+    {rh::reg::kBackrest, rh::reg::kBackrestStatus, {1, 2}, {2, 0, 0}},
+    {rh::reg::kSeatTilt, rh::reg::kSeatTiltStatus, {1, 2}, {3, 0, 0}},
+    {rh::reg::kLegRotate, rh::reg::kLegRestStatus, {1, 2}, {4, 0, 0}},
+    {rh::reg::kLegExtend, rh::reg::kLegRestStatus, {3, 3}, {5, 0, 0}},
+    {rh::reg::kPlateTilt, 0, {0, 0}, {6, 0, 0}},
 };
 
 std::string key_of(uint16_t address) {
@@ -449,18 +454,35 @@ struct HostDaemon::Impl {
         last_contact
             ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
             : 0;
+    // A posture row: its actuators (their limits and over-current are the
+    // row's too), the command held for it ("held": the value's name, "" =
+    // none) and whether it moves: its own status register says so (a physical
+    // button moves it too), or its command is held and one of its actuators
+    // moves. Holding seat lift moves actuator 1, which stand/sit shares: only
+    // seat lift moves.
+    const std::vector<rh::Session::Press> held = host.presses();
     Json postures = Json::array();
     for (const PostureRows& p : kPostures) {
       Json actuators = Json::array();
+      bool actuator_moving = false;
       for (int n : p.actuators) {
         if (n == 0) continue;
         const auto state_reg = static_cast<uint16_t>(rh::reg::kActuatorState + n - 1);
+        const std::string state = choice(state_reg, s[state_reg]);
+        actuator_moving = actuator_moving || state == "moving";
         actuators.push_back({{"n", n},
-                             {"state", choice(state_reg, s[state_reg])},
+                             {"state", state},
                              {"position", s[static_cast<uint16_t>(rh::reg::kActuatorPosition + n - 1)]}});
       }
+      uint16_t held_value = 0;
+      for (const rh::Session::Press& h : held)
+        if (h.command == p.command) held_value = h.value;
+      const uint16_t status = p.status ? s[p.status] : 0;
+      const bool own_status = status != 0 && (status == p.status_values[0] || status == p.status_values[1]);
       postures.push_back({{"key", key_of(p.command)},
-                          {"status", p.status ? choice(p.status, s[p.status]) : "still"},
+                          {"status", own_status ? choice(p.status, status) : "still"},
+                          {"held", held_value ? choice(p.command, held_value) : ""},
+                          {"moving", own_status || (held_value != 0 && actuator_moving)},
                           {"actuators", actuators}});
     }
     // Stand/sit moves actuators 1, 2 and 4 towards standing: its progress.
@@ -468,7 +490,7 @@ struct HostDaemon::Impl {
                                 s[rh::reg::kActuatorPosition + 3]) /
                                30;
     Json presses = Json::array();
-    for (const rh::Session::Press& p : host.presses()) {
+    for (const rh::Session::Press& p : held) {
       auto owner = clients.find(p.client);
       const bool phone = owner != clients.end() && owner->second.role == Role::phone;
       presses.push_back({{"command", key_of(p.command)},

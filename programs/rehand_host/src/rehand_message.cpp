@@ -7,6 +7,7 @@
 
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/devices/rehand6600/session.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -30,11 +31,10 @@ HostCommand command(Kind kind, uint16_t address = 0, uint16_t value = 0) {
   return c;
 }
 
-bool is_posture(uint16_t a) {
-  return a >= rh::reg::kStandSit && a <= rh::reg::kPlateTilt;
-}
-bool is_phone_drive(uint16_t a) {
-  return a >= rh::reg::kPhoneForward && a <= rh::reg::kPhoneRight;
+// The session's client kind of a role: which commands a role may name is
+// the Session's rule (rh::may_press, rh::may_send), not restated here.
+rh::ClientKind kind_of(HostRole role) {
+  return role == HostRole::display ? rh::ClientKind::display : rh::ClientKind::phone;
 }
 
 // A JSON value as the text profile::parse_value reads ("up", "2", "outdoor").
@@ -51,12 +51,16 @@ std::optional<std::string> text_field(const Json& m, const char* key, std::strin
   return m[key].get<std::string>();
 }
 
-// A command row by its key, checked to be one of `allowed`.
-rtukit::Outcome<const rh::Register*> command_row(const Json& m, bool (*allowed)(const rh::Register&)) {
+// A command row by its key, checked to be one `role` may press (a hold row)
+// or pulse (a pulse row), as the Session rules.
+rtukit::Outcome<const rh::Register*> command_row(const Json& m, HostRole role, rh::Role row_role) {
   if (!m.contains("command") || !m["command"].is_string()) return bad("\"command\" must be a register key");
   const std::string key = m["command"].get<std::string>();
   const rh::Register* r = rh::find_register(key);
-  if (!r || rh::table_of(*r) != rh::Table::command || !allowed(*r))
+  const bool allowed =
+      r && (row_role == rh::Role::hold ? rh::may_press(kind_of(role), r->address)
+                                       : r->role == row_role && rh::may_send(kind_of(role), r->address));
+  if (!r || rh::table_of(*r) != rh::Table::command || !allowed)
     return bad(fmt::format("'{}' is not a command this page may send", key));
   return r;
 }
@@ -86,14 +90,7 @@ rtukit::Outcome<HostCommand> press_command(const std::string& op, const Json& m,
     c.press = *id;
     return c;
   }
-  auto row = role == HostRole::display
-                 ? command_row(m,
-                               [](const rh::Register& r) {
-                                 return is_posture(r.address) || r.address == rh::reg::kAntiPinch;
-                               })
-                 : command_row(m, [](const rh::Register& r) {
-                     return is_phone_drive(r.address) || r.address == rh::reg::kPhoneHorn;
-                   });
+  auto row = command_row(m, role, rh::Role::hold);
   if (!row) return row.error();
   const rtukit::Outcome<uint16_t> value = row_value(m, **row);
   if (!value) return value.error();
@@ -107,7 +104,7 @@ rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& 
   if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::display);
   if (op == "stop") return command(Kind::stop);
   if (op == "pulse") {
-    auto row = command_row(m, [](const rh::Register& r) { return r.address == rh::reg::kLight; });
+    auto row = command_row(m, HostRole::display, rh::Role::pulse);
     if (!row) return row.error();
     return command(Kind::pulse, (*row)->address);
   }
@@ -115,7 +112,7 @@ rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& 
     if (!m.contains("key") || !m["key"].is_string()) return bad("\"key\" must be drive_mode or speed_level");
     const std::string key = m["key"].get<std::string>();
     const rh::Register* r = rh::find_register(key);
-    if (!r || (r->address != rh::reg::kDriveMode && r->address != rh::reg::kSpeedLevel))
+    if (!r || r->role != rh::Role::setting || !rh::may_send(rh::ClientKind::display, r->address))
       return bad(fmt::format("'{}' is not a setting (drive_mode, speed_level)", key));
     const rtukit::Outcome<uint16_t> value = row_value(m, *r);
     if (!value) return value.error();
@@ -158,10 +155,7 @@ rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m,
     return refuse("not paired: authenticate first, or pair with the code the display shows");
   if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::phone);
   if (op == "pulse") {
-    auto row = command_row(m, [](const rh::Register& r) {
-      return r.address == rh::reg::kPhoneLight || r.address == rh::reg::kPhoneLeftSignal ||
-             r.address == rh::reg::kPhoneRightSignal;
-    });
+    auto row = command_row(m, HostRole::phone, rh::Role::pulse);
     if (!row) return row.error();
     return command(Kind::pulse, (*row)->address);
   }

@@ -59,6 +59,12 @@ function onEvent(m) {
     openView('joystick');
   } else if (m.event === 'near_obstacle') {
     openView('obstacle');
+  } else if (m.event === 'replaced') {
+    // A second connection of the same phone closed the first (a new tab, a
+    // reconnect, or someone with its token): the display owner should know.
+    const line = `Phone ${m.name || m.phone || '?'}: a new connection replaced the old one`;
+    phoneNotice(line);
+    notice(line);
   } else if (m.event === 'released') {
     // A press released by the daemon (its lease lapsed, or Stop): the chair
     // stopped that motion; say so, the user presses again if they want it.
@@ -145,8 +151,12 @@ function renderValues(s, lost) {
 }
 
 // Table 1's posture state, next to each posture's buttons: a badge for what
-// the actuators do (moving, at a limit, over-current) and a bar per actuator
+// the posture does (moving, at a limit, over-current) and a bar per actuator
 // for its position (0..1000 per-mille); the stand row shows its progress.
+// Limits and over-current come from the posture's actuators; "moving" only
+// from the daemon's `moving`, true for the posture whose command is held (or
+// whose own status register says it moves): postures share actuators, so
+// holding Seat lift moves actuator 1 without standing the chair up.
 const STATE_RANK = { 'over-current': 0, 'upper limit': 1, 'lower limit': 2, moving: 3, still: 4 };
 
 function renderPostures(s) {
@@ -173,7 +183,7 @@ function showPostureState(cell, posture, progress) {
   let kind = '';
   if (worst === 'over-current') { text = 'over-current'; kind = 'over-current'; }
   else if (worst === 'upper limit' || worst === 'lower limit') { text = worst; kind = 'limit'; }
-  else if (worst === 'moving' || (status && status !== 'still')) { text = status && status !== 'still' ? status : 'moving'; kind = 'moving'; }
+  else if (posture && posture.moving === true) { text = status && status !== 'still' ? status : 'moving'; kind = 'moving'; }
   else if (posture) text = 'still';
   badge.textContent = text;
   badge.className = `badge ${kind}`;
@@ -351,6 +361,14 @@ function notice(text, bad = false) {
   el.classList.remove('hidden');
   clearTimeout(noticeTimer);
   noticeTimer = setTimeout(() => el.classList.add('hidden'), NOTICE_MS);
+}
+
+// What happened to a phone's connection (a connection replaced by a new
+// one): one line under the phone list, with the time, kept until the next.
+function phoneNotice(text) {
+  const el = $('#phone-event');
+  el.textContent = `${clockTime(new Date())} ${text}`;
+  el.classList.remove('hidden');
 }
 
 // A command that is not a press: its refusal is shown, nothing is retried.

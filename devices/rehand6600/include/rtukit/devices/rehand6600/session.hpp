@@ -61,6 +61,17 @@ struct SessionOptions {
   uint16_t near_obstacle_mm = 500;  ///< closer than this while moving: the pages show the 360-degree view
 };
 
+/// The hold commands (table 2's hold rows) a kind of client may press: a
+/// display the postures and anti-pinch, a phone drive and horn, a tool all of
+/// them. The one statement of this rule: the Session checks every press with
+/// it, and the host daemon's message parser asks it which commands a page may
+/// name at all.
+bool may_press(ClientKind kind, uint16_t command) noexcept;
+/// The one-shot commands (pulses and settings) a kind of client may send: a
+/// display the main light, drive mode and speed level, a phone its light and
+/// turn signals, a tool all of them.
+bool may_send(ClientKind kind, uint16_t command) noexcept;
+
 /// Why a kind of control is disabled now ("" = allowed), as pages show it.
 struct Disabled {
   std::string all;    ///< every command (the error overlay, a loss of control being stopped)

@@ -1,0 +1,78 @@
+// The host daemon's message parser (rehand_message.hpp) against the Session's
+// rule of which command a kind of client may press or send (session.hpp):
+// the parser asks that rule and restates none of it, so for every command
+// row and both page roles the parser accepts a press, a pulse or a setting
+// exactly when the Session's may_press / may_send allows it.
+#include "rtukit/programs/rehand_message.hpp"
+
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+#include <set>
+#include <string>
+
+#include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/devices/rehand6600/session.hpp"
+
+namespace rtukit::programs {
+namespace {
+
+namespace rh = rehand6600;
+using Json = nlohmann::json;
+
+bool accepted(const Json& message, HostRole role) {
+  const HostMessage m = parse_host_message(message.dump(), role, /*authenticated=*/true);
+  return m.envelope && static_cast<bool>(m.command);
+}
+
+rh::ClientKind kind_of(HostRole role) {
+  return role == HostRole::display ? rh::ClientKind::display : rh::ClientKind::phone;
+}
+
+std::set<std::string> keys(bool (*pick)(const rh::Register&)) {
+  std::set<std::string> out;
+  for (const rh::Register& r : rh::registers())
+    if (rh::table_of(r) == rh::Table::command && pick(r)) out.insert(std::string(r.key));
+  return out;
+}
+
+TEST(RehandMessage, PressPulseAndSetFollowTheSessionsRule) {
+  for (const HostRole role : {HostRole::display, HostRole::phone}) {
+    const rh::ClientKind kind = kind_of(role);
+    for (const rh::Register& r : rh::registers()) {
+      if (rh::table_of(r) != rh::Table::command) continue;
+      const std::string key(r.key);
+      const Json press{{"op", "press"}, {"command", key}, {"value", 1}, {"press", 1}};
+      EXPECT_EQ(accepted(press, role), rh::may_press(kind, r.address)) << key;
+      const Json pulse{{"op", "pulse"}, {"command", key}};
+      EXPECT_EQ(accepted(pulse, role), r.role == rh::Role::pulse && rh::may_send(kind, r.address)) << key;
+      const Json set{{"op", "set"}, {"key", key}, {"value", 1}};
+      EXPECT_EQ(accepted(set, role),
+                role == HostRole::display && r.role == rh::Role::setting && rh::may_send(kind, r.address))
+          << key;
+    }
+  }
+}
+
+// The rule itself, as the daemon applied it before it asked the Session
+// (docs/rehand6600-remote.md): unchanged.
+TEST(RehandMessage, EachRoleMayNameTheCommandsItAlwaysCould) {
+  using rh::ClientKind;
+  EXPECT_EQ(keys([](const rh::Register& r) { return rh::may_press(ClientKind::display, r.address); }),
+            (std::set<std::string>{"stand", "seat_lift", "backrest", "seat_tilt", "leg_rotate", "leg_extend",
+                                   "plate_tilt", "anti_pinch"}));
+  EXPECT_EQ(
+      keys([](const rh::Register& r) { return rh::may_press(ClientKind::phone, r.address); }),
+      (std::set<std::string>{"phone_forward", "phone_reverse", "phone_left", "phone_right", "phone_horn"}));
+  EXPECT_EQ(keys([](const rh::Register& r) { return rh::may_send(ClientKind::display, r.address); }),
+            (std::set<std::string>{"light", "drive_mode", "speed_level"}));
+  EXPECT_EQ(keys([](const rh::Register& r) { return rh::may_send(ClientKind::phone, r.address); }),
+            (std::set<std::string>{"phone_light", "phone_left_signal", "phone_right_signal"}));
+  EXPECT_TRUE(rh::may_press(ClientKind::tool, rh::reg::kStandSit) &&
+              rh::may_press(ClientKind::tool, rh::reg::kPhoneHorn));
+  EXPECT_TRUE(rh::may_send(ClientKind::tool, rh::reg::kLight) &&
+              rh::may_send(ClientKind::tool, rh::reg::kPhoneLight));
+}
+
+}  // namespace
+}  // namespace rtukit::programs
