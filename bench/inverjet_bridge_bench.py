@@ -29,12 +29,11 @@ import shutil
 import statistics
 import subprocess
 import sys
-import tempfile
 import threading
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, connects, free_port, pct, stop_processes, wait_for  # noqa: E402
+from pyhelpers import Console, connects, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 SIZES = [int(x) for x in sys.argv[sys.argv.index("--sizes") + 1].split(",")] if "--sizes" in sys.argv else [1, 20, 100]
@@ -94,7 +93,7 @@ class Subscriber:
 
 
 def run(n):
-    work = tempfile.mkdtemp(prefix=f"rtukit-fleet-{n}-")
+    work = temp_dir(f"rtukit-fleet-{n}-")  # removed at exit, on every path (a stopped bench too)
     port = free_port()
     conf = os.path.join(work, "m.conf")
     with open(conf, "w") as f:

@@ -63,7 +63,9 @@ int run_gateway(const GatewayArgs& a) {
   std::unique_ptr<Master> bus = a.link.make_master();
   asio::io_context ctx;
   Outcome<std::unique_ptr<Gateway>> gw = Gateway::start(ctx, *bus, listen, o);
-  if (!gw.ok()) throw Failure{exit_code(gw.error().error()), std::string(gw.error().reason())};
+  // A port that cannot be opened ends the gateway here, with one line and exit 4:
+  // "rtukit: gateway: port /dev/ttyUSB9 9600 8N1: No such file or directory".
+  if (!gw.ok()) throw Failure{exit_code(gw.error().error()), "gateway: " + std::string(gw.error().reason())};
   std::string where;
   for (const std::string& w : (*gw)->where()) where += (where.empty() ? "" : ", ") + w;
   fmt::print("gateway: {} shared on {}{}{}\n", bus->describe(), where, a.read_only ? " (read-only)" : "",

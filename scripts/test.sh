@@ -18,21 +18,28 @@ fi
 preset="${1:-default}"
 shift || true
 scripts/build.sh "$preset"
-# Tests leave nothing behind: rtukit-* folders in the temporary folder that
-# appeared during the run are listed at the end (a test run by someone else
-# at the same time can add its own; folders older than the run are ignored).
+# Tests leave nothing behind: a run that leaves new rtukit-* files or folders
+# in the temporary directory ($TMPDIR, else /tmp: the one root the tests use,
+# tests/process.hpp and Python's tempfile alike) fails, with one line naming
+# them, even when every test passed. Entries older than the run are ignored,
+# as is the shared build lock (rtukit-build.lock); a test run by someone
+# else at the same time can add its own.
 tmp="${TMPDIR:-/tmp}"
-rtukit_dirs() { find "$tmp" -maxdepth 1 -type d -name 'rtukit-*' 2>/dev/null | sort; }
-before="$(rtukit_dirs)"
+tmp="${tmp%/}"
+rtukit_entries() {
+  find "${tmp:-/}" -mindepth 1 -maxdepth 1 -name 'rtukit-*' ! -name 'rtukit-build.lock' -printf '%f\n' 2>/dev/null |
+    sort
+}
+before="$(rtukit_entries)"
 rc=0
 if [ "$busy" != "0" ]; then
   scripts/busy.sh ctest --preset "$preset" -j "$(nproc)" "$@" || rc=$?
 else
   ctest --preset "$preset" -j "$(nproc)" "$@" || rc=$?
 fi
-left="$(comm -13 <(echo "$before") <(rtukit_dirs) | sed '/^$/d')"
+left="$(comm -13 <(echo "$before") <(rtukit_entries) | sed '/^$/d' | paste -sd ' ' -)"
 if [ -n "$left" ]; then
-  echo "test.sh: folders left in $tmp during this run (a test that does not clean up?):" >&2
-  echo "$left" | sed 's/^/  /' >&2
+  echo "test.sh: FAILED: the run left in ${tmp:-/}: $left (a test that does not clean up)" >&2
+  [ "$rc" -ne 0 ] || rc=1
 fi
 exit "$rc"

@@ -11,6 +11,7 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <fstream>
 #include <map>
 #include <mutex>
 #include <sstream>
@@ -35,14 +36,12 @@ const std::string kRtukit = RTUKIT_BIN;
 
 class GatewayTest : public ::testing::Test {
  protected:
-  void start(std::vector<std::string> gateway_options = {}, bool with_bus = true) {
-    if (with_bus) {
-      bus_ = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", "pty:" + tty_,
-                                                                "--unit", "1", "--unit", "21", "-v"});
-      ASSERT_TRUE(bus_->wait_for_output("listening on")) << bus_->output();
-    }
+  void start(std::vector<std::string> gateway_options = {}) {
+    bus_ = std::make_unique<Process>(std::vector<std::string>{kRtukit, "slave", "--listen", "pty:" + tty_,
+                                                              "--unit", "1", "--unit", "21", "-v"});
+    ASSERT_TRUE(bus_->wait_for_output("listening on")) << bus_->output();
     port_ = free_tcp_port();
-    std::vector<std::string> argv{kRtukit,    "gateway", "--port",    with_bus ? tty_ : dir_ / "no-such-tty",
+    std::vector<std::string> argv{kRtukit,    "gateway", "--port",    tty_,
                                   "--listen", where(),   "--timeout", "200"};
     argv.insert(argv.end(), gateway_options.begin(), gateway_options.end());
     gateway_ = std::make_unique<Process>(argv);
@@ -232,11 +231,47 @@ TEST_F(GatewayTest, DiagnosticsAndIdentificationThroughTheGateway) {
   EXPECT_TRUE(m->read_holding_registers(UnitId{21}, 0, {&v, 1}).ok());
 }
 
+// The bus goes away after the start (the slave ends: its pty is gone; a USB
+// adapter unplugged): 0A, and the gateway keeps serving its clients.
 TEST_F(GatewayTest, BusDownIs0A) {
-  start({}, /*with_bus=*/false);
+  start();
   auto m = client();
   uint16_t v = 0;
+  ASSERT_TRUE(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).ok());
+  bus_->stop();
+  ASSERT_FALSE(path_exists(tty_));
+  EXPECT_TRUE(eventually([&] {
+    return m->read_holding_registers(UnitId{1}, 0, {&v, 1}).code() == Errc::gateway_path_unavailable;
+  })) << gateway_->output();
   EXPECT_EQ(m->read_holding_registers(UnitId{1}, 0, {&v, 1}).code(), Errc::gateway_path_unavailable);
+  EXPECT_TRUE(gateway_->running());
+}
+
+// A port that does not exist, or a file that is no serial port, ends the
+// gateway at its start: one line, exit 4 (I/O), as `inverjet panel` and
+// `bridge` do, and nothing listens. Before, it said "listening on" and
+// answered every request 0A.
+TEST_F(GatewayTest, FailsAtStartOnABadPort) {
+  const std::string regular = dir_ / "not-a-tty";
+  std::ofstream(regular) << "x";
+  port_ = free_tcp_port();
+  struct Case {
+    std::string port;
+    std::string says;
+  };
+  const std::vector<Case> cases = {
+      {dir_ / "nothing",
+       "rtukit: gateway: port " + dir_ / "nothing" + " 9600 8N1: No such file or directory\n"},
+      {regular, "rtukit: gateway: port " + regular + " 9600 8N1: not a serial port\n"},
+  };
+  for (const Case& c : cases) {
+    const RunResult r = run({kRtukit, "gateway", "--port", c.port, "--listen", where()}, 5000ms);
+    EXPECT_EQ(r.code, 4) << c.port << ": " << r.output;
+    EXPECT_EQ(r.output, c.says);
+    const int fd = connect_to(port_);
+    EXPECT_EQ(fd, -1) << c.port << ": something listens on " << where();
+    if (fd >= 0) ::close(fd);
+  }
 }
 
 TEST_F(GatewayTest, ManyClientsAtOnce_EachGetsItsOwnAnswers) {

@@ -14,6 +14,7 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
@@ -51,12 +52,23 @@ inline bool path_exists(const std::string& path) {
   return ::stat(path.c_str(), &st) == 0;
 }
 
-/// A fresh directory under /tmp, removed with its files at destruction.
+/// The temporary directory: $TMPDIR, else /tmp (as mktemp, Python's tempfile
+/// and scripts/test.sh, which checks that a run leaves no rtukit-* there).
+inline std::string temp_root() {
+  const char* tmp = std::getenv("TMPDIR");
+  return tmp && *tmp ? std::string(tmp) : std::string("/tmp");
+}
+
+/// A fresh directory under temp_root(), removed with its files at destruction.
 class TempDir {
  public:
   TempDir() {
-    char tmpl[] = "/tmp/rtukit-test-XXXXXX";
-    path_ = ::mkdtemp(tmpl);
+    std::string tmpl = temp_root() + "/rtukit-test-XXXXXX";
+    if (::mkdtemp(tmpl.data()) == nullptr) {
+      std::perror(("TempDir: mkdtemp " + tmpl).c_str());
+      std::abort();
+    }
+    path_ = tmpl;
   }
   ~TempDir() { std::system(("rm -rf '" + path_ + "'").c_str()); }
   const std::string& path() const { return path_; }
@@ -95,14 +107,23 @@ inline uint16_t free_tcp_port() {
   return ntohs(a.sin_port);
 }
 
-/// A started program. Output (stdout + stderr) goes to a log file.
+/// A started program. Output (stdout + stderr) goes to a log file that has
+/// no name: it is unlinked as soon as it is made, so nothing is left in the
+/// temporary directory even when the test is killed (ctest's deadline).
 class Process {
  public:
   /// `stdin_pipe`: the program reads what send() writes (else /dev/null).
   explicit Process(const std::vector<std::string>& argv, bool stdin_pipe = false) {
-    char tmpl[] = "/tmp/rtukit-proc-XXXXXX";
-    const int fd = ::mkstemp(tmpl);
-    log_ = tmpl;
+    std::string tmpl = temp_root() + "/rtukit-proc-XXXXXX";
+    // Close-on-exec: other programs this test starts do not inherit it (the
+    // dup2 onto 1 and 2 below clears the flag for this one's own output).
+    const int fd = ::mkostemp(tmpl.data(), O_CLOEXEC);
+    if (fd < 0) {
+      std::perror(("Process: mkostemp " + tmpl).c_str());
+      std::abort();
+    }
+    ::unlink(tmpl.c_str());
+    log_ = fd;
     int in[2] = {-1, -1};
     if (stdin_pipe && ::pipe(in) != 0) in[0] = in[1] = -1;
     pid_ = ::fork();
@@ -122,14 +143,13 @@ class Process {
       ::execvp(args[0], args.data());
       ::_exit(127);
     }
-    ::close(fd);
     if (in[0] >= 0) ::close(in[0]);
     stdin_ = in[1];
   }
   ~Process() {
     stop();
     if (stdin_ >= 0) ::close(stdin_);
-    ::unlink(log_.c_str());
+    ::close(log_);
   }
   /// Writes `text` to the program's stdin (Process(argv, true)).
   bool send(const std::string& text) {
@@ -140,7 +160,19 @@ class Process {
   Process& operator=(const Process&) = delete;
 
   pid_t pid() const { return pid_; }
-  std::string output() const { return read_file(log_); }
+  /// Everything the program wrote so far. pread: the program shares the
+  /// file's offset, which must stay at its end.
+  std::string output() const {
+    std::string out;
+    char buf[65536];
+    for (off_t at = 0;;) {
+      const ssize_t n = ::pread(log_, buf, sizeof buf, at);
+      if (n <= 0) break;
+      out.append(buf, static_cast<size_t>(n));
+      at += n;
+    }
+    return out;
+  }
   bool running() {
     if (exited_) return false;
     int status = 0;
@@ -179,7 +211,7 @@ class Process {
  private:
   pid_t pid_ = -1;
   int stdin_ = -1;
-  std::string log_;
+  int log_ = -1;  // the output file (unlinked), read with pread
   bool exited_ = false;
   int code_ = -1;
 };

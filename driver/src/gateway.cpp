@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <array>
+#include <cerrno>
 #include <condition_variable>
+#include <cstring>
 #include <deque>
 #include <map>
 #include <mutex>
@@ -498,12 +500,22 @@ Outcome<std::unique_ptr<Gateway>> Gateway::start(asio::io_context& ctx, Master& 
                                                  std::span<const io::PortSpec> listen,
                                                  GatewayOptions options) {
   if (listen.empty()) return Status(Errc::invalid_argument, "the gateway needs a --listen tcp://HOST:PORT");
-  auto impl = std::make_shared<Impl>(bus, std::move(options));
-  for (const io::PortSpec& spec : listen) {
+  for (const io::PortSpec& spec : listen)
     if (!spec.is_tcp())
       return Status(
           Errc::invalid_argument,
           "the gateway listens on tcp://HOST:PORT (Modbus TCP) or rtu+tcp://HOST:PORT (RTU frames)");
+  // The bus is opened before anything listens: a port that does not exist (or
+  // is no serial port) is a start failure, not a gateway that looks served
+  // and answers every request 0A. Once open, a port that fails is reopened by
+  // the next request, as before.
+  if (Error e = bus.open())
+    return Status(Errc::io_error, "port " + bus.describe() + ": " +
+                                      (e.os_error() == ENOTTY ? std::string("not a serial port")
+                                       : e.os_error() != 0    ? std::string(std::strerror(e.os_error()))
+                                                              : std::string(e.text())));
+  auto impl = std::make_shared<Impl>(bus, std::move(options));
+  for (const io::PortSpec& spec : listen) {
     const Framing framing = spec.kind == io::PortSpec::Kind::tcp ? Framing::tcp : Framing::rtu;
     std::weak_ptr<Impl> weak = impl;
     auto acceptor = std::make_unique<TcpAcceptor>(

@@ -22,11 +22,10 @@ import shutil
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import START_DEADLINE, Console, connects, free_port, wait_for  # noqa: E402
+from pyhelpers import START_DEADLINE, Console, connects, free_port, temp_dir, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 failures = []
@@ -260,7 +259,7 @@ REQUIRED = {"sensor": {"state_topic"}, "binary_sensor": {"state_topic"}, "number
 
 def main():
     global ERR_DIR
-    work = tempfile.mkdtemp(prefix="rtukit-mqtt-")
+    work = temp_dir("rtukit-mqtt-")  # removed at exit, on every path (SIGHUP too)
     ERR_DIR = os.path.join(work, "bridge-stderr")
     os.mkdir(ERR_DIR)
     try:

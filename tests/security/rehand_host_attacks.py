@@ -18,7 +18,6 @@ import socket
 import ssl
 import subprocess
 import sys
-import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -26,7 +25,7 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
-from pyhelpers import START_DEADLINE, WebSocket, connect_tcp, free_port, stop_processes, wait_for  # noqa: E402
+from pyhelpers import START_DEADLINE, WebSocket, connect_tcp, free_port, stop_processes, temp_dir, wait_for  # noqa: E402
 from browser_common import Console, check, summary  # noqa: E402
 
 RTUKIT = sys.argv[1]
@@ -90,7 +89,9 @@ def next_message(ws, kind, timeout=10.0, **match):
 
 
 def main():
-    work = tempfile.mkdtemp(prefix="rtukit-attacks-")
+    # Removed at exit on every path: ctest's SIGTERM (its deadline) becomes
+    # SystemExit, so the finally below stops the daemons first.
+    work = temp_dir("rtukit-attacks-")
     pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     display_port, phone_port = free_port(), free_port()
     procs, sockets = [], []

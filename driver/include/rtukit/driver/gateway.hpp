@@ -142,8 +142,11 @@ bool relays_when_read_only(const Request& request);
 
 class Gateway {
  public:
-  /// Listens on every spec of `listen` and relays to `bus`, which must
-  /// outlive the gateway. tcp:// takes Modbus TCP (MBAP, answers matched by
+  /// Opens `bus` first, then listens on every spec of `listen` and relays to
+  /// `bus`, which must outlive the gateway. A bus that cannot be opened (a
+  /// port that does not exist, a file that is no serial port) fails the
+  /// start with io_error, "port PORT 9600 8N1: No such file or directory"
+  /// (or "...: not a serial port"), and nothing listens. tcp:// takes Modbus TCP (MBAP, answers matched by
   /// transaction id); rtu+tcp:// takes RTU frames (unit, PDU, CRC) over TCP,
   /// answered in the order of the requests (a frame with a bad CRC gets no
   /// answer, as on a line). Starts the bus thread. Errors as
