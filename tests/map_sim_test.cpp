@@ -97,7 +97,7 @@ TEST(MapSim, ReadAndWatchByName) {
       << unknown.output;
 
   RunResult w =
-      run({kBin, "watch", "--port", sim.tty, "--map", kMap, "voltage", "--interval", "100", "--count", "2"});
+      run({kBin, "map", "watch", "--port", sim.tty, "--map", kMap, "voltage", "--interval", "100", "--count", "2"});
   ASSERT_EQ(w.code, 0) << w.output;
   const size_t first = w.output.find("voltage = 230.0 V");
   ASSERT_NE(first, std::string::npos) << w.output;
