@@ -307,6 +307,9 @@ def main():
                 ".every((e) => e.disabled)"))
             check(f"{who}: the values are greyed", b.execute_script(
                 "return getComputedStyle(document.getElementById('time')).color") != "rgb(255, 255, 255)")
+            check(f"{who}: Start and Stop lose their colours (nothing looks usable)", b.execute_script(
+                "return ['start', 'stop'].map((id) => getComputedStyle(document.getElementById(id)).backgroundColor)")
+                  == ["rgb(21, 65, 95)"] * 2)
         readable(d, "phone, lost")
         d.execute_script("window.scrollTo(0, 0)")
         d.save_screenshot(os.path.join(OUT, "panel-phone-lost.png"))
@@ -320,6 +323,13 @@ def main():
         d.find_element(By.ID, "stop").click()
         check("stop from the page", wait_for(lambda: con.ask("get state").startswith("state = off"), DEADLINE),
               con.ask("get state"))
+        # The wall tablet at rest ("normal"): the machine off, the last run's charts kept.
+        check("tablet: shows the machine off", wait_for(lambda: text(t, "#state") == "off"
+                                                        and not t.find_element(By.ID, "lost").is_displayed(), DEADLINE),
+              text(t, "#state"))
+        readable(t, "tablet 1280x800, idle")
+        t.execute_script("window.scrollTo(0, 0)")
+        layout(t, "panel-tablet-idle-1280x800", OUT, scrolls=True)
 
         # Plans: unsaved edits survive a change of tab.
         click(d, '#plan-tabs [data-plan="2"]')

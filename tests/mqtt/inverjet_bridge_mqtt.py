@@ -90,7 +90,10 @@ def pub(port, topic, payload, retain=False, auth=()):
     argv += ["-m", payload] if payload != "" else ["-n"]
     if retain:
         argv.append("-r")
-    return subprocess.run(argv, capture_output=True, text=True).returncode
+    try:
+        return subprocess.run(argv, capture_output=True, text=True, timeout=START_DEADLINE).returncode
+    except subprocess.TimeoutExpired:  # (a client fighting another one for its client id)
+        return None
 
 
 class Subscriber:
@@ -214,11 +217,12 @@ def body(**fields):
     return json.dumps(fields)
 
 
-def command(port, mid, cmd, payload, auth=()):
+def command(port, mid, cmd, payload, auth=(), timeout=30):
     """Publishes a command and returns the bridge's answer to it on .../result
     (the first answer naming this command, and its id when the payload has one;
-    a late answer to an earlier command is skipped)."""
-    out = Subscriber(port, [f"rtukit/inverjet/{mid}/result"], timeout=30, auth=auth)
+    a late answer to an earlier command is skipped); None when none came
+    within `timeout` s."""
+    out = Subscriber(port, [f"rtukit/inverjet/{mid}/result"], timeout=timeout, auth=auth)
     try:
         pub(port, f"rtukit/inverjet/{mid}/set/{cmd}", payload, auth=auth)
         try:
@@ -500,6 +504,12 @@ def main():
         # Home Assistant: reads every machine, commands only the one it is given.
         check("homeassistant reads both machines", retained(aport, "rtukit/inverjet/jetA/state", authH) is not None
               and retained(aport, "rtukit/inverjet/jetB/state", authH) is not None)
+        check("homeassistant reads machine A's discovery (the %u pattern inside a topic level)",
+              len(sub(aport, ["homeassistant/+/rtukit_inverjet_jetA/#"], authH) or []) == 16)
+        pub(aport, "homeassistant/button/rtukit_inverjet_jetA/forged/config", '{"name":"forged"}', retain=True,
+            auth=authB)
+        check("B cannot announce entities for machine A",
+              retained(aport, "homeassistant/button/rtukit_inverjet_jetA/forged/config", authH) is None)
         r = command(aport, "jetA", "stop", body(id=1), auth=authH)
         check("homeassistant commands machine A", r and r["ok"] and wait_for(
             lambda: conA.ask("get state").startswith("state = off")), r)
@@ -519,13 +529,53 @@ def main():
               ida and idb and re.fullmatch(r"rtukit-inverjet-jetA-[0-9a-f]{8}", ida) and idb.startswith("rtukit-inverjet-jetB-"),
               (ida, idb))
         # Another user connecting as the old well-known id (or any guess) knocks nobody off.
-        squatter = start(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(aport), "-i", "rtukit-inverjet-jetA",
-                          "-t", "rtukit/inverjet/jetB/#", *authB])
+        guesser = start(["mosquitto_sub", "-h", "127.0.0.1", "-p", str(aport), "-i", "rtukit-inverjet-jetA",
+                         "-t", "rtukit/inverjet/jetB/#", *authB])
         r = command(aport, "jetA", "start", body(mode="free", speed=30, id=2), auth=authA)
-        check("a client using the well-known id does not displace the bridge", r and r["ok"] and squatter.poll() is None
-              and retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online", r)
+        check("a client using the old well-known id does not displace the bridge", r and r["ok"]
+              and guesser.poll() is None and retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online", r)
         command(aport, "jetA", "stop", body(), auth=authA)
-        stop(squatter)
+        wait_for(lambda: conA.ask("get state").startswith("state = off"))
+        stop(guesser)
+        # The bridge's real id, leaked. MQTT has the broker close a connection
+        # when another one presents its client id, whoever that one logs in as,
+        # and no ACL refuses a client id: the squatter does knock the bridge
+        # off (each connection with the id replaces the other). What the ACL
+        # holds is that the id brings none of jetA's rights: logged in as jetB,
+        # the squatter can neither command machine A nor write its state,
+        # availability or discovery; and the bridge comes back by itself.
+        watch = Subscriber(aport, ["rtukit/inverjet/jetA/state", "rtukit/inverjet/jetA/availability",
+                                   "homeassistant/+/rtukit_inverjet_jetA/#"], timeout=120, auth=authH, verbose=True)
+        squat = (*authB, "-i", ida)
+        pub(aport, "rtukit/inverjet/jetA/set/start", body(mode="free", speed=70), auth=squat)
+        pub(aport, "rtukit/inverjet/jetA/state", '{"state":"off","by":"squatter"}', retain=True, auth=squat)
+        pub(aport, "rtukit/inverjet/jetA/availability", "squatter", retain=True, auth=squat)
+        pub(aport, "homeassistant/button/rtukit_inverjet_jetA/squatter/config", '{"name":"squatter"}', retain=True,
+            auth=squat)
+        # Back: online (retained, as the bridge republishes it on reconnecting) and answering its commands.
+        r = wait_for(lambda: retained(aport, "rtukit/inverjet/jetA/availability", authA) == "online"
+                     and command(aport, "jetA", "stop", body(id=3), auth=authA, timeout=3), START_DEADLINE, 0.2)
+        check("after a squatter with the bridge's client id: the bridge is back online and answers", bool(r), r)
+        # While a connection holds the bridge's id the bridge is off the broker
+        # and hears no command; once it is back, the same login on a
+        # connection of its own is held by the ACL. (The answer to A's own
+        # command after it shows the bridge saw whatever came through before.)
+        pub(aport, "rtukit/inverjet/jetA/set/start", body(mode="free", speed=70), auth=authB)
+        r = command(aport, "jetA", "fly", body(), auth=authA)
+        check("the squatter cannot command machine A, with the bridge's id or without",
+              r and conA.ask("get state").startswith("state = off"), conA.ask("get state"))
+        stop(watch.p)
+        seen = watch.p.stdout.read().splitlines()
+        watch.p.stdout.close()
+        check("...nor write its state, availability or discovery", seen and not [m for m in seen if "squatter" in m],
+              [m for m in seen if "squatter" in m][:3] or "nothing seen")
+        check("...and what Home Assistant has retained is the bridge's",
+              retained(aport, "rtukit/inverjet/jetA/availability", authH) == "online"
+              and json.loads(retained(aport, "rtukit/inverjet/jetA/state", authH) or "{}").get("versions")
+              and retained(aport, "homeassistant/button/rtukit_inverjet_jetA/squatter/config", authH) is None)
+        availability = [m.split(" ", 1)[1] for m in seen if m.startswith("rtukit/inverjet/jetA/availability ")]
+        check("what no ACL stops: the squatter knocks the bridge off (its last will, offline), and it comes back",
+              availability[-2:] == ["offline", "online"], availability)
         # Warnings: no credentials (the pool1 bridge above ran anonymous).
         err = open(b.files + ".err").read()
         check("the bridge warns when it has no broker credentials", "no broker credentials" in err, err[:300])
