@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/driver/clock.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
