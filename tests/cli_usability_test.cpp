@@ -40,11 +40,11 @@ struct Slave {
 TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
   RunResult r = rtukit({"raed"});
   EXPECT_EQ(r.code, 2);
-  EXPECT_EQ(
-      r.output,
-      "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
-      "scan, slave, diag, ident, "
-      "inverjet, rehand6600, devices, " kExampleDevice "map, sim, gateway, bus, sniff, doctor, completion)\n");
+  EXPECT_EQ(r.output,
+            "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
+            "scan, slave, diag, ident, "
+            "inverjet, rehand6600, devices, " kExampleDevice
+            "map, sim, gateway, bus, sniff, doctor, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
