@@ -93,6 +93,23 @@ TEST_F(PollScheduleTest, BackOffDoublesToItsCeiling_OneAnswerEndsIt) {
   EXPECT_EQ(schedule.late_polls(), 0u);  // the gaps of a silent machine are not late polls
 }
 
+// A machine back through an extra poll (a command answered) is polled on
+// the period again from that answer, not after the rest of its back-off.
+TEST_F(PollScheduleTest, AnExtraPollThatAnswersEndsTheBackOff) {
+  auto t = clock.now();
+  schedule.polled(t, false);
+  schedule.polled(schedule.next(), false);
+  schedule.polled(schedule.next(), false);
+  t = schedule.next() - 3s;  // a command ran in the middle of a 4-s back-off
+  schedule.poll_soon();
+  ASSERT_TRUE(schedule.due(t));
+  schedule.polled(t, true);
+  EXPECT_FALSE(schedule.offline());
+  EXPECT_EQ(schedule.next(), t + 500ms);
+  schedule.polled(t + 500ms, true);
+  EXPECT_EQ(schedule.late_polls(), 0u);
+}
+
 TEST_F(PollScheduleTest, AGapOfMoreThanOneAndAHalfPeriodsIsALatePoll) {
   const auto t0 = clock.now();
   schedule.polled(t0, true);

@@ -67,7 +67,10 @@ struct VirtualBus::Impl {
   void schedule() {
     const std::optional<uint64_t> due = line.next_due();
     if (!due) return;
-    timer.expires_at(t0 + std::chrono::microseconds(*due));
+    // A wait of the bus clock's duration: Asio's timer runs on the steady clock.
+    const auto at = t0 + std::chrono::microseconds(*due);
+    const auto from = clock.now();
+    timer.expires_after(at > from ? at - from : io::Clock::duration::zero());
     timer.async_wait([this](const boost::system::error_code& ec) {
       if (!ec) pump();
     });

@@ -80,9 +80,8 @@ std::vector<uint16_t> persisted_words(const Image& image) {
 
 }  // namespace
 
-SimHost::SimHost(asio::io_context& ctx, SimDevice device, SimOptions options)
-    : ctx_(ctx),
-      device_(std::move(device)),
+SimHost::SimHost(SimDevice device, SimOptions options)
+    : device_(std::move(device)),
       options_(std::move(options)),
       clock_(options_.time_scale, clock_or_steady(options_.clock)) {}
 
@@ -99,7 +98,7 @@ Outcome<std::unique_ptr<SimHost>> SimHost::start(asio::io_context& ctx, SimDevic
     return Status(Errc::invalid_argument,
                   fmt::format("the {}'s address is {}..{}", profile.name, units.min, units.max));
 
-  std::unique_ptr<SimHost> host(new SimHost(ctx, std::move(device), std::move(options)));
+  std::unique_ptr<SimHost> host(new SimHost(std::move(device), std::move(options)));
   Model& model = *host->device_.model;
   SimOptions& o = host->options_;
   const auto notice = [&o](const std::string& line) {

@@ -328,7 +328,8 @@ void Host::run() {
         auto wake = logic_.wake_at();
         if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
         // A wait of the clock's duration: the clock may be a virtual one.
-        cv_.wait_for(lock, std::max(wake - clock_.now(), io::Clock::duration::zero()),
+        const auto now = clock_.now();
+        cv_.wait_for(lock, wake > now ? wake - now : io::Clock::duration::zero(),
                      [this] { return stopping_ || work_; });
         continue;
       }

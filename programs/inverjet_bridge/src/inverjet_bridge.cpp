@@ -513,8 +513,10 @@ rtukit::Status Bridge::start() {
       if (m->connack > 0) return m->connack.load();
     return 0;
   };
-  const auto wait_until = b.clock.now() + std::chrono::seconds(3);
-  while (!all_connected() && refused() == 0 && b.clock.now() < wait_until)
+  // The broker is a real one: these waits are on the real clock.
+  DriverClock& real = SteadyClock::instance();
+  const auto wait_until = real.now() + std::chrono::seconds(3);
+  while (!all_connected() && refused() == 0 && real.now() < wait_until)
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   if (!all_connected()) {
     std::string why;
@@ -573,9 +575,10 @@ void Bridge::stop() {
     m->acked = 0;
     if (m->connected) m->publish(m->base + "/availability", "offline", true);
   }
-  const auto deadline = b.clock.now() + std::chrono::seconds(1);
+  DriverClock& real = SteadyClock::instance();  // the broker's acknowledgements: real time
+  const auto deadline = real.now() + std::chrono::seconds(1);
   for (auto& m : b.machines)
-    while (m->connected && m->acked == 0 && b.clock.now() < deadline)
+    while (m->connected && m->acked == 0 && real.now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
   for (auto& m : b.machines) {
     mosquitto_disconnect(m->mosq);

@@ -595,7 +595,8 @@ struct Panel::Impl {
       {
         std::unique_lock lock(mutex);
         // A wait of the clock's duration: the clock may be a virtual one.
-        wake.wait_for(lock, std::max(schedule.next() - clock.now(), Clock::duration::zero()),
+        const auto now = clock.now();
+        wake.wait_for(lock, schedule.next() > now ? schedule.next() - now : Clock::duration::zero(),
                       [this] { return stopping || !jobs.empty(); });
         if (stopping) return;
         todo.swap(jobs);

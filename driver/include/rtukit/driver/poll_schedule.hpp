@@ -3,7 +3,8 @@
 // One schedule and one back-off for every program that keeps a device's
 // state fresh (the MQTT bridge, the pool panel): a poll every `period`,
 // counted from the start of the last one; an extra poll on request (to show
-// a command's effect) that leaves the schedule where it was; after a failed
+// a command's effect) that leaves the schedule where it was (unless it is the
+// first answer after failures: the period resumes from it); after a failed
 // poll, the next one waits period x 2^failures, at most `max_backoff`, so an
 // absent device costs the others one response timeout per back-off at most.
 // It also keeps the figures the programs report: polls, late polls (a gap
@@ -50,6 +51,7 @@ class PollSchedule {
   /// Records a poll that started at `started` and answered (`ok`) or not.
   void polled(TimePoint started, bool ok) noexcept {
     const bool scheduled = started >= next_;
+    const bool recovered = failures_ > 0;  // back on the period, not the back-off
     extra_ = false;
     if (ok && failures_ == 0 && polls_ > 0) {
       const auto gap = started - last_started_;
@@ -64,7 +66,7 @@ class PollSchedule {
       return;
     }
     failures_ = 0;
-    if (scheduled) next_ = started + policy_.period;
+    if (scheduled || recovered) next_ = started + policy_.period;
   }
 
   /// The wait after `failures` failed polls in a row: period x 2^failures,

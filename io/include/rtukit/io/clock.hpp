@@ -66,7 +66,10 @@ class SteadyClock final : public DriverClock {
 
 /// Virtual time for tests: sleeping moves the clock instead of waiting.
 /// Thread-safe; starts at an arbitrary fixed point, and its calendar time at
-/// 2026-01-01T00:00:00Z (or `wall_start`).
+/// 2026-01-01T00:00:00Z (or `wall_start`). Give it to what schedules (a
+/// model's device time, a poll schedule, leases, expiries) or to a Master on
+/// a MemoryLink; a Master on a real port waits for real bytes, so its
+/// deadlines need the real clock.
 class ManualClock final : public DriverClock {
  public:
   ManualClock() = default;

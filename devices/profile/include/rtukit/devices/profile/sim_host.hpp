@@ -103,12 +103,11 @@ class SimHost {
   std::string help() const;
 
  private:
-  SimHost(asio::io_context& ctx, SimDevice device, SimOptions options);
+  SimHost(SimDevice device, SimOptions options);
   void after_response();
   void save_if_changed();
 
   struct Bank;
-  asio::io_context& ctx_;
   SimDevice device_;
   SimOptions options_;
   DeviceClock clock_;
