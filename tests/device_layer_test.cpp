@@ -271,19 +271,7 @@ TEST(DeviceLayerCli, TheExampleThirdDevice_EveryVerbTheSimulatorAndTheSniffer) {
   TempDir dir;
   // The bus's name socket goes under $XDG_RUNTIME_DIR: this test's folder,
   // for the test only.
-  struct RuntimeDir {
-    explicit RuntimeDir(const std::string& path) {
-      if (const char* was = std::getenv("XDG_RUNTIME_DIR")) saved = was;
-      ::setenv("XDG_RUNTIME_DIR", path.c_str(), 1);
-    }
-    ~RuntimeDir() {
-      if (saved)
-        ::setenv("XDG_RUNTIME_DIR", saved->c_str(), 1);
-      else
-        ::unsetenv("XDG_RUNTIME_DIR");
-    }
-    std::optional<std::string> saved;
-  } runtime_dir(dir.path());
+  const ScopedEnv runtime_dir("XDG_RUNTIME_DIR", dir.path());
   const std::string name = "thermo-" + std::to_string(::getpid());
   Process bus({kBin, "bus", "--ports", "2", "--links", (dir / "dev") + "," + (dir / "host"), "--baud",
                "19200", "--name", name});

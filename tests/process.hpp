@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -258,6 +259,29 @@ class PtyPair {
   std::string a_, b_;
   Process socat_;
   bool ready_ = false;
+};
+
+/// Sets an environment variable for a scope and restores what it was (or
+/// unsets it) at the end: e.g. XDG_RUNTIME_DIR, where a named bus puts its
+/// socket, pointed at a test's own folder.
+class ScopedEnv {
+ public:
+  ScopedEnv(const char* name, const std::string& value) : name_(name) {
+    if (const char* was = std::getenv(name)) saved_ = was;
+    ::setenv(name, value.c_str(), 1);
+  }
+  ~ScopedEnv() {
+    if (saved_)
+      ::setenv(name_, saved_->c_str(), 1);
+    else
+      ::unsetenv(name_);
+  }
+  ScopedEnv(const ScopedEnv&) = delete;
+  ScopedEnv& operator=(const ScopedEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> saved_;
 };
 
 }  // namespace rtukit::test

@@ -197,19 +197,7 @@ TEST(SniffLive, OnANamedBus) {
   TempDir dir;
   // A named bus's socket goes under $XDG_RUNTIME_DIR/rtukit, else under
   // /tmp/rtukit-UID, which stays: this test's folder is the runtime folder.
-  struct RuntimeDir {
-    explicit RuntimeDir(const std::string& path) {
-      if (const char* was = std::getenv("XDG_RUNTIME_DIR")) saved = was;
-      ::setenv("XDG_RUNTIME_DIR", path.c_str(), 1);
-    }
-    ~RuntimeDir() {
-      if (saved)
-        ::setenv("XDG_RUNTIME_DIR", saved->c_str(), 1);
-      else
-        ::unsetenv("XDG_RUNTIME_DIR");
-    }
-    std::optional<std::string> saved;
-  } runtime_dir(dir.path());
+  const ScopedEnv runtime_dir("XDG_RUNTIME_DIR", dir.path());
   const std::string name = "test-" + std::to_string(::getpid());
   Process bus({kRtukit, "bus", "--ports", "2", "--links", (dir / "jet") + "," + (dir / "host"), "--baud",
                "19200", "--name", name});
