@@ -1,7 +1,8 @@
-// The MQTT bridge. Threads: libmosquitto's network thread per machine
-// (callbacks only queue commands and set flags), and one bridge thread that
-// owns the serial bus: it runs queued commands first, then polls each
-// machine that is due, then publishes what changed.
+// The MQTT bridge. BridgeLogic decides (commands first, then each machine's
+// held state, health and due poll); the Bridge runs it on a BusWorker, the
+// one thread that owns the serial bus, and carries its messages on
+// libmosquitto. Each machine's network thread (callbacks) only queues
+// commands, sets flags and wakes the worker.
 #include "rtukit/programs/inverjet_bridge.hpp"
 
 #include <fmt/core.h>
@@ -27,6 +28,7 @@
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/poll_schedule.hpp"
 
@@ -122,36 +124,34 @@ rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload
   return {};
 }
 
-// ---------------------------------------------------------------- one machine
+// ---------------------------------------------------------------- the logic: one machine
+
+namespace {
+
+/// How often each machine's health figures go to .../bridge.
+constexpr std::chrono::seconds kStatsPeriod{10};
 
 struct Machine {
-  Machine(Master& master, BridgeMachine m, const BridgeOptions& o, DriverClock& c)
+  Machine(Master& master, BridgeMachine m, const BridgeOptions& o, size_t i, const Publish& p,
+          io::Clock::time_point now)
       : config(std::move(m)),
-        options(o),
+        index(i),
         client(master, UnitId{config.unit}),
         base("rtukit/inverjet/" + config.id),
-        clock(c),
-        schedule(PollPolicy::at_hz(o.poll_hz), c.now()) {}
-  ~Machine() {
-    if (mosq) mosquitto_destroy(mosq);
-  }
+        out(p),
+        schedule(PollPolicy::at_hz(o.poll_hz), now) {}
 
   BridgeMachine config;
-  const BridgeOptions& options;
+  size_t index;
   ij::Client client;
   std::string base;
-  DriverClock& clock;
-  mosquitto* mosq = nullptr;
-  std::string client_id;
+  const Publish& out;
 
   std::mutex mutex;  ///< guards commands (filled on the MQTT thread)
   std::deque<Command> commands;
-  std::atomic<bool> connected{false};
-  std::atomic<int> connack{-1};       ///< the broker's last answer to a connect (0 accepted), -1 none yet
   std::atomic<bool> announce{false};  ///< (re)connected: discovery and availability again
-  std::atomic<unsigned> acked{0};     ///< QoS 1 publishes the broker acknowledged
 
-  // Bridge thread only.
+  // The bus worker's only.
   ij::Family remembered = ij::Family::none;  ///< the run family through a fault screen
   bool online = false;
   PollSchedule schedule;  ///< also the health published on .../bridge every 10 s
@@ -164,75 +164,24 @@ struct Machine {
   bool state_pending = false;
 
   void publish(const std::string& topic, const std::string& payload, bool retain, int qos = 1) {
-    mosquitto_publish(mosq, nullptr, topic.c_str(), static_cast<int>(payload.size()), payload.data(), qos,
-                      retain);
+    out(index, MqttMessage{topic, payload, retain, qos});
   }
 };
 
-struct Bridge::Impl {
-  Impl(std::unique_ptr<io::Link> link, BridgeOptions o)
-      : options(std::move(o)),
-        clock(clock_or_steady(options.clock)),
-        master(std::move(link),
-               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
-                             .clock = &clock}) {}
+}  // namespace
 
-  BridgeOptions options;
+struct BridgeLogic::Impl {
+  Impl(Master& master, const BridgeOptions& o, DriverClock& c, Publish p)
+      : options(o), clock(c), out(std::move(p)) {
+    for (size_t i = 0; i < options.machines.size(); ++i)
+      machines.push_back(
+          std::make_unique<Machine>(master, options.machines[i], options, i, out, clock.now()));
+  }
+
+  const BridgeOptions& options;
   DriverClock& clock;
-  Master master;
+  Publish out;
   std::vector<std::unique_ptr<Machine>> machines;
-  std::thread thread;
-  std::mutex mutex;
-  std::condition_variable wake;
-  bool stopping = false;
-  std::string broker_problem;  ///< set by start() when the broker did not take us at once
-
-  // ---------------------------------------------------------- MQTT side (network thread)
-
-  static void on_connect(mosquitto* m, void* self, int rc) {
-    auto& machine = *static_cast<Machine*>(self);
-    machine.connack = rc;
-    if (rc != 0) return;  // refused (credentials): libmosquitto retries with back-off
-    machine.connected = true;
-    const std::string topic = machine.base + "/set/#";
-    // Retain as published: a command someone left retained arrives with its
-    // retain flag even while we are subscribed, and is refused as such.
-    mosquitto_subscribe_v5(m, nullptr, topic.c_str(), 1, MQTT_SUB_OPT_RETAIN_AS_PUBLISHED, nullptr);
-    machine.announce = true;
-  }
-
-  static void on_disconnect(mosquitto*, void* self, int) { static_cast<Machine*>(self)->connected = false; }
-  static void on_publish(mosquitto*, void* self, int) { ++static_cast<Machine*>(self)->acked; }
-
-  static void on_message(mosquitto*, void* self, const mosquitto_message* msg) {
-    auto& machine = *static_cast<Machine*>(self);
-    const std::string topic = msg->topic;
-    const std::string prefix = machine.base + "/set/";
-    if (topic.rfind(prefix, 0) != 0) return;
-    Command c{topic.substr(prefix.size()),
-              std::string(static_cast<const char*>(msg->payload), static_cast<size_t>(msg->payloadlen)),
-              msg->retain};
-    {
-      std::lock_guard lock(machine.mutex);
-      if (machine.commands.size() < kCommandQueueLimit) {
-        machine.commands.push_back(std::move(c));
-        return;
-      }
-    }
-    // A flood is cut, not queued, and every command cut gets its answer:
-    // a sender that hears nothing would not know to try again.
-    Json result{{"command", profile::excerpt(c.name, 40)},
-                {"at", iso_time(machine.clock.wall())},
-                {"ok", false},
-                {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
-                                      kCommandQueueLimit)}};
-    if (const Json body = Json::parse(c.payload, nullptr, false); body.is_object() && body.contains("id"))
-      result["id"] = body["id"];
-    machine.publish(machine.base + "/result", result.dump(-1, ' ', false, Json::error_handler_t::replace),
-                    false);
-  }
-
-  // ---------------------------------------------------------- the bus side (bridge thread)
 
   rtukit::Status run_command(Machine& m, const Command& c, Json& result) {
     Json body;
@@ -365,73 +314,195 @@ struct Bridge::Impl {
     m.publish(m.base + "/availability", online ? "online" : "offline", true);
   }
 
-  void run() {
-    std::unique_lock lock(mutex);
-    while (!stopping) {
-      lock.unlock();
-      const Clock::time_point now = clock.now();
-      for (auto& mp : machines) {
-        Machine& m = *mp;
-        if (m.announce.exchange(false)) {
-          publish_discovery(m);
-          m.publish(m.base + "/availability", m.online ? "online" : "offline", true);
-          m.last_state.clear();  // the broker may have lost retained messages: publish again
-          m.last_values.clear();
-        }
-        std::deque<Command> todo;
-        {
-          std::lock_guard g(m.mutex);
-          todo.swap(m.commands);
-        }
-        for (const Command& c : todo) {
-          Json result{{"command", c.name}, {"at", iso_time(clock.wall())}};
-          // A caller's correlation id comes back with the answer.
-          if (const Json body = Json::parse(c.payload, nullptr, false);
-              body.is_object() && body.contains("id"))
-            result["id"] = body["id"];
-          const rtukit::Status e = run_command(m, c, result);
-          result["ok"] = !e;
-          if (e) {
-            result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
-                                                             e.error().exception_code(), e.name(), e.reason())
-                                               : std::string(e.reason());
-          }
-          m.publish(m.base + "/result", result.dump(), false);
-          ++m.commands_run;
-          if (!e) m.schedule.poll_soon();  // show the effect at once
-        }
-        if (m.state_pending && now - m.last_state_publish >= min_publish_gap())
-          publish_state(m, Json(m.pending_doc), now);
-        if (now - m.last_stats >= std::chrono::seconds(10)) {
-          m.last_stats = now;
-          m.publish(
-              m.base + "/bridge",
-              Json{{"polls", m.schedule.polls()},
-                   {"late_polls", m.schedule.late_polls()},
-                   {"max_poll_gap_ms",
-                    std::lround(std::chrono::duration<double, std::milli>(m.schedule.worst_gap()).count())},
-                   {"commands", m.commands_run}}
-                  .dump(),
-              false, 0);
-        }
-        if (!m.schedule.due(now)) continue;
-        const bool command_effect = now < m.schedule.next();  // an extra poll
-        const Result<ij::MachineStatus> s = m.client.status();
-        m.schedule.polled(now, bool(s));
-        if (!s) {
-          // Offline: polled again after the schedule's back-off, so it costs
-          // the others one response timeout per back-off at most.
-          if (m.schedule.offline()) set_online(m, false);
-          continue;
-        }
+  void run_commands(Machine& m) {
+    std::deque<Command> todo;
+    {
+      std::lock_guard g(m.mutex);
+      todo.swap(m.commands);
+    }
+    for (const Command& c : todo) {
+      Json result{{"command", c.name}, {"at", iso_time(clock.wall())}};
+      // A caller's correlation id comes back with the answer.
+      if (const Json body = Json::parse(c.payload, nullptr, false); body.is_object() && body.contains("id"))
+        result["id"] = body["id"];
+      const rtukit::Status e = run_command(m, c, result);
+      result["ok"] = !e;
+      if (e) {
+        result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
+                                                         e.error().exception_code(), e.name(), e.reason())
+                                           : std::string(e.reason());
+      }
+      m.publish(m.base + "/result", result.dump(), false);
+      ++m.commands_run;
+      if (!e) m.schedule.poll_soon();  // show the effect at once
+    }
+  }
+
+  // One machine's turn: its commands first, then what is held back, the
+  // health figures, and the poll if it is due. Returns when it is next due.
+  Clock::time_point step(Machine& m, Clock::time_point now) {
+    if (m.announce.exchange(false)) {
+      publish_discovery(m);
+      m.publish(m.base + "/availability", m.online ? "online" : "offline", true);
+      m.last_state.clear();  // the broker may have lost retained messages: publish again
+      m.last_values.clear();
+    }
+    run_commands(m);
+    if (m.state_pending && now - m.last_state_publish >= min_publish_gap())
+      publish_state(m, Json(m.pending_doc), now);
+    if (now - m.last_stats >= kStatsPeriod) {
+      m.last_stats = now;
+      m.publish(m.base + "/bridge",
+                Json{{"polls", m.schedule.polls()},
+                     {"late_polls", m.schedule.late_polls()},
+                     {"max_poll_gap_ms",
+                      std::lround(std::chrono::duration<double, std::milli>(m.schedule.worst_gap()).count())},
+                     {"commands", m.commands_run}}
+                    .dump(),
+                false, 0);
+    }
+    if (m.schedule.due(now)) {
+      const bool command_effect = now < m.schedule.next();  // an extra poll
+      const Result<ij::MachineStatus> s = m.client.status();
+      m.schedule.polled(now, bool(s));
+      if (!s) {
+        // Offline: polled again after the schedule's back-off, so it costs
+        // the others one response timeout per back-off at most.
+        if (m.schedule.offline()) set_online(m, false);
+      } else {
         set_online(m, true);
         m.remembered = ij::remember_family(*s, m.remembered);
         publish_state(m, ij::state_document(*s, m.remembered), now, command_effect);
       }
-      lock.lock();
-      wake.wait_for(lock, std::chrono::milliseconds(20), [this] { return stopping; });
+    }
+    Clock::time_point next = std::min(m.schedule.next(), m.last_stats + kStatsPeriod);
+    if (m.state_pending)
+      next = std::min(next,
+                      m.last_state_publish + std::chrono::duration_cast<Clock::duration>(min_publish_gap()));
+    return next;
+  }
+};
+
+BridgeLogic::BridgeLogic(Master& master, const BridgeOptions& options, DriverClock& clock, Publish publish)
+    : impl_(std::make_unique<Impl>(master, options, clock, std::move(publish))) {}
+
+BridgeLogic::~BridgeLogic() = default;
+
+size_t BridgeLogic::machines() const {
+  return impl_->machines.size();
+}
+
+const std::string& BridgeLogic::base(size_t machine) const {
+  return impl_->machines.at(machine)->base;
+}
+
+bool BridgeLogic::queue_command(size_t machine, std::string name, std::string payload, bool retained) {
+  Machine& m = *impl_->machines.at(machine);
+  Command c{std::move(name), std::move(payload), retained};
+  {
+    std::lock_guard lock(m.mutex);
+    if (m.commands.size() < kCommandQueueLimit) {
+      m.commands.push_back(std::move(c));
+      return true;
     }
   }
+  // A flood is cut, not queued, and every command cut gets its answer:
+  // a sender that hears nothing would not know to try again.
+  Json result{{"command", profile::excerpt(c.name, 40)},
+              {"at", iso_time(impl_->clock.wall())},
+              {"ok", false},
+              {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
+                                    kCommandQueueLimit)}};
+  if (const Json body = Json::parse(c.payload, nullptr, false); body.is_object() && body.contains("id"))
+    result["id"] = body["id"];
+  m.publish(m.base + "/result", result.dump(-1, ' ', false, Json::error_handler_t::replace), false);
+  return false;
+}
+
+void BridgeLogic::announce(size_t machine) {
+  impl_->machines.at(machine)->announce = true;
+}
+
+io::Clock::time_point BridgeLogic::step(io::Clock::time_point now) {
+  Clock::time_point next = Clock::time_point::max();
+  for (auto& m : impl_->machines) next = std::min(next, impl_->step(*m, now));
+  return next;
+}
+
+// ---------------------------------------------------------------- the bridge: MQTT and the bus worker
+
+namespace {
+
+/// One machine's MQTT connection. Its callbacks run on libmosquitto's
+/// network thread: they only queue commands, set flags and wake the worker.
+struct Connection {
+  ~Connection() {
+    if (mosq) mosquitto_destroy(mosq);
+  }
+  size_t index = 0;
+  std::string base;
+  BridgeLogic* logic = nullptr;
+  BusWorker* worker = nullptr;
+  mosquitto* mosq = nullptr;
+  std::string client_id;
+  std::atomic<bool> connected{false};
+  std::atomic<int> connack{-1};    ///< the broker's last answer to a connect (0 accepted), -1 none yet
+  std::atomic<unsigned> acked{0};  ///< QoS 1 publishes the broker acknowledged
+
+  void publish(const MqttMessage& m) {
+    mosquitto_publish(mosq, nullptr, m.topic.c_str(), static_cast<int>(m.payload.size()), m.payload.data(),
+                      m.qos, m.retain);
+  }
+
+  static void on_connect(mosquitto* mq, void* self, int rc) {
+    auto& c = *static_cast<Connection*>(self);
+    c.connack = rc;
+    if (rc != 0) return;  // refused (credentials): libmosquitto retries with back-off
+    c.connected = true;
+    const std::string topic = c.base + "/set/#";
+    // Retain as published: a command someone left retained arrives with its
+    // retain flag even while we are subscribed, and is refused as such.
+    mosquitto_subscribe_v5(mq, nullptr, topic.c_str(), 1, MQTT_SUB_OPT_RETAIN_AS_PUBLISHED, nullptr);
+    c.logic->announce(c.index);
+    c.worker->wake();
+  }
+  static void on_disconnect(mosquitto*, void* self, int) {
+    static_cast<Connection*>(self)->connected = false;
+  }
+  static void on_publish(mosquitto*, void* self, int) { ++static_cast<Connection*>(self)->acked; }
+  static void on_message(mosquitto*, void* self, const mosquitto_message* msg) {
+    auto& c = *static_cast<Connection*>(self);
+    const std::string topic = msg->topic;
+    const std::string prefix = c.base + "/set/";
+    if (topic.rfind(prefix, 0) != 0) return;
+    if (c.logic->queue_command(
+            c.index, topic.substr(prefix.size()),
+            std::string(static_cast<const char*>(msg->payload), static_cast<size_t>(msg->payloadlen)),
+            msg->retain))
+      c.worker->wake();
+  }
+};
+
+}  // namespace
+
+struct Bridge::Impl {
+  Impl(std::unique_ptr<io::Link> link, BridgeOptions o)
+      : options(std::move(o)),
+        clock(clock_or_steady(options.clock)),
+        master(std::move(link),
+               MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
+                             .clock = &clock}),
+        logic(master, options, clock,
+              [this](size_t machine, const MqttMessage& m) { connections.at(machine)->publish(m); }),
+        worker([this](io::Clock::time_point now) { return logic.step(now); }, {.clock = &clock}) {}
+
+  BridgeOptions options;
+  DriverClock& clock;
+  Master master;
+  std::vector<std::unique_ptr<Connection>> connections;
+  BridgeLogic logic;
+  BusWorker worker;
+  std::string broker_problem;  ///< set by start() when the broker did not take us at once
 };
 
 Bridge::Bridge(std::unique_ptr<io::Link> link, BridgeOptions options)
@@ -466,7 +537,11 @@ rtukit::Status Bridge::start() {
   mosquitto_lib_init();
   int connect_rc = MOSQ_ERR_SUCCESS, connect_errno = 0;
   for (const BridgeMachine& config : b.options.machines) {
-    auto m = std::make_unique<Machine>(b.master, config, b.options, b.clock);
+    auto m = std::make_unique<Connection>();
+    m->index = b.connections.size();
+    m->base = b.logic.base(m->index);
+    m->logic = &b.logic;
+    m->worker = &b.worker;
     // Unique per machine and per run: nobody takes the id from docs or a guess.
     uint32_t nonce = 0;
     if (::getrandom(&nonce, sizeof nonce, 0) != sizeof nonce)
@@ -486,10 +561,10 @@ rtukit::Status Bridge::start() {
     }
     const std::string will = m->base + "/availability";
     mosquitto_will_set(m->mosq, will.c_str(), 7, "offline", 1, true);
-    mosquitto_connect_callback_set(m->mosq, &Impl::on_connect);
-    mosquitto_disconnect_callback_set(m->mosq, &Impl::on_disconnect);
-    mosquitto_message_callback_set(m->mosq, &Impl::on_message);
-    mosquitto_publish_callback_set(m->mosq, &Impl::on_publish);
+    mosquitto_connect_callback_set(m->mosq, &Connection::on_connect);
+    mosquitto_disconnect_callback_set(m->mosq, &Connection::on_disconnect);
+    mosquitto_message_callback_set(m->mosq, &Connection::on_message);
+    mosquitto_publish_callback_set(m->mosq, &Connection::on_publish);
     mosquitto_reconnect_delay_set(m->mosq, 1, 30, true);
     // A broker that is down now is retried by the loop (connect_async).
     errno = 0;
@@ -499,17 +574,17 @@ rtukit::Status Bridge::start() {
       connect_errno = errno;
     }
     mosquitto_loop_start(m->mosq);
-    b.machines.push_back(std::move(m));
+    b.connections.push_back(std::move(m));
   }
-  b.thread = std::thread([&b] { b.run(); });
+  b.worker.start();
   // The broker answers within moments when it is there. When it does not, the
   // bridge keeps retrying, and says so once (warnings()) instead of in silence.
   const auto all_connected = [&b] {
-    return std::all_of(b.machines.begin(), b.machines.end(),
+    return std::all_of(b.connections.begin(), b.connections.end(),
                        [](const auto& m) { return m->connected.load(); });
   };
   const auto refused = [&b] {
-    for (const auto& m : b.machines)
+    for (const auto& m : b.connections)
       if (m->connack > 0) return m->connack.load();
     return 0;
   };
@@ -537,7 +612,7 @@ rtukit::Status Bridge::start() {
 
 std::vector<std::string> Bridge::client_ids() const {
   std::vector<std::string> ids;
-  for (const auto& m : impl_->machines) ids.push_back(m->client_id);
+  for (const auto& m : impl_->connections) ids.push_back(m->client_id);
   return ids;
 }
 
@@ -562,29 +637,24 @@ std::vector<std::string> Bridge::warnings() const {
 
 void Bridge::stop() {
   Impl& b = *impl_;
-  if (!b.thread.joinable()) return;
-  {
-    std::lock_guard lock(b.mutex);
-    b.stopping = true;
-  }
-  b.wake.notify_all();
-  b.thread.join();
+  if (b.connections.empty()) return;
+  b.worker.stop();
   // "offline" for every machine, acknowledged by the broker (1 s at most),
   // before a clean disconnect (which suppresses the last will).
-  for (auto& m : b.machines) {
+  for (auto& m : b.connections) {
     m->acked = 0;
-    if (m->connected) m->publish(m->base + "/availability", "offline", true);
+    if (m->connected) m->publish({m->base + "/availability", "offline", true, 1});
   }
   DriverClock& real = SteadyClock::instance();  // the broker's acknowledgements: real time
   const auto deadline = real.now() + std::chrono::seconds(1);
-  for (auto& m : b.machines)
+  for (auto& m : b.connections)
     while (m->connected && m->acked == 0 && real.now() < deadline)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
-  for (auto& m : b.machines) {
+  for (auto& m : b.connections) {
     mosquitto_disconnect(m->mosq);
     mosquitto_loop_stop(m->mosq, false);
   }
-  b.machines.clear();
+  b.connections.clear();
   mosquitto_lib_cleanup();
 }
 

@@ -27,6 +27,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -35,6 +36,7 @@
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
+#include "rtukit/driver/master.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
@@ -84,6 +86,51 @@ rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.
 rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o);
+
+/// One message the bridge publishes.
+struct MqttMessage {
+  std::string topic, payload;
+  bool retain = false;
+  int qos = 1;
+};
+/// Where the logic's messages go: the machine's own MQTT connection (each
+/// machine has one, with its own last will), or a test's list.
+using Publish = std::function<void(size_t machine, const MqttMessage&)>;
+
+/// The bridge's logic, without MQTT and without a thread: for each machine,
+/// the commands that came in, the polls on the shared schedule
+/// (driver/poll_schedule.hpp), and what to publish (availability, the state
+/// document and values, at most `max_rate` a second, the health figures
+/// every 10 s, Home Assistant discovery after each connect). The Bridge runs
+/// it on a BusWorker and hands its messages to libmosquitto; tests run it
+/// on a ManualClock and a MemoryLink, step by step.
+/// step() runs on one thread; queue_command() and announce() on any.
+class BridgeLogic {
+ public:
+  /// `master`, `options` and `clock` must outlive the logic.
+  BridgeLogic(Master& master, const BridgeOptions& options, DriverClock& clock, Publish publish);
+  ~BridgeLogic();
+  BridgeLogic(const BridgeLogic&) = delete;
+  BridgeLogic& operator=(const BridgeLogic&) = delete;
+
+  size_t machines() const;
+  /// "rtukit/inverjet/<id>" of machine `machine` (an index into options.machines).
+  const std::string& base(size_t machine) const;
+  /// A message on .../set/<name>, run at the next step. With kCommandQueueLimit
+  /// commands already waiting it is refused at once ("busy" on .../result)
+  /// and false is returned.
+  bool queue_command(size_t machine, std::string name, std::string payload, bool retained);
+  /// The machine's connection (re)connected: discovery, availability and
+  /// state go out again at the next step (the broker may have lost them).
+  void announce(size_t machine);
+  /// Runs what is due at `now`: each machine's commands, a held state,
+  /// the health figures, the poll. Returns when something is next due.
+  io::Clock::time_point step(io::Clock::time_point now);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 class Bridge {
  public:
