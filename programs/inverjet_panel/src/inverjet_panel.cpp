@@ -1,6 +1,7 @@
-// The pool panel: a bus thread (polls, commands, history) and the web
-// thread (pages). Commands cross from the web thread to the bus thread in a
-// queue; states, samples and results cross back with Server::post.
+// The pool panel: a bus worker (driver/bus_worker.hpp: polls, commands,
+// history) and the web thread (pages). Commands cross from the web thread to
+// the worker with BusWorker::post; states, samples and results cross back with
+// Server::post.
 //
 // Who may use it (docs/inverjet.md, "Pool panel"): the web layer checks
 // Origin and Host on every request; with a password file, every request but
@@ -19,20 +20,17 @@
 #include <array>
 #include <cerrno>
 #include <chrono>
-#include <condition_variable>
 #include <cstring>
 #include <ctime>
-#include <deque>
 #include <map>
-#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/poll_schedule.hpp"
 #include "rtukit/io/atomic_file.hpp"
@@ -48,6 +46,8 @@ using Json = nlohmann::json;
 namespace ij = inverjet;
 
 constexpr size_t kHistory = 2 * 60 * 60 * 2;  // two hours at 2 Hz
+/// Commands from the pages waiting for the bus; more are refused ("busy").
+constexpr size_t kJobLimit = 16;
 
 constexpr std::string_view kRecordTag = "rtukit-panel-password";
 constexpr std::string_view kRecordAlgorithm = "pbkdf2-sha256";
@@ -253,7 +253,11 @@ struct Panel::Impl {
                MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
                              .clock = &clock}),
         client(master, UnitId{options.unit}),
-        server(web::ServerOptions{.listen = {listener()}, .clock = &clock}, handlers()) {
+        server(web::ServerOptions{.listen = {listener()}, .clock = &clock}, handlers()),
+        began(clock.now()),
+        schedule(PollPolicy::at_hz(options.poll_hz), began),
+        worker([this](Clock::time_point now) { return step(now); },
+               {.clock = &clock, .job_limit = kJobLimit}) {
     if (!options.log)
       options.log = [this](const std::string& line) {
         const std::time_t now = io::WallClock::to_time_t(clock.wall());
@@ -270,12 +274,16 @@ struct Panel::Impl {
   ij::Client client;
   web::Server server;
 
-  // Bus thread <- web thread.
-  std::mutex mutex;
-  std::condition_variable wake;
-  std::deque<Job> jobs;
-  bool stopping = false;
-  std::thread thread;
+  // The bus worker's only.
+  Clock::time_point began;
+  PollSchedule schedule;
+  bool plans_read = false;
+  bool running_before = false;
+  bool online = false;
+  bool said_offline = false;  // the page hears of a machine that never answered too
+  inverjet::Family remembered = inverjet::Family::none;  // the run family through a fault screen
+  /// The one thread on the bus: the web thread posts it the page's commands.
+  BusWorker worker;
 
   // Web thread only.
   std::map<uint64_t, web::SocketPtr> sockets;
@@ -512,18 +520,13 @@ struct Panel::Impl {
       }
       if (op == "start" || op == "stop" || op == "plan")
         log(fmt::format("{} from {}", op, s->peer_address()));
-      std::lock_guard lock(mutex);
-      if (jobs.size() >= 16) {  // a page that floods the bus waits for nobody: refused
-        s->send(Json{{"type", "result"},
-                     {"op", m["op"]},
-                     {"id", m.value("id", Json())},
-                     {"ok", false},
-                     {"error", "busy: too many commands waiting"}}
-                    .dump());
-        return;
-      }
-      jobs.push_back({s->id(), std::move(m)});
-      wake.notify_all();
+      Json busy{{"type", "result"},
+                {"op", m["op"]},
+                {"id", m.value("id", Json())},
+                {"ok", false},
+                {"error", "busy: too many commands waiting"}};
+      // A page that floods the bus waits for nobody: refused (kJobLimit).
+      if (!worker.post([this, job = Job{s->id(), std::move(m)}] { run_job(job); })) s->send(busy.dump());
     };
     return h;
   }
@@ -549,7 +552,7 @@ struct Panel::Impl {
     return Json{{"type", "plans"}, {"plans", all}};
   }
 
-  void run_job(const Job& job, bool& poll_now) {
+  void run_job(const Job& job) {
     const Json& m = job.message;
     const std::string op = m["op"].get<std::string>();
     Json result{{"type", "result"}, {"op", op}};
@@ -579,89 +582,71 @@ struct Panel::Impl {
     server.post([this, socket = job.socket, text = result.dump()] {
       if (auto it = sockets.find(socket); it != sockets.end()) it->second->send(text);
     });
-    poll_now = true;
+    schedule.poll_soon();  // show its effect at once
   }
 
-  void run() {
-    const auto began = clock.now();
-    PollSchedule schedule(PollPolicy::at_hz(options.poll_hz), began);
-    bool plans_read = false;
-    bool running_before = false;
-    bool online = false;
-    bool said_offline = false;  // the page hears of a machine that never answered too
-    inverjet::Family remembered = inverjet::Family::none;  // the run family through a fault screen
-    for (;;) {
-      std::deque<Job> todo;
-      {
-        std::unique_lock lock(mutex);
-        // A wait of the clock's duration: the clock may be a virtual one.
-        const auto now = clock.now();
-        wake.wait_for(lock, schedule.next() > now ? schedule.next() - now : Clock::duration::zero(),
-                      [this] { return stopping || !jobs.empty(); });
-        if (stopping) return;
-        todo.swap(jobs);
-      }
-      bool poll_now = false;
-      for (const Job& j : todo) run_job(j, poll_now);
-      if (poll_now) schedule.poll_soon();
-      const auto now = clock.now();
-      if (!schedule.due(now)) continue;
-      const Result<ij::MachineStatus> s = client.status();
-      schedule.polled(now, bool(s));
-      if (!s) {
-        if (schedule.offline() && (online || !said_offline)) {
-          online = false;
-          said_offline = true;
-          server.post([this] {
-            Json st = last_state.empty() ? Json{{"type", "state"}} : Json::parse(last_state);
-            st["online"] = false;
-            last_state = st.dump();
-            broadcast(last_state);
-          });
-        }
-        continue;
-      }
-      online = true;
-      const int64_t contact = unix_ms(clock.wall());
-      if (!plans_read) {
-        plans_read = true;
-        Json p = read_plans();
-        server.post([this, text = p.dump()] {
-          plans = text;
-          broadcast(text);
+  // The worker's step: the poll, when it is due. Returns when the next one is.
+  Clock::time_point step(Clock::time_point now) {
+    if (schedule.due(now)) poll(now);
+    return schedule.next();
+  }
+
+  void poll(Clock::time_point now) {
+    const Result<ij::MachineStatus> s = client.status();
+    schedule.polled(now, bool(s));
+    if (!s) {
+      if (schedule.offline() && (online || !said_offline)) {
+        online = false;
+        said_offline = true;
+        server.post([this] {
+          Json st = last_state.empty() ? Json{{"type", "state"}} : Json::parse(last_state);
+          st["online"] = false;
+          last_state = st.dump();
+          broadcast(last_state);
         });
       }
-      remembered = inverjet::remember_family(*s, remembered);
-      Json st = inverjet::state_document(*s, remembered);
-      st["type"] = "state";
-      st["online"] = true;
-      st["last_contact_ms"] = contact;
-      const bool running = s->phase() == ij::Phase::running || s->phase() == ij::Phase::starting ||
-                           s->phase() == ij::Phase::paused;
-      const bool new_run = running && !running_before;
-      running_before = running;
-      Json sample{{"type", "sample"},
-                  {"t", std::chrono::duration<double>(now - began).count()},
-                  {"speed", s->phase() == ij::Phase::running ? s->speed : 0},
-                  {"current_a", s->current_a},
-                  {"mosfet_c", s->mosfet_c},
-                  {"motor_c", s->motor_c}};
-      server.post([this, text = st.dump(), sample = std::move(sample), new_run, running] {
-        if (new_run) {
-          history.clear();  // a new run: new charts
-          broadcast(Json{{"type", "history"}, {"samples", history}}.dump());
-        }
-        if (running) {  // the run's samples; kept after it ends, for a look back
-          if (history.size() >= kHistory) history.erase(history.begin());
-          history.push_back(sample);
-          broadcast(sample.dump());
-        }
-        if (text != last_state) {
-          last_state = text;
-          broadcast(text);
-        }
+      return;
+    }
+    online = true;
+    const int64_t contact = unix_ms(clock.wall());
+    if (!plans_read) {
+      plans_read = true;
+      Json p = read_plans();
+      server.post([this, text = p.dump()] {
+        plans = text;
+        broadcast(text);
       });
     }
+    remembered = inverjet::remember_family(*s, remembered);
+    Json st = inverjet::state_document(*s, remembered);
+    st["type"] = "state";
+    st["online"] = true;
+    st["last_contact_ms"] = contact;
+    const bool running = s->phase() == ij::Phase::running || s->phase() == ij::Phase::starting ||
+                         s->phase() == ij::Phase::paused;
+    const bool new_run = running && !running_before;
+    running_before = running;
+    Json sample{{"type", "sample"},
+                {"t", std::chrono::duration<double>(now - began).count()},
+                {"speed", s->phase() == ij::Phase::running ? s->speed : 0},
+                {"current_a", s->current_a},
+                {"mosfet_c", s->mosfet_c},
+                {"motor_c", s->motor_c}};
+    server.post([this, text = st.dump(), sample = std::move(sample), new_run, running] {
+      if (new_run) {
+        history.clear();  // a new run: new charts
+        broadcast(Json{{"type", "history"}, {"samples", history}}.dump());
+      }
+      if (running) {  // the run's samples; kept after it ends, for a look back
+        if (history.size() >= kHistory) history.erase(history.begin());
+        history.push_back(sample);
+        broadcast(sample.dump());
+      }
+      if (text != last_state) {
+        last_state = text;
+        broadcast(text);
+      }
+    });
   }
 };
 
@@ -702,19 +687,13 @@ rtukit::Status Panel::start() {
                                                              : std::string(e.text())));
   p.server.every(30'000, [&p] { p.expire_sessions(); });
   if (rtukit::Status e = p.server.start()) return e;
-  impl_->thread = std::thread([this] { impl_->run(); });
+  impl_->worker.start();
   return {};
 }
 
 void Panel::stop() {
   Impl& p = *impl_;
-  if (!p.thread.joinable()) return;
-  {
-    std::lock_guard lock(p.mutex);
-    p.stopping = true;
-  }
-  p.wake.notify_all();
-  p.thread.join();
+  p.worker.stop();
   p.server.stop();
 }
 
