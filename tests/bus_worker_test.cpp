@@ -48,16 +48,25 @@ TEST(BusWorker, AFloodIsCutAtTheLimit_NotQueued) {
   EXPECT_TRUE(w.post([&] { ++ran; }));  // room again once they ran
 }
 
-TEST(BusWorker, AfterStop_NothingIsTakenAndWaitingJobsAreDropped) {
-  BusWorker w([](BusWorker::TimePoint now) { return now; });
-  int ran = 0;
+TEST(BusWorker, AfterStop_NothingIsTakenAndWaitingJobsAreDropped_UntilStartedAgain) {
+  BusWorker w([](BusWorker::TimePoint now) { return now + 1h; });
+  std::atomic<int> ran{0};
   EXPECT_TRUE(w.post([&] { ++ran; }));
   w.stop();
   EXPECT_TRUE(w.stopped());
   EXPECT_FALSE(w.post([&] { ++ran; }));
-  w.start();  // after stop: no thread
-  w.stop();   // idempotent
+  w.stop();  // idempotent
   EXPECT_EQ(ran, 0);
+  w.start();  // a new thread: takes jobs again
+  EXPECT_FALSE(w.stopped());
+  std::promise<void> done;
+  ASSERT_TRUE(w.post([&] {
+    ++ran;
+    done.set_value();
+  }));
+  ASSERT_EQ(done.get_future().wait_for(60s), std::future_status::ready);
+  w.stop();
+  EXPECT_EQ(ran, 1);
 }
 
 TEST(BusWorker, OnItsThread_APostedJobRunsWithoutWaitingForTheNextStep) {

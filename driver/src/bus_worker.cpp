@@ -13,8 +13,13 @@ BusWorker::~BusWorker() {
 }
 
 void BusWorker::start() {
-  std::lock_guard lock(mutex_);
-  if (thread_.joinable() || stopping_) return;
+  std::lock_guard life(lifecycle_);
+  if (thread_.joinable()) return;
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = false;
+    running_ = true;
+  }
   thread_ = std::thread([this] { run(); });
 }
 
@@ -37,18 +42,26 @@ void BusWorker::wake() {
 }
 
 void BusWorker::stop() {
+  std::lock_guard life(lifecycle_);
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
     jobs_.clear();
   }
   cv_.notify_one();
-  if (thread_.joinable() && thread_.get_id() != std::this_thread::get_id()) thread_.join();
+  if (thread_.joinable()) thread_.join();
+  std::lock_guard lock(mutex_);
+  running_ = false;
 }
 
 size_t BusWorker::pending() const {
   std::lock_guard lock(mutex_);
   return jobs_.size();
+}
+
+bool BusWorker::running() const {
+  std::lock_guard lock(mutex_);
+  return running_ && !stopping_;
 }
 
 bool BusWorker::stopped() const {

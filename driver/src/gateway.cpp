@@ -3,18 +3,17 @@
 #include <algorithm>
 #include <array>
 #include <cerrno>
-#include <condition_variable>
 #include <cstring>
 #include <deque>
 #include <map>
 #include <mutex>
 #include <optional>
-#include <thread>
 #include <tuple>
 
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
+#include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
 #include "tcp_sessions.hpp"
@@ -143,7 +142,10 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
     std::lock_guard lock(mutex);
     queues.erase(client);
   }
-  void run_bus();
+  // The bus worker's step: serves one queued request (round robin between
+  // clients); returns now when more wait, else never (a request wakes it).
+  io::Clock::time_point bus_step();
+  void serve(Job& job);
   void invalidate(uint8_t unit, const Request& write);
   // A request for `unit` now: answered 0x0B at once (quarantined, no probe
   // due)? Called with the lock held.
@@ -160,11 +162,9 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   DriverClock& clock;
   std::vector<std::unique_ptr<TcpAcceptor>> acceptors;
   std::vector<std::string> schemes;  // each acceptor's: "tcp://", "rtu+tcp://"
-  std::thread thread;
+  BusWorker worker{[this](io::Clock::time_point) { return bus_step(); }, {.clock = &clock}};
 
-  std::mutex mutex;  // everything below
-  std::condition_variable wake;
-  bool stopping = false;
+  std::mutex mutex;                            // everything below
   std::map<uint64_t, std::deque<Job>> queues;  // per client, served round robin
   uint64_t last_served = 0;
   uint64_t next_client = 1;
@@ -292,7 +292,7 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     if (!ordered) return session->answer(h.transaction, h.unit, answer, false);
     std::lock_guard lock(mutex);
     queues[client].push_back(Job{session, h.transaction, h.unit, {}, std::move(answer)});
-    wake.notify_one();
+    worker.wake();
   };
   const auto refuse = [&](Errc e) {
     {
@@ -330,7 +330,7 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
                              false);
     q.push_back(
         Job{session, h.transaction, h.unit, {}, exception_pdu(function, Errc::gateway_target_failed)});
-    wake.notify_one();
+    worker.wake();
     return;
   }
   if (q.size() >= options.max_queued_per_client) {
@@ -342,7 +342,7 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     return;
   }
   q.push_back(Job{session, h.transaction, h.unit, {pdu.begin(), pdu.end()}});
-  wake.notify_one();
+  worker.wake();
 }
 
 // Cached reads of `unit` that `write` may change. Called with the lock held.
@@ -358,104 +358,104 @@ void Gateway::Impl::invalidate(uint8_t unit, const Request& write) {
   }
 }
 
-void Gateway::Impl::run_bus() {
-  for (;;) {
-    Job job;
-    {
-      std::unique_lock lock(mutex);
-      wake.wait(lock, [this] {
-        return stopping ||
-               std::any_of(queues.begin(), queues.end(), [](const auto& q) { return !q.second.empty(); });
-      });
-      if (stopping) return;
-      // Round robin: the next client after the one served last that has work.
-      auto it = queues.upper_bound(last_served);
-      while (it != queues.end() && it->second.empty()) ++it;
-      if (it == queues.end()) {
-        it = queues.begin();
-        while (it->second.empty()) ++it;
-      }
-      last_served = it->first;
-      job = std::move(it->second.front());
-      it->second.pop_front();
+io::Clock::time_point Gateway::Impl::bus_step() {
+  Job job;
+  {
+    std::lock_guard lock(mutex);
+    if (std::none_of(queues.begin(), queues.end(), [](const auto& q) { return !q.second.empty(); }))
+      return io::Clock::time_point::max();
+    // Round robin: the next client after the one served last that has work.
+    auto it = queues.upper_bound(last_served);
+    while (it != queues.end() && it->second.empty()) ++it;
+    if (it == queues.end()) {
+      it = queues.begin();
+      while (it->second.empty()) ++it;
     }
-    const std::shared_ptr<GatewaySession> session = job.session.lock();
-    if (!session) continue;  // the client left; its request needs no answer
-    if (job.ready) {
-      session->answer(job.transaction, job.unit, *job.ready, true);
-      continue;
-    }
-    const Result<Request> req = decode_request(job.pdu);  // checked on arrival
-    if (!req.ok()) continue;
-    const bool write = is_write(req->function);
-    if (!write && options.cache.count() > 0) {
-      // Queued behind an identical read that has just been answered: share it.
-      std::vector<uint8_t> cached;
-      {
-        std::lock_guard lock(mutex);
-        const auto hit = cache.find(CacheKey{job.unit, req->function, req->address, req->quantity});
-        if (hit != cache.end() && clock.now() - hit->second.at < options.cache) {
-          ++stats.cache_hits;
-          cached = hit->second.pdu;
-        }
-      }
-      if (!cached.empty()) {
-        session->answer(job.transaction, job.unit, cached, true);
-        continue;
-      }
-    }
-    bool probe = false;
-    {
-      std::lock_guard lock(mutex);
-      UnitHealth& health_of = health[job.unit];
-      if (health_of.quarantined) {
-        // Quarantined since it was queued, or a probe already went out: 0x0B
-        // at once. Else this request is the probe; until its outcome, the
-        // unit's other requests get 0x0B at once.
-        if (clock.now() < health_of.probe_at) {
-          ++stats.quarantined_answers;
-          session->answer(job.transaction, job.unit,
-                          exception_pdu(req->function, Errc::gateway_target_failed), true);
-          continue;
-        }
-        probe = true;
-        ++stats.probes;
-        health_of.probe_at = io::Clock::time_point::max();
-      }
-      if (write) invalidate(job.unit, *req);
-    }
-    std::vector<uint8_t> answer;
-    const Error e =
-        bus.transact(UnitId{job.unit}, *req, [&](const Response& r) { answer = response_pdu(*req, r); });
-    std::optional<GatewayUnitEvent> event;
-    {
-      std::lock_guard lock(mutex);
-      ++stats.bus_transactions;
-      event = note_outcome(job.unit, e, probe);
-      // A write that timed out may still have been applied: invalidate again.
-      if (write) invalidate(job.unit, *req);
-      if (e.ok() && answer.empty() && write) {
-        // A broadcast write: nobody answers on the bus; the client gets the echo.
-        const size_t echo = req->function == fc(Function::mask_write_register) ? 7 : 5;
-        answer.assign(job.pdu.begin(),
-                      job.pdu.begin() + static_cast<std::ptrdiff_t>(std::min(job.pdu.size(), echo)));
-      } else if (e.is_exception()) {
-        answer = exception_pdu(req->function, e.code());
-      } else if (e.code() == Errc::timeout || e.code() == Errc::unexpected_response ||
-                 e.code() == Errc::malformed || e.code() == Errc::bad_crc) {
-        ++stats.no_answer;
-        answer = exception_pdu(req->function, Errc::gateway_target_failed);
-      } else if (!e.ok()) {
-        ++stats.bus_down;
-        answer = exception_pdu(req->function, Errc::gateway_path_unavailable);
-      } else if (options.cache.count() > 0 && is_read(req->function)) {
-        cache[CacheKey{job.unit, req->function, req->address, req->quantity}] = Cached{answer, clock.now()};
-      }
-    }
-    if (event && options.on_quarantine) options.on_quarantine(*event);
-    if (answer.empty()) continue;  // FC08 force listen only: nobody answers it
-    session->answer(job.transaction, job.unit, answer, true);
+    last_served = it->first;
+    job = std::move(it->second.front());
+    it->second.pop_front();
   }
+  serve(job);
+  return clock.now();  // another may wait: look again at once
+}
+
+void Gateway::Impl::serve(Job& job) {
+  const std::shared_ptr<GatewaySession> session = job.session.lock();
+  if (!session) return;  // the client left; its request needs no answer
+  if (job.ready) {
+    session->answer(job.transaction, job.unit, *job.ready, true);
+    return;
+  }
+  const Result<Request> req = decode_request(job.pdu);  // checked on arrival
+  if (!req.ok()) return;
+  const bool write = is_write(req->function);
+  if (!write && options.cache.count() > 0) {
+    // Queued behind an identical read that has just been answered: share it.
+    std::vector<uint8_t> cached;
+    {
+      std::lock_guard lock(mutex);
+      const auto hit = cache.find(CacheKey{job.unit, req->function, req->address, req->quantity});
+      if (hit != cache.end() && clock.now() - hit->second.at < options.cache) {
+        ++stats.cache_hits;
+        cached = hit->second.pdu;
+      }
+    }
+    if (!cached.empty()) {
+      session->answer(job.transaction, job.unit, cached, true);
+      return;
+    }
+  }
+  bool probe = false;
+  {
+    std::lock_guard lock(mutex);
+    UnitHealth& health_of = health[job.unit];
+    if (health_of.quarantined) {
+      // Quarantined since it was queued, or a probe already went out: 0x0B
+      // at once. Else this request is the probe; until its outcome, the
+      // unit's other requests get 0x0B at once.
+      if (clock.now() < health_of.probe_at) {
+        ++stats.quarantined_answers;
+        session->answer(job.transaction, job.unit, exception_pdu(req->function, Errc::gateway_target_failed),
+                        true);
+        return;
+      }
+      probe = true;
+      ++stats.probes;
+      health_of.probe_at = io::Clock::time_point::max();
+    }
+    if (write) invalidate(job.unit, *req);
+  }
+  std::vector<uint8_t> answer;
+  const Error e =
+      bus.transact(UnitId{job.unit}, *req, [&](const Response& r) { answer = response_pdu(*req, r); });
+  std::optional<GatewayUnitEvent> event;
+  {
+    std::lock_guard lock(mutex);
+    ++stats.bus_transactions;
+    event = note_outcome(job.unit, e, probe);
+    // A write that timed out may still have been applied: invalidate again.
+    if (write) invalidate(job.unit, *req);
+    if (e.ok() && answer.empty() && write) {
+      // A broadcast write: nobody answers on the bus; the client gets the echo.
+      const size_t echo = req->function == fc(Function::mask_write_register) ? 7 : 5;
+      answer.assign(job.pdu.begin(),
+                    job.pdu.begin() + static_cast<std::ptrdiff_t>(std::min(job.pdu.size(), echo)));
+    } else if (e.is_exception()) {
+      answer = exception_pdu(req->function, e.code());
+    } else if (e.code() == Errc::timeout || e.code() == Errc::unexpected_response ||
+               e.code() == Errc::malformed || e.code() == Errc::bad_crc) {
+      ++stats.no_answer;
+      answer = exception_pdu(req->function, Errc::gateway_target_failed);
+    } else if (!e.ok()) {
+      ++stats.bus_down;
+      answer = exception_pdu(req->function, Errc::gateway_path_unavailable);
+    } else if (options.cache.count() > 0 && is_read(req->function)) {
+      cache[CacheKey{job.unit, req->function, req->address, req->quantity}] = Cached{answer, clock.now()};
+    }
+  }
+  if (event && options.on_quarantine) options.on_quarantine(*event);
+  if (answer.empty()) return;  // FC08 force listen only: nobody answers it
+  session->answer(job.transaction, job.unit, answer, true);
 }
 
 std::optional<GatewayUnitEvent> Gateway::Impl::note_outcome(uint8_t unit, const Error& e, bool probe) {
@@ -487,12 +487,7 @@ std::optional<GatewayUnitEvent> Gateway::Impl::note_outcome(uint8_t unit, const 
 Gateway::Gateway(std::shared_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
 Gateway::~Gateway() {
-  {
-    std::lock_guard lock(impl_->mutex);
-    impl_->stopping = true;
-  }
-  impl_->wake.notify_all();
-  if (impl_->thread.joinable()) impl_->thread.join();
+  impl_->worker.stop();
   impl_->acceptors.clear();
 }
 
@@ -533,7 +528,7 @@ Outcome<std::unique_ptr<Gateway>> Gateway::start(asio::io_context& ctx, Master& 
     impl->acceptors.push_back(std::move(acceptor));
     impl->schemes.push_back(framing == Framing::tcp ? "tcp://" : "rtu+tcp://");
   }
-  impl->thread = std::thread([raw = impl.get()] { raw->run_bus(); });
+  impl->worker.start();
   return std::unique_ptr<Gateway>(new Gateway(std::move(impl)));
 }
 

@@ -28,7 +28,8 @@ Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
                                              .clock = &clock_,
                                              .trace = options.trace}),
       logic_(options),
-      session_(SessionOptions{.lease = options.lease}) {
+      session_(SessionOptions{.lease = options.lease}),
+      worker_([this](HostLogic::TimePoint) { return step(); }, BusWorker::Options{.clock = &clock_}) {
   session_.join(kLocalClient, ClientKind::tool);
 }
 
@@ -41,13 +42,20 @@ void Host::on_event(std::function<void(const Event&)> handler) {
 }
 
 void Host::start() {
-  if (thread_.joinable()) return;
-  stopping_ = false;
-  thread_ = std::thread([this] { run(); });
+  {
+    std::lock_guard lock(mutex_);
+    stopping_ = false;
+  }
+  worker_.start();
+}
+
+void Host::notify() {
+  cv_.notify_all();
+  worker_.wake();
 }
 
 void Host::stop() {
-  if (!thread_.joinable()) return;
+  if (!worker_.running()) return;
   // Safety: nothing stays held when the host goes away. The worker is told
   // to stop first, so the zeros below are the last writes.
   {
@@ -55,7 +63,7 @@ void Host::stop() {
     stopping_ = true;
   }
   cv_.notify_all();
-  thread_.join();
+  worker_.stop();
   std::vector<uint16_t> held;
   {
     std::lock_guard lock(mutex_);
@@ -313,60 +321,53 @@ std::vector<Event> Host::collect() {
   return out;
 }
 
-void Host::run() {
-  for (;;) {
-    std::optional<HostLogic::Request> request;
-    std::vector<Event> events;
-    {
-      std::unique_lock lock(mutex_);
-      if (stopping_) return;
-      work_ = false;
-      sync(clock_.now());
-      request = logic_.next(clock_.now());
-      events = collect();
-      if (!request && events.empty()) {
-        auto wake = logic_.wake_at();
-        if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
-        // A wait of the clock's duration: the clock may be a virtual one.
-        const auto now = clock_.now();
-        cv_.wait_for(lock, wake > now ? wake - now : io::Clock::duration::zero(),
-                     [this] { return stopping_ || work_; });
-        continue;
-      }
+HostLogic::TimePoint Host::step() {
+  std::optional<HostLogic::Request> request;
+  std::vector<Event> events;
+  {
+    std::lock_guard lock(mutex_);
+    sync(clock_.now());
+    request = logic_.next(clock_.now());
+    events = collect();
+    if (!request && events.empty()) {
+      auto wake = logic_.wake_at();
+      if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
+      return wake;
     }
-    cv_.notify_all();
-    for (const Event& ev : events) emit(ev);
-    if (!request) continue;
-    std::array<uint16_t, reg::kStatusCount> words{};
-    size_t n = 0;
-    Error e;
-    switch (request->kind) {
-      case HostLogic::Request::Kind::read_device_id:
-        n = 1;
-        e = master_.read_holding_registers(options_.unit, reg::kDeviceId, std::span(words.data(), n));
-        break;
-      case HostLogic::Request::Kind::poll:
-        n = reg::kStatusCount;
-        e = master_.read_holding_registers(options_.unit, 0, words);
-        break;
-      case HostLogic::Request::Kind::write:
-        e = write_command(request->address, request->value);
-        break;
-    }
-    {
-      std::lock_guard lock(mutex_);
-      const auto now = clock_.now();
-      logic_.on_result(now, e, std::span<const uint16_t>(words.data(), e ? 0 : n));
-      events = logic_.take_events();
-      for (const Event& ev : events)
-        if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
-      session_.on_status(logic_.snapshot(), logic_.active_error(), now);
-      sync(now);
-      for (Event& ev : collect()) events.push_back(std::move(ev));
-    }
-    cv_.notify_all();
-    for (const Event& ev : events) emit(ev);
   }
+  cv_.notify_all();
+  for (const Event& ev : events) emit(ev);
+  if (!request) return clock_.now();  // the events may have changed what is due: look again
+  std::array<uint16_t, reg::kStatusCount> words{};
+  size_t n = 0;
+  Error e;
+  switch (request->kind) {
+    case HostLogic::Request::Kind::read_device_id:
+      n = 1;
+      e = master_.read_holding_registers(options_.unit, reg::kDeviceId, std::span(words.data(), n));
+      break;
+    case HostLogic::Request::Kind::poll:
+      n = reg::kStatusCount;
+      e = master_.read_holding_registers(options_.unit, 0, words);
+      break;
+    case HostLogic::Request::Kind::write:
+      e = write_command(request->address, request->value);
+      break;
+  }
+  {
+    std::lock_guard lock(mutex_);
+    const auto now = clock_.now();
+    logic_.on_result(now, e, std::span<const uint16_t>(words.data(), e ? 0 : n));
+    events = logic_.take_events();
+    for (const Event& ev : events)
+      if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
+    session_.on_status(logic_.snapshot(), logic_.active_error(), now);
+    sync(now);
+    for (Event& ev : collect()) events.push_back(std::move(ev));
+  }
+  cv_.notify_all();
+  for (const Event& ev : events) emit(ev);
+  return clock_.now();  // one request a step: the next is decided afresh
 }
 
 Snapshot Host::snapshot() const {
@@ -411,9 +412,8 @@ void Host::leave(ClientId client) {
   {
     std::lock_guard lock(mutex_);
     session_.leave(client, clock_.now());
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
 }
 
 rtukit::Status Host::press(ClientId client, uint16_t command, uint16_t value, PressId id) {
@@ -421,9 +421,8 @@ rtukit::Status Host::press(ClientId client, uint16_t command, uint16_t value, Pr
   {
     std::lock_guard lock(mutex_);
     e = session_.press(client, command, value, id, clock_.now());
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
   return e;
 }
 
@@ -432,9 +431,8 @@ rtukit::Status Host::renew(ClientId client, PressId id) {
   {
     std::lock_guard lock(mutex_);
     e = session_.renew(client, id, clock_.now());
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
   return e;
 }
 
@@ -442,18 +440,16 @@ void Host::release_press(ClientId client, PressId id) {
   {
     std::lock_guard lock(mutex_);
     session_.release(client, id, clock_.now());
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
 }
 
 void Host::stop_all() {
   {
     std::lock_guard lock(mutex_);
     session_.stop_all(clock_.now());
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
 }
 
 rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket) {
@@ -472,9 +468,8 @@ rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, ui
                                                               : "no communication with the controller");
     }
     if (ticket) *ticket = t;
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
   return {};
 }
 
@@ -553,9 +548,8 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
       e = session_.press(kLocalClient, command, value, ++local_last_, now);
       if (!e) mine = local_last_;
     }
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
   return e;
 }
 
@@ -567,9 +561,8 @@ Error Host::release(uint16_t command) {
     PressId& mine = local_press_[command - reg::kCommandFirst];
     if (mine) session_.release(kLocalClient, mine, clock_.now());
     mine = 0;
-    work_ = true;
   }
-  cv_.notify_all();
+  notify();
   return {};
 }
 

@@ -55,8 +55,8 @@ class BusWorker {
   BusWorker(const BusWorker&) = delete;
   BusWorker& operator=(const BusWorker&) = delete;
 
-  /// Starts the worker's thread. Once: a second call, or a call after
-  /// stop(), does nothing.
+  /// Starts the worker's thread; does nothing while it runs. After stop()
+  /// it starts a new one (with no job waiting).
   void start();
 
   /// Runs `job` on the worker's thread before its next step (in the order
@@ -69,17 +69,20 @@ class BusWorker {
   void wake();
 
   /// Ends the thread after the job or step it is in, and joins it. Jobs not
-  /// yet run are dropped. Idempotent; thread-safe except against itself.
+  /// yet run are dropped, and post() refuses until the next start().
+  /// Idempotent. Not from the worker's own thread.
   void stop();
 
   /// Without the thread: runs the waiting jobs, then one step at the clock's
   /// now; returns when the next step is due. For tests, and for a caller
-  /// that runs its own loop. Precondition: start() has not been called.
+  /// that runs its own loop. Precondition: the thread is not running.
   TimePoint run_once();
 
   /// Jobs waiting.
   size_t pending() const;
   bool stopped() const;
+  /// The thread runs (started, not stopped).
+  bool running() const;
   DriverClock& clock() const noexcept { return clock_; }
 
  private:
@@ -89,11 +92,13 @@ class BusWorker {
   Step step_;
   Options options_;
   DriverClock& clock_;
-  mutable std::mutex mutex_;
+  std::mutex lifecycle_;      ///< start() and stop(): the thread handle is theirs
+  mutable std::mutex mutex_;  ///< the rest
   std::condition_variable cv_;
   std::deque<std::function<void()>> jobs_;
   bool woken_ = false;
   bool stopping_ = false;
+  bool running_ = false;
   std::thread thread_;
 };
 

@@ -41,13 +41,13 @@
 #include <optional>
 #include <span>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/session.hpp"
 #include "rtukit/devices/rehand6600/snapshot.hpp"
+#include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
@@ -259,7 +259,10 @@ class Host {
   std::string describe() const { return master_.describe(); }
 
  private:
-  void run();
+  /// The bus worker's step: one request, or the time the logic next wants one.
+  HostLogic::TimePoint step();
+  /// Something changed (a press, a command): waiters and the worker look again.
+  void notify();
   void emit(const Event& e);
   void sync(HostLogic::TimePoint now);  ///< under the lock: the session's wanted values become targets
   std::vector<Event> collect();         ///< under the lock: the logic's and the session's events
@@ -272,18 +275,19 @@ class Host {
   DriverClock& clock_;
   Master master_;
   std::function<void(const Event&)> handler_;
-  std::thread thread_;
 
   mutable std::mutex mutex_;  ///< guards everything below
   mutable std::condition_variable cv_;
   bool stopping_ = false;
-  bool work_ = false;  ///< a command arrived: the worker looks again
   HostLogic logic_;
   Session session_;
   uint64_t next_ticket_ = 1;
   std::deque<std::pair<uint64_t, Error>> finished_;        ///< the last one-shot outcomes, for wait_ticket
   std::array<PressId, reg::kCommandCount> local_press_{};  ///< kLocalClient's press per command (0: none)
   PressId local_last_ = 0;
+  /// The thread on the bus (driver/bus_worker.hpp), between start() and stop().
+  /// Last: it ends before anything it uses.
+  BusWorker worker_;
 };
 
 }  // namespace rtukit::rehand6600
