@@ -86,13 +86,11 @@ struct Session {
   ~Session() {
     if (stats) print_stats(*master);
   }
-  // One line naming the failure. The client gives the Inverjet's reason for
-  // an exception (04 has three causes); a refused argument is a usage error.
+  // One line naming the failure, with the Inverjet's reason for an exception
+  // (inverjet::exception_reason); a refused argument is a usage error.
   [[noreturn]] void fail(const rtukit::Status& e, std::string_view what) {
     if (e.is_exception()) {
-      std::string hint(e.reason() == e.name() ? std::string_view() : e.reason());
-      if (hint.empty() && e.error().exception_code() == 0x02) hint = "a reserved register";
-      if (hint.empty() && e.error().exception_code() == 0x03) hint = "a value out of range";
+      const std::string hint = ij::exception_reason(e);
       throw Failure{kModbusException,
                     fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
                                 e.error().exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
@@ -265,9 +263,7 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
   if (a.json) {
     Json out = json_document("inverjet", s.jet.unit().value);
     out["plan"] = plan;
-    Json& list = out["segments"] = Json::array();
-    for (const auto& seg : *segments)
-      list.push_back({{"speed", seg.speed}, {"end", profile::format_mm_ss(seg.end)}, {"end_s", seg.end}});
+    out["segments"] = ij::plan_json(*segments);
     print_json(out);
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
@@ -277,12 +273,8 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
 
 int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file) {
   const unsigned plan = parse_plan_number(n);
-  // A plan is 50 lines at most: a file much larger than that is not a plan.
-  Outcome<std::string> text = io::read_regular_file(file, 64 * 1024);
-  if (!text.ok())
-    throw Failure{kUsage, fmt::format("cannot read plan file '{}': {}", file, text.error().reason())};
-  Outcome<std::vector<ij::Segment>> segments = ij::parse_plan(*text);
-  if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, segments.error().reason())};
+  const Outcome<std::vector<ij::Segment>> segments = ij::read_plan_file(file);
+  if (!segments.ok()) throw Failure{kUsage, std::string(segments.error().reason())};
   Session s(a);
   s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));
   done(a, s, "plan set",

@@ -163,6 +163,14 @@ rtukit::Status identify(Master& master, UnitId unit) {
                   r.title, r.address, got, fixed));
 }
 
+std::string exception_reason(const rtukit::Status& e) {
+  if (!e.is_exception()) return {};
+  if (e.reason() != e.name()) return std::string(e.reason());
+  if (e.error().exception_code() == 0x02) return "a reserved register";
+  if (e.error().exception_code() == 0x03) return "a value out of range";
+  return {};
+}
+
 // ---------------------------------------------------------------- the start
 
 profile::Range timer_range() noexcept {

@@ -66,6 +66,12 @@ nlohmann::json state_document(const MachineStatus& s, Family remembered = Family
 /// or the port, comes back as the Error it is. Nothing is written.
 rtukit::Status identify(Master& master, UnitId unit);
 
+/// Why the machine answered a Modbus exception, as people read it: the
+/// client's reason (04 has three causes: control masked, the fault screen,
+/// nothing to pause), else what 02 and 03 mean on this machine ("a reserved
+/// register", "a value out of range"); empty when nothing more is known.
+std::string exception_reason(const rtukit::Status& e);
+
 // ---- the verbs ----
 
 /// A start, as every front-end asks for it (`run_command`'s "start", the
