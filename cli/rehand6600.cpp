@@ -266,24 +266,15 @@ int run_pulse(const ChairArgs& a, const std::string& key) {
 }
 
 int run_set(const ChairArgs& a, const std::string& what, const std::string& value) {
-  // The setting's row decides what the value may be ("outdoor" or 3; 1..5).
-  const rh::Register* r = what == "host-fault"
-                              ? rh::find_register(rh::reg::kHostFault)
-                              : rh::find_register(std::string_view(profile::canonical_key(what)));
-  if (!r || r->role != rh::Kind::setting)
-    throw Failure{kUsage, fmt::format("set {}: expected drive-mode, speed-level or host-fault", what)};
-  const Outcome<int64_t> n = profile::parse_value(*r, value);
-  if (!n.ok()) throw Failure{kUsage, std::string(n.error().reason())};
-  const auto raw = static_cast<uint16_t>(*n);
+  const rh::SettingChange c = usage_or(rh::parse_setting(what, value));
   std::string context;
   auto host = start_host(a, &context);
-  const rtukit::Status e = r->address == rh::reg::kDriveMode    ? host->set_drive_mode(raw)
-                           : r->address == rh::reg::kSpeedLevel ? host->set_speed_level(raw)
-                                                                : rtukit::Status(host->set_host_fault(raw));
+  const rtukit::Status e = rh::write_setting(*host, c);
   const uint16_t active = host->active_error();
   host->stop();
   if (e) refused_or_fail(e, context, what, "set", active);
-  done(a, "set", fmt::format("{} = {}", what, value), {{std::string(r->key), profile::entry_json(*r, raw)}});
+  done(a, "set", fmt::format("{} = {}", what, value),
+       {{std::string(c.row->key), profile::entry_json(*c.row, c.raw)}});
   return kOk;
 }
 
@@ -347,11 +338,7 @@ int run_errors(bool as_json, const std::string& code_text) {
   }
   Json out = json_document("rehand6600");
   Json& list = out["errors"] = Json::array();
-  for (uint16_t c : codes)
-    list.push_back({{"code", fmt::format("{:04X}", c)},
-                    {"function", rh::error_function(c)},
-                    {"text", rh::error_text(c)},
-                    {"advice", rh::error_advice(c)}});
+  for (uint16_t c : codes) list.push_back(rh::error_json(c));
   print_json(out);
   return kOk;
 }

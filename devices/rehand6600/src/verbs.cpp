@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/host.hpp"
 
 namespace rtukit::rehand6600 {
 
@@ -87,6 +88,24 @@ Outcome<std::chrono::milliseconds> parse_hold_duration(std::string_view text) {
     return rtukit::Status(Errc::invalid_argument,
                           fmt::format("duration '{}': e.g. 2s, 500ms (at most 10 minutes)", text));
   return std::chrono::milliseconds(static_cast<long>(v * scale));
+}
+
+Outcome<SettingChange> parse_setting(std::string_view what, std::string_view value) {
+  // The setting's row decides what the value may be ("outdoor" or 3; 1..5).
+  const Register* r = what == "host-fault" ? find_register(reg::kHostFault)
+                                           : find_register(std::string_view(profile::canonical_key(what)));
+  if (!r || r->role != Kind::setting)
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("set {}: expected drive-mode, speed-level or host-fault", what));
+  const Outcome<int64_t> n = profile::parse_value(*r, value);
+  if (!n.ok()) return n.error();
+  return SettingChange{r, static_cast<uint16_t>(*n)};
+}
+
+rtukit::Status write_setting(Host& host, const SettingChange& c) {
+  if (c.row->address == reg::kDriveMode) return host.set_drive_mode(c.raw);
+  if (c.row->address == reg::kSpeedLevel) return host.set_speed_level(c.raw);
+  return host.set_host_fault(c.raw);
 }
 
 }  // namespace rtukit::rehand6600

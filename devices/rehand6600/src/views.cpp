@@ -112,4 +112,13 @@ Json snapshot_values(const Snapshot& s, bool mph) {
   return values;
 }
 
+Json error_json(uint16_t code) {
+  Json e;
+  e["code"] = fmt::format("{:04X}", code);
+  e["function"] = error_function(code);
+  e["text"] = error_text(code);
+  e["advice"] = error_advice(code);
+  return e;
+}
+
 }  // namespace rtukit::rehand6600

@@ -15,6 +15,8 @@
 
 namespace rtukit::rehand6600 {
 
+class Host;
+
 /// "device ID 0x42, expected 0x68": what a handshake that reads another ID says.
 std::string device_id_mismatch(uint16_t id);
 
@@ -44,5 +46,19 @@ Outcome<uint16_t> command_value(const Register& r, std::string_view text);
 /// at most 10 minutes. invalid_argument: "duration '0s': e.g. 2s, 500ms (at
 /// most 10 minutes)".
 Outcome<std::chrono::milliseconds> parse_hold_duration(std::string_view text);
+
+/// A setting to write: drive mode, speed level or the host fault code.
+struct SettingChange {
+  const Register* row;
+  uint16_t raw;
+};
+/// The setting `what` ("drive-mode", "drive_mode", "speed-level",
+/// "host-fault") at `value`, as its row reads it ("outdoor" or 3; 1..5).
+/// invalid_argument: "set fly: expected drive-mode, speed-level or
+/// host-fault", or the row's refusal ("speed_level: 6 is outside 1..5").
+Outcome<SettingChange> parse_setting(std::string_view what, std::string_view value);
+/// Writes it through the host controller (Host::set_drive_mode,
+/// set_speed_level, set_host_fault), waiting for the write.
+rtukit::Status write_setting(Host& host, const SettingChange& c);
 
 }  // namespace rtukit::rehand6600

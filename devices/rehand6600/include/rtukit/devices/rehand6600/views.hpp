@@ -36,4 +36,8 @@ std::string line(const Snapshot& s, bool mph);
 /// "error_text" and "error_advice".
 nlohmann::ordered_json snapshot_values(const Snapshot& s, bool mph);
 
+/// One table-3 error code as JSON: {"code": "10C3", "function", "text",
+/// "advice"} (`rtukit rehand6600 errors --json`).
+nlohmann::ordered_json error_json(uint16_t code);
+
 }  // namespace rtukit::rehand6600
