@@ -11,6 +11,7 @@
 #include <string>
 
 #include "rtukit/core/slave.hpp"
+#include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
@@ -210,6 +211,27 @@ TEST(InverjetConfig, EachKeyItsRow_RefusalsSayWhy) {
             "config colour: expected show, address, baud, mask or pairing");
 }
 
+TEST(InverjetVerbs, AnExceptionsReason_APlanAsJson_APlanFileThatIsNone) {
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x02))), "a reserved register");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x03))), "a value out of range");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x04), "control mask bit 1 is set")),
+            "control mask bit 1 is set");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x04))), "");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Errc::timeout)), "");
+
+  const std::vector<ij::Segment> plan{{25, 90}, {55, 300}};
+  EXPECT_EQ(ij::plan_json(plan).dump(),
+            R"([{"speed":25,"end":"01:30","end_s":90},{"speed":55,"end":"05:00","end_s":300}])");
+  const Outcome<std::vector<ij::Segment>> back = ij::parse_plan(ij::plan_json(plan).dump());
+  ASSERT_TRUE(back.ok()) << back.error().reason();
+  EXPECT_EQ(back->size(), 2U);
+  const Outcome<std::vector<ij::Segment>> zero = ij::read_plan_file("/dev/zero");  // never read forever
+  ASSERT_FALSE(zero.ok());
+  EXPECT_EQ(zero.error().code(), Errc::invalid_argument);
+  EXPECT_TRUE(std::string(zero.error().reason()).starts_with("cannot read plan file '/dev/zero': "))
+      << zero.error().reason();
+}
+
 // ---------------------------------------------------------------- Rehand 6600
 
 rh::Snapshot chair() {
@@ -306,6 +328,24 @@ TEST(RehandVerbs, CommandsByName_TheirDirections_AHoldsLength) {
             "duration '0s': e.g. 2s, 500ms (at most 10 minutes)");
   EXPECT_FALSE(rh::parse_hold_duration("11m").ok());
   EXPECT_FALSE(rh::parse_hold_duration("601s").ok());
+}
+
+TEST(RehandVerbs, SettingsByTheirRows_ErrorsAsJson) {
+  const Outcome<rh::SettingChange> outdoor = rh::parse_setting("drive-mode", "outdoor");
+  ASSERT_TRUE(outdoor.ok());
+  EXPECT_EQ(outdoor->row->address, rh::reg::kDriveMode);
+  EXPECT_EQ(outdoor->raw, 3);
+  EXPECT_EQ(rh::parse_setting("speed-level", "6").error().reason(), "speed_level: 6 is outside 1..5");
+  EXPECT_EQ(rh::parse_setting("drive_mode", "fast").error().reason(),
+            "'fast' is not a drive_mode (normal, indoor, outdoor)");
+  EXPECT_EQ(rh::parse_setting("host-fault", "0")->row->address, rh::reg::kHostFault);
+  EXPECT_EQ(rh::parse_setting("seat_lift", "1").error().reason(),
+            "set seat_lift: expected drive-mode, speed-level or host-fault");
+  const nlohmann::ordered_json e = rh::error_json(0x10C3);
+  EXPECT_EQ(e["code"], "10C3");
+  EXPECT_EQ(e["text"], "10C3 Seat lift Error");
+  EXPECT_EQ(e.begin().key(), "code");
+  EXPECT_NE(e["advice"].get<std::string>().find("; check: "), std::string::npos);
 }
 
 TEST(RehandVerbs, TheHandshakeTellsTheControllerFromAnotherDevice) {
