@@ -287,7 +287,7 @@ int run_plan_clear(const JetArgs& a, const std::string& n) {
   const unsigned plan = parse_plan_number(n);
   Session s(a);
   s.check(s.jet.clear_plan(plan), fmt::format("clear plan P{}", plan));
-  done(a, s, "plan clear", fmt::format("plan P{}: factory plan (01:00 at 20 %)", plan));
+  done(a, s, "plan clear", fmt::format("plan P{}: factory plan ({})", plan, ij::factory_plan_text()));
   return kOk;
 }
 
@@ -623,7 +623,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       },
       [](const JetArgs& a) { return run_plan_set(a, a.plan, a.file); });
   add_command<JetArgs>(
-      *plan, action, "clear", "reset a plan to the factory plan (01:00 at 20 %)",
+      *plan, action, "clear", "reset a plan to the factory plan (" + ij::factory_plan_text() + ")",
       [&](CLI::App& cmd, JetArgs& a) {
         cmd.add_option("N", a.plan, "plan 1..4")->required();
         add_link(cmd, a, false);

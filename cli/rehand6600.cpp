@@ -65,9 +65,11 @@ UnitId unit_of(const ChairArgs& a) {
 // 1010 with its reason and what to check; `code` the exit code (3 no answer, 5 another device).
 [[noreturn]] void master_error(const std::string& context, const std::string& reason, int code) {
   const std::string check =
-      code == kRefused ? "check --port and --unit: another device answers there"
-                       : "check that the controller is powered on, the UART cable and its connectors, "
-                         "--baud (115200 unless changed) and --unit (1)";
+      code == kRefused ? std::string("check --port and --unit: another device answers there")
+                       : fmt::format(
+                             "check that the controller is powered on, the UART cable and its connectors, "
+                             "--baud ({} unless changed) and --unit ({})",
+                             rh::kDefaultBaud, rh::kDefaultAddress);
   throw Failure{code, fmt::format("{}: {}: {}; {}", context, rh::error_text(rh::kMasterCommunicationError),
                                   reason, check)};
 }

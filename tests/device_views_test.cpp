@@ -76,6 +76,7 @@ ij::MachineStatus timer_run() {
 TEST(InverjetViews, TheTimeSaysWhatItCounts_TheFaultsByName) {
   const ij::MachineStatus s = timer_run();
   EXPECT_EQ(ij::version_text((1U << 16) | 2), "V1.2");
+  EXPECT_EQ(ij::factory_plan_text(), "01:00 at 20 %");
   EXPECT_EQ(ij::time_text(s), "25:00 remaining");
   EXPECT_EQ(ij::faults_text(s), "none");
   ij::MachineStatus fault = s;

@@ -8,6 +8,11 @@
 
 namespace rtukit::inverjet {
 
+std::string factory_plan_text() {
+  const Segment first = default_plan()[0];
+  return fmt::format("{} at {} %", profile::format_mm_ss(first.end), first.speed);
+}
+
 std::string version_text(uint32_t v) {
   return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
 }

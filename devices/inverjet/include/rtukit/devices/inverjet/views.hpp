@@ -16,6 +16,8 @@ namespace rtukit::inverjet {
 /// How a front-end marks what needs attention (a fault); nullptr: as it is.
 using Highlight = std::function<std::string(std::string_view)>;
 
+/// The factory plan (D-11) in words: "01:00 at 20 %".
+std::string factory_plan_text();
 /// "V1.2" from a version register pair (major << 16 | minor).
 std::string version_text(uint32_t v);
 /// "voltage, motor drive (0x0011)", or "none".
