@@ -1,6 +1,8 @@
-// `rtukit inverjet ...`: the Inverjet through its typed client. Values are
-// checked here first (one clear line, exit 2), so nothing half-valid is sent;
-// decoding uses the register table (devices/inverjet/registers.hpp).
+// `rtukit inverjet ...`: the Inverjet through its typed client. This file
+// wires options to the device layer (devices/inverjet: verbs.hpp for the
+// identity, the start rules, the settings and the command table; views.hpp
+// for the text) and prints. Values are checked before the port is opened
+// (one clear line, exit 2), so nothing half-valid is sent.
 #include <fcntl.h>
 #include <fmt/core.h>
 #include <sys/stat.h>
@@ -23,6 +25,7 @@
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
+#include "rtukit/devices/inverjet/views.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
@@ -83,13 +86,11 @@ struct Session {
   ~Session() {
     if (stats) print_stats(*master);
   }
-  // One line naming the failure. The client gives the Inverjet's reason for
-  // an exception (04 has three causes); a refused argument is a usage error.
+  // One line naming the failure, with the Inverjet's reason for an exception
+  // (inverjet::exception_reason); a refused argument is a usage error.
   [[noreturn]] void fail(const rtukit::Status& e, std::string_view what) {
     if (e.is_exception()) {
-      std::string hint(e.reason() == e.name() ? std::string_view() : e.reason());
-      if (hint.empty() && e.error().exception_code() == 0x02) hint = "a reserved register";
-      if (hint.empty() && e.error().exception_code() == 0x03) hint = "a value out of range";
+      const std::string hint = ij::exception_reason(e);
       throw Failure{kModbusException,
                     fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
                                 e.error().exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
@@ -102,25 +103,14 @@ struct Session {
     if (e) fail(e, what);
   }
   // Before anything else, as the Rehand commands check the device ID 0x68:
-  // is the slave at this address an Inverjet? Its motor pole count (holding
-  // 0x0004) is fixed (D-7: 5, the only value a write may carry), so it always
-  // reads that; another value, or an exception for a register every Inverjet
-  // has, is another device. One line, exit 5 (the CLI's "not the expected
-  // device"), and nothing is written to it.
+  // is the slave at this address an Inverjet (inverjet::identify)? Another
+  // device: one line, exit 5 (the CLI's "not the expected device"), and
+  // nothing is written to it.
   void identify() {
-    const profile::Row& r = ij::kMap.row(ij::reg::pole_count);
-    const auto fixed = static_cast<uint16_t>(r.writable_range.min);
-    uint16_t value = 0;
-    const Error e = master->read_holding_registers(jet.unit(), r.address, {&value, 1});
-    if (e && !e.is_exception()) cli::fail(e, context);  // no answer, the port: as for any request
-    if (!e && value == fixed) return;
-    const std::string got =
-        e ? fmt::format("answers Modbus exception {:02X} ({})", e.exception_code(), e.name())
-          : fmt::format("reads {}", value);
-    throw Failure{kRefused,
-                  fmt::format("{}: not an Inverjet: its {} (holding 0x{:04X}) {} where an Inverjet's "
-                              "always reads {}; check --port and --unit",
-                              context, r.title, r.address, got, fixed)};
+    const rtukit::Status e = ij::identify(*master, jet.unit());
+    if (e.code() == Errc::refused)
+      throw Failure{kRefused, fmt::format("{}: {}; check --port and --unit", context, e.reason())};
+    if (e) cli::fail(e.error(), context);  // no answer, the port: as for any request
   }
 
   std::unique_ptr<Master> master;
@@ -133,68 +123,20 @@ uint16_t parse_speed(const std::string& text) {
   return static_cast<uint16_t>(parse_number(text, "speed (%)", 0, ij::kMaxSpeed));
 }
 
-// "30:00", "30m", "90s": 0/1..5999 s (profile::parse_duration, one form everywhere).
-uint16_t parse_duration(const std::string& text, std::string_view what, uint32_t min) {
-  const Result<uint32_t> t = profile::parse_duration(text);
-  if (!t.ok()) throw Failure{kUsage, fmt::format("{} '{}': {}", what, text, t.error().reason())};
-  if (*t < min || *t > ij::kMaxTime)
-    throw Failure{kUsage,
-                  fmt::format("{} {} ({} s) is out of range {}..5999 s (99:59)", what, text, *t, min)};
-  return static_cast<uint16_t>(*t);
-}
-
 unsigned parse_plan_number(const std::string& text) {
   return static_cast<unsigned>(parse_number(text, "plan", 1, ij::kPlanCount));
 }
 
-std::string version_text(uint32_t v) {
-  return fmt::format("V{}.{}", v >> 16, v & 0xFFFF);
-}
-
-// The time's meaning and the status document are the device layer's
-// (devices/inverjet/verbs.hpp): the bridge and the panel show the same.
+// The view is the device layer's (devices/inverjet/views.hpp, verbs.hpp):
+// the bridge and the panel show the same.
 Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
   Json out = json_document("inverjet", unit.value);
   out["values"] = ij::status_values(s, remembered);
   return out;
 }
 
-std::string faults_text(const ij::MachineStatus& s) {
-  std::string out;
-  for (auto n : s.fault_names()) out += (out.empty() ? "" : ", ") + std::string(n);
-  return out.empty() ? "none" : fmt::format("{} (0x{:04X})", out, s.faults);
-}
-
-std::string time_text(const ij::MachineStatus& s, ij::Family remembered) {
-  return fmt::format("{} {}", profile::format_mm_ss(s.run_time),
-                     ij::time_counts_name(ij::time_counts(s, remembered)));
-}
-
-// At most 80 columns.
-std::string status_panel(const ij::MachineStatus& s, ij::Family remembered) {
-  const std::string faults = faults_text(s);
-  return fmt::format(
-      "state     {} ({})   mode {}\n"
-      "speed     {} %   motor {} rpm, {:.2f} A\n"
-      "time      {}\n"
-      "faults    {}\n"
-      "temps     MOSFET {:.1f} degC, motor {:.1f} degC\n"
-      "bus       {:.1f} V\n"
-      "versions  display {} (hw {}), driver {} (hw {})\n",
-      s.phase() == ij::Phase::fault ? LivePanel::alert(s.state_name()) : std::string(s.state_name()), s.state,
-      profile::format_value(ij::kMap.row(ij::reg::work_mode), s.mode), s.speed, s.rpm, s.current_a,
-      time_text(s, remembered), s.faults ? LivePanel::alert(faults) : faults, s.mosfet_c, s.motor_c, s.bus_v,
-      version_text(s.display_software), version_text(s.display_hardware), version_text(s.driver_software),
-      version_text(s.driver_hardware));
-}
-
-std::string status_line(const ij::MachineStatus& s, ij::Family remembered) {
-  return fmt::format(
-      "{} {:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  "
-      "faults "
-      "{}",
-      clock_hms(), s.state_name(), s.speed, time_text(s, remembered), s.rpm, s.current_a, s.mosfet_c,
-      s.motor_c, faults_text(s));
+std::string panel_text(const ij::MachineStatus& s, ij::Family remembered) {
+  return ij::status_panel(s, remembered, [](std::string_view t) { return LivePanel::alert(t); });
 }
 
 int run_status(const JetArgs& a) {
@@ -204,7 +146,7 @@ int run_status(const JetArgs& a) {
   if (a.json)
     print_json(status_document(*st, s.jet.unit(), ij::Family::none));
   else
-    fmt::print("{}", status_panel(*st, ij::Family::none));
+    fmt::print("{}", panel_text(*st, ij::Family::none));
   return kOk;
 }
 
@@ -237,9 +179,9 @@ int run_watch(const JetArgs& a) {
     if (a.json)
       print_json(status_document(*st, s.jet.unit(), remembered));
     else if (tty)
-      panel.show(status_panel(*st, remembered));
+      panel.show(panel_text(*st, remembered));
     else
-      fmt::print("{}\n", status_line(*st, remembered));
+      fmt::print("{}\n", ij::status_line(*st, remembered, clock_hms()));
   });
   return kOk;
 }
@@ -258,49 +200,46 @@ void done(const JetArgs& a, const Session& s, std::string_view action, const std
   print_json(out);
 }
 
+// The rules of a start are the device layer's (inverjet::check_start_options,
+// check_start), checked before the port is opened; the run is inverjet::start,
+// as the bridge's and the panel's.
+uint16_t run_duration(const std::string& text, std::string_view what, profile::Range range) {
+  const Outcome<uint16_t> t = ij::parse_run_duration(text, what, range);
+  if (!t.ok()) throw Failure{kUsage, std::string(t.error().reason())};
+  return *t;
+}
+
 int run_start(const JetArgs& a, const StartArgs& s) {
-  if (s.free + !s.timer.empty() + !s.plan.empty() != 1)
-    throw Failure{kUsage, "choose one of --free, --timer DURATION, --plan N"};
-  if (!s.plan.empty() && (!s.speed.empty() || s.remember))
-    throw Failure{kUsage, "a training plan sets its own speed (no --speed or --remember with --plan)"};
-  if (!s.from.empty() && s.plan.empty()) throw Failure{kUsage, "--from goes with --plan"};
-  if (!s.timer.empty() && s.speed.empty()) throw Failure{kUsage, "--timer needs --speed"};
-  const uint16_t speed = s.speed.empty() ? 0 : parse_speed(s.speed);
-  const uint16_t duration = s.timer.empty() ? 0 : parse_duration(s.timer, "timer", 1);
-  const unsigned plan = s.plan.empty() ? 0 : parse_plan_number(s.plan);
-  const uint16_t from = s.from.empty() ? 0 : parse_duration(s.from, "--from", 0);
+  if (rtukit::Status e = ij::check_start_options(
+          {s.free, !s.timer.empty(), !s.plan.empty(), !s.speed.empty(), !s.from.empty(), s.remember}))
+    throw Failure{kUsage, std::string(e.reason())};
+  ij::StartRequest r;
+  r.mode = s.free ? ij::StartMode::free : s.timer.empty() ? ij::StartMode::plan : ij::StartMode::timer;
+  if (!s.speed.empty()) r.speed = parse_speed(s.speed);
+  if (!s.timer.empty()) r.duration_s = run_duration(s.timer, "timer", ij::timer_range());
+  if (!s.plan.empty()) r.plan = parse_plan_number(s.plan);
+  if (!s.from.empty()) r.from_s = run_duration(s.from, "--from", ij::from_range());
+  r.remember = s.remember;
+  if (rtukit::Status e = ij::check_start(r)) throw Failure{kUsage, std::string(e.reason())};
   Session session(a);
-  rtukit::Status e;
-  std::string what;
-  if (s.free) {
-    e = s.speed.empty() ? session.jet.start_free_from_memory() : session.jet.start_free(speed, s.remember);
-    what =
-        s.speed.empty() ? "free mode (speed and time from memory)" : fmt::format("free mode at {} %", speed);
-  } else if (!s.timer.empty()) {
-    e = session.jet.start_timer(speed, duration, s.remember);
-    what = fmt::format("timer mode, {} at {} %", profile::format_mm_ss(duration), speed);
-  } else {
-    e = session.jet.start_plan(plan, from);
-    what = fmt::format("plan P{} from {}", plan, profile::format_mm_ss(from));
-    if (e == Errc::invalid_argument)
-      throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)",
-                                        session.context, plan, profile::format_mm_ss(from), plan)};
-  }
+  const std::string what = ij::start_text(r);
+  const rtukit::Status e = ij::start(session.jet, r);
+  if (r.mode == ij::StartMode::plan && e == Errc::invalid_argument)
+    throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)",
+                                      session.context, r.plan, profile::format_mm_ss(r.from_s), r.plan)};
   session.check(e, "start " + what);
   done(a, session, "start",
        fmt::format("started {}{}", what, s.remember ? " (after 3 s; saved as memory)" : ""));
   return kOk;
 }
 
+// pause, resume, stop: the command table every front-end runs (inverjet::run_command).
 int run_simple(const JetArgs& a, const std::string& verb) {
   Session s(a);
-  rtukit::Status e;
-  if (verb == "pause") e = s.jet.pause();
-  if (verb == "stop") e = s.jet.stop();
-  if (verb == "resume") {
-    e = s.jet.resume();
-    if (e == Errc::invalid_argument) throw Failure{kUsage, s.context + ": resume: nothing is paused"};
-  }
+  nlohmann::json result;
+  const rtukit::Status e = ij::run_command(s.jet, verb, nlohmann::json::object(), result);
+  if (verb == "resume" && e == Errc::invalid_argument)
+    throw Failure{kUsage, s.context + ": resume: nothing is paused"};
   s.check(e, verb);
   done(a, s, verb, fmt::format("{}: ok", verb));
   return kOk;
@@ -309,7 +248,8 @@ int run_simple(const JetArgs& a, const std::string& verb) {
 int run_speed(const JetArgs& a, const std::string& value) {
   const uint16_t speed = parse_speed(value);
   Session s(a);
-  s.check(s.jet.set_speed(speed), fmt::format("speed {} %", speed));
+  nlohmann::json result;
+  s.check(ij::run_command(s.jet, "speed", {{"speed", speed}}, result), fmt::format("speed {} %", speed));
   done(a, s, "speed", fmt::format("speed {} %", speed),
        {{"speed", profile::entry_json(ij::kMap.row(ij::reg::speed), speed)}});
   return kOk;
@@ -323,9 +263,7 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
   if (a.json) {
     Json out = json_document("inverjet", s.jet.unit().value);
     out["plan"] = plan;
-    Json& list = out["segments"] = Json::array();
-    for (const auto& seg : *segments)
-      list.push_back({{"speed", seg.speed}, {"end", profile::format_mm_ss(seg.end)}, {"end_s", seg.end}});
+    out["segments"] = ij::plan_json(*segments);
     print_json(out);
   } else {
     fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
@@ -335,12 +273,8 @@ int run_plan_show(const JetArgs& a, const std::string& n) {
 
 int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file) {
   const unsigned plan = parse_plan_number(n);
-  // A plan is 50 lines at most: a file much larger than that is not a plan.
-  Outcome<std::string> text = io::read_regular_file(file, 64 * 1024);
-  if (!text.ok())
-    throw Failure{kUsage, fmt::format("cannot read plan file '{}': {}", file, text.error().reason())};
-  Outcome<std::vector<ij::Segment>> segments = ij::parse_plan(*text);
-  if (!segments.ok()) throw Failure{kUsage, fmt::format("{}: {}", file, segments.error().reason())};
+  const Outcome<std::vector<ij::Segment>> segments = ij::read_plan_file(file);
+  if (!segments.ok()) throw Failure{kUsage, std::string(segments.error().reason())};
   Session s(a);
   s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));
   done(a, s, "plan set",
@@ -353,7 +287,7 @@ int run_plan_clear(const JetArgs& a, const std::string& n) {
   const unsigned plan = parse_plan_number(n);
   Session s(a);
   s.check(s.jet.clear_plan(plan), fmt::format("clear plan P{}", plan));
-  done(a, s, "plan clear", fmt::format("plan P{}: factory plan (01:00 at 20 %)", plan));
+  done(a, s, "plan clear", fmt::format("plan P{}: factory plan ({})", plan, ij::factory_plan_text()));
   return kOk;
 }
 
@@ -374,44 +308,30 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
     return kOk;
   }
   if (value.empty()) throw Failure{kUsage, fmt::format("config {} needs a value", what)};
-  if (what == "address") {
-    const uint8_t address = device_unit(value, ij::kProfile).value;
-    Session s(a);
-    s.check(s.jet.set_address(address), fmt::format("set address {}", address));
-    done(
-        a, s, "config address",
-        fmt::format("address {} -> {} (talk to --unit {} from now on)", s.jet.unit().value, address, address),
-        {{"address", profile::entry_json(ij::kMap.row(ij::reg::address), address)}});
-  } else if (what == "baud") {
-    const auto baud = static_cast<uint32_t>(parse_number(value, "baud", 0, 1000000));
-    if (ij::code_of_baud(baud) < 0)
-      throw Failure{kUsage,
-                    fmt::format("baud {}: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200", baud)};
-    Session s(a);
-    s.check(s.jet.set_baud(baud), fmt::format("set baud {}", baud));
-    done(a, s, "config baud", fmt::format("baud rate {} (talk at --baud {} from now on)", baud, baud),
-         {{"baud", profile::entry_json(ij::kMap.row(ij::reg::baud), ij::code_of_baud(baud))}});
-  } else if (what == "mask") {
-    const auto mask = static_cast<uint16_t>(parse_number(value, "control mask", 0, 7));
-    Session s(a);
-    s.check(s.jet.set_control_mask(mask), fmt::format("set control mask {}", mask));
-    done(a, s, "config mask",
-         fmt::format("control mask {}", profile::format_value(ij::kMap.row(ij::reg::control_mask), mask)),
-         {{"control_mask", profile::entry_json(ij::kMap.row(ij::reg::control_mask), mask)}});
-  } else if (what == "pairing") {
-    // The row's value names, as `set pairing` takes them.
-    const profile::Row& row = ij::kMap.row(ij::reg::pairing);
-    const Outcome<int64_t> parsed = profile::parse_value(row, value);
-    if (!parsed.ok()) throw Failure{kUsage, std::string(parsed.error().reason())};
-    const auto mode = static_cast<uint16_t>(*parsed);
-    Session s(a);
-    s.check(s.jet.set_pairing(mode), "set pairing");
-    done(a, s, "config pairing",
-         fmt::format("pairing {}", profile::format_value(ij::kMap.row(ij::reg::pairing), mode)),
-         {{"pairing", profile::entry_json(ij::kMap.row(ij::reg::pairing), mode)}});
-  } else {
-    throw Failure{kUsage, fmt::format("config {}: expected show, address, baud, mask or pairing", what)};
-  }
+  // The key, the value and their checks are the device layer's (inverjet::parse_config).
+  const auto read = [](std::string_view text, std::string_view name, int64_t min, int64_t max) {
+    try {
+      return Outcome<int64_t>(parse_number(text, name, min, max));
+    } catch (const Failure& f) {
+      return Outcome<int64_t>(rtukit::Status(Errc::invalid_argument, f.message));
+    }
+  };
+  const Outcome<ij::ConfigChange> c = ij::parse_config(what, value, read);
+  if (!c.ok()) throw Failure{kUsage, std::string(c.error().reason())};
+  const std::string shown = profile::format_value(*c->row, c->raw);
+  const std::string_view key = c->key;
+  Session s(a);
+  s.check(ij::write_config(s.jet, *c), key == "pairing" ? std::string("set pairing")
+                                       : key == "mask"  ? fmt::format("set control mask {}", c->value)
+                                                        : fmt::format("set {} {}", key, c->value));
+  const std::string text =
+      key == "address" ? fmt::format("address {} -> {} (talk to --unit {} from now on)", s.jet.unit().value,
+                                     c->value, c->value)
+      : key == "baud"  ? fmt::format("baud rate {} (talk at --baud {} from now on)", c->value, c->value)
+      : key == "mask"  ? fmt::format("control mask {}", shown)
+                       : fmt::format("pairing {}", shown);
+  done(a, s, fmt::format("config {}", key), text,
+       {{std::string(c->row->key), profile::entry_json(*c->row, c->raw)}});
   return kOk;
 }
 
@@ -703,7 +623,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       },
       [](const JetArgs& a) { return run_plan_set(a, a.plan, a.file); });
   add_command<JetArgs>(
-      *plan, action, "clear", "reset a plan to the factory plan (01:00 at 20 %)",
+      *plan, action, "clear", "reset a plan to the factory plan (" + ij::factory_plan_text() + ")",
       [&](CLI::App& cmd, JetArgs& a) {
         cmd.add_option("N", a.plan, "plan 1..4")->required();
         add_link(cmd, a, false);

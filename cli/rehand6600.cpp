@@ -1,7 +1,8 @@
 // `rtukit rehand6600 ...`: the wheelchair controller as the RK3588 host sees
 // it. One-shot reads go through the handshake first; watch and hold run the
 // host controller library (devices/rehand6600/host.hpp) with its leases and
-// UI rules. Decoding comes from the register table.
+// UI rules. The handshake, the commands by name and the views are the device
+// layer's (devices/rehand6600/verbs.hpp, views.hpp); this file wires and prints.
 #include <fmt/core.h>
 #include <unistd.h>
 
@@ -18,6 +19,8 @@
 #include "rtukit/devices/rehand6600/host.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/devices/rehand6600/verbs.hpp"
+#include "rtukit/devices/rehand6600/views.hpp"
 #include "rtukit/programs/rehand_host.hpp"
 #include "rtukit/web/server.hpp"
 
@@ -62,123 +65,30 @@ UnitId unit_of(const ChairArgs& a) {
 // 1010 with its reason and what to check; `code` the exit code (3 no answer, 5 another device).
 [[noreturn]] void master_error(const std::string& context, const std::string& reason, int code) {
   const std::string check =
-      code == kRefused ? "check --port and --unit: another device answers there"
-                       : "check that the controller is powered on, the UART cable and its connectors, "
-                         "--baud (115200 unless changed) and --unit (1)";
+      code == kRefused ? std::string("check --port and --unit: another device answers there")
+                       : fmt::format(
+                             "check that the controller is powered on, the UART cable and its connectors, "
+                             "--baud ({} unless changed) and --unit ({})",
+                             rh::kDefaultBaud, rh::kDefaultAddress);
   throw Failure{code, fmt::format("{}: {}: {}; {}", context, rh::error_text(rh::kMasterCommunicationError),
                                   reason, check)};
 }
 
-// The host's handshake, once: read 0x0000, expect 0x68.
+// The handshake, once (rehand6600::handshake): 4 the port, 3 no answer, 5 another device.
 void handshake(Master& m, UnitId unit, const std::string& context) {
-  std::array<uint16_t, 1> id{};
-  if (Error e = m.read_holding_registers(unit, rh::reg::kDeviceId, id)) {
-    if (e.code() == Errc::io_error || e.code() == Errc::not_connected) fail(e, context);
-    // An exception is an answer from something that is not the controller.
-    master_error(context,
-                 e.is_exception() ? fmt::format("handshake: Modbus exception {:02X}", e.exception_code())
-                                  : "handshake: no answer (" + std::string(e.name()) + ")",
-                 e.is_exception() ? kRefused : kNoResponse);
-  }
-  if (id[0] != rh::kDeviceId)
-    master_error(
-        context,
-        fmt::format("handshake: device ID 0x{:02X}, expected 0x68 (not a Rehand 6600 controller?)", id[0]),
-        kRefused);
+  const rtukit::Status e = rh::handshake(m, unit);
+  if (e.code() == Errc::io_error || e.code() == Errc::not_connected) fail(e.error(), context);
+  if (e) master_error(context, std::string(e.reason()), e.code() == Errc::refused ? kRefused : kNoResponse);
 }
 
-std::string v(const rh::Snapshot& s, std::string_view key) {
-  const rh::Register& r = *rh::find_register(key);
-  const std::string_view name = profile::name_of(r, s[r.address]);
-  return name.empty() ? rh::format_value(r, s[r.address]) : std::string(name);
+// The views are the device layer's (devices/rehand6600/views.hpp).
+std::string panel_text(const rh::Snapshot& s, bool mph) {
+  return rh::panel(s, mph, [](std::string_view t) { return LivePanel::alert(t); });
 }
 
-std::string speed_text(const rh::Snapshot& s, bool mph) {
-  return mph ? fmt::format("{:.1f} mph", s.speed_mph()) : fmt::format("{} km/h", s.speed_kmh());
-}
-
-// `text` in lines of at most 80 columns, each after `head` (the first) or
-// as many spaces (the rest): the panel's "advice" rows.
-std::string wrapped(std::string_view head, std::string_view text) {
-  std::string out, line(head);
-  size_t at = 0;
-  while (at < text.size()) {
-    size_t end = text.find(' ', at);
-    if (end == std::string_view::npos) end = text.size();
-    const std::string_view word = text.substr(at, end - at);
-    if (line.size() > head.size() && line.size() + 1 + word.size() > 80) {
-      out += line + "\n";
-      line = std::string(head.size(), ' ');
-    }
-    line += (line.size() > head.size() ? " " : "") + std::string(word);
-    at = end + 1;
-  }
-  return out + line + "\n";
-}
-
-std::string panel(const rh::Snapshot& s, bool mph) {
-  std::string out;
-  if (s.error_code())
-    out += LivePanel::alert(
-               fmt::format("!!! {} : every function is disabled !!!", rh::error_text(s.error_code()))) +
-           "\n";
-  out += fmt::format("battery   {} %{}   clutch {}\n", s.battery(), s.charging() ? " (charging)" : "",
-                     v(s, "clutch"));
-  out += fmt::format("motion    {}   speed {}\n", v(s, "motion"), speed_text(s, mph));
-  out += fmt::format("lights    main {}, left {}, right {}\n", v(s, "main_light"), v(s, "left_signal"),
-                     v(s, "right_signal"));
-  out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}\n", v(s, "seat_lift_status"),
-                     v(s, "backrest_status"), v(s, "stand_status"));
-  out +=
-      fmt::format("          seat tilt {}, leg rest {}\n", v(s, "seat_tilt_status"), v(s, "leg_rest_status"));
-  out += "actuators";
-  for (unsigned i = 0; i < 6; ++i) {
-    if (i == 3) out += "\n         ";  // three a line: 80 columns
-    out += fmt::format(" {}:{} {}", i + 1, s[static_cast<uint16_t>(rh::reg::kActuatorPosition + i)],
-                       v(s, fmt::format("actuator{}_state", i + 1)));
-  }
-  out += fmt::format("\ndistances front {} mm, rear {} mm, left {} mm, right {} mm\n",
-                     s[rh::reg::kDistanceFront], s[rh::reg::kDistanceFront + 1],
-                     s[rh::reg::kDistanceFront + 2], s[rh::reg::kDistanceFront + 3]);
-  out += fmt::format("buttons   horn {}, 360 view {}\n", v(s, "horn_button"), v(s, "view_button"));
-  out += fmt::format("error     {}\n",
-                     s.error_code() ? LivePanel::alert(rh::error_text(s.error_code())) : std::string("none"));
-  if (s.error_code()) out += wrapped("advice    ", rh::error_advice(s.error_code()));
-  return out;
-}
-
-// The six actuator positions (0x0015..0x001A, per mille), space-separated.
-std::string actuators(const rh::Snapshot& s) {
-  std::string out;
-  for (uint16_t i = 0; i < 6; ++i)
-    out += fmt::format("{}{}", i ? " " : "", s[static_cast<uint16_t>(rh::reg::kActuatorPosition + i)]);
-  return out;
-}
-
-std::string line(const rh::Snapshot& s, bool mph) {
-  return fmt::format("battery {}%{} | {} {} | light {} | seat {} stand {} legs {} | act {} | error {}",
-                     s.battery(), s.charging() ? "+" : "", v(s, "motion"), speed_text(s, mph),
-                     v(s, "main_light"), v(s, "seat_lift_status"), v(s, "stand_status"),
-                     v(s, "leg_rest_status"), actuators(s),
-                     s.error_code() ? rh::error_text(s.error_code()) : "none");
-}
-
-// Table 1 in rtukit's JSON shape (docs/json.md): each status register an
-// entry, plus the speed in the unit asked for and the error's UI text.
 Json snapshot_document(const rh::Snapshot& s, UnitId unit, bool mph) {
   Json out = json_document("rehand6600", unit.value);
-  Json& values = out["values"] = Json::object();
-  for (const rh::Register& r : rh::registers()) {
-    if (rh::table_of(r) != rh::Table::status || r.key.starts_with("reserved")) continue;
-    const int64_t raw = r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
-    values[std::string(r.key)] = profile::entry_json(r, raw);
-  }
-  if (mph)
-    values["speed_mph"] = json_quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
-  values["error_text"] = json_quantity(s.error_code() ? rh::error_text(s.error_code()) : "", {},
-                                       s.error_code() ? rh::error_text(s.error_code()) : "none");
-  const std::string advice = s.error_code() ? rh::error_advice(s.error_code()) : std::string();
-  values["error_advice"] = json_quantity(advice, {}, advice.empty() ? "none" : advice);
+  out["values"] = rh::snapshot_values(s, mph);
   return out;
 }
 
@@ -207,7 +117,7 @@ int run_status(const ChairArgs& a) {
   if (a.json)
     print_json(snapshot_document(s, unit, a.mph));
   else
-    fmt::print("{}", panel(s, a.mph));
+    fmt::print("{}", panel_text(s, a.mph));
   return kOk;
 }
 
@@ -261,76 +171,23 @@ int run_watch(const ChairArgs& a) {
       if (link_down)
         live.stale(why);
       else
-        live.show(panel(s, a.mph));
+        live.show(panel_text(s, a.mph));
     } else if (link_down) {
       fmt::print("{} stale since {}: {}\n", clock_hms(), down_since, why);
     } else {
-      fmt::print("{} {}\n", clock_hms(), line(s, a.mph));
+      fmt::print("{} {}\n", clock_hms(), rh::line(s, a.mph));
     }
   });
   host->stop();
   return kOk;
 }
 
-// A hold's direction, by the name the command table gives it ("up", "down",
-// "stand", "sit", "forward", "back", "extend", "retract") or its number. A
-// command with two directions must name one: `hold seat_lift` alone, or a
-// direction the command does not have, is refused (nothing is sent). One with
-// a single non-zero value (phone_forward: on) needs none.
-uint16_t command_value(const rh::Register& r, const std::string& text) {
-  std::vector<const profile::Named*> directions;
-  for (const profile::Named& c : r.names)
-    if (c.value != 0) directions.push_back(&c);
-  if (text.empty() && directions.size() <= 1) return directions.empty() ? 1 : directions[0]->value;
-  for (const profile::Named* c : directions)
-    if (c->name == text) return c->value;
-  // The number, when it is one of the listed values (seat_lift 1 = up).
-  char* end = nullptr;
-  const unsigned long n = std::strtoul(text.c_str(), &end, 0);
-  if (!text.empty() && *end == '\0') {
-    for (const profile::Named* c : directions)
-      if (c->value == n) return c->value;
-  }
-  std::string names;
-  for (size_t i = 0; i < directions.size(); ++i) {
-    if (i > 0) names += i + 1 == directions.size() ? " or " : ", ";
-    names += fmt::format("{} ({})", directions[i]->name, directions[i]->value);
-  }
-  if (text.empty())
-    throw Failure{kUsage, fmt::format("hold {} needs a direction: {} (nothing sent)", r.key, names)};
-  throw Failure{kUsage, fmt::format("hold {}: '{}' is not one of its directions: {} (nothing sent)", r.key,
-                                    text, names)};
-}
-
-const rh::Register& command_register(const std::string& key, rh::Kind kind) {
-  const rh::Register* r = profile::find_row(rh::kMap, key);  // seat_lift or seat-lift
-  if (!r || r->role != kind || r->address == rh::reg::kHostReady) {
-    std::string names;
-    for (const rh::Register& x : rh::registers()) {
-      if (x.role == kind && x.address != rh::reg::kHostReady)
-        names += (names.empty() ? "" : ", ") + std::string(x.key);
-    }
-    throw Failure{kUsage, fmt::format("'{}' is not a {} command ({})", key,
-                                      kind == rh::Kind::hold ? "hold" : "pulse", names)};
-  }
+// A command, its direction and a hold's length are checked by the device
+// layer (rehand6600/verbs.hpp) before the port is opened: nothing is sent.
+template <class T>
+T usage_or(Outcome<T> r) {
+  if (!r.ok()) throw Failure{kUsage, std::string(r.error().reason())};
   return *r;
-}
-
-// "2s", "500ms", "1.5" (seconds).
-std::chrono::milliseconds parse_duration(const std::string& text) {
-  std::string t = text;
-  double scale = 1000;
-  if (t.ends_with("ms")) {
-    scale = 1;
-    t.resize(t.size() - 2);
-  } else if (t.ends_with("s")) {
-    t.resize(t.size() - 1);
-  }
-  char* end = nullptr;
-  const double v = std::strtod(t.c_str(), &end);
-  if (t.empty() || *end != '\0' || !(v > 0) || v * scale > 600000)
-    throw Failure{kUsage, fmt::format("duration '{}': e.g. 2s, 500ms (at most 10 minutes)", text)};
-  return std::chrono::milliseconds(static_cast<long>(v * scale));
 }
 
 // A device rule refused (exit 5, with its reason, and what to check when an
@@ -348,9 +205,9 @@ std::chrono::milliseconds parse_duration(const std::string& text) {
 
 int run_hold(const ChairArgs& a, const std::string& key, const std::string& value_text,
              const std::string& duration) {
-  const rh::Register& r = command_register(key, rh::Kind::hold);
-  const uint16_t value = command_value(r, value_text);
-  const auto length = parse_duration(duration);
+  const rh::Register& r = *usage_or(rh::command_register(key, rh::Kind::hold));
+  const uint16_t value = usage_or(rh::command_value(r, value_text));
+  const auto length = usage_or(rh::parse_hold_duration(duration));
   std::string context;
   auto host = start_host(a, &context);
   const Interruptible interrupt;
@@ -389,12 +246,12 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   }
   fmt::print("{}\n", text);
   if (code != kOk) return code;
-  fmt::print("{}", panel(s, a.mph));
+  fmt::print("{}", panel_text(s, a.mph));
   return kOk;
 }
 
 int run_pulse(const ChairArgs& a, const std::string& key) {
-  const rh::Register& r = command_register(key, rh::Kind::pulse);
+  const rh::Register& r = *usage_or(rh::command_register(key, rh::Kind::pulse));
   std::string context;
   auto host = start_host(a, &context);
   const rtukit::Status e = host->pulse(r.address);
@@ -404,30 +261,22 @@ int run_pulse(const ChairArgs& a, const std::string& key) {
   host->stop();
   if (e) refused_or_fail(e, context, key, "pulse", active);
   done(a, "pulse",
-       fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key, v(s, "main_light"),
-                   v(s, "left_signal"), v(s, "right_signal")));
+       fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key,
+                   rh::value_text(s, "main_light"), rh::value_text(s, "left_signal"),
+                   rh::value_text(s, "right_signal")));
   return kOk;
 }
 
 int run_set(const ChairArgs& a, const std::string& what, const std::string& value) {
-  // The setting's row decides what the value may be ("outdoor" or 3; 1..5).
-  const rh::Register* r = what == "host-fault"
-                              ? rh::find_register(rh::reg::kHostFault)
-                              : rh::find_register(std::string_view(profile::canonical_key(what)));
-  if (!r || r->role != rh::Kind::setting)
-    throw Failure{kUsage, fmt::format("set {}: expected drive-mode, speed-level or host-fault", what)};
-  const Outcome<int64_t> n = profile::parse_value(*r, value);
-  if (!n.ok()) throw Failure{kUsage, std::string(n.error().reason())};
-  const auto raw = static_cast<uint16_t>(*n);
+  const rh::SettingChange c = usage_or(rh::parse_setting(what, value));
   std::string context;
   auto host = start_host(a, &context);
-  const rtukit::Status e = r->address == rh::reg::kDriveMode    ? host->set_drive_mode(raw)
-                           : r->address == rh::reg::kSpeedLevel ? host->set_speed_level(raw)
-                                                                : rtukit::Status(host->set_host_fault(raw));
+  const rtukit::Status e = rh::write_setting(*host, c);
   const uint16_t active = host->active_error();
   host->stop();
   if (e) refused_or_fail(e, context, what, "set", active);
-  done(a, "set", fmt::format("{} = {}", what, value), {{std::string(r->key), profile::entry_json(*r, raw)}});
+  done(a, "set", fmt::format("{} = {}", what, value),
+       {{std::string(c.row->key), profile::entry_json(*c.row, c.raw)}});
   return kOk;
 }
 
@@ -491,11 +340,7 @@ int run_errors(bool as_json, const std::string& code_text) {
   }
   Json out = json_document("rehand6600");
   Json& list = out["errors"] = Json::array();
-  for (uint16_t c : codes)
-    list.push_back({{"code", fmt::format("{:04X}", c)},
-                    {"function", rh::error_function(c)},
-                    {"text", rh::error_text(c)},
-                    {"advice", rh::error_advice(c)}});
+  for (uint16_t c : codes) list.push_back(rh::error_json(c));
   print_json(out);
   return kOk;
 }

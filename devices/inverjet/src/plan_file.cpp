@@ -7,6 +7,7 @@
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::inverjet {
 namespace {
@@ -135,6 +136,29 @@ std::string plan_to_csv(const std::vector<Segment>& segments) {
   std::string out = "speed,end\n";
   for (const Segment& s : segments) out += fmt::format("{},{}\n", s.speed, profile::format_mm_ss(s.end));
   return out;
+}
+
+nlohmann::ordered_json plan_json(const std::vector<Segment>& segments) {
+  nlohmann::ordered_json list = nlohmann::ordered_json::array();
+  for (const Segment& seg : segments) {
+    nlohmann::ordered_json entry;
+    entry["speed"] = seg.speed;
+    entry["end"] = profile::format_mm_ss(seg.end);
+    entry["end_s"] = seg.end;
+    list.push_back(std::move(entry));
+  }
+  return list;
+}
+
+Outcome<std::vector<Segment>> read_plan_file(const std::string& path) {
+  const Outcome<std::string> text = io::read_regular_file(path, 64 * 1024);
+  if (!text.ok())
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("cannot read plan file '{}': {}", path, text.error().reason()));
+  Outcome<std::vector<Segment>> segments = parse_plan(*text);
+  if (!segments.ok())
+    return rtukit::Status(Errc::invalid_argument, fmt::format("{}: {}", path, segments.error().reason()));
+  return segments;
 }
 
 }  // namespace rtukit::inverjet

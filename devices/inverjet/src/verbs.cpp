@@ -34,10 +34,6 @@ std::string range_of(profile::Handle h) {
   return fmt::format("{}..{}", r.min, r.max);
 }
 
-bool writable(profile::Handle h, int64_t raw) {
-  return kMap.row(h).write_range().contains(raw);
-}
-
 }  // namespace
 
 // ---------------------------------------------------------------- the view
@@ -149,6 +145,115 @@ Json state_document(const MachineStatus& s, Family remembered) {
                 {"driver_hardware", s.driver_hardware}}}};
 }
 
+// ---------------------------------------------------------------- the identity
+
+rtukit::Status identify(Master& master, UnitId unit) {
+  const profile::Row& r = kMap.row(reg::pole_count);
+  const auto fixed = static_cast<uint16_t>(r.writable_range.min);
+  uint16_t value = 0;
+  const Error e = master.read_holding_registers(unit, r.address, {&value, 1});
+  if (e && !e.is_exception()) return e;  // no answer, the port: as for any request
+  if (!e && value == fixed) return {};
+  const std::string got =
+      e ? fmt::format("answers Modbus exception {:02X} ({})", e.exception_code(), e.name())
+        : fmt::format("reads {}", value);
+  return rtukit::Status(
+      Errc::refused,
+      fmt::format("not an Inverjet: its {} (holding 0x{:04X}) {} where an Inverjet's always reads {}",
+                  r.title, r.address, got, fixed));
+}
+
+std::string exception_reason(const rtukit::Status& e) {
+  if (!e.is_exception()) return {};
+  if (e.reason() != e.name()) return std::string(e.reason());
+  if (e.error().exception_code() == 0x02) return "a reserved register";
+  if (e.error().exception_code() == 0x03) return "a value out of range";
+  return {};
+}
+
+// ---------------------------------------------------------------- the start
+
+profile::Range timer_range() noexcept {
+  return {1, kMap.row(reg::timer_time).write_range().max};
+}
+
+profile::Range from_range() noexcept {
+  return {0, kMaxTime};
+}
+
+rtukit::Status check_start(const StartRequest& r) {
+  const auto refuse = [](std::string why) { return rtukit::Status(Errc::invalid_argument, std::move(why)); };
+  const auto span = [](profile::Range range) {
+    return fmt::format("{}..{}", profile::format_mm_ss(static_cast<unsigned>(range.min)),
+                       profile::format_mm_ss(static_cast<unsigned>(range.max)));
+  };
+  switch (r.mode) {
+    case StartMode::free:
+      return {};  // no speed: the machine's memory (and nothing new to remember)
+    case StartMode::timer:
+      if (!r.speed)
+        return refuse(fmt::format("timer: \"speed\" is required, a whole number {}", range_of(reg::speed)));
+      if (!timer_range().contains(r.duration_s))
+        return refuse(fmt::format("timer: \"duration\" must be {}", span(timer_range())));
+      return {};
+    case StartMode::plan:
+      if (r.plan < 1 || r.plan > kPlanCount)
+        return refuse(fmt::format("plan: \"plan\" 1..{} is required", kPlanCount));
+      if (r.speed || r.remember)
+        return refuse("plan: a training plan sets its own speed (no speed, no remember)");
+      if (!from_range().contains(r.from_s))
+        return refuse(fmt::format("plan: \"from\" must be {}", span(from_range())));
+      return {};
+  }
+  return refuse("start: mode must be free, timer or plan");
+}
+
+rtukit::Status start(Client& client, const StartRequest& r) {
+  if (rtukit::Status e = check_start(r)) return e;
+  switch (r.mode) {
+    case StartMode::free:
+      return r.speed ? client.start_free(*r.speed, r.remember) : client.start_free_from_memory();
+    case StartMode::timer:
+      return client.start_timer(*r.speed, r.duration_s, r.remember);
+    case StartMode::plan:
+      return client.start_plan(r.plan, r.from_s);
+  }
+  return Errc::invalid_argument;
+}
+
+std::string start_text(const StartRequest& r) {
+  switch (r.mode) {
+    case StartMode::free:
+      return r.speed ? fmt::format("free mode at {} %", *r.speed) : "free mode (speed and time from memory)";
+    case StartMode::timer:
+      return fmt::format("timer mode, {} at {} %", profile::format_mm_ss(r.duration_s), r.speed.value_or(0));
+    case StartMode::plan:
+      return fmt::format("plan P{} from {}", r.plan, profile::format_mm_ss(r.from_s));
+  }
+  return {};
+}
+
+rtukit::Status check_start_options(const StartOptions& o) {
+  const auto refuse = [](const char* why) { return rtukit::Status(Errc::invalid_argument, why); };
+  if (o.free + o.timer + o.plan != 1) return refuse("choose one of --free, --timer DURATION, --plan N");
+  if (o.plan && (o.speed || o.remember))
+    return refuse("a training plan sets its own speed (no --speed or --remember with --plan)");
+  if (o.from && !o.plan) return refuse("--from goes with --plan");
+  if (o.timer && !o.speed) return refuse("--timer needs --speed");
+  return {};
+}
+
+Outcome<uint16_t> parse_run_duration(std::string_view text, std::string_view what, profile::Range range) {
+  const Result<uint32_t> t = profile::parse_duration(text);
+  if (!t.ok())
+    return rtukit::Status(Errc::invalid_argument, fmt::format("{} '{}': {}", what, text, t.error().reason()));
+  if (!range.contains(*t))
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("{} {} ({} s) is out of range {}..{} s ({})", what, text, *t, range.min,
+                                      range.max, profile::format_mm_ss(static_cast<unsigned>(range.max))));
+  return static_cast<uint16_t>(*t);
+}
+
 // ---------------------------------------------------------------- the verbs
 
 std::string command_example(std::string_view name) {
@@ -198,33 +303,41 @@ rtukit::Status run_command(Client& client, std::string_view name_view, const Jso
     if (!body.contains("mode") || !body["mode"].is_string())
       return refuse("start: \"mode\" is required: \"free\", \"timer\" or \"plan\"");
     const std::string mode = body["mode"].get<std::string>();
+    // The form of each field here; the rules of a start are start()'s (check_start).
+    StartRequest r;
     if (mode == "free") {
-      if (!body.contains("speed")) return client.start_free_from_memory();
-      const std::optional<uint16_t> speed = speed_of(body["speed"]);
-      if (!speed)
-        return refuse(fmt::format(
-            "free: \"speed\" must be a whole number {} (leave it out: the remembered speed)", speeds));
-      return client.start_free(*speed);
+      if (body.contains("speed")) {
+        r.speed = speed_of(body["speed"]);
+        if (!r.speed)
+          return refuse(fmt::format(
+              "free: \"speed\" must be a whole number {} (leave it out: the remembered speed)", speeds));
+      }
+      return start(client, r);
     }
     if (mode == "timer") {
-      const std::optional<uint16_t> speed = body.contains("speed") ? speed_of(body["speed"]) : std::nullopt;
-      if (!speed) return refuse(fmt::format("timer: \"speed\" is required, a whole number {}", speeds));
+      r.mode = StartMode::timer;
+      r.speed = body.contains("speed") ? speed_of(body["speed"]) : std::nullopt;
+      if (!r.speed) return refuse(fmt::format("timer: \"speed\" is required, a whole number {}", speeds));
       if (!body.contains("duration")) return refuse("timer: \"duration\" is required, for example \"30:00\"");
       std::optional<uint32_t> seconds;
       if (rtukit::Status e = duration("duration", seconds)) return e;
-      if (!writable(reg::timer_time, *seconds) || *seconds == 0)
+      if (!timer_range().contains(*seconds))
         return refuse(fmt::format("timer: \"duration\" must be 00:01..{}", profile::format_mm_ss(kMaxTime)));
-      return client.start_timer(*speed, static_cast<uint16_t>(*seconds));
+      r.duration_s = static_cast<uint16_t>(*seconds);
+      return start(client, r);
     }
     if (mode == "plan") {
+      r.mode = StartMode::plan;
       const std::optional<uint16_t> plan = plan_number();
       if (!plan) return refuse(fmt::format("plan: \"plan\" {} is required", plans));
       std::optional<uint32_t> from = 0;
       if (body.contains("from"))
         if (rtukit::Status e = duration("from", from)) return e;
-      if (*from > kMaxTime)
+      if (!from_range().contains(*from))
         return refuse(fmt::format("plan: \"from\" must be 00:00..{}", profile::format_mm_ss(kMaxTime)));
-      return client.start_plan(*plan, static_cast<uint16_t>(*from));
+      r.plan = *plan;
+      r.from_s = static_cast<uint16_t>(*from);
+      return start(client, r);
     }
     return refuse(
         fmt::format("start: mode must be free, timer or plan, not '{}'", profile::excerpt(mode, 20)));

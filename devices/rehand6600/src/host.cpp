@@ -9,6 +9,7 @@
 
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
+#include "rtukit/devices/rehand6600/verbs.hpp"
 
 namespace rtukit::rehand6600 {
 namespace {
@@ -147,8 +148,7 @@ void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> word
         raise_comm_error(e, "handshake: " + failure_text(e));
       } else if (words.empty() || words[0] != kDeviceId) {
         raise_comm_error(Error::refused("not a Rehand 6600 controller"),
-                         fmt::format("handshake: device ID 0x{:02X}, expected 0x{:02X}",
-                                     words.empty() ? 0 : words[0], kDeviceId));
+                         "handshake: " + device_id_mismatch(words.empty() ? 0 : words[0]));
       } else {
         phase_ = Phase::write_ready;
         return;

@@ -6,6 +6,7 @@
 // The format is chosen by the first non-blank character ('[' = JSON).
 #pragma once
 
+#include <nlohmann/json.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -24,5 +25,15 @@ Outcome<std::vector<Segment>> parse_plan(std::string_view text);
 
 /// The plan as CSV with a header (what `plan show` prints; parse_plan reads it back).
 std::string plan_to_csv(const std::vector<Segment>& segments);
+
+/// The plan as JSON: [{"speed", "end" ("05:00"), "end_s" (300)}, ...], what
+/// `plan show --json` prints under "segments" (parse_plan reads it back).
+nlohmann::ordered_json plan_json(const std::vector<Segment>& segments);
+
+/// Reads the plan file `path` and parses it (parse_plan). A plan is 50
+/// lines at most: a file larger than 64 KB, or one that is not a regular
+/// file, is not a plan. invalid_argument: "cannot read plan file 'p.csv':
+/// not a regular file", "p.csv: line 3: end 00:50 is not after 01:00".
+Outcome<std::vector<Segment>> read_plan_file(const std::string& path);
 
 }  // namespace rtukit::inverjet

@@ -12,12 +12,15 @@
 // Front-ends only parse, print and transport these.
 #pragma once
 
+#include <functional>
 #include <nlohmann/json_fwd.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/profile/schema.hpp"
+#include "rtukit/driver/master.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
@@ -53,7 +56,91 @@ nlohmann::json status_values(const MachineStatus& s, Family remembered = Family:
 /// temperatures, current, rpm, bus voltage, versions.
 nlohmann::json state_document(const MachineStatus& s, Family remembered = Family::none);
 
+// ---- the identity ----
+
+/// Is the slave at `unit` an Inverjet? Its motor pole count (holding 0x0004)
+/// is fixed (D-7: 5, the only value a write may carry), so an Inverjet always
+/// reads that; another value, or an exception for a register every Inverjet
+/// has, is another device: refused, "not an Inverjet: its motor pole count
+/// (holding 0x0004) reads 0 where an Inverjet's always reads 5". No answer,
+/// or the port, comes back as the Error it is. Nothing is written.
+rtukit::Status identify(Master& master, UnitId unit);
+
+/// Why the machine answered a Modbus exception, as people read it: the
+/// client's reason (04 has three causes: control masked, the fault screen,
+/// nothing to pause), else what 02 and 03 mean on this machine ("a reserved
+/// register", "a value out of range"); empty when nothing more is known.
+std::string exception_reason(const rtukit::Status& e);
+
 // ---- the verbs ----
+
+/// A start, as every front-end asks for it (`run_command`'s "start", the
+/// CLI's `start`).
+enum class StartMode : uint8_t { free, timer, plan };
+struct StartRequest {
+  StartMode mode = StartMode::free;
+  /// free: nullopt = the speed and time in the machine's memory; timer:
+  /// required; plan: none (the plan sets its speed).
+  std::optional<uint16_t> speed;
+  uint16_t duration_s = 0;  ///< timer: within timer_range()
+  unsigned plan = 0;        ///< plan: 1..kPlanCount
+  uint16_t from_s = 0;      ///< plan: within from_range()
+  bool remember = false;    ///< free at a speed, or timer: start after 3 s and save as the mode's memory
+};
+/// The durations a start takes, in seconds: a timer 1..99:59 (the timer
+/// row's range, without 0), a plan's starting point 0..99:59.
+profile::Range timer_range() noexcept;
+profile::Range from_range() noexcept;
+/// The rules of a start: a timer needs a speed, a plan takes no speed and
+/// no remember, the durations and the plan within their ranges.
+/// invalid_argument naming the rule.
+rtukit::Status check_start(const StartRequest& r);
+/// check_start, then the client's call for the mode. invalid_argument also
+/// when a plan has nothing to run from `from_s` (Client::start_plan).
+rtukit::Status start(Client& client, const StartRequest& r);
+/// What the start does, in words: "free mode (speed and time from memory)",
+/// "free mode at 60 %", "timer mode, 30:00 at 80 %", "plan P1 from 12:00".
+std::string start_text(const StartRequest& r);
+
+/// A start's options as a command line gives them (`rtukit inverjet start
+/// --free | --timer D | --plan N, --speed, --from, --remember`): the rules
+/// between them, before any value is read: exactly one mode ("choose one of
+/// --free, --timer DURATION, --plan N"), no speed or remember with a plan,
+/// --from only with a plan, a timer with a speed. invalid_argument.
+struct StartOptions {
+  bool free = false;
+  bool timer = false, plan = false, speed = false, from = false;
+  bool remember = false;
+};
+rtukit::Status check_start_options(const StartOptions& o);
+/// A run duration from text ("30:00", "30m", "90s": profile::parse_duration)
+/// within `range`; refusals name `what` and the text ("timer 100m (6000 s)
+/// is out of range 1..5999 s (99:59)").
+Outcome<uint16_t> parse_run_duration(std::string_view text, std::string_view what, profile::Range range);
+
+// ---- the settings ----
+
+/// How a front-end reads a whole number from text, with its own words for a
+/// refusal (the CLI's parse_number): the number, or invalid_argument.
+using ReadNumber =
+    std::function<Outcome<int64_t>(std::string_view text, std::string_view what, int64_t min, int64_t max)>;
+
+/// A setting to write, by key.
+struct ConfigChange {
+  std::string_view key;  ///< "address", "baud", "mask", "pairing"
+  const Row* row;        ///< the register written
+  int64_t raw;           ///< its raw value (for the baud rate: the rate's code)
+  uint32_t value;        ///< what was asked: the address, the rate in bit/s, the mask, the pairing mode
+};
+/// `key` at `text`, checked before anything is sent: address (within the
+/// address row's unit range), baud (one of the machine's rates), mask (the
+/// control mask bits), pairing (the row's value names or numbers).
+/// invalid_argument: "config fly: expected show, address, baud, mask or
+/// pairing", "baud 115200: the Inverjet runs at 1200, 2400, 4800, 9600 or
+/// 19200", or `read`'s refusal.
+Outcome<ConfigChange> parse_config(std::string_view key, std::string_view text, const ReadNumber& read);
+/// Writes it: Client::set_address, set_baud, set_control_mask or set_pairing.
+rtukit::Status write_config(Client& client, const ConfigChange& c);
 
 /// Runs one command from a JSON object (the panel's message, or an MQTT
 /// payload the bridge accepted; other fields such as "ts", "id", "op" are

@@ -1,0 +1,43 @@
+// rtukit Rehand 6600: table 1 as people read it, once, for every text
+// front-end (`rtukit rehand6600 status`, `watch`, `hold`, `pulse`). Plain
+// text and JSON: the caller decides how an error is highlighted
+// (`Highlight`) and what goes around a line, so nothing here knows a terminal.
+#pragma once
+
+#include <functional>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <string_view>
+
+#include "rtukit/devices/rehand6600/snapshot.hpp"
+
+namespace rtukit::rehand6600 {
+
+/// How a front-end marks what needs attention (an active error); nullptr: as it is.
+using Highlight = std::function<std::string(std::string_view)>;
+
+/// A status register by key, as its row names the value ("drive", "on"), or
+/// its formatted value when the row has no name for it.
+std::string value_text(const Snapshot& s, std::string_view key);
+/// "6 km/h", or "3.7 mph" when `mph`.
+std::string speed_text(const Snapshot& s, bool mph);
+/// `text` in lines of at most 80 columns, each after `head` (the first) or
+/// as many spaces (the rest), each ending in '\n': the panel's "advice" rows.
+std::string wrapped(std::string_view head, std::string_view text);
+/// The six actuator positions (per mille), space-separated.
+std::string actuators(const Snapshot& s);
+/// The status panel: lines of at most 80 columns, each ending in '\n'; an
+/// active error's banner and name go through `alert`.
+std::string panel(const Snapshot& s, bool mph, const Highlight& alert = nullptr);
+/// The status in one line ("battery 80% | ... | error none").
+std::string line(const Snapshot& s, bool mph);
+/// Table 1 in rtukit's JSON shape (docs/json.md), the "values" of `status
+/// --json`: each status register an entry, plus "speed_mph" (when `mph`),
+/// "error_text" and "error_advice".
+nlohmann::ordered_json snapshot_values(const Snapshot& s, bool mph);
+
+/// One table-3 error code as JSON: {"code": "10C3", "function", "text",
+/// "advice"} (`rtukit rehand6600 errors --json`).
+nlohmann::ordered_json error_json(uint16_t code);
+
+}  // namespace rtukit::rehand6600

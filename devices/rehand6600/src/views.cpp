@@ -1,0 +1,124 @@
+// The Rehand 6600's table 1 as text and JSON: what `status` and `watch` print.
+#include "rtukit/devices/rehand6600/views.hpp"
+
+#include <fmt/core.h>
+
+#include <cmath>
+
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
+
+namespace rtukit::rehand6600 {
+namespace {
+
+using Json = nlohmann::ordered_json;
+
+// {"value", "unit"?, "text"}: a computed entry beside the register entries (docs/json.md).
+Json quantity(Json value, std::string_view unit, std::string text) {
+  Json q;
+  q["value"] = std::move(value);
+  if (!unit.empty()) q["unit"] = unit;
+  q["text"] = std::move(text);
+  return q;
+}
+
+uint16_t actuator(const Snapshot& s, unsigned i) {
+  return s[static_cast<uint16_t>(reg::kActuatorPosition + i)];
+}
+
+}  // namespace
+
+std::string value_text(const Snapshot& s, std::string_view key) {
+  const Register& r = *find_register(key);
+  const std::string_view name = profile::name_of(r, s[r.address]);
+  return name.empty() ? format_value(r, s[r.address]) : std::string(name);
+}
+
+std::string speed_text(const Snapshot& s, bool mph) {
+  return mph ? fmt::format("{:.1f} mph", s.speed_mph()) : fmt::format("{} km/h", s.speed_kmh());
+}
+
+std::string wrapped(std::string_view head, std::string_view text) {
+  std::string out, line(head);
+  size_t at = 0;
+  while (at < text.size()) {
+    size_t end = text.find(' ', at);
+    if (end == std::string_view::npos) end = text.size();
+    const std::string_view word = text.substr(at, end - at);
+    if (line.size() > head.size() && line.size() + 1 + word.size() > 80) {
+      out += line + "\n";
+      line = std::string(head.size(), ' ');
+    }
+    line += (line.size() > head.size() ? " " : "") + std::string(word);
+    at = end + 1;
+  }
+  return out + line + "\n";
+}
+
+std::string actuators(const Snapshot& s) {
+  std::string out;
+  for (unsigned i = 0; i < 6; ++i) out += fmt::format("{}{}", i ? " " : "", actuator(s, i));
+  return out;
+}
+
+std::string panel(const Snapshot& s, bool mph, const Highlight& alert) {
+  const auto mark = [&alert](std::string_view text) { return alert ? alert(text) : std::string(text); };
+  const auto v = [&s](std::string_view key) { return value_text(s, key); };
+  std::string out;
+  if (s.error_code())
+    out += mark(fmt::format("!!! {} : every function is disabled !!!", error_text(s.error_code()))) + "\n";
+  out += fmt::format("battery   {} %{}   clutch {}\n", s.battery(), s.charging() ? " (charging)" : "",
+                     v("clutch"));
+  out += fmt::format("motion    {}   speed {}\n", v("motion"), speed_text(s, mph));
+  out += fmt::format("lights    main {}, left {}, right {}\n", v("main_light"), v("left_signal"),
+                     v("right_signal"));
+  out += fmt::format("posture   seat lift {}, backrest {}, stand/sit {}\n", v("seat_lift_status"),
+                     v("backrest_status"), v("stand_status"));
+  out += fmt::format("          seat tilt {}, leg rest {}\n", v("seat_tilt_status"), v("leg_rest_status"));
+  out += "actuators";
+  for (unsigned i = 0; i < 6; ++i) {
+    if (i == 3) out += "\n         ";  // three a line: 80 columns
+    out += fmt::format(" {}:{} {}", i + 1, actuator(s, i), v(fmt::format("actuator{}_state", i + 1)));
+  }
+  out += fmt::format("\ndistances front {} mm, rear {} mm, left {} mm, right {} mm\n", s[reg::kDistanceFront],
+                     s[reg::kDistanceFront + 1], s[reg::kDistanceFront + 2], s[reg::kDistanceFront + 3]);
+  out += fmt::format("buttons   horn {}, 360 view {}\n", v("horn_button"), v("view_button"));
+  out +=
+      fmt::format("error     {}\n", s.error_code() ? mark(error_text(s.error_code())) : std::string("none"));
+  if (s.error_code()) out += wrapped("advice    ", error_advice(s.error_code()));
+  return out;
+}
+
+std::string line(const Snapshot& s, bool mph) {
+  const auto v = [&s](std::string_view key) { return value_text(s, key); };
+  return fmt::format("battery {}%{} | {} {} | light {} | seat {} stand {} legs {} | act {} | error {}",
+                     s.battery(), s.charging() ? "+" : "", v("motion"), speed_text(s, mph), v("main_light"),
+                     v("seat_lift_status"), v("stand_status"), v("leg_rest_status"), actuators(s),
+                     s.error_code() ? error_text(s.error_code()) : "none");
+}
+
+Json snapshot_values(const Snapshot& s, bool mph) {
+  Json values = Json::object();
+  for (const Register& r : registers()) {
+    if (table_of(r) != Table::status || r.key.starts_with("reserved")) continue;
+    const int64_t raw = r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
+    values[std::string(r.key)] = profile::entry_json(r, raw);
+  }
+  if (mph) values["speed_mph"] = quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
+  const std::string error = s.error_code() ? error_text(s.error_code()) : std::string();
+  values["error_text"] = quantity(error, {}, error.empty() ? "none" : error);
+  const std::string advice = s.error_code() ? error_advice(s.error_code()) : std::string();
+  values["error_advice"] = quantity(advice, {}, advice.empty() ? "none" : advice);
+  return values;
+}
+
+Json error_json(uint16_t code) {
+  Json e;
+  e["code"] = fmt::format("{:04X}", code);
+  e["function"] = error_function(code);
+  e["text"] = error_text(code);
+  e["advice"] = error_advice(code);
+  return e;
+}
+
+}  // namespace rtukit::rehand6600

@@ -1,0 +1,376 @@
+// The device layer's verbs and views (issue 27: cli/ holds no device logic):
+// what the Inverjet's and the Rehand 6600's text front-ends print and
+// refuse, on simulated values (a MachineStatus, a Snapshot) and on a slave
+// behind a MemoryLink on a ManualClock: no process, no port, no sleeping.
+#include <fmt/core.h>
+#include <gtest/gtest.h>
+
+#include <array>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "rtukit/core/slave.hpp"
+#include "rtukit/devices/inverjet/plan_file.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
+#include "rtukit/devices/inverjet/views.hpp"
+#include "rtukit/devices/rehand6600/verbs.hpp"
+#include "rtukit/devices/rehand6600/views.hpp"
+#include "rtukit/driver/master.hpp"
+#include "rtukit/driver/memory_bank.hpp"
+#include "rtukit/driver/memory_link.hpp"
+#include "rtukit/io/clock.hpp"
+
+namespace rtukit {
+namespace {
+
+using namespace std::chrono_literals;
+namespace ij = inverjet;
+namespace rh = rehand6600;
+
+// A generic slave at `unit` behind a MemoryLink on virtual time.
+struct Rig {
+  explicit Rig(uint8_t unit, size_t registers = 200) : bank(registers) {
+    (void)engine.add_unit(UnitId{unit}, bank);
+    auto link = std::make_unique<MemoryLink>(clock, [this](std::span<const uint8_t> request) {
+      if (silent) return MemoryLink::Reply{};
+      std::array<uint8_t, kMaxRtuAduSize> out{};
+      const size_t n = engine.handle_rtu(request, out).length;
+      return MemoryLink::Reply{{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)}, 2ms};
+    });
+    master =
+        std::make_unique<Master>(std::move(link), MasterOptions{.response_timeout = 100ms, .clock = &clock});
+  }
+  ManualClock clock;
+  MemoryBank bank;
+  SlaveEngine engine;
+  bool silent = false;
+  std::unique_ptr<Master> master;
+};
+
+std::string bracket(std::string_view t) {
+  return "[" + std::string(t) + "]";
+}
+
+void expect_at_most_80_columns(const std::string& text) {
+  std::string line;
+  for (std::istringstream in(text); std::getline(in, line);) EXPECT_LE(line.size(), 80U) << line;
+}
+
+// ---------------------------------------------------------------- Inverjet
+
+ij::MachineStatus timer_run() {
+  ij::MachineStatus s;
+  s.state = 8;  // timer running
+  s.speed = 60;
+  s.run_time = 25 * 60;
+  s.rpm = 1200;
+  s.current_a = 3.5;
+  s.mosfet_c = 41.25;
+  s.motor_c = 38;
+  s.bus_v = 310.4;
+  s.display_software = (1U << 16) | 2;
+  return s;
+}
+
+TEST(InverjetViews, TheTimeSaysWhatItCounts_TheFaultsByName) {
+  const ij::MachineStatus s = timer_run();
+  EXPECT_EQ(ij::version_text((1U << 16) | 2), "V1.2");
+  EXPECT_EQ(ij::factory_plan_text(), "01:00 at 20 %");
+  EXPECT_EQ(ij::time_text(s), "25:00 remaining");
+  EXPECT_EQ(ij::faults_text(s), "none");
+  ij::MachineStatus fault = s;
+  fault.state = 17;  // the fault screen: nobody saw which run it was
+  fault.faults = 0x0081;
+  EXPECT_EQ(ij::faults_text(fault), "voltage, motor drive (0x0081)");
+  EXPECT_EQ(ij::time_text(fault), "25:00 at the fault");
+  EXPECT_EQ(ij::time_text(fault, ij::Family::timer), "25:00 remaining");
+}
+
+TEST(InverjetViews, ThePanelHighlightsOnlyAFault_TheLineStartsWithItsPrefix) {
+  const ij::MachineStatus s = timer_run();
+  const std::string calm = ij::status_panel(s, ij::Family::none, bracket);
+  EXPECT_EQ(calm.find('['), std::string::npos) << calm;
+  EXPECT_TRUE(
+      calm.starts_with("state     timer running (8)   mode free & timer (0)\n"
+                       "speed     60 %   motor 1200 rpm, 3.50 A\n"
+                       "time      25:00 remaining\n"
+                       "faults    none\n"
+                       "temps     MOSFET 41.2 degC, motor 38.0 degC\n"
+                       "bus       310.4 V\n"
+                       "versions  display V1.2 (hw V0.0)"))
+      << calm;
+  expect_at_most_80_columns(calm);
+  ij::MachineStatus fault = s;
+  fault.state = 17;
+  fault.faults = 1;
+  const std::string alarm = ij::status_panel(fault, ij::Family::none, bracket);
+  EXPECT_NE(alarm.find("state     [fault screen] (17)"), std::string::npos) << alarm;
+  EXPECT_NE(alarm.find("faults    [voltage (0x0001)]\n"), std::string::npos) << alarm;
+  // Without a highlight, the same text as it is.
+  EXPECT_NE(ij::status_panel(fault).find("faults    voltage (0x0001)\n"), std::string::npos);
+  EXPECT_EQ(ij::status_line(s, ij::Family::none, "14:02:07"),
+            "14:02:07 timer running     speed  60 %  time 25:00 remaining  motor 1200 rpm 3.50 A  MOSFET "
+            "41.2 degC  motor 38.0 degC  faults none");
+}
+
+TEST(InverjetIdentify, ThePoleCountTellsAnInverjetFromAnotherDevice) {
+  Rig jet(21);
+  jet.bank.holding[ij::reg::kPoleCount] = ij::kMap.row(ij::reg::pole_count).writable_range.min;
+  EXPECT_TRUE(ij::identify(*jet.master, UnitId{21}).ok());
+
+  Rig other(21);  // a generic slave: the register reads 0
+  const rtukit::Status zero = ij::identify(*other.master, UnitId{21});
+  EXPECT_EQ(zero.code(), Errc::refused);
+  EXPECT_EQ(
+      zero.reason(),
+      "not an Inverjet: its motor pole count (holding 0x0004) reads 0 where an Inverjet's always reads 5");
+
+  Rig small(21, 2);  // no register 0x0004: exception 02
+  const rtukit::Status missing = ij::identify(*small.master, UnitId{21});
+  EXPECT_EQ(missing.code(), Errc::refused);
+  EXPECT_NE(std::string(missing.reason()).find("answers Modbus exception 02 (illegal data address)"),
+            std::string::npos)
+      << missing.reason();
+
+  other.silent = true;  // no answer is not "another device"
+  EXPECT_EQ(ij::identify(*other.master, UnitId{21}).code(), Errc::timeout);
+}
+
+TEST(InverjetStart, TheRulesBetweenTheOptions) {
+  const auto refusal = [](ij::StartOptions o) { return std::string(ij::check_start_options(o).reason()); };
+  EXPECT_EQ(refusal({.free = true, .timer = true}), "choose one of --free, --timer DURATION, --plan N");
+  EXPECT_EQ(refusal({}), "choose one of --free, --timer DURATION, --plan N");
+  EXPECT_EQ(refusal({.plan = true, .speed = true}),
+            "a training plan sets its own speed (no --speed or --remember with --plan)");
+  EXPECT_EQ(refusal({.plan = true, .remember = true}),
+            "a training plan sets its own speed (no --speed or --remember with --plan)");
+  EXPECT_EQ(refusal({.free = true, .from = true}), "--from goes with --plan");
+  EXPECT_EQ(refusal({.timer = true}), "--timer needs --speed");
+  EXPECT_TRUE(ij::check_start_options({.timer = true, .speed = true, .remember = true}).ok());
+  EXPECT_TRUE(ij::check_start_options({.plan = true, .from = true}).ok());
+  EXPECT_TRUE(ij::check_start_options({.free = true, .remember = true}).ok());
+}
+
+TEST(InverjetStart, DurationsAndTheRequestsRules) {
+  const Outcome<uint16_t> t = ij::parse_run_duration("30:00", "timer", ij::timer_range());
+  ASSERT_TRUE(t.ok());
+  EXPECT_EQ(*t, 1800);
+  EXPECT_EQ(ij::parse_run_duration("100m", "timer", ij::timer_range()).error().reason(),
+            "timer 100m (6000 s) is out of range 1..5999 s (99:59)");
+  EXPECT_EQ(ij::parse_run_duration("0s", "timer", ij::timer_range()).error().reason(),
+            "timer 0s (0 s) is out of range 1..5999 s (99:59)");
+  EXPECT_TRUE(ij::parse_run_duration("0s", "--from", ij::from_range()).ok());
+  const std::string bare(ij::parse_run_duration("30", "timer", ij::timer_range()).error().reason());
+  EXPECT_NE(bare.find("write 30:00 (mm:ss), 30m or 90s"), std::string::npos) << bare;
+
+  ij::StartRequest timer{.mode = ij::StartMode::timer, .duration_s = 600};
+  EXPECT_EQ(ij::check_start(timer).code(), Errc::invalid_argument);  // no speed
+  timer.speed = 80;
+  EXPECT_TRUE(ij::check_start(timer).ok());
+  EXPECT_EQ(ij::start_text(timer), "timer mode, 10:00 at 80 %");
+  timer.duration_s = 0;
+  EXPECT_EQ(ij::check_start(timer).reason(), "timer: \"duration\" must be 00:01..99:59");
+  ij::StartRequest plan{.mode = ij::StartMode::plan, .plan = 5};
+  EXPECT_EQ(ij::check_start(plan).reason(), "plan: \"plan\" 1..4 is required");
+  plan.plan = 2;
+  plan.from_s = 12 * 60;
+  EXPECT_TRUE(ij::check_start(plan).ok());
+  EXPECT_EQ(ij::start_text(plan), "plan P2 from 12:00");
+  plan.speed = 50;
+  EXPECT_EQ(ij::check_start(plan).code(), Errc::invalid_argument);
+  EXPECT_EQ(ij::start_text({}), "free mode (speed and time from memory)");
+  EXPECT_EQ(ij::start_text({.speed = 60}), "free mode at 60 %");
+}
+
+// The settings by key: the checks before anything is sent.
+TEST(InverjetConfig, EachKeyItsRow_RefusalsSayWhy) {
+  const ij::ReadNumber read = [](std::string_view text, std::string_view what, int64_t min,
+                                 int64_t max) -> Outcome<int64_t> {
+    const int64_t n = std::stoll(std::string(text));
+    if (n < min || n > max)
+      return rtukit::Status(Errc::invalid_argument,
+                            fmt::format("{} {} is out of range {}..{}", what, n, min, max));
+    return n;
+  };
+  Outcome<ij::ConfigChange> baud = ij::parse_config("baud", "19200", read);
+  ASSERT_TRUE(baud.ok());
+  EXPECT_EQ(baud->row, &ij::kMap.row(ij::reg::baud));
+  EXPECT_EQ(baud->raw, ij::code_of_baud(19200));
+  EXPECT_EQ(baud->value, 19200U);
+  EXPECT_EQ(ij::parse_config("baud", "115200", read).error().reason(),
+            "baud 115200: the Inverjet runs at 1200, 2400, 4800, 9600 or 19200");
+  EXPECT_EQ(ij::parse_config("mask", "9", read).error().reason(), "control mask 9 is out of range 0..7");
+  EXPECT_EQ(ij::parse_config("address", "255", read).error().reason(),
+            "inverjet unit 255 is out of range 1..254");
+  Outcome<ij::ConfigChange> pairing = ij::parse_config("pairing", "wifi", read);
+  ASSERT_TRUE(pairing.ok()) << pairing.error().reason();
+  EXPECT_EQ(pairing->row, &ij::kMap.row(ij::reg::pairing));
+  EXPECT_EQ(pairing->raw, 1);
+  EXPECT_FALSE(ij::parse_config("pairing", "bluetooth", read).ok());
+  EXPECT_EQ(ij::parse_config("colour", "red", read).error().reason(),
+            "config colour: expected show, address, baud, mask or pairing");
+}
+
+TEST(InverjetVerbs, AnExceptionsReason_APlanAsJson_APlanFileThatIsNone) {
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x02))), "a reserved register");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x03))), "a value out of range");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x04), "control mask bit 1 is set")),
+            "control mask bit 1 is set");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Error::exception(0x04))), "");
+  EXPECT_EQ(ij::exception_reason(rtukit::Status(Errc::timeout)), "");
+
+  const std::vector<ij::Segment> plan{{25, 90}, {55, 300}};
+  EXPECT_EQ(ij::plan_json(plan).dump(),
+            R"([{"speed":25,"end":"01:30","end_s":90},{"speed":55,"end":"05:00","end_s":300}])");
+  const Outcome<std::vector<ij::Segment>> back = ij::parse_plan(ij::plan_json(plan).dump());
+  ASSERT_TRUE(back.ok()) << back.error().reason();
+  EXPECT_EQ(back->size(), 2U);
+  const Outcome<std::vector<ij::Segment>> zero = ij::read_plan_file("/dev/zero");  // never read forever
+  ASSERT_FALSE(zero.ok());
+  EXPECT_EQ(zero.error().code(), Errc::invalid_argument);
+  EXPECT_TRUE(std::string(zero.error().reason()).starts_with("cannot read plan file '/dev/zero': "))
+      << zero.error().reason();
+}
+
+// ---------------------------------------------------------------- Rehand 6600
+
+rh::Snapshot chair() {
+  rh::Snapshot s;
+  s.regs[rh::reg::kBattery] = 80;
+  s.regs[rh::reg::kCharging] = 1;
+  s.regs[rh::reg::kSpeed] = 6;
+  s.regs[rh::reg::kClutch] = 1;
+  s.regs[rh::reg::kMotion] = 2;
+  s.regs[rh::reg::kMainLight] = 1;
+  for (uint16_t i = 0; i < 6; ++i) s.regs[rh::reg::kActuatorPosition + i] = static_cast<uint16_t>(100 * i);
+  s.valid = true;
+  return s;
+}
+
+TEST(RehandViews, ValuesByName_SpeedInEitherUnit_ALineOfTheChair) {
+  const rh::Snapshot s = chair();
+  EXPECT_EQ(rh::value_text(s, "clutch"), "drive");
+  EXPECT_EQ(rh::value_text(s, "motion"), "forward");
+  EXPECT_EQ(rh::value_text(s, "battery"), "80 %");
+  EXPECT_EQ(rh::speed_text(s, false), "6 km/h");
+  EXPECT_EQ(rh::speed_text(s, true), "3.7 mph");
+  EXPECT_EQ(rh::actuators(s), "0 100 200 300 400 500");
+  EXPECT_EQ(
+      rh::line(s, false),
+      "battery 80%+ | forward 6 km/h | light on | seat still stand still legs still | act 0 100 200 300 "
+      "400 500 | error none");
+}
+
+TEST(RehandViews, ThePanelWrapsTheAdvice_HighlightsOnlyAnError) {
+  rh::Snapshot s = chair();
+  const std::string calm = rh::panel(s, false, bracket);
+  EXPECT_TRUE(
+      calm.starts_with("battery   80 % (charging)   clutch drive\nmotion    forward   speed 6 km/h\n"))
+      << calm;
+  EXPECT_EQ(calm.find('['), std::string::npos) << calm;
+  EXPECT_TRUE(calm.ends_with("error     none\n")) << calm;
+  s.regs[rh::reg::kErrorCode] = 0x10C3;
+  const std::string alarm = rh::panel(s, true, bracket);
+  EXPECT_TRUE(alarm.starts_with("[!!! 10C3 Seat lift Error : every function is disabled !!!]\n")) << alarm;
+  EXPECT_NE(alarm.find("error     [10C3 Seat lift Error]\nadvice    the seat-lift actuator"),
+            std::string::npos)
+      << alarm;
+  EXPECT_NE(alarm.find("speed 3.7 mph"), std::string::npos) << alarm;
+  expect_at_most_80_columns(alarm);
+  EXPECT_EQ(rh::wrapped("head  ", "one two"), "head  one two\n");
+  const std::string many = rh::wrapped(
+      "advice    ", std::string(30, 'a') + " " + std::string(30, 'b') + " " + std::string(30, 'c'));
+  EXPECT_EQ(many, "advice    " + std::string(30, 'a') + " " + std::string(30, 'b') + "\n          " +
+                      std::string(30, 'c') + "\n");
+}
+
+TEST(RehandViews, TheJsonValuesOfTableOne) {
+  rh::Snapshot s = chair();
+  nlohmann::ordered_json v = rh::snapshot_values(s, false);
+  EXPECT_EQ(v["battery"]["value"], 80);
+  EXPECT_EQ(v["clutch"]["text"], "drive (1)");
+  EXPECT_FALSE(v.contains("speed_mph"));
+  EXPECT_FALSE(v.contains("reserved"));
+  EXPECT_EQ(v["error_text"]["text"], "none");
+  EXPECT_EQ(v["error_advice"]["value"], "");
+  s.regs[rh::reg::kErrorCode] = 0x10C3;
+  v = rh::snapshot_values(s, true);
+  EXPECT_EQ(v["speed_mph"]["value"], 3.7);
+  EXPECT_EQ(v["speed_mph"]["unit"], "mph");
+  EXPECT_EQ(v["error_text"]["value"], "10C3 Seat lift Error");
+  EXPECT_NE(v["error_advice"]["value"].get<std::string>().find("; check: "), std::string::npos);
+}
+
+TEST(RehandVerbs, CommandsByName_TheirDirections_AHoldsLength) {
+  const Outcome<const rh::Register*> lift = rh::command_register("seat-lift", rh::Kind::hold);
+  ASSERT_TRUE(lift.ok());
+  EXPECT_EQ((*lift)->address, rh::reg::kSeatLift);
+  const std::string fly(rh::command_register("fly", rh::Kind::hold).error().reason());
+  EXPECT_TRUE(fly.starts_with("'fly' is not a hold command (")) << fly;
+  EXPECT_NE(fly.find("seat_lift"), std::string::npos) << fly;
+  EXPECT_TRUE(std::string(rh::command_register("stand", rh::Kind::pulse).error().reason())
+                  .starts_with("'stand' is not a pulse command ("));
+  EXPECT_TRUE(rh::command_register("light", rh::Kind::pulse).ok());
+
+  EXPECT_EQ(*rh::command_value(**lift, "up"), 1);
+  EXPECT_EQ(*rh::command_value(**lift, "2"), 2);
+  EXPECT_EQ(rh::command_value(**lift, "").error().reason(),
+            "hold seat_lift needs a direction: up (1) or down (2) (nothing sent)");
+  EXPECT_EQ(rh::command_value(**lift, "7").error().reason(),
+            "hold seat_lift: '7' is not one of its directions: up (1) or down (2) (nothing sent)");
+  const rh::Register& forward = **rh::command_register("phone_forward", rh::Kind::hold);
+  EXPECT_EQ(*rh::command_value(forward, ""), 1);  // one direction: none to name
+
+  EXPECT_EQ(*rh::parse_hold_duration("500ms"), 500ms);
+  EXPECT_EQ(*rh::parse_hold_duration("2s"), 2000ms);
+  EXPECT_EQ(*rh::parse_hold_duration("1.5"), 1500ms);
+  EXPECT_EQ(rh::parse_hold_duration("0s").error().reason(),
+            "duration '0s': e.g. 2s, 500ms (at most 10 minutes)");
+  EXPECT_FALSE(rh::parse_hold_duration("11m").ok());
+  EXPECT_FALSE(rh::parse_hold_duration("601s").ok());
+}
+
+TEST(RehandVerbs, SettingsByTheirRows_ErrorsAsJson) {
+  const Outcome<rh::SettingChange> outdoor = rh::parse_setting("drive-mode", "outdoor");
+  ASSERT_TRUE(outdoor.ok());
+  EXPECT_EQ(outdoor->row->address, rh::reg::kDriveMode);
+  EXPECT_EQ(outdoor->raw, 3);
+  EXPECT_EQ(rh::parse_setting("speed-level", "6").error().reason(), "speed_level: 6 is outside 1..5");
+  EXPECT_EQ(rh::parse_setting("drive_mode", "fast").error().reason(),
+            "'fast' is not a drive_mode (normal, indoor, outdoor)");
+  EXPECT_EQ(rh::parse_setting("host-fault", "0")->row->address, rh::reg::kHostFault);
+  EXPECT_EQ(rh::parse_setting("seat_lift", "1").error().reason(),
+            "set seat_lift: expected drive-mode, speed-level or host-fault");
+  const nlohmann::ordered_json e = rh::error_json(0x10C3);
+  EXPECT_EQ(e["code"], "10C3");
+  EXPECT_EQ(e["text"], "10C3 Seat lift Error");
+  EXPECT_EQ(e.begin().key(), "code");
+  EXPECT_NE(e["advice"].get<std::string>().find("; check: "), std::string::npos);
+}
+
+TEST(RehandVerbs, TheHandshakeTellsTheControllerFromAnotherDevice) {
+  Rig controller(rh::kDefaultAddress);
+  controller.bank.holding[rh::reg::kDeviceId] = rh::kDeviceId;
+  EXPECT_TRUE(rh::handshake(*controller.master, UnitId{rh::kDefaultAddress}).ok());
+  EXPECT_EQ(controller.bank.holding[rh::reg::kHostReady], 0);  // a one-shot read writes nothing
+
+  Rig other(rh::kDefaultAddress);
+  other.bank.holding[rh::reg::kDeviceId] = 0x42;
+  const rtukit::Status id = rh::handshake(*other.master, UnitId{rh::kDefaultAddress});
+  EXPECT_EQ(id.code(), Errc::refused);
+  EXPECT_EQ(id.reason(), "handshake: device ID 0x42, expected 0x68 (not a Rehand 6600 controller?)");
+
+  Rig none(rh::kDefaultAddress, 0);  // nothing at 0x0000: exception 02
+  const rtukit::Status exception = rh::handshake(*none.master, UnitId{rh::kDefaultAddress});
+  EXPECT_EQ(exception.code(), Errc::refused);
+  EXPECT_EQ(exception.reason(), "handshake: Modbus exception 02");
+
+  other.silent = true;
+  const rtukit::Status silent = rh::handshake(*other.master, UnitId{rh::kDefaultAddress});
+  EXPECT_EQ(silent.code(), Errc::timeout);
+  EXPECT_EQ(silent.reason(), "handshake: no answer (timeout)");
+}
+
+}  // namespace
+}  // namespace rtukit
