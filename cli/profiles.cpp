@@ -14,6 +14,7 @@
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/registry.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
 
@@ -154,7 +155,33 @@ struct DeviceArgs {
   bool yaml = false;
   std::string map_file;
   WatchOptions watch{1000};
+  std::string check_docs, write_docs;  ///< `devices`: the source tree whose docs to check or rewrite
 };
+
+// Each registered device's doc, its generated sections made from the tables
+// (the registry's doc_sections): checked (exit 5 when one is stale) or rewritten.
+int run_docs(const std::string& root, bool write) {
+  int stale = 0;
+  for (const profile::DeviceEntry* e : devices::registered()) {
+    if (e->doc.empty()) continue;
+    const std::string path = root + "/" + std::string(e->doc);
+    Outcome<std::string> text = io::read_regular_file(path, 1 << 20);
+    if (!text.ok()) throw Failure{kIoError, fmt::format("{}: {}", path, text.error().reason())};
+    Outcome<std::string> now = profile::regenerate_doc(*e, *text);
+    if (!now.ok()) throw Failure{kUsage, fmt::format("{}: {}", path, now.error().reason())};
+    if (*now == *text) {
+      fmt::print("{}: up to date\n", e->doc);
+    } else if (write) {
+      if (rtukit::Status st = io::write_file_atomically(path, *now))
+        throw Failure{kIoError, std::string(st.reason())};
+      fmt::print("{}: regenerated\n", e->doc);
+    } else {
+      fmt::print("{}: stale: run scripts/gen-docs.sh\n", e->doc);
+      ++stale;
+    }
+  }
+  return stale ? kRefused : kOk;
+}
 
 int run_get(const DeviceArgs& a, const profile::Profile& p) {
   const std::vector<Selected> selected = select_rows(p, a.keys, false);
@@ -363,9 +390,16 @@ void add_profile_commands(CLI::App& app, Action& action) {
         app, action, "devices", "the device profiles this rtukit knows",
         [](CLI::App& cmd, DeviceArgs& a) {
           cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-          examples(cmd, {"rtukit devices", "rtukit devices --json"});
+          cmd.add_option("--check-docs", a.check_docs,
+                         "check each device's doc under this source tree: exit 5 when a generated "
+                         "section is stale");
+          cmd.add_option("--write-docs", a.write_docs,
+                         "rewrite each device's generated doc sections under this source tree");
+          examples(cmd, {"rtukit devices", "rtukit devices --json", "rtukit devices --check-docs ."});
         },
         [](const DeviceArgs& a) {
+          if (!a.check_docs.empty() || !a.write_docs.empty())
+            return run_docs(a.write_docs.empty() ? a.check_docs : a.write_docs, !a.write_docs.empty());
           const bool* json = &a.json;
           Json list = Json::array();
           for (const profile::DeviceEntry* e : devices::registered()) {

@@ -15,7 +15,9 @@
 #include "process.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
+#include "rtukit/devices/profile/device.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/registry.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 
 using namespace rtukit;
@@ -316,4 +318,33 @@ TEST(DeviceLayerCli, TheExampleThirdDevice_EveryVerbTheSimulatorAndTheSniffer) {
   EXPECT_TRUE(sim.wait_for_output("address changed: 7 -> 9")) << sim.output();
   EXPECT_EQ(run_cli(kBin, {"thermostat", "get", "--unit", "9", "mode"}, host).code, 0);
 #endif
+}
+
+// ------------------------------------------------------------ the docs generator reads the registry
+
+TEST(DocsFromTheRegistry, EachSectionIsRewrittenFromItsTable_AMissingOneIsNamed) {
+  const profile::DeviceEntry* rehand = devices::find("rehand6600");
+  ASSERT_NE(rehand, nullptr);
+  std::vector<std::string> names;
+  for (const profile::DocSection& s : profile::doc_sections(*rehand)) names.emplace_back(s.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"registers", "errors", "stopping"}));
+  EXPECT_EQ(rehand->doc, "docs/rehand6600.md");
+
+  const profile::DeviceEntry* jet = devices::find("inverjet");
+  ASSERT_NE(jet, nullptr);
+  const std::string stale =
+      "# Inverjet\nintro\n<!-- BEGIN GENERATED: rtukit inverjet registers -->\nold table\n"
+      "<!-- END GENERATED: rtukit inverjet registers -->\nafter\n";
+  const Outcome<std::string> now = profile::regenerate_doc(*jet, stale);
+  ASSERT_TRUE(now.ok()) << now.error().reason();
+  EXPECT_EQ(now->find("old table"), std::string::npos);
+  EXPECT_NE(now->find("| 0x0022 | `state` | state machine | RW |"), std::string::npos);
+  EXPECT_EQ(now->rfind("# Inverjet\nintro\n", 0), 0u);
+  EXPECT_NE(now->find("<!-- END GENERATED: rtukit inverjet registers -->\nafter\n"), std::string::npos);
+  EXPECT_EQ(profile::regenerate_doc(*jet, *now).value(), *now);  // stable
+
+  const Outcome<std::string> missing = profile::regenerate_doc(*rehand, stale);
+  ASSERT_FALSE(missing.ok());
+  EXPECT_NE(std::string(missing.error().reason()).find("rtukit rehand6600 registers"), std::string::npos)
+      << missing.error().reason();
 }

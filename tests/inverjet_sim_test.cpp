@@ -493,19 +493,6 @@ TEST_F(InverjetSim, Cli_Registers_PrintsTheTable) {
   EXPECT_EQ(json::parse(j.output)["registers"].size(), 13u + 8u + 11u);  // the map-file format
 }
 
-TEST(InverjetDocs, RegisterReferenceIsGeneratedFromTheTable) {
-  const std::string doc = read_file(std::string(DOCS_DIR) + "/inverjet.md");
-  const std::string begin = "<!-- BEGIN GENERATED: rtukit inverjet registers -->\n";
-  const std::string end = "\n<!-- END GENERATED: rtukit inverjet registers -->";
-  const size_t a = doc.find(begin), b = doc.find(end);
-  ASSERT_NE(a, std::string::npos);
-  ASSERT_NE(b, std::string::npos);
-  const RunResult r = run({kRtukit, "inverjet", "registers"});
-  ASSERT_EQ(r.code, 0);
-  EXPECT_EQ(doc.substr(a + begin.size(), b - a - begin.size()) + "\n", r.output)
-      << "docs/inverjet.md is stale: run scripts/gen-docs.sh";
-}
-
 // ------------------------------------------------------------ console, persistence, address
 
 TEST_F(InverjetSim, Console_FaultShowsIn0008AndDrivesState17) {

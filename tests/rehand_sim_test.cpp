@@ -497,18 +497,4 @@ TEST(RehandInterop, HostController_GenericLibmodbusSlaveWithId68) {
   host->stop();
 }
 
-TEST(RehandDocs, ReferencesAreGeneratedFromTheTables) {
-  const std::string doc = read_file(std::string(DOCS_DIR) + "/rehand6600.md");
-  for (const std::string name : {"registers", "errors", "stopping"}) {
-    const std::string begin = "<!-- BEGIN GENERATED: rtukit rehand6600 " + name + " -->\n";
-    const std::string end = "\n<!-- END GENERATED: rtukit rehand6600 " + name + " -->";
-    const size_t a = doc.find(begin), b = doc.find(end);
-    ASSERT_NE(a, std::string::npos) << name;
-    ASSERT_NE(b, std::string::npos) << name;
-    const RunResult r = run({kRtukit, "rehand6600", name});
-    EXPECT_EQ(doc.substr(a + begin.size(), b - a - begin.size()) + "\n", r.output)
-        << "docs/rehand6600.md is stale: run scripts/gen-docs.sh";
-  }
-}
-
 }  // namespace

@@ -12,7 +12,8 @@ const profile::DeviceEntry& device_entry() {
       .make_sim = [](const profile::SimSettings&) -> Outcome<profile::SimDevice> {
         return make_sim_device();
       },
-      .markdown = [] { return registers_markdown(); }};
+      .markdown = [] { return registers_markdown(); },
+      .doc = "docs/inverjet.md"};
   return entry;
 }
 

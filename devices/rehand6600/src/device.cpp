@@ -26,10 +26,13 @@ Outcome<profile::SimDevice> make_sim(const profile::SimSettings& settings) {
 }  // namespace
 
 const profile::DeviceEntry& device_entry() {
-  static const profile::DeviceEntry entry{
-      .profile = &kProfile, .sim_options = kSimOptions, .make_sim = make_sim, .markdown = [] {
-        return registers_markdown();
-      }};
+  static const profile::DeviceEntry entry{.profile = &kProfile,
+                                          .sim_options = kSimOptions,
+                                          .make_sim = make_sim,
+                                          .markdown = [] { return registers_markdown(); },
+                                          .doc = "docs/rehand6600.md",
+                                          .doc_sections = {{"errors", [] { return errors_markdown(); }},
+                                                           {"stopping", [] { return stopping_markdown(); }}}};
   return entry;
 }
 

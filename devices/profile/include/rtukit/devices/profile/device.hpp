@@ -10,6 +10,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/sim_host.hpp"
@@ -31,6 +32,14 @@ using SimSettings = std::map<std::string, std::string, std::less<>>;
 std::string_view setting(const SimSettings& settings, std::span<const SimOption> options,
                          std::string_view name);
 
+/// A generated section of a device's doc: the text between the lines
+/// `<!-- BEGIN GENERATED: rtukit <device> <name> -->` and
+/// `<!-- END GENERATED: rtukit <device> <name> -->`, made from the tables.
+struct DocSection {
+  std::string_view name;  ///< "registers", "errors"; also the CLI verb that prints it
+  std::function<std::string()> markdown;
+};
+
 struct DeviceEntry {
   /// The register table: the unit range, the link, every register (schema.hpp).
   const Profile* profile = nullptr;
@@ -41,6 +50,20 @@ struct DeviceEntry {
   /// The register reference as the device's doc embeds it; empty: the
   /// kit's generic one (registers_markdown in text.hpp).
   std::function<std::string()> markdown;
+  /// The device's doc, from the top of the source tree ("docs/inverjet.md");
+  /// empty: none (the example device). `scripts/gen-docs.sh` rewrites its
+  /// generated sections, and a test fails when one is stale.
+  std::string_view doc;
+  /// Generated sections besides "registers" (which every device has).
+  std::vector<DocSection> doc_sections;
 };
+
+/// Every generated section of `entry`'s doc: "registers" (`markdown`, or the
+/// kit's generic reference) first, then the device's own.
+std::vector<DocSection> doc_sections(const DeviceEntry& entry);
+
+/// `text` (the device's doc) with every generated section rewritten from the
+/// tables. Errors: invalid_argument naming the markers of a section the doc lacks.
+Outcome<std::string> regenerate_doc(const DeviceEntry& entry, std::string_view text);
 
 }  // namespace rtukit::profile
