@@ -645,17 +645,15 @@ void load_init(const std::string& path, MemoryBank& bank) {
       // {"vendor": "...", "product_code": "...", "revision": "...", "0x80": "..."} (FC11, FC2B/0E)
       if (!entries.is_object())
         throw Failure{kUsage, fmt::format("{}: 'identification' must map objects to text", path)};
-      const std::map<std::string, uint8_t> names{{"vendor", 0},     {"product_code", 1}, {"revision", 2},
-                                                 {"vendor_url", 3}, {"product_name", 4}, {"model_name", 5},
-                                                 {"application", 6}};
       for (const auto& [key, value] : entries.items()) {
-        const auto named = names.find(key);
-        const auto id = named != names.end() ? named->second
-                                             : static_cast<uint8_t>(parse_number(key, "object id", 0, 255));
+        std::optional<uint8_t> id;
+        for (uint8_t o = 0; device_object_key(o); ++o)
+          if (key == device_object_key(o)) id = o;
+        if (!id) id = static_cast<uint8_t>(parse_number(key, "object id", 0, 255));
         if (!value.is_string() || value.get<std::string>().empty() || value.get<std::string>().size() > 244)
           throw Failure{kUsage,
                         fmt::format("{}: identification '{}' must be text of 1..244 characters", path, key)};
-        bank.objects[id] = value.get<std::string>();
+        bank.objects[*id] = value.get<std::string>();
       }
       continue;
     }
