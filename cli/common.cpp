@@ -476,12 +476,6 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
   }
 }
 
-std::string hex(std::span<const uint8_t> bytes) {
-  std::string s;
-  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
-  return s;
-}
-
 std::string tap_line(const BusCharacter& c) {
   return fmt::format("{} {} {} {:02X} {:02X}{}{}{}\n", c.start_us, c.end_us, c.sender, c.sent, c.heard,
                      c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");

@@ -1,11 +1,18 @@
 // Protocol facts and device-terms views that every front-end shares (issue
 // 27: moved out of the CLI): the FC0C comm event bytes and the FC2B/0E
-// object names (core).
+// object names (core), a sniffed transaction's timing forensics (driver) and
+// the transaction in a device profile's terms (devices/profile).
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
+#include "rtukit/core/crc.hpp"
 #include "rtukit/core/pdu.hpp"
+#include "rtukit/devices/profile/schema.hpp"
+#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/profile/transaction_text.hpp"
+#include "rtukit/driver/sniffer.hpp"
 
 namespace rtukit {
 namespace {
@@ -46,6 +53,185 @@ TEST(ProtocolViews, DeviceObjectNamesKeysAndConformity) {
   EXPECT_STREQ(conformity_level_name(0x82), "regular");  // bit 7: individual access too
   EXPECT_STREQ(conformity_level_name(0x83), "extended");
   EXPECT_STREQ(conformity_level_name(0x04), "unknown");
+}
+
+std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
+  const uint16_t crc = crc16(b);
+  b.push_back(static_cast<uint8_t>(crc & 0xFF));
+  b.push_back(static_cast<uint8_t>(crc >> 8));
+  return b;
+}
+
+SniffedFrame frame(const std::vector<uint8_t>& bytes) {
+  SniffedFrame f;
+  f.bytes = with_crc(bytes);
+  f.crc_ok = true;
+  return f;
+}
+
+SniffedTransaction exchange(const std::vector<uint8_t>& request, const std::vector<uint8_t>& response) {
+  SniffedTransaction t;
+  t.request = frame(request);
+  if (!response.empty()) t.response = frame(response);
+  return t;
+}
+
+constexpr uint64_t kChar = 1041;  // us, one character at 9600 8N1
+
+uint64_t send(Sniffer& s, const std::vector<uint8_t>& bytes, uint64_t t, size_t gap_after = 0,
+              uint64_t gap_us = 0) {
+  for (size_t i = 0; i < bytes.size(); ++i) {
+    t += kChar;
+    if (gap_after && i == gap_after) t += gap_us;
+    s.feed(bytes[i], t);
+  }
+  return t;
+}
+
+TEST(ProtocolViews, SnifferForensicsInWords) {
+  Sniffer s({.baud = 9600, .bits_per_char = 10});  // t1.5 1.56 ms, t3.5 3.64 ms
+  const std::vector<uint8_t> request = with_crc({0x15, 0x03, 0x00, 0x21, 0x00, 0x04});
+  const std::vector<uint8_t> response = with_crc({0x15, 0x03, 0x08, 0, 0, 0, 8, 0, 80, 0x07, 0x08});
+  uint64_t t = send(s, request, 0);
+  t = send(s, response, t);  // no silence at all
+  t = send(s, request, t + 20000);
+  t = send(s, response, t + 1000);           // 1 ms of silence
+  t = send(s, request, t + 20000, 3, 2000);  // 2 ms between two characters of the request
+  t = send(s, response, t + 4000);
+  t = send(s, request, t + 20000, 4, 6000);  // a silence longer than t3.5 inside the request
+  t = send(s, response, t + 4000);
+  t = send(s, request, t + 20000);
+  t = send(s, response, t + 4000);  // by the rules
+  s.flush(t + 2'000'000);
+  const std::vector<SniffedTransaction> got = s.take();
+  ASSERT_EQ(got.size(), 5u);
+  EXPECT_EQ(s.forensics(got[0]), std::vector<std::string>{"response glued to the frame before"});
+  EXPECT_EQ(s.forensics(got[1]),
+            std::vector<std::string>{"response after 1.00 ms of silence (< t3.5 3.64 ms)"});
+  EXPECT_EQ(s.forensics(got[2]), std::vector<std::string>{"request gap 2.00 ms inside (> t1.5 1.56 ms)"});
+  EXPECT_EQ(s.forensics(got[3]), std::vector<std::string>{"request split by a silence > t3.5"});
+  EXPECT_TRUE(s.forensics(got[4]).empty());
+}
+
+namespace profile_rows {
+using namespace profile;
+constexpr Named kModes[] = {{0, "normal"}, {1, "indoor"}, {3, "outdoor"}};
+constexpr Row kRows[] = {
+    {.space = Space::holding,
+     .address = 0x0010,
+     .key = "speed",
+     .title = "speed",
+     .role = Role::control,
+     .unit = "%",
+     .range = {0, 100}},
+    {.space = Space::holding,
+     .address = 0x0011,
+     .key = "mode",
+     .title = "mode",
+     .encoding = Encoding::choice,
+     .names = kModes},
+    {.space = Space::holding,
+     .address = 0x0014,
+     .key = "total",
+     .title = "total",
+     .encoding = Encoding::u32,
+     .unit = "kWh",
+     .scale = 100,
+     .order = WordOrder::low_first},
+    {.space = Space::holding,
+     .address = 0x0100,
+     .key = "seg_end",
+     .title = "segment end",
+     .encoding = Encoding::duration,
+     .unit = "s",
+     .range = {0, 5999},
+     .repeat = 4},
+    {.space = Space::input,
+     .address = 0x0000,
+     .key = "temperature",
+     .title = "temperature",
+     .encoding = Encoding::i16,
+     .unit = "degC",
+     .scale = 10},
+};
+constexpr Profile kProfile{.name = "testdev", .title = "a test device", .rows = kRows};
+}  // namespace profile_rows
+
+TEST(ProtocolViews, NamedValuesByTheProfilesRows) {
+  using profile_rows::kProfile;
+  const uint16_t holding[] = {80, 3, 0x0000, 0x3039, 0x0000};
+  // 0x0012..0x0013 belong to no row; total is 0x3039 low first = 123.45 kWh.
+  EXPECT_EQ(profile::named_values(kProfile, profile::Space::holding, 0x0010, holding),
+            "speed = 80 %, mode = outdoor (3), 0x0012 = 0, 0x0013 = 12345, 0x0014 = 0");
+  const uint16_t total[] = {0x3039, 0x0000};
+  EXPECT_EQ(profile::named_values(kProfile, profile::Space::holding, 0x0014, total), "total = 123.45 kWh");
+  const uint16_t segments[] = {1800, 90};
+  EXPECT_EQ(profile::named_values(kProfile, profile::Space::holding, 0x0101, segments),
+            "seg_end[1] = 30:00, seg_end[2] = 01:30");
+  const uint16_t temperature[] = {static_cast<uint16_t>(-55)};
+  EXPECT_EQ(profile::named_values(kProfile, profile::Space::input, 0x0000, temperature),
+            "temperature = -5.5 degC");
+}
+
+TEST(ProtocolViews, SpaceOfFunction) {
+  using profile::Space;
+  EXPECT_EQ(profile::space_of_function(0x01), Space::coil);
+  EXPECT_EQ(profile::space_of_function(0x0F), Space::coil);
+  EXPECT_EQ(profile::space_of_function(0x02), Space::discrete);
+  EXPECT_EQ(profile::space_of_function(0x03), Space::holding);
+  EXPECT_EQ(profile::space_of_function(0x04), Space::input);
+  EXPECT_EQ(profile::space_of_function(0x10), Space::holding);
+}
+
+TEST(ProtocolViews, TransactionsInDeviceTerms) {
+  const profile::UnitProfiles units{{21, &profile_rows::kProfile}};
+  // A unit with a profile: its registers by name, reads and writes.
+  EXPECT_EQ(
+      profile::transaction_text(
+          exchange({21, 0x03, 0x00, 0x10, 0x00, 0x02}, {21, 0x03, 0x04, 0x00, 0x50, 0x00, 0x01}), units),
+      " 21 read holding 0x0010 x2: speed = 80 %, mode = indoor (1)");
+  EXPECT_EQ(
+      profile::transaction_text(exchange({21, 0x10, 0x00, 0x10, 0x00, 0x02, 0x04, 0x00, 0x32, 0x00, 0x00},
+                                         {21, 0x10, 0x00, 0x10, 0x00, 0x02}),
+                                units),
+      " 21 write speed = 50 %, mode = normal (0): ok");
+  EXPECT_EQ(profile::transaction_text(exchange({21, 0x06, 0x00, 0x10, 0x00, 0x78}, {21, 0x86, 0x03}), units),
+            " 21 write speed = 120 % -> exception 03 (illegal data value)");
+  // The Rehand 6600's FC03 answer with a 2-byte count.
+  EXPECT_EQ(profile::transaction_text(
+                exchange({21, 0x04, 0x00, 0x00, 0x00, 0x01}, {21, 0x04, 0x00, 0x02, 0x00, 0xFA}), units),
+            " 21 read input 0x0000 x1: temperature = 25.0 degC");
+  // A unit with none: Modbus terms.
+  EXPECT_EQ(profile::transaction_text(
+                exchange({5, 0x03, 0x00, 0x10, 0x00, 0x02}, {5, 0x03, 0x04, 0, 80, 0, 1}), units),
+            "  5 read holding 0x0010 x2: 80 1");
+  EXPECT_EQ(
+      profile::transaction_text(exchange({5, 0x01, 0x00, 0x00, 0x00, 0x03}, {5, 0x01, 0x01, 0x05}), units),
+      "  5 read coil 0x0000 x3: 101");
+  EXPECT_EQ(profile::transaction_text(
+                exchange({5, 0x05, 0x00, 0x07, 0xFF, 0x00}, {5, 0x05, 0x00, 0x07, 0xFF, 0x00}), units),
+            "  5 write coil 7 = on: ok");
+  EXPECT_EQ(profile::transaction_text(exchange({0, 0x06, 0x00, 0x10, 0x00, 0x01}, {}), units),
+            "all write 0x0010 = 1 (broadcast)");
+  EXPECT_EQ(profile::transaction_text(exchange({7, 0x04, 0x00, 0x00, 0x00, 0x01}, {}), units),
+            "  7 read input 0x0000 x1 -> no response");
+  SniffedTransaction damaged = exchange({7, 0x03, 0x00, 0x00, 0x00, 0x01}, {7, 0x03, 0x02, 0x00, 0x01});
+  damaged.response->crc_ok = false;
+  damaged.response->bytes.back() ^= 0xFF;
+  EXPECT_EQ(profile::transaction_text(damaged, units).substr(0, 44),
+            "  7 read holding 0x0000 x1 -> CRC error (07 ");
+  // A function rtukit does not decode: its bytes.
+  EXPECT_EQ(profile::transaction_text(exchange({7, 0x41, 0x01, 0x02}, {7, 0xC1, 0x01}), units),
+            "  7 FC41 41 01 02 -> exception 01 (illegal function)");
+  SniffedTransaction garbage;
+  garbage.response = SniffedFrame{.bytes = {0x01, 0x02, 0x03}};
+  EXPECT_EQ(profile::transaction_text(garbage, units), "garbage (3 bytes: 01 02 03)");
+}
+
+TEST(ProtocolViews, HexPairs) {
+  const uint8_t bytes[] = {0x15, 0x03, 0x00, 0x21};
+  EXPECT_EQ(profile::hex(bytes), "15 03 00 21");
+  EXPECT_EQ(profile::hex({}), "");
 }
 
 }  // namespace
