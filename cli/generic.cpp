@@ -3,14 +3,10 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
-#include <bit>
-#include <cerrno>
 #include <chrono>
-#include <cmath>
 #include <cstring>
 #include <ctime>
 #include <fstream>
-#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -18,6 +14,7 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "profiles.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
@@ -127,71 +124,12 @@ Address parse_address(const std::string& text, bool one_based) {
   return Address{static_cast<uint16_t>(parse_number(text, "address", 0, 0xFFFF)), {}, {}};
 }
 
-struct ValueType {
-  std::string name = "u16";
-  unsigned registers() const { return name == "u16" || name == "i16" ? 1 : 2; }
-};
-
-// Registers -> one printable value of `type` (word order for 32-bit types).
-nlohmann::json decode_value(const std::string& type, const uint16_t* r, bool low_first) {
-  if (type == "u16") return r[0];
-  if (type == "i16") return static_cast<int16_t>(r[0]);
-  const uint32_t hi = low_first ? r[1] : r[0];
-  const uint32_t lo = low_first ? r[0] : r[1];
-  const uint32_t v = (hi << 16) | lo;
-  if (type == "u32") return v;
-  if (type == "i32") return static_cast<int32_t>(v);
-  return std::bit_cast<float>(v);
+// --type and --word-order as the kit's (profile/typed_value.hpp); CLI11 checked the names.
+profile::ValueType value_type_of(const std::string& type) {
+  return profile::value_type(type).value_or(profile::ValueType::u16);
 }
-
-// One value of `type` -> registers (appended). Throws Failure{kUsage} when
-// the type cannot hold it: integers in decimal must fit the type's range
-// (hex gives the raw bits: 0xFFFF is an i16's -1), a float must be finite
-// and within f32's range.
-void encode_value(const std::string& type, const std::string& text, bool low_first,
-                  std::vector<uint16_t>& out) {
-  uint32_t bits = 0;
-  if (type == "f32") {
-    char* end = nullptr;
-    errno = 0;
-    const double d = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0') throw Failure{kUsage, fmt::format("value '{}' is not a number", text)};
-    if (std::isnan(d) || (std::isinf(d) && errno != ERANGE))
-      throw Failure{kUsage, fmt::format("f32 value {} is not a finite number", text)};
-    if (std::fabs(d) > std::numeric_limits<float>::max())
-      throw Failure{kUsage, fmt::format("f32 value {} is out of range (at most {} either side of 0)", text,
-                                        std::numeric_limits<float>::max())};
-    if (d != 0 && static_cast<float>(d) == 0)
-      throw Failure{kUsage, fmt::format("f32 value {} is too small for f32: it would be written as 0", text)};
-    bits = std::bit_cast<uint32_t>(static_cast<float>(d));
-  } else {
-    const bool wide = type == "u32" || type == "i32";
-    const int64_t all_bits = wide ? 0xFFFFFFFFLL : 0xFFFF;
-    const bool hex = text.starts_with("0x") || text.starts_with("0X");
-    const std::string what = type + " value";
-    int64_t v = 0;
-    if (type[0] == 'u' || hex) {
-      v = parse_number(text, what, 0, all_bits);
-    } else {
-      const int64_t lo = wide ? INT32_MIN : INT16_MIN;
-      const int64_t hi = wide ? INT32_MAX : INT16_MAX;
-      const int64_t n = parse_number(text, what, INT64_MIN / 4, INT64_MAX / 4);
-      if (n < lo || n > hi)
-        throw Failure{kUsage,
-                      fmt::format("{} {} is out of range {}..{} (or 0x{:0{}X}..0x{:X} in hex, the raw bits)",
-                                  what, text, lo, hi, 0, wide ? 8 : 4, all_bits)};
-      v = n;
-    }
-    if (!wide) {
-      out.push_back(static_cast<uint16_t>(v));
-      return;
-    }
-    bits = static_cast<uint32_t>(v);
-  }
-  const auto hi = static_cast<uint16_t>(bits >> 16);
-  const auto lo = static_cast<uint16_t>(bits & 0xFFFF);
-  out.push_back(low_first ? lo : hi);
-  out.push_back(low_first ? hi : lo);
+profile::WordOrder word_order_of(const std::string& order) {
+  return order == "low-first" ? profile::WordOrder::low_first : profile::WordOrder::high_first;
 }
 
 void add_type_options(CLI::App& cmd, std::string& type, std::string& order) {
@@ -256,7 +194,7 @@ ReadPlan plan_read(ReadArgs& a) {
   p.address = where.address;
   p.notation = where.notation;
   p.bits = p.table == Table::coils || p.table == Table::discrete;
-  p.per_value = p.bits ? 1 : ValueType{a.type}.registers();
+  p.per_value = p.bits ? 1 : profile::words_of(value_type_of(a.type));
   const auto max_count = p.bits ? kMaxReadBits : kMaxReadRegisters / p.per_value;
   p.count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
   if (size_t{p.address} + size_t{p.count} * p.per_value > 0x10000)
@@ -297,7 +235,9 @@ Error read_values(Master& master, const ReadPlan& p, const ReadArgs& a, nlohmann
   if (e) return e;
   for (size_t i = 0; i < p.count; ++i) {
     values.push_back(p.bits ? nlohmann::json(flags[i])
-                            : decode_value(a.type, &regs[i * p.per_value], a.order == "low-first"));
+                            : profile::decode_typed(value_type_of(a.type),
+                                                    std::span(regs).subspan(i * p.per_value, p.per_value),
+                                                    word_order_of(a.order)));
   }
   return e;
 }
@@ -446,7 +386,10 @@ int run_write(const WriteArgs& a) {
     if (size_t{address} + bits.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
     count = bits.size();
   } else {
-    for (const auto& v : a.values) encode_value(a.type, v, a.order == "low-first", regs);
+    for (const auto& v : a.values) {
+      const Status e = profile::encode_typed(value_type_of(a.type), v, word_order_of(a.order), regs);
+      if (!e.ok()) throw Failure{kUsage, std::string(e.reason())};
+    }
     if (regs.size() > kMaxWriteRegisters)
       throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
     if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};

@@ -1,7 +1,8 @@
 // Protocol facts and device-terms views that every front-end shares (issue
 // 27: moved out of the CLI): the FC0C comm event bytes and the FC2B/0E
 // object names (core), a sniffed transaction's timing forensics (driver) and
-// the transaction in a device profile's terms (devices/profile).
+// the transaction in a device profile's terms, typed values of registers no
+// row describes (devices/profile).
 #include <gtest/gtest.h>
 
 #include <string>
@@ -12,6 +13,7 @@
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/transaction_text.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/sniffer.hpp"
 
 namespace rtukit {
@@ -226,6 +228,71 @@ TEST(ProtocolViews, TransactionsInDeviceTerms) {
   SniffedTransaction garbage;
   garbage.response = SniffedFrame{.bytes = {0x01, 0x02, 0x03}};
   EXPECT_EQ(profile::transaction_text(garbage, units), "garbage (3 bytes: 01 02 03)");
+}
+
+TEST(ProtocolViews, NumbersAsTyped) {
+  EXPECT_EQ(*profile::parse_number("33", "address", 0, 0xFFFF), 33);
+  EXPECT_EQ(*profile::parse_number("0x21", "address", 0, 0xFFFF), 0x21);
+  EXPECT_EQ(*profile::parse_number("-5", "offset", -10, 10), -5);
+  const Outcome<int64_t> word = profile::parse_number("x1", "address", 0, 0xFFFF);
+  EXPECT_EQ(word.error().code(), Errc::invalid_argument);
+  EXPECT_EQ(word.error().reason(), "address 'x1' is not a number (decimal, or hex as 0x21)");
+  EXPECT_EQ(profile::parse_number("300", "count", 1, 125).error().reason(),
+            "count 300 is out of range 1..125");
+}
+
+TEST(ProtocolViews, TypedValuesFromRegisters) {
+  using profile::ValueType;
+  using profile::WordOrder;
+  const auto decode = [](ValueType t, std::vector<uint16_t> words, WordOrder o = WordOrder::high_first) {
+    return profile::decode_typed(t, words, o);
+  };
+  EXPECT_EQ(profile::value_type("f32"), ValueType::f32);
+  EXPECT_EQ(profile::value_type("f64"), std::nullopt);
+  EXPECT_EQ(profile::words_of(ValueType::i16), 1u);
+  EXPECT_EQ(profile::words_of(ValueType::f32), 2u);
+  EXPECT_EQ(decode(ValueType::u16, {0xFFFF}).dump(), "65535");
+  EXPECT_EQ(decode(ValueType::i16, {0xFFFF}).dump(), "-1");
+  EXPECT_EQ(decode(ValueType::u32, {0x0001, 0x0002}).dump(), "65538");
+  EXPECT_EQ(decode(ValueType::u32, {0x0001, 0x0002}, WordOrder::low_first).dump(), "131073");
+  EXPECT_EQ(decode(ValueType::i32, {0xFFFF, 0xFFFE}).dump(), "-2");
+  EXPECT_EQ(decode(ValueType::f32, {0x3FC0, 0x0000}).dump(), "1.5");
+  EXPECT_EQ(decode(ValueType::f32, {0x0000, 0x3FC0}, WordOrder::low_first).dump(), "1.5");
+  EXPECT_EQ(decode(ValueType::f32, {0xC148, 0x0000}).get<double>(), -12.5);
+}
+
+TEST(ProtocolViews, TypedValuesToRegisters) {
+  using profile::ValueType;
+  using profile::WordOrder;
+  const auto encode = [](ValueType t, std::string_view text, WordOrder o = WordOrder::high_first) {
+    std::vector<uint16_t> out;
+    const Status e = profile::encode_typed(t, text, o, out);
+    return e.ok() ? out : std::vector<uint16_t>{};
+  };
+  const auto refusal = [](ValueType t, std::string_view text) {
+    std::vector<uint16_t> out;
+    const Status e = profile::encode_typed(t, text, WordOrder::high_first, out);
+    EXPECT_TRUE(out.empty());
+    return e.code() == Errc::invalid_argument ? std::string(e.reason()) : std::string("accepted");
+  };
+  EXPECT_EQ(encode(ValueType::u16, "1234"), (std::vector<uint16_t>{1234}));
+  EXPECT_EQ(encode(ValueType::i16, "-1"), (std::vector<uint16_t>{0xFFFF}));
+  EXPECT_EQ(encode(ValueType::i16, "0xFFFF"), (std::vector<uint16_t>{0xFFFF}));  // hex: the raw bits
+  EXPECT_EQ(encode(ValueType::i32, "-2"), (std::vector<uint16_t>{0xFFFF, 0xFFFE}));
+  EXPECT_EQ(encode(ValueType::i32, "-2", WordOrder::low_first), (std::vector<uint16_t>{0xFFFE, 0xFFFF}));
+  EXPECT_EQ(encode(ValueType::u32, "0x12345678"), (std::vector<uint16_t>{0x1234, 0x5678}));
+  EXPECT_EQ(encode(ValueType::f32, "1.5"), (std::vector<uint16_t>{0x3FC0, 0x0000}));
+  EXPECT_EQ(encode(ValueType::f32, "-12.5", WordOrder::low_first), (std::vector<uint16_t>{0x0000, 0xC148}));
+  EXPECT_EQ(refusal(ValueType::i16, "40000"),
+            "i16 value 40000 is out of range -32768..32767 (or 0x0000..0xFFFF in hex, the raw bits)");
+  EXPECT_EQ(refusal(ValueType::u16, "70000"), "u16 value 70000 is out of range 0..65535");
+  EXPECT_EQ(refusal(ValueType::u32, "-1"), "u32 value -1 is out of range 0..4294967295");
+  EXPECT_EQ(refusal(ValueType::f32, "1.5x"), "value '1.5x' is not a number");
+  EXPECT_EQ(refusal(ValueType::f32, "nan"), "f32 value nan is not a finite number");
+  EXPECT_EQ(refusal(ValueType::f32, "1e50"),
+            "f32 value 1e50 is out of range (at most 3.4028235e+38 either side of 0)");
+  EXPECT_EQ(refusal(ValueType::f32, "1e-50"),
+            "f32 value 1e-50 is too small for f32: it would be written as 0");
 }
 
 TEST(ProtocolViews, HexPairs) {
