@@ -6,19 +6,17 @@
 #include <chrono>
 #include <cstring>
 #include <ctime>
-#include <fstream>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "commands.hpp"
 #include "common.hpp"
 #include "profiles.hpp"
+#include "rtukit/devices/profile/bank_file.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -567,72 +565,6 @@ struct SlaveArgs {
   ServerArgs server;
 };
 
-// {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...},
-//  "identification": {"vendor": "ACME", "product_code": "M-3", "revision": "2.1", "0x80": "..."}}
-void load_init(const std::string& path, MemoryBank& bank) {
-  Outcome<std::string> text = io::read_regular_file(path, 16 << 20);  // 4 tables of 64 K values, written out
-  if (!text.ok())
-    throw Failure{text.error().code() == Errc::io_error ? kIoError : kUsage,
-                  fmt::format("cannot read {}: {}", path, text.error().reason())};
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(*text);
-  } catch (const nlohmann::json::exception& e) {
-    throw Failure{kUsage, fmt::format("{}: not valid JSON: {}", path, e.what())};
-  }
-  if (!j.is_object()) throw Failure{kUsage, fmt::format("{}: expected an object of tables", path)};
-  for (const auto& item : j.items()) {
-    const std::string table = item.key();
-    const nlohmann::json& entries = item.value();
-    if (table == "identification") {
-      // {"vendor": "...", "product_code": "...", "revision": "...", "0x80": "..."} (FC11, FC2B/0E)
-      if (!entries.is_object())
-        throw Failure{kUsage, fmt::format("{}: 'identification' must map objects to text", path)};
-      for (const auto& [key, value] : entries.items()) {
-        std::optional<uint8_t> id;
-        for (uint8_t o = 0; device_object_key(o); ++o)
-          if (key == device_object_key(o)) id = o;
-        if (!id) id = static_cast<uint8_t>(parse_number(key, "object id", 0, 255));
-        if (!value.is_string() || value.get<std::string>().empty() || value.get<std::string>().size() > 244)
-          throw Failure{kUsage,
-                        fmt::format("{}: identification '{}' must be text of 1..244 characters", path, key)};
-        bank.objects[*id] = value.get<std::string>();
-      }
-      continue;
-    }
-    if (!entries.is_object())
-      throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
-    for (const auto& [key, value] : entries.items()) {
-      const auto start = static_cast<size_t>(parse_number(key, "address", 0, 0xFFFF));
-      const nlohmann::json list = value.is_array() ? value : nlohmann::json::array({value});
-      for (size_t i = 0; i < list.size(); ++i) {
-        if (!list[i].is_number_integer())
-          throw Failure{kUsage, fmt::format("{}: {}[{}] is not an integer", path, table, key)};
-        const auto v = list[i].get<int64_t>();
-        const size_t at = start + i;
-        auto put = [&](auto& vec, int64_t lo, int64_t hi) {
-          if (at >= vec.size())
-            throw Failure{kUsage, fmt::format("{}: {} address {} past --registers", path, table, at)};
-          if (v < lo || v > hi)
-            throw Failure{kUsage, fmt::format("{}: {} value {} out of range", path, table, v)};
-          vec[at] = static_cast<std::remove_reference_t<decltype(vec[0])>>(v);
-        };
-        if (table == "holding")
-          put(bank.holding, -32768, 0xFFFF);
-        else if (table == "input")
-          put(bank.input, -32768, 0xFFFF);
-        else if (table == "coils")
-          put(bank.coils, 0, 1);
-        else if (table == "discrete")
-          put(bank.discrete, 0, 1);
-        else
-          throw Failure{kUsage,
-                        fmt::format("{}: unknown table '{}' (holding, input, coils, discrete)", path, table)};
-      }
-    }
-  }
-}
-
 int run_slave(const SlaveArgs& a) {
   const io::PortSpec spec = a.link.spec(true);
   const auto size = static_cast<size_t>(parse_number(a.registers, "--registers", 1, 65536));
@@ -644,7 +576,10 @@ int run_slave(const SlaveArgs& a) {
     banks.push_back(std::make_unique<MemoryBank>(size));
     banks.back()->accepted_quirks = a.link.frame_quirks();
     banks.back()->objects[2] = RTUKIT_VERSION;  // the revision, unless --init names one
-    if (!a.init.empty()) load_init(a.init, *banks.back());
+    if (!a.init.empty()) {
+      const Status e = profile::load_bank_file(a.init, *banks.back());
+      if (!e.ok()) throw Failure{e.code() == Errc::io_error ? kIoError : kUsage, std::string(e.reason())};
+    }
     if (engine.add_unit(unit, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
   }

@@ -2,14 +2,16 @@
 // 27: moved out of the CLI): the FC0C comm event bytes and the FC2B/0E
 // object names (core), a sniffed transaction's timing forensics (driver) and
 // the transaction in a device profile's terms, typed values of registers no
-// row describes (devices/profile).
+// row describes, the generic slave's memory from a file (devices/profile).
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/pdu.hpp"
+#include "rtukit/devices/profile/bank_file.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/transaction_text.hpp"
@@ -293,6 +295,52 @@ TEST(ProtocolViews, TypedValuesToRegisters) {
             "f32 value 1e50 is out of range (at most 3.4028235e+38 either side of 0)");
   EXPECT_EQ(refusal(ValueType::f32, "1e-50"),
             "f32 value 1e-50 is too small for f32: it would be written as 0");
+}
+
+TEST(ProtocolViews, AGenericSlavesMemoryFromAFile) {
+  MemoryBank bank(100);
+  const Status ok = profile::load_bank_text("init.json", R"({
+      "holding": {"0x21": [1, 2, -1], "0": 5},
+      "input": {"3": 7},
+      "coils": {"10": [1, 0, 1]},
+      "identification": {"vendor": "ACME", "product_code": "M-3", "vendor_url": "https://acme.example", "0x80": "serial 42"}})",
+                                            bank);
+  ASSERT_TRUE(ok.ok()) << ok.reason();
+  EXPECT_EQ(bank.holding[0], 5);
+  EXPECT_EQ(bank.holding[0x21], 1);
+  EXPECT_EQ(bank.holding[0x22], 2);
+  EXPECT_EQ(bank.holding[0x23], 0xFFFF);
+  EXPECT_EQ(bank.input[3], 7);
+  EXPECT_EQ(bank.coils[10], 1);
+  EXPECT_EQ(bank.coils[11], 0);
+  EXPECT_EQ(bank.coils[12], 1);
+  EXPECT_EQ(bank.objects[0], "ACME");
+  EXPECT_EQ(bank.objects[1], "M-3");
+  EXPECT_EQ(bank.objects[2], "1.0");  // not in the file: the bank's own
+  EXPECT_EQ(bank.objects[3], "https://acme.example");
+  EXPECT_EQ(bank.objects[0x80], "serial 42");
+
+  const auto refusal = [](std::string_view text) {
+    MemoryBank b(100);
+    const Status e = profile::load_bank_text("init.json", text, b);
+    return e.code() == Errc::invalid_argument ? std::string(e.reason()) : std::string("accepted");
+  };
+  EXPECT_EQ(refusal(R"({"holding": {"99": [1, 2]}})"), "init.json: holding address 100 past --registers");
+  EXPECT_EQ(refusal(R"({"coils": {"0": 2}})"), "init.json: coils value 2 out of range");
+  EXPECT_EQ(refusal(R"({"holding": {"0": 70000}})"), "init.json: holding value 70000 out of range");
+  EXPECT_EQ(refusal(R"({"holding": {"0": 1.5}})"), "init.json: holding[0] is not an integer");
+  EXPECT_EQ(refusal(R"({"holding": {"x": 1}})"), "address 'x' is not a number (decimal, or hex as 0x21)");
+  EXPECT_EQ(refusal(R"({"registers": {"0": 1}})"),
+            "init.json: unknown table 'registers' (holding, input, coils, discrete)");
+  EXPECT_EQ(refusal(R"({"identification": {"vendor": ""}})"),
+            "init.json: identification 'vendor' must be text of 1..244 characters");
+  EXPECT_EQ(refusal(R"({"identification": {"serial": "1"}})"),
+            "object id 'serial' is not a number (decimal, or hex as 0x21)");
+  EXPECT_EQ(refusal("[1, 2]"), "init.json: expected an object of tables");
+  EXPECT_EQ(refusal("{").substr(0, 30), "init.json: not valid JSON: [js");
+  const Status missing = profile::load_bank_file("/nonexistent/init.json", *std::make_unique<MemoryBank>(1));
+  EXPECT_EQ(missing.code(), Errc::io_error);
+  EXPECT_EQ(missing.reason().substr(0, 40), "cannot read /nonexistent/init.json: No s");
 }
 
 TEST(ProtocolViews, HexPairs) {
