@@ -2,7 +2,8 @@
 // 27: moved out of the CLI): the FC0C comm event bytes and the FC2B/0E
 // object names (core), a sniffed transaction's timing forensics (driver) and
 // the transaction in a device profile's terms, typed values of registers no
-// row describes, the generic slave's memory from a file (devices/profile).
+// row describes, addresses as typed (40001 notation), the generic slave's
+// memory from a file (devices/profile).
 #include <gtest/gtest.h>
 
 #include <memory>
@@ -11,6 +12,7 @@
 
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/pdu.hpp"
+#include "rtukit/devices/profile/address_notation.hpp"
 #include "rtukit/devices/profile/bank_file.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
@@ -341,6 +343,46 @@ TEST(ProtocolViews, AGenericSlavesMemoryFromAFile) {
   const Status missing = profile::load_bank_file("/nonexistent/init.json", *std::make_unique<MemoryBank>(1));
   EXPECT_EQ(missing.code(), Errc::io_error);
   EXPECT_EQ(missing.reason().substr(0, 40), "cannot read /nonexistent/init.json: No s");
+}
+
+TEST(ProtocolViews, AddressesAsTypedAndShownBack) {
+  using profile::Space;
+  const Outcome<profile::TypedAddress> plain = profile::parse_address("0x21", false);
+  ASSERT_TRUE(plain.ok());
+  EXPECT_EQ(plain->address, 0x21);
+  EXPECT_EQ(plain->space, std::nullopt);
+  EXPECT_EQ(plain->notation.where(plain->address), "33 (0x0021)");
+  EXPECT_TRUE(plain->note.empty());
+
+  const Outcome<profile::TypedAddress> one = profile::parse_address("34", true);
+  EXPECT_EQ(one->address, 33);
+  EXPECT_EQ(one->notation.span(33, 2), "34..35 (0x0021..0x0022)");
+
+  const Outcome<profile::TypedAddress> ref = profile::parse_address("40034", false);
+  ASSERT_TRUE(ref.ok());
+  EXPECT_EQ(ref->address, 33);
+  EXPECT_EQ(ref->space, Space::holding);
+  EXPECT_EQ(ref->notation.where(33), "40034 (0x0021)");
+  EXPECT_EQ(ref->notation.span(9998, 2), "49999..410000 (0x270E..0x270F)");
+  EXPECT_EQ(
+      ref->note,
+      "40034 is taken as a reference: holding register 34 (0-based 33; for address 40034 write 0x9C62)");
+  const Outcome<profile::TypedAddress> coil = profile::parse_address("000010", false);
+  EXPECT_EQ(coil->space, Space::coil);
+  EXPECT_EQ(coil->address, 9);
+  EXPECT_EQ(coil->notation.text(9), "000010");
+  EXPECT_EQ(profile::parse_address("10001", false)->space, Space::discrete);
+  EXPECT_EQ(profile::parse_address("30001", false)->space, Space::input);
+
+  EXPECT_EQ(profile::parse_address("40000", false).error().reason(),
+            "40000 is not a reference: holding registers are 40001..49999 (six digits: 400001..465536); for "
+            "address 40000 write 0x9C40");
+  EXPECT_EQ(profile::parse_address("70000", false).error().reason(),
+            "address 70000 is out of range 0..65535");
+  EXPECT_EQ(profile::parse_address("0", true).error().reason(),
+            "address (1-based) 0 is out of range 1..65536");
+  EXPECT_EQ(profile::space_noun(Space::input, false), "input register");
+  EXPECT_EQ(profile::space_noun(Space::discrete, true), "discrete inputs");
 }
 
 TEST(ProtocolViews, HexPairs) {
