@@ -8,13 +8,14 @@
 #include <algorithm>
 #include <atomic>
 #include <cctype>
-#include <charconv>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <ctime>
 #include <thread>
+
+#include "rtukit/devices/profile/typed_value.hpp"
 
 namespace rtukit::cli {
 
@@ -285,27 +286,9 @@ bool& json_requested() {
 }
 
 int64_t parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max) {
-  std::string_view digits = text;
-  bool negative = false;
-  if (digits.starts_with('-')) {
-    negative = true;
-    digits.remove_prefix(1);
-  }
-  int base = 10;
-  if (digits.starts_with("0x") || digits.starts_with("0X")) {
-    base = 16;
-    digits.remove_prefix(2);
-  }
-  uint64_t value = 0;
-  const auto [ptr, ec] = std::from_chars(digits.data(), digits.data() + digits.size(), value, base);
-  if (digits.empty() || ec != std::errc() || ptr != digits.data() + digits.size() ||
-      value > (uint64_t{1} << 62)) {
-    throw Failure{kUsage, fmt::format("{} '{}' is not a number (decimal, or hex as 0x21)", what, text)};
-  }
-  const int64_t v = negative ? -static_cast<int64_t>(value) : static_cast<int64_t>(value);
-  if (v < min || v > max)
-    throw Failure{kUsage, fmt::format("{} {} is out of range {}..{}", what, text, min, max)};
-  return v;
+  const Outcome<int64_t> n = profile::parse_number(text, what, min, max);
+  if (!n.ok()) throw Failure{kUsage, std::string(n.error().reason())};
+  return *n;
 }
 
 // "1-247", "21", "1,5,21-30" -> the units in order, each once.
@@ -474,12 +457,6 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
     refresh(n);
     std::fflush(stdout);
   }
-}
-
-std::string hex(std::span<const uint8_t> bytes) {
-  std::string s;
-  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
-  return s;
 }
 
 std::string tap_line(const BusCharacter& c) {

@@ -20,6 +20,7 @@
 
 #include "commands.hpp"
 #include "rtukit/devices/profile/schema.hpp"
+#include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
@@ -266,7 +267,7 @@ class LivePanel {
 std::string clock_hms();
 
 /// Bytes as "15 03 00 21" (request logs).
-std::string hex(std::span<const uint8_t> bytes);
+using profile::hex;
 
 /// The bus tap format (docs/bus-tools.md), one character a line:
 /// "start_us end_us sender sent heard [flags]", sender -1 for a stray byte,

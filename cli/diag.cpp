@@ -40,28 +40,10 @@ constexpr CounterName kCounters[] = {
     {Diagnostic::return_diagnostic_register, "diagnostic_register", "diagnostic register"},
 };
 
-// One FC0C event byte in words (Modbus over serial line, 6.4).
+// One FC0C event byte in words (core: comm_event_text).
 std::string event_text(uint8_t e) {
-  if (e == 0x00) return "communications restart";
-  if (e == 0x04) return "entered listen-only mode";
-  std::vector<std::string> parts;
-  if (e & 0x80) {
-    parts.push_back((e & 0x40) ? "received broadcast" : "received");
-    if (e & 0x02) parts.push_back("communication error");
-    if (e & 0x10) parts.push_back("character overrun");
-    if (e & 0x20) parts.push_back("in listen-only mode");
-  } else if (e & 0x40) {
-    parts.push_back("sent");
-    if (e & 0x01) parts.push_back("read exception");
-    if (e & 0x02) parts.push_back("server abort exception");
-    if (e & 0x04) parts.push_back("busy exception");
-    if (e & 0x08) parts.push_back("NAK exception");
-    if (e & 0x10) parts.push_back("write timeout");
-    if (e & 0x20) parts.push_back("in listen-only mode");
-  } else {
-    return fmt::format("event 0x{:02X}", e);
-  }
-  return fmt::format("{}", fmt::join(parts, ", "));
+  char buffer[kCommEventTextSize];
+  return std::string(comm_event_text(e, buffer));
 }
 
 int run_diag(const DiagArgs& a) {
@@ -165,27 +147,6 @@ struct IdentArgs {
   bool json = false;
 };
 
-const char* object_name(uint8_t id) {
-  switch (id) {
-    case 0:
-      return "vendor";
-    case 1:
-      return "product code";
-    case 2:
-      return "revision";
-    case 3:
-      return "vendor URL";
-    case 4:
-      return "product name";
-    case 5:
-      return "model name";
-    case 6:
-      return "application";
-    default:
-      return nullptr;
-  }
-}
-
 int run_ident(const IdentArgs& a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (unit == kBroadcast)
@@ -228,15 +189,11 @@ int run_ident(const IdentArgs& a) {
   if (Error e = master->read_device_identification(unit, access, id,
                                                    a.object >= 0 ? static_cast<uint8_t>(a.object) : 0))
     fail(e, "FC2B/0E read device identification from " + where);
-  const unsigned level = id.conformity & 0x7F;
-  const char* level_name = level == 1   ? "basic"
-                           : level == 2 ? "regular"
-                           : level == 3 ? "extended"
-                                        : "unknown";
+  const char* level_name = conformity_level_name(id.conformity);
   doc["conformity"] = level_name;
   Json objects = Json::object();
   for (const auto& [oid, text] : id.objects) {
-    const char* name = object_name(oid);
+    const char* name = device_object_name(oid);
     objects[name ? std::string(name) : fmt::format("0x{:02X}", oid)] = text;
   }
   doc["objects"] = objects;
@@ -245,7 +202,7 @@ int run_ident(const IdentArgs& a) {
     return kOk;
   }
   for (const auto& [oid, text] : id.objects) {
-    const char* name = object_name(oid);
+    const char* name = device_object_name(oid);
     fmt::print("{:<13} {}\n", name ? std::string(name) : fmt::format("0x{:02X}", oid), text);
   }
   fmt::print("(conformity: {}{})\n", level_name, id.conformity & 0x80 ? ", individual access" : "");

@@ -3,195 +3,68 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
-#include <bit>
-#include <cerrno>
 #include <chrono>
-#include <cmath>
 #include <cstring>
 #include <ctime>
-#include <fstream>
-#include <limits>
-#include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 
 #include "commands.hpp"
 #include "common.hpp"
 #include "profiles.hpp"
+#include "rtukit/devices/profile/address_notation.hpp"
+#include "rtukit/devices/profile/bank_file.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::cli {
 namespace {
 
-enum class Table { holding, input, coils, discrete };
-const char* table_name(Table t) {
+using profile::Space;
+// An address as typed (0-based, --one-based, 40001 reference) and how to show it back: the kit's.
+using Address = profile::TypedAddress;
+using Notation = profile::AddressNotation;
+
+// A table as output and JSON name it ("table": "coils").
+const char* table_name(Space t) {
   switch (t) {
-    case Table::holding:
+    case Space::holding:
       return "holding";
-    case Table::input:
+    case Space::input:
       return "input";
-    case Table::coils:
+    case Space::coil:
       return "coils";
-    case Table::discrete:
+    case Space::discrete:
       return "discrete";
   }
   return "?";
 }
 
-// One entry of a table, singular or plural: "holding register", "coils".
-std::string table_noun(Table t, bool plural) {
-  const char* noun = t == Table::holding ? "holding register"
-                     : t == Table::input ? "input register"
-                     : t == Table::coils ? "coil"
-                                         : "discrete input";
-  return plural ? std::string(noun) + "s" : noun;
+// JSON: "address" counted as typed (1-based for a reference, whose prefix is
+// the "table" key), and "pdu_address", the address on the wire, when that
+// count is not 0-based.
+void put_address(Json& doc, const Notation& notation, size_t pdu) {
+  const bool zero_based = notation.kind == Notation::Kind::zero_based;
+  doc["address"] = zero_based ? pdu : pdu + 1;
+  if (!zero_based) doc["pdu_address"] = pdu;
 }
-
-// How an address was typed: 0-based ("33", "0x21"), 1-based with
-// --one-based, or in the reference notation (40001 = holding register 1,
-// 0-based 0; 30001 input register, 10001 discrete input, 00001 coil; six
-// digits likewise: 400001). Output shows addresses the same way, with the
-// address on the wire (0-based) in hex beside them: "40003 (0x0002)".
-struct Notation {
-  enum class Kind { zero_based, one_based, reference } kind = Kind::zero_based;
-  char prefix = '4';        ///< reference: 0 coils, 1 discrete inputs, 3 input, 4 holding registers
-  bool six_digits = false;  ///< reference: typed as 400001 rather than 40001
-
-  /// The wire address `pdu` as the user writes it.
-  std::string text(size_t pdu) const {
-    if (kind == Kind::zero_based) return std::to_string(pdu);
-    if (kind == Kind::one_based) return std::to_string(pdu + 1);
-    // Five digits reach 9999; past it, six.
-    if (!six_digits && pdu + 1 <= 9999) return fmt::format("{}{:04}", prefix, pdu + 1);
-    return fmt::format("{}{:05}", prefix, pdu + 1);
-  }
-  /// "40003 (0x0002)".
-  std::string where(size_t pdu) const { return fmt::format("{} (0x{:04X})", text(pdu), pdu); }
-  /// "40003..40004 (0x0002..0x0003)", or where(first) for one.
-  std::string span(size_t first, size_t count) const {
-    if (count <= 1) return where(first);
-    const size_t last = first + count - 1;
-    return fmt::format("{}..{} (0x{:04X}..0x{:04X})", text(first), text(last), first, last);
-  }
-  /// JSON: "address" counted as typed (1-based for a reference, whose
-  /// prefix is the "table" key), and "pdu_address", the address on the wire,
-  /// when that count is not 0-based.
-  void put(Json& doc, size_t pdu) const {
-    doc["address"] = kind == Kind::zero_based ? pdu : pdu + 1;
-    if (kind != Kind::zero_based) doc["pdu_address"] = pdu;
-  }
-};
-
-struct Address {
-  uint16_t address = 0;
-  std::optional<Table> table;
-  Notation notation;
-};
 
 Address parse_address(const std::string& text, bool one_based) {
-  const bool reference = (text.size() == 5 || text.size() == 6) &&
-                         text.find_first_not_of("0123456789") == std::string::npos &&
-                         (text[0] == '0' || text[0] == '1' || text[0] == '3' || text[0] == '4');
-  if (reference) {
-    const char prefix = text[0];
-    const bool six = text.size() == 6;
-    const long n = std::stol(text.substr(1));
-    const Table t = prefix == '4'   ? Table::holding
-                    : prefix == '3' ? Table::input
-                    : prefix == '1' ? Table::discrete
-                                    : Table::coils;
-    // The same digits as a plain address, when they are one: what to type to mean it.
-    const long plain = std::stol(text);
-    const bool is_plain = one_based ? plain >= 1 && plain <= 0x10000 : plain <= 0xFFFF;
-    const std::string as_plain = is_plain ? fmt::format("for address {} write 0x{:04X}", plain, plain) : "";
-    if (n < 1 || n > (six ? 65536 : 9999)) {
-      const std::string five_range = fmt::format("{0}0001..{0}9999", prefix);
-      const std::string six_range = fmt::format("{0}00001..{0}65536", prefix);
-      throw Failure{
-          kUsage, fmt::format("{} is not a reference: {} are {} ({} digits: {}){}", text, table_noun(t, true),
-                              six ? six_range : five_range, six ? "five" : "six",
-                              six ? five_range : six_range, as_plain.empty() ? "" : "; " + as_plain)};
-    }
-    // Never silent: the same digits may also be a plain address.
-    fmt::print(stderr, "note: {} is taken as a reference: {} {} (0-based {}{})\n", text, table_noun(t, false),
-               n, n - 1, as_plain.empty() ? "" : "; " + as_plain);
-    return Address{static_cast<uint16_t>(n - 1), t, Notation{Notation::Kind::reference, prefix, six}};
-  }
-  if (one_based)
-    return Address{static_cast<uint16_t>(parse_number(text, "address (1-based)", 1, 0x10000) - 1),
-                   {},
-                   Notation{Notation::Kind::one_based}};
-  return Address{static_cast<uint16_t>(parse_number(text, "address", 0, 0xFFFF)), {}, {}};
+  Outcome<Address> at = profile::parse_address(text, one_based);
+  if (!at.ok()) throw Failure{kUsage, std::string(at.error().reason())};
+  // Never silent: the same digits may also be a plain address.
+  if (!at->note.empty()) fmt::print(stderr, "note: {}\n", at->note);
+  return *at;
 }
 
-struct ValueType {
-  std::string name = "u16";
-  unsigned registers() const { return name == "u16" || name == "i16" ? 1 : 2; }
-};
-
-// Registers -> one printable value of `type` (word order for 32-bit types).
-nlohmann::json decode_value(const std::string& type, const uint16_t* r, bool low_first) {
-  if (type == "u16") return r[0];
-  if (type == "i16") return static_cast<int16_t>(r[0]);
-  const uint32_t hi = low_first ? r[1] : r[0];
-  const uint32_t lo = low_first ? r[0] : r[1];
-  const uint32_t v = (hi << 16) | lo;
-  if (type == "u32") return v;
-  if (type == "i32") return static_cast<int32_t>(v);
-  return std::bit_cast<float>(v);
+// --type and --word-order as the kit's (profile/typed_value.hpp); CLI11 checked the names.
+profile::ValueType value_type_of(const std::string& type) {
+  return profile::value_type(type).value_or(profile::ValueType::u16);
 }
-
-// One value of `type` -> registers (appended). Throws Failure{kUsage} when
-// the type cannot hold it: integers in decimal must fit the type's range
-// (hex gives the raw bits: 0xFFFF is an i16's -1), a float must be finite
-// and within f32's range.
-void encode_value(const std::string& type, const std::string& text, bool low_first,
-                  std::vector<uint16_t>& out) {
-  uint32_t bits = 0;
-  if (type == "f32") {
-    char* end = nullptr;
-    errno = 0;
-    const double d = std::strtod(text.c_str(), &end);
-    if (text.empty() || *end != '\0') throw Failure{kUsage, fmt::format("value '{}' is not a number", text)};
-    if (std::isnan(d) || (std::isinf(d) && errno != ERANGE))
-      throw Failure{kUsage, fmt::format("f32 value {} is not a finite number", text)};
-    if (std::fabs(d) > std::numeric_limits<float>::max())
-      throw Failure{kUsage, fmt::format("f32 value {} is out of range (at most {} either side of 0)", text,
-                                        std::numeric_limits<float>::max())};
-    if (d != 0 && static_cast<float>(d) == 0)
-      throw Failure{kUsage, fmt::format("f32 value {} is too small for f32: it would be written as 0", text)};
-    bits = std::bit_cast<uint32_t>(static_cast<float>(d));
-  } else {
-    const bool wide = type == "u32" || type == "i32";
-    const int64_t all_bits = wide ? 0xFFFFFFFFLL : 0xFFFF;
-    const bool hex = text.starts_with("0x") || text.starts_with("0X");
-    const std::string what = type + " value";
-    int64_t v = 0;
-    if (type[0] == 'u' || hex) {
-      v = parse_number(text, what, 0, all_bits);
-    } else {
-      const int64_t lo = wide ? INT32_MIN : INT16_MIN;
-      const int64_t hi = wide ? INT32_MAX : INT16_MAX;
-      const int64_t n = parse_number(text, what, INT64_MIN / 4, INT64_MAX / 4);
-      if (n < lo || n > hi)
-        throw Failure{kUsage,
-                      fmt::format("{} {} is out of range {}..{} (or 0x{:0{}X}..0x{:X} in hex, the raw bits)",
-                                  what, text, lo, hi, 0, wide ? 8 : 4, all_bits)};
-      v = n;
-    }
-    if (!wide) {
-      out.push_back(static_cast<uint16_t>(v));
-      return;
-    }
-    bits = static_cast<uint32_t>(v);
-  }
-  const auto hi = static_cast<uint16_t>(bits >> 16);
-  const auto lo = static_cast<uint16_t>(bits & 0xFFFF);
-  out.push_back(low_first ? lo : hi);
-  out.push_back(low_first ? hi : lo);
+profile::WordOrder word_order_of(const std::string& order) {
+  return order == "low-first" ? profile::WordOrder::low_first : profile::WordOrder::high_first;
 }
 
 void add_type_options(CLI::App& cmd, std::string& type, std::string& order) {
@@ -222,7 +95,7 @@ struct ReadArgs {
 // What one read asks for, from the read/poll arguments.
 struct ReadPlan {
   UnitId unit{1};
-  Table table = Table::holding;
+  Space table = Space::holding;
   uint16_t address = 0;
   uint16_t count = 1;
   unsigned per_value = 1;
@@ -239,24 +112,24 @@ ReadPlan plan_read(ReadArgs& a) {
   p.unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   if (a.holding + a.input + a.coils + a.discrete > 1)
     throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
-  p.table = a.input ? Table::input : a.coils ? Table::coils : a.discrete ? Table::discrete : Table::holding;
+  p.table = a.input ? Space::input : a.coils ? Space::coil : a.discrete ? Space::discrete : Space::holding;
   if (p.unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
     throw Failure{kUsage,
                   fmt::format("unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be "
                               "read (name a unit 1..{})",
                               kMaxSerialUnit)};
   const Address where = parse_address(a.address, a.one_based);
-  if (where.table && *where.table != p.table) {
+  if (where.space && *where.space != p.table) {
     if (a.holding + a.input + a.coils + a.discrete > 0)
       throw Failure{kUsage,
                     fmt::format("address {} names the {} registers; drop the table option or the prefix",
-                                a.address, table_name(*where.table))};
-    p.table = *where.table;
+                                a.address, table_name(*where.space))};
+    p.table = *where.space;
   }
   p.address = where.address;
   p.notation = where.notation;
-  p.bits = p.table == Table::coils || p.table == Table::discrete;
-  p.per_value = p.bits ? 1 : ValueType{a.type}.registers();
+  p.bits = p.table == Space::coil || p.table == Space::discrete;
+  p.per_value = p.bits ? 1 : profile::words_of(value_type_of(a.type));
   const auto max_count = p.bits ? kMaxReadBits : kMaxReadRegisters / p.per_value;
   p.count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
   if (size_t{p.address} + size_t{p.count} * p.per_value > 0x10000)
@@ -265,9 +138,9 @@ ReadPlan plan_read(ReadArgs& a) {
 }
 
 std::string read_context(const ReadPlan& p, const Master& master) {
-  const uint8_t function = p.table == Table::holding ? 0x03
-                           : p.table == Table::input ? 0x04
-                           : p.table == Table::coils ? 0x01
+  const uint8_t function = p.table == Space::holding ? 0x03
+                           : p.table == Space::input ? 0x04
+                           : p.table == Space::coil  ? 0x01
                                                      : 0x02;
   return fmt::format("FC{:02X} {} at {} x{} from unit {} on {}", function, function_name(function),
                      p.notation.where(p.address), p.bits ? p.count : p.count * p.per_value, p.unit.value,
@@ -280,16 +153,16 @@ Error read_values(Master& master, const ReadPlan& p, const ReadArgs& a, nlohmann
   std::vector<uint8_t> flags(p.bits ? p.count : 0);
   Error e;
   switch (p.table) {
-    case Table::holding:
+    case Space::holding:
       e = master.read_holding_registers(p.unit, p.address, regs);
       break;
-    case Table::input:
+    case Space::input:
       e = master.read_input_registers(p.unit, p.address, regs);
       break;
-    case Table::coils:
+    case Space::coil:
       e = master.read_coils(p.unit, p.address, flags);
       break;
-    case Table::discrete:
+    case Space::discrete:
       e = master.read_discrete_inputs(p.unit, p.address, flags);
       break;
   }
@@ -297,7 +170,9 @@ Error read_values(Master& master, const ReadPlan& p, const ReadArgs& a, nlohmann
   if (e) return e;
   for (size_t i = 0; i < p.count; ++i) {
     values.push_back(p.bits ? nlohmann::json(flags[i])
-                            : decode_value(a.type, &regs[i * p.per_value], a.order == "low-first"));
+                            : profile::decode_typed(value_type_of(a.type),
+                                                    std::span(regs).subspan(i * p.per_value, p.per_value),
+                                                    word_order_of(a.order)));
   }
   return e;
 }
@@ -322,7 +197,7 @@ int run_read(ReadArgs a) {
   if (a.json) {
     Json out = json_document({}, p.unit.value);
     out["table"] = table_name(p.table);
-    p.notation.put(out, p.address);
+    put_address(out, p.notation, p.address);
     out["type"] = p.bits ? "bit" : a.type;
     out["values"] = values;
     print_json(out);
@@ -364,7 +239,7 @@ int run_poll(PollArgs args) {
     const std::string time = line["time"];
     if (args.output == "jsonl") {
       line["table"] = table_name(p.table);
-      p.notation.put(line, p.address);
+      put_address(line, p.notation, p.address);
       line["type"] = p.bits ? "bit" : a.type;
       if (last) {
         line["ok"] = false;
@@ -422,13 +297,13 @@ int run_write(const WriteArgs& a) {
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
   const UnitId unit = parse_unit(a.unit, tcp);
   const Address where = parse_address(a.address, a.one_based);
-  const Table table = a.coils ? Table::coils : Table::holding;
-  if (where.table == Table::coils && !a.coils)
+  const Space table = a.coils ? Space::coil : Space::holding;
+  if (where.space == Space::coil && !a.coils)
     throw Failure{kUsage, fmt::format("address {} names a coil: add --coils to write coils", a.address)};
-  if (where.table && *where.table != table)
+  if (where.space && *where.space != table)
     throw Failure{kUsage,
                   fmt::format("address {} names the {} registers, which cannot be written{}", a.address,
-                              table_name(*where.table), a.coils ? "" : " (holding registers are 4xxxx)")};
+                              table_name(*where.space), a.coils ? "" : " (holding registers are 4xxxx)")};
   const uint16_t address = where.address;
   // Every value is checked and encoded before the port is opened: a value
   // the type cannot hold is a usage error, whatever the link.
@@ -446,7 +321,10 @@ int run_write(const WriteArgs& a) {
     if (size_t{address} + bits.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
     count = bits.size();
   } else {
-    for (const auto& v : a.values) encode_value(a.type, v, a.order == "low-first", regs);
+    for (const auto& v : a.values) {
+      const Status e = profile::encode_typed(value_type_of(a.type), v, word_order_of(a.order), regs);
+      if (!e.ok()) throw Failure{kUsage, std::string(e.reason())};
+    }
     if (regs.size() > kMaxWriteRegisters)
       throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
     if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
@@ -479,7 +357,7 @@ int run_write(const WriteArgs& a) {
   if (e) fail(e, context);
   // What was written, in one line: "wrote 1234 to holding register 40001 (0x0000) of unit 1".
   const std::string target =
-      fmt::format("{} {}", table_noun(table, count > 1), where.notation.span(address, count));
+      fmt::format("{} {}", profile::space_noun(table, count > 1), where.notation.span(address, count));
   const bool broadcast = unit == kBroadcast && !tcp;
   const std::string to_whom =
       broadcast ? "of every unit (a broadcast: no unit answers it)" : fmt::format("of unit {}", unit.value);
@@ -492,7 +370,7 @@ int run_write(const WriteArgs& a) {
   if (a.json) {
     Json out = json_document({}, unit.value);
     out["table"] = a.coils ? "coils" : "holding";
-    where.notation.put(out, address);
+    put_address(out, where.notation, address);
     out["written"] = a.values.size();
     out["text"] = text;
     print_json(out);
@@ -518,9 +396,9 @@ int run_readwrite(const ReadWriteArgs& a) {
   // Both addresses as any address is typed (0-based, --one-based, 40001); FC17 is for holding registers.
   const auto holding = [&](const std::string& text) {
     const Address at = parse_address(text, a.one_based);
-    if (at.table && *at.table != Table::holding)
+    if (at.space && *at.space != Space::holding)
       throw Failure{kUsage, fmt::format("{} names the {} registers: FC17 reads and writes holding registers",
-                                        text, table_name(*at.table))};
+                                        text, table_name(*at.space))};
     return at;
   };
   const Address read_where = holding(a.read_address);
@@ -547,10 +425,10 @@ int run_readwrite(const ReadWriteArgs& a) {
     Json doc = json_document({}, unit.value);
     doc["table"] = "holding";
     Json written;
-    write_where.notation.put(written, write_at);
+    put_address(written, write_where.notation, write_at);
     written["count"] = values.size();
     doc["written"] = written;
-    read_where.notation.put(doc, read_at);
+    put_address(doc, read_where.notation, read_at);
     doc["values"] = out;
     print_json(doc);
     return kOk;
@@ -624,74 +502,6 @@ struct SlaveArgs {
   ServerArgs server;
 };
 
-// {"holding": {"0x21": [1,2,3], "0": 5}, "input": {...}, "coils": {...}, "discrete": {...},
-//  "identification": {"vendor": "ACME", "product_code": "M-3", "revision": "2.1", "0x80": "..."}}
-void load_init(const std::string& path, MemoryBank& bank) {
-  Outcome<std::string> text = io::read_regular_file(path, 16 << 20);  // 4 tables of 64 K values, written out
-  if (!text.ok())
-    throw Failure{text.error().code() == Errc::io_error ? kIoError : kUsage,
-                  fmt::format("cannot read {}: {}", path, text.error().reason())};
-  nlohmann::json j;
-  try {
-    j = nlohmann::json::parse(*text);
-  } catch (const nlohmann::json::exception& e) {
-    throw Failure{kUsage, fmt::format("{}: not valid JSON: {}", path, e.what())};
-  }
-  if (!j.is_object()) throw Failure{kUsage, fmt::format("{}: expected an object of tables", path)};
-  for (const auto& item : j.items()) {
-    const std::string table = item.key();
-    const nlohmann::json& entries = item.value();
-    if (table == "identification") {
-      // {"vendor": "...", "product_code": "...", "revision": "...", "0x80": "..."} (FC11, FC2B/0E)
-      if (!entries.is_object())
-        throw Failure{kUsage, fmt::format("{}: 'identification' must map objects to text", path)};
-      const std::map<std::string, uint8_t> names{{"vendor", 0},     {"product_code", 1}, {"revision", 2},
-                                                 {"vendor_url", 3}, {"product_name", 4}, {"model_name", 5},
-                                                 {"application", 6}};
-      for (const auto& [key, value] : entries.items()) {
-        const auto named = names.find(key);
-        const auto id = named != names.end() ? named->second
-                                             : static_cast<uint8_t>(parse_number(key, "object id", 0, 255));
-        if (!value.is_string() || value.get<std::string>().empty() || value.get<std::string>().size() > 244)
-          throw Failure{kUsage,
-                        fmt::format("{}: identification '{}' must be text of 1..244 characters", path, key)};
-        bank.objects[id] = value.get<std::string>();
-      }
-      continue;
-    }
-    if (!entries.is_object())
-      throw Failure{kUsage, fmt::format("{}: '{}' must map addresses to values", path, table)};
-    for (const auto& [key, value] : entries.items()) {
-      const auto start = static_cast<size_t>(parse_number(key, "address", 0, 0xFFFF));
-      const nlohmann::json list = value.is_array() ? value : nlohmann::json::array({value});
-      for (size_t i = 0; i < list.size(); ++i) {
-        if (!list[i].is_number_integer())
-          throw Failure{kUsage, fmt::format("{}: {}[{}] is not an integer", path, table, key)};
-        const auto v = list[i].get<int64_t>();
-        const size_t at = start + i;
-        auto put = [&](auto& vec, int64_t lo, int64_t hi) {
-          if (at >= vec.size())
-            throw Failure{kUsage, fmt::format("{}: {} address {} past --registers", path, table, at)};
-          if (v < lo || v > hi)
-            throw Failure{kUsage, fmt::format("{}: {} value {} out of range", path, table, v)};
-          vec[at] = static_cast<std::remove_reference_t<decltype(vec[0])>>(v);
-        };
-        if (table == "holding")
-          put(bank.holding, -32768, 0xFFFF);
-        else if (table == "input")
-          put(bank.input, -32768, 0xFFFF);
-        else if (table == "coils")
-          put(bank.coils, 0, 1);
-        else if (table == "discrete")
-          put(bank.discrete, 0, 1);
-        else
-          throw Failure{kUsage,
-                        fmt::format("{}: unknown table '{}' (holding, input, coils, discrete)", path, table)};
-      }
-    }
-  }
-}
-
 int run_slave(const SlaveArgs& a) {
   const io::PortSpec spec = a.link.spec(true);
   const auto size = static_cast<size_t>(parse_number(a.registers, "--registers", 1, 65536));
@@ -703,7 +513,10 @@ int run_slave(const SlaveArgs& a) {
     banks.push_back(std::make_unique<MemoryBank>(size));
     banks.back()->accepted_quirks = a.link.frame_quirks();
     banks.back()->objects[2] = RTUKIT_VERSION;  // the revision, unless --init names one
-    if (!a.init.empty()) load_init(a.init, *banks.back());
+    if (!a.init.empty()) {
+      const Status e = profile::load_bank_file(a.init, *banks.back());
+      if (!e.ok()) throw Failure{e.code() == Errc::io_error ? kIoError : kUsage, std::string(e.reason())};
+    }
     if (engine.add_unit(unit, *banks.back()))
       throw Failure{kUsage, fmt::format("unit {} given twice", unit.value)};
   }

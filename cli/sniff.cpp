@@ -22,7 +22,7 @@
 #include "common.hpp"
 #include "profiles.hpp"
 #include "rtukit/core/pdu.hpp"
-#include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/profile/transaction_text.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
 #include "rtukit/io/atomic_file.hpp"
@@ -51,8 +51,7 @@ double seconds(uint64_t us) {
   return static_cast<double>(us) / 1e6;
 }
 
-// Which profile speaks for which unit.
-using UnitProfiles = std::map<uint8_t, const profile::Profile*>;
+using profile::UnitProfiles;
 
 UnitProfiles unit_profiles(const SniffArgs& a) {
   UnitProfiles out;
@@ -76,121 +75,6 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
     const auto [file, unit] = split(m, "--map");
     const profile::Profile& p = load_map_or_fail(file);
     out[device_unit(unit, p).value] = &p;
-  }
-  return out;
-}
-
-profile::Space space_of(uint8_t function) {
-  switch (function) {
-    case 0x01:
-    case 0x05:
-    case 0x0F:
-      return profile::Space::coil;
-    case 0x02:
-      return profile::Space::discrete;
-    case 0x04:
-      return profile::Space::input;
-    default:
-      return profile::Space::holding;
-  }
-}
-
-// "speed = 80 %, run_time = 30:00" for registers from `address` on.
-std::string named_values(const profile::Profile& p, profile::Space space, uint16_t address,
-                         std::span<const uint16_t> words) {
-  const profile::RegisterMap map(p.rows);
-  std::string out;
-  for (size_t i = 0; i < words.size();) {
-    const profile::Slot s = map.at(space, static_cast<uint16_t>(address + i));
-    if (!s || s.word != 0 || i + s.row->words() > words.size()) {
-      out += fmt::format("{}0x{:04X} = {}", out.empty() ? "" : ", ", address + i, words[i]);
-      ++i;
-      continue;
-    }
-    const int64_t raw = profile::RegisterMap::decode(*s.row, words.subspan(i, s.row->words()));
-    const std::string key =
-        s.row->repeat > 1 ? fmt::format("{}[{}]", s.row->key, s.index) : std::string(s.row->key);
-    out += fmt::format("{}{} = {}", out.empty() ? "" : ", ", key, profile::format_value(*s.row, raw));
-    i += s.row->words();
-  }
-  return out;
-}
-
-std::vector<uint16_t> be_words(std::span<const uint8_t> bytes) {
-  std::vector<uint16_t> w;
-  for (size_t i = 0; i + 1 < bytes.size(); i += 2)
-    w.push_back(static_cast<uint16_t>(bytes[i] << 8 | bytes[i + 1]));
-  return w;
-}
-
-// One transaction in words a user of the device reads.
-std::string describe(const SniffedTransaction& t, const UnitProfiles& profiles) {
-  if (!t.request)
-    return fmt::format("garbage ({} bytes: {})", t.response->bytes.size(), hex(t.response->bytes));
-  const SniffedFrame& q = *t.request;
-  const uint8_t unit = q.unit(), function = q.function();
-  const auto found = profiles.find(unit);
-  const profile::Profile* p = found == profiles.end() ? nullptr : found->second;
-  const Result<Request> req = decode_request(q.pdu(), FrameQuirks{.fc10_without_byte_count = true});
-  std::string what;
-  if (!req.ok()) {
-    what = fmt::format("FC{:02X} {}", function, hex(q.pdu()));
-  } else if (function == 0x05 || function == 0x06 || function == 0x0F || function == 0x10) {
-    std::vector<uint16_t> values;
-    if (function == 0x06) values = {req->value};
-    if (function == 0x10) values = be_words(req->data);
-    if (p && (function == 0x06 || function == 0x10))
-      what = "write " + named_values(*p, profile::Space::holding, req->address, values);
-    else if (function == 0x05)
-      what = fmt::format("write coil {} = {}", req->address, req->value ? "on" : "off");
-    else if (function == 0x0F)
-      what = fmt::format("write {} coils at {}", req->quantity, req->address);
-    else
-      what = fmt::format("write 0x{:04X} = {}", req->address, fmt::join(values, " "));
-  } else {
-    what = fmt::format("read {} 0x{:04X} x{}", profile::space_name(space_of(function)), req->address,
-                       req->quantity);
-  }
-  std::string line = fmt::format("{:>3} {}", unit == 0 ? std::string("all") : std::to_string(unit), what);
-  if (t.broadcast()) return line + " (broadcast)";
-  if (!t.response) return line + " -> no response";
-  const SniffedFrame& r = *t.response;
-  if (!r.crc_ok) return line + fmt::format(" -> CRC error ({})", hex(r.bytes));
-  if (r.function() & 0x80) {
-    const uint8_t code = r.pdu().size() >= 2 ? r.pdu()[1] : 0;
-    return line + fmt::format(" -> exception {:02X} ({})", code, Error::exception(code).name());
-  }
-  if (req.ok() && function >= 0x01 && function <= 0x04 && r.pdu().size() >= 2) {
-    std::span<const uint8_t> data = r.pdu().subspan(2);
-    if (function == 0x03 || function == 0x04) {
-      if (data.size() == static_cast<size_t>(req->quantity) * 2 + 1)
-        data = data.subspan(1);  // 2-byte count form
-      const std::vector<uint16_t> words = be_words(data);
-      return line + ": " +
-             (p ? named_values(*p, space_of(function), req->address, words)
-                : fmt::format("{}", fmt::join(words, " ")));
-    }
-    std::string bits;
-    for (unsigned i = 0; i < req->quantity; ++i) bits += (data[i / 8] >> (i % 8)) & 1 ? '1' : '0';
-    return line + ": " + bits;
-  }
-  return line + ": ok";
-}
-
-std::vector<std::string> flags_of(const SniffedTransaction& t, const Sniffer& s) {
-  std::vector<std::string> out;
-  for (const auto* f : {t.request ? &*t.request : nullptr, t.response ? &*t.response : nullptr}) {
-    if (!f) continue;
-    const char* side = f == &*t.request ? "request" : "response";
-    if (f->glued && f->gap_before_us == 0)
-      out.push_back(fmt::format("{} glued to the frame before", side));
-    else if (f->glued)
-      out.push_back(fmt::format("{} after {:.2f} ms of silence (< t3.5 {:.2f} ms)", side,
-                                ms(f->gap_before_us), ms(s.t35_us())));
-    if (f->split) out.push_back(fmt::format("{} split by a silence > t3.5", side));
-    if (f->t15_violation)
-      out.push_back(fmt::format("{} gap {:.2f} ms inside (> t1.5 {:.2f} ms)", side, ms(f->max_char_gap_us),
-                                ms(s.t15_us())));
   }
   return out;
 }
@@ -255,8 +139,8 @@ void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, PcapWr
       if (t.request) pcap->frame(*t.request, true);
       if (t.response) pcap->frame(*t.response, !t.request);
     }
-    const std::string text = describe(t, profiles);
-    const std::vector<std::string> flags = flags_of(t, s);
+    const std::string text = profile::transaction_text(t, profiles);
+    const std::vector<std::string> flags = s.forensics(t);
     if (a.json) {
       Json j = json_document();
       j["t_us"] = first.start_us - std::min(origin, first.start_us);
@@ -463,7 +347,8 @@ void add_sniff_command(CLI::App& app, Action& action) {
       [](CLI::App& cmd, SniffArgs& a) {
         cmd.add_option("--bus", a.bus, "listen to a running `rtukit bus --name NAME` (its exact timing)");
         cmd.add_option("--tap", a.tap, "read a bus tap file (rtukit bus --tap) instead of a port");
-        cmd.add_option("--device", a.devices, "decode a unit as a registered device (rtukit devices): inverjet@21 (repeatable)");
+        cmd.add_option("--device", a.devices,
+                       "decode a unit as a registered device (rtukit devices): inverjet@21 (repeatable)");
         cmd.add_option("--map", a.maps, "decode a unit with a register-map file: meter.yaml@3 (repeatable)");
         cmd.add_flag("--json", a.json, "one JSON document per transaction (docs/json.md)");
         cmd.add_option("--pcap", a.pcap,

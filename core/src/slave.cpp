@@ -171,14 +171,15 @@ void SlaveEngine::log_event(uint8_t event) noexcept {
 void SlaveEngine::note_crc_errors(uint32_t n) noexcept {
   for (uint32_t i = 0; i < n; ++i) {
     ++line_.bus_crc_errors;
-    log_event(
-        static_cast<uint8_t>(0x80 | 0x02 | (listen_only_ ? 0x20 : 0)));  // receive event, communication error
+    log_event(static_cast<uint8_t>(comm_event::kReceive | comm_event::kReceiveCommError |
+                                   (listen_only_ ? comm_event::kListenOnly : 0)));
   }
 }
 
 void SlaveEngine::note_overrun() noexcept {
   ++line_.bus_overruns;
-  log_event(static_cast<uint8_t>(0x80 | 0x10 | (listen_only_ ? 0x20 : 0)));  // receive event, overrun
+  log_event(static_cast<uint8_t>(comm_event::kReceive | comm_event::kReceiveOverrun |
+                                 (listen_only_ ? comm_event::kListenOnly : 0)));
 }
 
 #if RTUKIT_CORE_DIAGNOSTICS
@@ -216,7 +217,7 @@ Errc SlaveEngine::diagnose(const Request& r, std::span<uint8_t> out, size_t* len
       diagnostic_register_ = 0;
       event_count_ = 0;
       if (r.value == 0xFF00) event_head_ = event_len_ = 0;  // FF00 also clears the event log
-      log_event(0x00);
+      log_event(comm_event::kRestart);
       if (was_listening)
         *silent = true;  // the specification: no answer when it leaves listen-only mode
       else
@@ -228,7 +229,7 @@ Errc SlaveEngine::diagnose(const Request& r, std::span<uint8_t> out, size_t* len
       return Errc::ok;
     case Diagnostic::force_listen_only:
       listen_only_ = true;
-      log_event(0x04);
+      log_event(comm_event::kEnteredListenOnly);
       *silent = true;
       return Errc::ok;
     case Diagnostic::clear_counters:
@@ -368,7 +369,8 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
   }
   ++counters_.requests;
   ++line_.server_messages;
-  log_event(static_cast<uint8_t>(0x80 | (listen_only_ ? 0x20 : 0) | (broadcast ? 0x40 : 0)));
+  log_event(static_cast<uint8_t>(comm_event::kReceive | (listen_only_ ? comm_event::kListenOnly : 0) |
+                                 (broadcast ? comm_event::kReceiveBroadcast : 0)));
   // Quirks apply on RTU links only; a broadcast is decoded with every hosted unit's.
   const FrameQuirks quirks = framing != Framing::rtu ? FrameQuirks{}
                              : broadcast             ? this->quirks()
@@ -416,7 +418,10 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
     if (e == Errc::server_device_busy) ++line_.server_busy;
     const auto code = static_cast<uint8_t>(e);
     // Send event: read exception (01-03), server abort (04), busy (05-06), NAK (07).
-    log_event(static_cast<uint8_t>(0x40 | (code <= 3 ? 0x01 : code == 4 ? 0x02 : code <= 6 ? 0x04 : 0x08)));
+    log_event(static_cast<uint8_t>(comm_event::kSend | (code <= 3   ? comm_event::kSendReadException
+                                                        : code == 4 ? comm_event::kSendAbortException
+                                                        : code <= 6 ? comm_event::kSendBusyException
+                                                                    : comm_event::kSendNakException)));
     return {encode_exception_response(pdu[0], e, out), bank};
   };
   // The function first: a function the bank does not implement is 01 even
@@ -484,7 +489,7 @@ SlaveEngine::Handled SlaveEngine::handle_pdu(UnitId unit, std::span<const uint8_
     return {0, bank};
   }
   ++counters_.responses;
-  log_event(0x40);  // send event, no exception
+  log_event(comm_event::kSend);  // no exception
 #if RTUKIT_CORE_DIAGNOSTICS
   // The comm event counter counts completed requests, not the polls of it.
   if (request->function != fc(Function::get_comm_event_counter) &&

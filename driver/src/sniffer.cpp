@@ -1,6 +1,7 @@
 #include "rtukit/driver/sniffer.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/pdu.hpp"
@@ -209,6 +210,27 @@ void Sniffer::count(const SniffedTransaction& t) {
   }
   if (t.request && !t.response && !t.broadcast()) ++summary_.no_response;
   if (t.turnaround_us) summary_.turnarounds_us.push_back(*t.turnaround_us);
+}
+
+std::vector<std::string> Sniffer::forensics(const SniffedTransaction& t) const {
+  std::vector<std::string> out;
+  const auto ms = [](uint64_t us) { return static_cast<double>(us) / 1000.0; };
+  const auto add = [&](const char* side, const char* format, double a = 0, double b = 0) {
+    char text[160];
+    const int n = std::snprintf(text, sizeof text, format, a, b);
+    out.push_back(std::string(side) + " " + std::string(text, n > 0 ? static_cast<size_t>(n) : 0));
+  };
+  for (const auto& [frame, side] : {std::pair{&t.request, "request"}, std::pair{&t.response, "response"}}) {
+    if (!*frame) continue;
+    const SniffedFrame& f = **frame;
+    if (f.glued && f.gap_before_us == 0)
+      add(side, "glued to the frame before");
+    else if (f.glued)
+      add(side, "after %.2f ms of silence (< t3.5 %.2f ms)", ms(f.gap_before_us), ms(t35_us_));
+    if (f.split) add(side, "split by a silence > t3.5");
+    if (f.t15_violation) add(side, "gap %.2f ms inside (> t1.5 %.2f ms)", ms(f.max_char_gap_us), ms(t15_us_));
+  }
+  return out;
 }
 
 }  // namespace rtukit

@@ -370,6 +370,12 @@ nlohmann::ordered_json entry_json(const Row& row, int64_t raw) {
   return out;
 }
 
+std::string hex(std::span<const uint8_t> bytes) {
+  std::string s;
+  for (uint8_t b : bytes) s += fmt::format("{}{:02X}", s.empty() ? "" : " ", b);
+  return s;
+}
+
 std::string_view space_name(Space s) noexcept {
   switch (s) {
     case Space::holding:

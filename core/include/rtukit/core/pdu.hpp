@@ -20,6 +20,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string_view>
 
 #include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
@@ -88,6 +89,24 @@ inline constexpr uint8_t kMeiDeviceIdentification = 0x0E;
 /// FC2B/0E read device id codes.
 enum class DeviceIdAccess : uint8_t { basic = 1, regular = 2, extended = 3, individual = 4 };
 
+/// FC0C comm event bytes (Modbus over serial line, 6.4), as the slave engine
+/// logs them and a master reads them back.
+namespace comm_event {
+inline constexpr uint8_t kRestart = 0x00;             ///< communications restart (FC08 01)
+inline constexpr uint8_t kEnteredListenOnly = 0x04;   ///< entered listen-only mode (FC08 04)
+inline constexpr uint8_t kReceive = 0x80;             ///< a receive event, with:
+inline constexpr uint8_t kReceiveCommError = 0x02;    ///<   communication error (a CRC error)
+inline constexpr uint8_t kReceiveOverrun = 0x10;      ///<   character overrun
+inline constexpr uint8_t kReceiveBroadcast = 0x40;    ///<   the request was a broadcast
+inline constexpr uint8_t kSend = 0x40;                ///< a send event (bit 7 clear), with:
+inline constexpr uint8_t kSendReadException = 0x01;   ///<   exception 01..03
+inline constexpr uint8_t kSendAbortException = 0x02;  ///<   exception 04 (server abort)
+inline constexpr uint8_t kSendBusyException = 0x04;   ///<   exception 05..06 (busy)
+inline constexpr uint8_t kSendNakException = 0x08;    ///<   exception 07 (NAK)
+inline constexpr uint8_t kSendWriteTimeout = 0x10;    ///<   write timeout
+inline constexpr uint8_t kListenOnly = 0x20;          ///< receive or send: in listen-only mode
+}  // namespace comm_event
+
 constexpr uint8_t fc(Function f) noexcept {
   return static_cast<uint8_t>(f);
 }
@@ -141,6 +160,28 @@ bool is_read_function(uint8_t function) noexcept;
 bool is_broadcastable(uint8_t function) noexcept;
 /// "read holding registers", ..., or "unknown function".
 const char* function_name(uint8_t function) noexcept;
+
+#if RTUKIT_CORE_DIAGNOSTICS
+/// Room for any comm_event_text.
+inline constexpr size_t kCommEventTextSize = 112;
+/// One FC0C event byte in words, written into `buffer`: "communications
+/// restart", "entered listen-only mode", "received broadcast, communication
+/// error", "sent, busy exception, in listen-only mode"; "event 0x05" for a
+/// byte that is none of these.
+std::string_view comm_event_text(uint8_t event, std::span<char, kCommEventTextSize> buffer) noexcept;
+#endif
+#if RTUKIT_CORE_IDENTIFICATION
+/// FC2B/0E: the standard objects 0..6 (basic and regular categories):
+/// "vendor", "product code", "revision", "vendor URL", "product name",
+/// "model name", "application"; nullptr for any other id.
+const char* device_object_name(uint8_t id) noexcept;
+/// The same objects as keys (files, JSON): "vendor", "product_code",
+/// "revision", "vendor_url", "product_name", "model_name", "application"; nullptr for any other id.
+const char* device_object_key(uint8_t id) noexcept;
+/// FC2B/0E's conformity level (bit 7, individual access, ignored): "basic",
+/// "regular", "extended", or "unknown".
+const char* conformity_level_name(uint8_t conformity) noexcept;
+#endif
 
 // ---- byte order helpers: Modbus data is big-endian ----
 constexpr uint16_t load_be16(const uint8_t* p) noexcept {

@@ -1,8 +1,8 @@
 // rtukit driver: listen-only Modbus RTU analysis, sans-IO. Bytes seen on a
 // line, each with its time, become frames; frames become transactions
 // (a request paired with its response, or with none), each with timing
-// forensics. `rtukit sniff` prints them in device terms; tests feed it
-// recorded sessions.
+// forensics. `rtukit sniff` prints them in device terms
+// (profile/transaction_text.hpp); tests feed it recorded sessions.
 //
 // Frames are cut at silences of t3.5 (the Modbus serial line rule). A piece
 // whose CRC fails is tried glued to the next piece (a frame split by a gap
@@ -19,6 +19,7 @@
 #include <cstdint>
 #include <optional>
 #include <span>
+#include <string>
 #include <vector>
 
 namespace rtukit {
@@ -95,6 +96,12 @@ class Sniffer {
 
   uint32_t t15_us() const noexcept { return t15_us_; }
   uint32_t t35_us() const noexcept { return t35_us_; }
+
+  /// What the timing of `t` broke, in words, request first: "request glued
+  /// to the frame before", "response after 1.20 ms of silence (< t3.5 4.01
+  /// ms)", "request split by a silence > t3.5", "response gap 2.10 ms inside
+  /// (> t1.5 1.72 ms)". Empty when the frames kept the rules.
+  std::vector<std::string> forensics(const SniffedTransaction& t) const;
 
  private:
   struct Piece {

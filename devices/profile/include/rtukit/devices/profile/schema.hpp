@@ -30,6 +30,24 @@ enum class Space : uint8_t {
   discrete,  ///< FC02, read only
 };
 
+/// The space a data function reads or writes: coils for 01, 05 and 0F,
+/// discrete inputs for 02, input registers for 04, holding registers for
+/// any other (03, 06, 10, 16, 17).
+constexpr Space space_of_function(uint8_t function) noexcept {
+  switch (function) {
+    case 0x01:
+    case 0x05:
+    case 0x0F:
+      return Space::coil;
+    case 0x02:
+      return Space::discrete;
+    case 0x04:
+      return Space::input;
+    default:
+      return Space::holding;
+  }
+}
+
 /// What a register is for. Drives defaults (access) and how programs treat it.
 enum class Role : uint8_t {
   status,    ///< the device reports it; read only

@@ -5,6 +5,7 @@
 
 #include <cstdint>
 #include <nlohmann/json_fwd.hpp>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -62,6 +63,9 @@ size_t valid_utf8_prefix(std::string_view s) noexcept;
 /// Outside text quoted in a reason: at most `max` bytes of whole UTF-8
 /// characters, bytes that are not UTF-8 as '?' (safe to put into JSON).
 std::string excerpt(std::string_view s, size_t max);
+
+/// Bytes as hex pairs: "15 03 00 21" (frames in logs and descriptions).
+std::string hex(std::span<const uint8_t> bytes);
 
 /// mm:ss for a number of seconds ("30:00", "99:59").
 std::string format_mm_ss(unsigned seconds);
