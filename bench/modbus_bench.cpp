@@ -5,10 +5,14 @@
 // neither server is measured with its own client. Rows: FC03 reading 4 and
 // 125 registers, over a socat pty pair and over TCP loopback with 1 and 16
 // connections. Prints requests/s, p50 and p99 latency and the ratio
-// ours/libmodbus (requests/s).
-// Usage: modbus_bench [--seconds S] [--rounds R] [--markdown]
+// ours/libmodbus (requests/s), and each server's CPU time per request
+// (user + system, from /proc/PID/stat over the round).
+// Usage: modbus_bench [--seconds S] [--rounds R] [--markdown] [--rtukit PATH]
+//   --rtukit: the rtukit binary to serve (another build's, to compare two
+//   versions of our server against the same libmodbus in one run).
 #include <modbus/modbus.h>
 #include <sys/utsname.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -17,6 +21,8 @@
 #include <cstring>
 #include <ctime>
 #include <fstream>
+#include <iterator>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -33,7 +39,24 @@ struct Figures {
   double p50_us = 0;
   double p99_us = 0;
   long errors = 0;
+  double cpu_us = 0;  ///< the server's CPU time per request
 };
+
+// User + system CPU time of process `pid` so far, in seconds.
+double cpu_seconds(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const size_t close = text.rfind(')');  // the command name may hold spaces
+  if (close == std::string::npos) return 0;
+  std::istringstream fields(text.substr(close + 2));
+  std::string f;
+  unsigned long utime = 0, stime = 0;
+  for (int i = 3; i <= 15 && fields >> f; ++i) {
+    if (i == 14) utime = std::stoul(f);
+    if (i == 15) stime = std::stoul(f);
+  }
+  return double(utime + stime) / double(::sysconf(_SC_CLK_TCK));
+}
 
 struct Scenario {
   std::string transport;  // "pty" or "tcp"
@@ -138,9 +161,17 @@ std::pair<Figures, Figures> measure(const Scenario& s, double seconds, int round
   Server ours = start("rtukit", s, dir_ours, rtukit, libmodbus_server);
   Server theirs = start("libmodbus", s, dir_theirs, rtukit, libmodbus_server);
   std::vector<Figures> a, b;
+  const double each = seconds / rounds;
+  const auto measured = [&](Server& server) {
+    const double cpu_before = cpu_seconds(server.process->pid());
+    Figures f = load(s, server.target, each);
+    const double requests = f.rps * each;
+    if (requests > 0) f.cpu_us = (cpu_seconds(server.process->pid()) - cpu_before) * 1e6 / requests;
+    return f;
+  };
   for (int r = 0; r < rounds; ++r) {
-    a.push_back(load(s, ours.target, seconds / rounds));
-    b.push_back(load(s, theirs.target, seconds / rounds));
+    a.push_back(measured(ours));
+    b.push_back(measured(theirs));
   }
   auto median = [](std::vector<Figures> v) {
     std::sort(v.begin(), v.end(), [](const Figures& x, const Figures& y) { return x.rps < y.rps; });
@@ -166,12 +197,13 @@ int main(int argc, char** argv) {
   double seconds = 6.0;
   int rounds = 5;
   bool markdown = false;
+  std::string rtukit = RTUKIT_BIN;
   for (int i = 1; i < argc; ++i) {
     if (std::string(argv[i]) == "--seconds" && i + 1 < argc) seconds = std::stod(argv[++i]);
     if (std::string(argv[i]) == "--rounds" && i + 1 < argc) rounds = std::max(1, std::stoi(argv[++i]));
     if (std::string(argv[i]) == "--markdown") markdown = true;
+    if (std::string(argv[i]) == "--rtukit" && i + 1 < argc) rtukit = argv[++i];
   }
-  const std::string rtukit = RTUKIT_BIN;
   const std::string libmodbus_server = LIBMODBUS_SERVER_BIN;
   const std::vector<Scenario> scenarios = {
       {"pty", 1, 4}, {"pty", 1, 125}, {"tcp", 1, 4}, {"tcp", 1, 125}, {"tcp", 16, 4}, {"tcp", 16, 125},
@@ -188,22 +220,24 @@ int main(int argc, char** argv) {
       LIBMODBUS_VERSION_STRING);
   if (markdown) {
     std::printf(
-        "| transport | conns | FC03 regs | rtukit req/s | p50 us | p99 us | libmodbus req/s | p50 us | p99 "
-        "us | ratio |\n");
-    std::printf("|---|---|---|---|---|---|---|---|---|---|\n");
+        "| transport | conns | FC03 regs | rtukit req/s | p50 us | p99 us | CPU us/req | libmodbus req/s | "
+        "p50 us | p99 us | CPU us/req | ratio |\n");
+    std::printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   } else {
-    std::printf("%-9s %5s %4s | %12s %8s %8s | %12s %8s %8s | %5s\n", "transport", "conns", "regs",
-                "rtukit req/s", "p50 us", "p99 us", "libmb req/s", "p50 us", "p99 us", "ratio");
+    std::printf("%-9s %5s %4s | %12s %8s %8s %7s | %12s %8s %8s %7s | %5s\n", "transport", "conns", "regs",
+                "rtukit req/s", "p50 us", "p99 us", "cpu us", "libmb req/s", "p50 us", "p99 us", "cpu us",
+                "ratio");
   }
   int below = 0;
   for (const auto& s : scenarios) {
     const auto [ours, theirs] = measure(s, seconds, rounds, rtukit, libmodbus_server);
     const double ratio = theirs.rps > 0 ? ours.rps / theirs.rps : 0;
     if (ratio < 1.0) ++below;
-    const char* fmt = markdown ? "| %s | %d | %d | %.0f | %.0f | %.0f | %.0f | %.0f | %.0f | %.2f |\n"
-                               : "%-9s %5d %4d | %12.0f %8.0f %8.0f | %12.0f %8.0f %8.0f | %5.2f\n";
+    const char* fmt =
+        markdown ? "| %s | %d | %d | %.0f | %.0f | %.0f | %.1f | %.0f | %.0f | %.0f | %.1f | %.2f |\n"
+                 : "%-9s %5d %4d | %12.0f %8.0f %8.0f %7.1f | %12.0f %8.0f %8.0f %7.1f | %5.2f\n";
     std::printf(fmt, s.transport.c_str(), s.connections, s.registers, ours.rps, ours.p50_us, ours.p99_us,
-                theirs.rps, theirs.p50_us, theirs.p99_us, ratio);
+                ours.cpu_us, theirs.rps, theirs.p50_us, theirs.p99_us, theirs.cpu_us, ratio);
     if (ours.errors || theirs.errors)
       std::printf("  (errors: rtukit %ld, libmodbus %ld)\n", ours.errors, theirs.errors);
     std::fflush(stdout);
