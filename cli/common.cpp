@@ -257,14 +257,6 @@ Json json_document(std::string_view device, int unit) {
   return j;
 }
 
-Json json_quantity(Json value, std::string_view unit, std::string text) {
-  Json j;
-  j["value"] = std::move(value);
-  if (!unit.empty()) j["unit"] = unit;
-  j["text"] = std::move(text);
-  return j;
-}
-
 void print_json(const Json& document) {
   fmt::print("{}\n", document.dump());
 }

@@ -228,7 +228,7 @@ using Json = nlohmann::ordered_json;
 /// "ok": true, "device": name (absent when empty), "unit": n (absent when < 0)}.
 Json json_document(std::string_view device = {}, int unit = -1);
 /// A derived value with a unit, shaped like a register entry: {"value", "unit", "text"}.
-Json json_quantity(Json value, std::string_view unit, std::string text);
+using profile::quantity_json;
 /// Prints one document on one line.
 void print_json(const Json& document);
 /// True when the command line asked for --json (set by main()): a failure is

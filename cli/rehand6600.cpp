@@ -161,7 +161,7 @@ int run_watch(const ChairArgs& a) {
     if (a.json) {
       Json j = snapshot_document(s, unit_of(a), a.mph);
       j["values"]["active_error"] =
-          json_quantity(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
+          quantity_json(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
       if (link_down) {
         j["ok"] = false;
         j["error"] = {{"kind", "no_response"}, {"message", why}, {"since", down_since}};
@@ -241,7 +241,7 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   if (a.json) {
     done(a, "hold", text,
          {{std::string(r.key), profile::entry_json(r, value)},
-          {"held", json_quantity(std::round(held * 10) / 10, "s", fmt::format("{:.1f} s", held))}});
+          {"held", quantity_json(std::round(held * 10) / 10, "s", fmt::format("{:.1f} s", held))}});
     return code;
   }
   fmt::print("{}\n", text);

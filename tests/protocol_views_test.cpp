@@ -19,6 +19,7 @@
 #include "rtukit/devices/profile/transaction_text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/sniffer.hpp"
+#include "sniffer_feed.hpp"
 
 namespace rtukit {
 namespace {
@@ -82,17 +83,8 @@ SniffedTransaction exchange(const std::vector<uint8_t>& request, const std::vect
   return t;
 }
 
-constexpr uint64_t kChar = 1041;  // us, one character at 9600 8N1
-
-uint64_t send(Sniffer& s, const std::vector<uint8_t>& bytes, uint64_t t, size_t gap_after = 0,
-              uint64_t gap_us = 0) {
-  for (size_t i = 0; i < bytes.size(); ++i) {
-    t += kChar;
-    if (gap_after && i == gap_after) t += gap_us;
-    s.feed(bytes[i], t);
-  }
-  return t;
-}
+using test::kChar;
+using test::send;
 
 TEST(ProtocolViews, SnifferForensicsInWords) {
   Sniffer s({.baud = 9600, .bits_per_char = 10});  // t1.5 1.56 ms, t3.5 3.64 ms

@@ -11,6 +11,7 @@
 
 #include "process.hpp"
 #include "rtukit/core/crc.hpp"
+#include "sniffer_feed.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;
@@ -19,7 +20,6 @@ using namespace std::chrono_literals;
 namespace {
 
 const std::string kRtukit = RTUKIT_BIN;
-constexpr uint64_t kChar = 1041;  // us, one character at 9600 8N1
 
 std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
   const uint16_t crc = crc16(b);
@@ -31,17 +31,6 @@ std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
 // The Inverjet seed's read of mode/state/speed/time and an answer.
 const std::vector<uint8_t> kRequest = {0x15, 0x03, 0x00, 0x21, 0x00, 0x04, 0x17, 0x17};
 const std::vector<uint8_t> kResponse = with_crc({0x15, 0x03, 0x08, 0, 0, 0, 8, 0, 80, 0x07, 0x08});
-
-// Feeds `bytes` back to back from `t` (each byte's end time); returns the end of the last.
-uint64_t send(Sniffer& s, const std::vector<uint8_t>& bytes, uint64_t t, size_t gap_after = 0,
-              uint64_t gap_us = 0) {
-  for (size_t i = 0; i < bytes.size(); ++i) {
-    t += kChar;
-    if (gap_after && i == gap_after) t += gap_us;
-    s.feed(bytes[i], t);
-  }
-  return t;
-}
 
 }  // namespace
 

@@ -358,6 +358,14 @@ nlohmann::json value_json(const Row& row, int64_t raw) {
   }
 }
 
+nlohmann::ordered_json quantity_json(nlohmann::ordered_json value, std::string_view unit, std::string text) {
+  nlohmann::ordered_json q;
+  q["value"] = std::move(value);
+  if (!unit.empty()) q["unit"] = unit;
+  q["text"] = std::move(text);
+  return q;
+}
+
 nlohmann::ordered_json entry_json(const Row& row, int64_t raw) {
   nlohmann::ordered_json out;
   out["value"] = value_json(row, raw);

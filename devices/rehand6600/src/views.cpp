@@ -13,15 +13,6 @@ namespace {
 
 using Json = nlohmann::ordered_json;
 
-// {"value", "unit"?, "text"}: a computed entry beside the register entries (docs/json.md).
-Json quantity(Json value, std::string_view unit, std::string text) {
-  Json q;
-  q["value"] = std::move(value);
-  if (!unit.empty()) q["unit"] = unit;
-  q["text"] = std::move(text);
-  return q;
-}
-
 uint16_t actuator(const Snapshot& s, unsigned i) {
   return s[static_cast<uint16_t>(reg::kActuatorPosition + i)];
 }
@@ -104,11 +95,13 @@ Json snapshot_values(const Snapshot& s, bool mph) {
     const int64_t raw = r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
     values[std::string(r.key)] = profile::entry_json(r, raw);
   }
-  if (mph) values["speed_mph"] = quantity(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
+  if (mph)
+    values["speed_mph"] =
+        profile::quantity_json(std::round(s.speed_mph() * 10) / 10, "mph", speed_text(s, true));
   const std::string error = s.error_code() ? error_text(s.error_code()) : std::string();
-  values["error_text"] = quantity(error, {}, error.empty() ? "none" : error);
+  values["error_text"] = profile::quantity_json(error, {}, error.empty() ? "none" : error);
   const std::string advice = s.error_code() ? error_advice(s.error_code()) : std::string();
-  values["error_advice"] = quantity(advice, {}, advice.empty() ? "none" : advice);
+  values["error_advice"] = profile::quantity_json(advice, {}, advice.empty() ? "none" : advice);
   return values;
 }
 

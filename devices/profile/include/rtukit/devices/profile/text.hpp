@@ -54,6 +54,10 @@ nlohmann::json value_json(const Row& row, int64_t raw);
 /// mm:ss durations), "text": format_value, "raw": the register value}.
 nlohmann::ordered_json entry_json(const Row& row, int64_t raw);
 
+/// A value computed from registers, shaped like a register entry beside
+/// them: {"value", "unit" (absent when empty), "text"}.
+nlohmann::ordered_json quantity_json(nlohmann::ordered_json value, std::string_view unit, std::string text);
+
 /// Length of the longest prefix of `s` that is valid UTF-8 in whole
 /// characters (no overlong forms, surrogates or code points past U+10FFFF):
 /// s.size() when all of it is. Text that goes into JSON must be valid UTF-8
