@@ -321,15 +321,16 @@ int run_config(const JetArgs& a, const std::string& what, const std::string& val
   const std::string shown = profile::format_value(*c->row, c->raw);
   const std::string_view key = c->key;
   Session s(a);
+  const uint8_t was = s.jet.unit().value;  // the client follows an address change
   s.check(ij::write_config(s.jet, *c), key == "pairing" ? std::string("set pairing")
                                        : key == "mask"  ? fmt::format("set control mask {}", c->value)
                                                         : fmt::format("set {} {}", key, c->value));
   const std::string text =
-      key == "address" ? fmt::format("address {} -> {} (talk to --unit {} from now on)", s.jet.unit().value,
-                                     c->value, c->value)
-      : key == "baud"  ? fmt::format("baud rate {} (talk at --baud {} from now on)", c->value, c->value)
-      : key == "mask"  ? fmt::format("control mask {}", shown)
-                       : fmt::format("pairing {}", shown);
+      key == "address"
+          ? fmt::format("address {} -> {} (talk to --unit {} from now on)", was, c->value, c->value)
+      : key == "baud" ? fmt::format("baud rate {} (talk at --baud {} from now on)", c->value, c->value)
+      : key == "mask" ? fmt::format("control mask {}", shown)
+                      : fmt::format("pairing {}", shown);
   done(a, s, fmt::format("config {}", key), text,
        {{std::string(c->row->key), profile::entry_json(*c->row, c->raw)}});
   return kOk;

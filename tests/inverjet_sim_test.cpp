@@ -535,6 +535,7 @@ TEST_F(InverjetSim, SettingsSurviveARestart_AddressMovesAfterTheResponse) {
   EXPECT_TRUE(sim_->wait_for_output("baud rate changed to 19200")) << sim_->output();
   RunResult r = cli({"inverjet", "config", "address", "12"});  // seed 3.2.1: answered from 21
   ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("address 21 -> 12 (talk to --unit 12 from now on)"), std::string::npos) << r.output;
   EXPECT_EQ(cli({"inverjet", "status", "--timeout", "200"}).code, 3);  // 21 is gone
   EXPECT_EQ(status("12")["work_mode"], 0);
 
