@@ -224,6 +224,18 @@ TEST(ProtocolViews, TransactionsInDeviceTerms) {
   SniffedTransaction garbage;
   garbage.response = SniffedFrame{.bytes = {0x01, 0x02, 0x03}};
   EXPECT_EQ(profile::transaction_text(garbage, units), "garbage (3 bytes: 01 02 03)");
+  // Functions without a register range are named, not shown as "read holding 0x0000 x0".
+  EXPECT_EQ(profile::transaction_text(
+                exchange({9, 0x08, 0x00, 0x00, 0x12, 0x34}, {9, 0x08, 0x00, 0x00, 0x12, 0x34}), units),
+            "  9 diagnostics, sub-function 0x0000: ok");
+  EXPECT_EQ(profile::transaction_text(exchange({9, 0x11}, {9, 0x11, 0x02, 0x01, 0xFF}), units),
+            "  9 report server id: ok");
+  EXPECT_EQ(profile::transaction_text(exchange({9, 0x2B, 0x0E, 0x01, 0x00}, {9, 0xAB, 0x01}), units),
+            "  9 read device identification, code 1, object 0x00 -> exception 01 (illegal function)");
+  EXPECT_EQ(profile::transaction_text(exchange({9, 0x16, 0x00, 0x04, 0x00, 0xF2, 0x00, 0x25},
+                                               {9, 0x16, 0x00, 0x04, 0x00, 0xF2, 0x00, 0x25}),
+                                      units),
+            "  9 mask write 0x0004 AND 0x00F2 OR 0x0025: ok");
 }
 
 TEST(ProtocolViews, NumbersAsTyped) {

@@ -62,9 +62,22 @@ std::string transaction_text(const SniffedTransaction& t, const UnitProfiles& pr
       what = fmt::format("write {} coils at {}", req->quantity, req->address);
     else
       what = fmt::format("write 0x{:04X} = {}", req->address, fmt::join(values, " "));
-  } else {
+  } else if (is_read_function(function)) {
     what = fmt::format("read {} 0x{:04X} x{}", space_name(space_of_function(function)), req->address,
                        req->quantity);
+  } else if (function == 0x16) {
+    what = fmt::format("mask write 0x{:04X} AND 0x{:04X} OR 0x{:04X}", req->address, req->and_mask,
+                       req->or_mask);
+  } else if (function == 0x17) {
+    what = fmt::format("write 0x{:04X} = {}, then read holding 0x{:04X} x{}", req->write_address,
+                       fmt::join(be_words(req->data), " "), req->address, req->quantity);
+  } else if (function == 0x08) {
+    what = fmt::format("diagnostics, sub-function 0x{:04X}", req->sub_function);
+  } else if (function == 0x2B) {
+    what =
+        fmt::format("read device identification, code {}, object 0x{:02X}", req->read_code, req->object_id);
+  } else {
+    what = function_name(function);  // 07, 0B, 0C, 11: no fields
   }
   std::string line = fmt::format("{:>3} {}", unit == 0 ? std::string("all") : std::to_string(unit), what);
   if (t.broadcast()) return line + " (broadcast)";
