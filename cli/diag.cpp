@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "rtukit/devices/profile/protocol_text.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -40,10 +41,9 @@ constexpr CounterName kCounters[] = {
     {Diagnostic::return_diagnostic_register, "diagnostic_register", "diagnostic register"},
 };
 
-// One FC0C event byte in words (core: comm_event_text).
+// One FC0C event byte in words.
 std::string event_text(uint8_t e) {
-  char buffer[kCommEventTextSize];
-  return std::string(comm_event_text(e, buffer));
+  return profile::comm_event_text(e);
 }
 
 int run_diag(const DiagArgs& a) {
@@ -189,11 +189,11 @@ int run_ident(const IdentArgs& a) {
   if (Error e = master->read_device_identification(unit, access, id,
                                                    a.object >= 0 ? static_cast<uint8_t>(a.object) : 0))
     fail(e, "FC2B/0E read device identification from " + where);
-  const char* level_name = conformity_level_name(id.conformity);
+  const char* level_name = profile::conformity_level_name(id.conformity);
   doc["conformity"] = level_name;
   Json objects = Json::object();
   for (const auto& [oid, text] : id.objects) {
-    const char* name = device_object_name(oid);
+    const char* name = profile::device_object_name(oid);
     objects[name ? std::string(name) : fmt::format("0x{:02X}", oid)] = text;
   }
   doc["objects"] = objects;
@@ -202,7 +202,7 @@ int run_ident(const IdentArgs& a) {
     return kOk;
   }
   for (const auto& [oid, text] : id.objects) {
-    const char* name = device_object_name(oid);
+    const char* name = profile::device_object_name(oid);
     fmt::print("{:<13} {}\n", name ? std::string(name) : fmt::format("0x{:02X}", oid), text);
   }
   fmt::print("(conformity: {}{})\n", level_name, id.conformity & 0x80 ? ", individual access" : "");

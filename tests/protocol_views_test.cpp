@@ -14,6 +14,7 @@
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/devices/profile/address_notation.hpp"
 #include "rtukit/devices/profile/bank_file.hpp"
+#include "rtukit/devices/profile/protocol_text.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/transaction_text.hpp"
@@ -25,8 +26,7 @@ namespace rtukit {
 namespace {
 
 std::string event(uint8_t e) {
-  char buffer[kCommEventTextSize];
-  return std::string(comm_event_text(e, buffer));
+  return profile::comm_event_text(e);
 }
 
 TEST(ProtocolViews, CommEventBytesInWords) {
@@ -47,19 +47,19 @@ TEST(ProtocolViews, CommEventBytesInWords) {
 }
 
 TEST(ProtocolViews, DeviceObjectNamesKeysAndConformity) {
-  EXPECT_STREQ(device_object_name(0), "vendor");
-  EXPECT_STREQ(device_object_name(1), "product code");
-  EXPECT_STREQ(device_object_name(3), "vendor URL");
-  EXPECT_STREQ(device_object_name(6), "application");
-  EXPECT_EQ(device_object_name(7), nullptr);
-  EXPECT_EQ(device_object_name(0x80), nullptr);
-  EXPECT_STREQ(device_object_key(1), "product_code");
-  EXPECT_STREQ(device_object_key(3), "vendor_url");
-  EXPECT_EQ(device_object_key(7), nullptr);
-  EXPECT_STREQ(conformity_level_name(0x01), "basic");
-  EXPECT_STREQ(conformity_level_name(0x82), "regular");  // bit 7: individual access too
-  EXPECT_STREQ(conformity_level_name(0x83), "extended");
-  EXPECT_STREQ(conformity_level_name(0x04), "unknown");
+  EXPECT_STREQ(profile::device_object_name(0), "vendor");
+  EXPECT_STREQ(profile::device_object_name(1), "product code");
+  EXPECT_STREQ(profile::device_object_name(3), "vendor URL");
+  EXPECT_STREQ(profile::device_object_name(6), "application");
+  EXPECT_EQ(profile::device_object_name(7), nullptr);
+  EXPECT_EQ(profile::device_object_name(0x80), nullptr);
+  EXPECT_STREQ(profile::device_object_key(1), "product_code");
+  EXPECT_STREQ(profile::device_object_key(3), "vendor_url");
+  EXPECT_EQ(profile::device_object_key(7), nullptr);
+  EXPECT_STREQ(profile::conformity_level_name(0x01), "basic");
+  EXPECT_STREQ(profile::conformity_level_name(0x82), "regular");  // bit 7: individual access too
+  EXPECT_STREQ(profile::conformity_level_name(0x83), "extended");
+  EXPECT_STREQ(profile::conformity_level_name(0x04), "unknown");
 }
 
 std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {

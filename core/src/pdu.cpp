@@ -1,7 +1,6 @@
 #include "rtukit/core/pdu.hpp"
 
 #include <cstring>
-#include <iterator>
 
 namespace rtukit {
 
@@ -98,77 +97,6 @@ const char* function_name(uint8_t function) noexcept {
       return "unknown function";
   }
 }
-
-#if RTUKIT_CORE_DIAGNOSTICS
-std::string_view comm_event_text(uint8_t event, std::span<char, kCommEventTextSize> buffer) noexcept {
-  namespace ce = comm_event;
-  if (event == ce::kRestart) return "communications restart";
-  if (event == ce::kEnteredListenOnly) return "entered listen-only mode";
-  size_t n = 0;
-  const auto add = [&](std::string_view part) {
-    if (n > 0) {
-      std::memcpy(buffer.data() + n, ", ", 2);
-      n += 2;
-    }
-    std::memcpy(buffer.data() + n, part.data(), part.size());
-    n += part.size();
-  };
-  if (event & ce::kReceive) {
-    add((event & ce::kReceiveBroadcast) ? "received broadcast" : "received");
-    if (event & ce::kReceiveCommError) add("communication error");
-    if (event & ce::kReceiveOverrun) add("character overrun");
-    if (event & ce::kListenOnly) add("in listen-only mode");
-  } else if (event & ce::kSend) {
-    add("sent");
-    if (event & ce::kSendReadException) add("read exception");
-    if (event & ce::kSendAbortException) add("server abort exception");
-    if (event & ce::kSendBusyException) add("busy exception");
-    if (event & ce::kSendNakException) add("NAK exception");
-    if (event & ce::kSendWriteTimeout) add("write timeout");
-    if (event & ce::kListenOnly) add("in listen-only mode");
-  } else {
-    constexpr char kDigits[] = "0123456789ABCDEF";
-    const char text[] = {'e', 'v', 'e', 'n', 't', ' ', '0', 'x', kDigits[event >> 4], kDigits[event & 0xF]};
-    add(std::string_view(text, sizeof text));
-  }
-  return {buffer.data(), n};
-}
-#endif
-
-#if RTUKIT_CORE_IDENTIFICATION
-namespace {
-struct DeviceObjectName {
-  const char* name;
-  const char* key;
-};
-constexpr DeviceObjectName kDeviceObjects[] = {
-    {"vendor", "vendor"},           {"product code", "product_code"}, {"revision", "revision"},
-    {"vendor URL", "vendor_url"},   {"product name", "product_name"}, {"model name", "model_name"},
-    {"application", "application"},
-};
-}  // namespace
-
-const char* device_object_name(uint8_t id) noexcept {
-  return id < std::size(kDeviceObjects) ? kDeviceObjects[id].name : nullptr;
-}
-
-const char* device_object_key(uint8_t id) noexcept {
-  return id < std::size(kDeviceObjects) ? kDeviceObjects[id].key : nullptr;
-}
-
-const char* conformity_level_name(uint8_t conformity) noexcept {
-  switch (conformity & 0x7F) {
-    case static_cast<uint8_t>(DeviceIdAccess::basic):
-      return "basic";
-    case static_cast<uint8_t>(DeviceIdAccess::regular):
-      return "regular";
-    case static_cast<uint8_t>(DeviceIdAccess::extended):
-      return "extended";
-    default:
-      return "unknown";
-  }
-}
-#endif
 
 void load_registers(std::span<const uint8_t> bytes, std::span<uint16_t> out) noexcept {
   for (size_t i = 0; i < out.size(); ++i) out[i] = load_be16(&bytes[2 * i]);

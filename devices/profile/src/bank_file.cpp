@@ -7,6 +7,7 @@
 #include <type_traits>
 
 #include "rtukit/core/pdu.hpp"
+#include "rtukit/devices/profile/protocol_text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/io/atomic_file.hpp"
 

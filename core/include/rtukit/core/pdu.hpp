@@ -20,7 +20,6 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
-#include <string_view>
 
 #include "rtukit/core/config.hpp"
 #include "rtukit/core/error.hpp"
@@ -90,7 +89,8 @@ inline constexpr uint8_t kMeiDeviceIdentification = 0x0E;
 enum class DeviceIdAccess : uint8_t { basic = 1, regular = 2, extended = 3, individual = 4 };
 
 /// FC0C comm event bytes (Modbus over serial line, 6.4), as the slave engine
-/// logs them and a master reads them back.
+/// logs them and a master reads them back (in words on the host side:
+/// profile::comm_event_text in devices/profile/protocol_text.hpp).
 namespace comm_event {
 inline constexpr uint8_t kRestart = 0x00;             ///< communications restart (FC08 01)
 inline constexpr uint8_t kEnteredListenOnly = 0x04;   ///< entered listen-only mode (FC08 04)
@@ -160,28 +160,6 @@ bool is_read_function(uint8_t function) noexcept;
 bool is_broadcastable(uint8_t function) noexcept;
 /// "read holding registers", ..., or "unknown function".
 const char* function_name(uint8_t function) noexcept;
-
-#if RTUKIT_CORE_DIAGNOSTICS
-/// Room for any comm_event_text.
-inline constexpr size_t kCommEventTextSize = 112;
-/// One FC0C event byte in words, written into `buffer`: "communications
-/// restart", "entered listen-only mode", "received broadcast, communication
-/// error", "sent, busy exception, in listen-only mode"; "event 0x05" for a
-/// byte that is none of these.
-std::string_view comm_event_text(uint8_t event, std::span<char, kCommEventTextSize> buffer) noexcept;
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
-/// FC2B/0E: the standard objects 0..6 (basic and regular categories):
-/// "vendor", "product code", "revision", "vendor URL", "product name",
-/// "model name", "application"; nullptr for any other id.
-const char* device_object_name(uint8_t id) noexcept;
-/// The same objects as keys (files, JSON): "vendor", "product_code",
-/// "revision", "vendor_url", "product_name", "model_name", "application"; nullptr for any other id.
-const char* device_object_key(uint8_t id) noexcept;
-/// FC2B/0E's conformity level (bit 7, individual access, ignored): "basic",
-/// "regular", "extended", or "unknown".
-const char* conformity_level_name(uint8_t conformity) noexcept;
-#endif
 
 // ---- byte order helpers: Modbus data is big-endian ----
 constexpr uint16_t load_be16(const uint8_t* p) noexcept {

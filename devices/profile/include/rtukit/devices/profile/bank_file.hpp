@@ -7,7 +7,7 @@
 //
 // A table maps a first address (decimal or 0x hex) to a value or a list of
 // values from there on; identification maps a standard object's key
-// (core's device_object_key) or an id to its text.
+// (device_object_key, protocol_text.hpp) or an id to its text.
 #pragma once
 
 #include <string>
