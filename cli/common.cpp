@@ -202,6 +202,10 @@ std::unique_ptr<Master> LinkOptions::make_master() const {
 }
 
 void examples(CLI::App& cmd, std::initializer_list<std::string_view> lines) {
+  examples(cmd, std::span<const std::string_view>(lines.begin(), lines.size()));
+}
+
+void examples(CLI::App& cmd, std::span<const std::string_view> lines) {
   std::string text = "Examples:";
   for (std::string_view l : lines) text += fmt::format("\n  {}", l);
   cmd.footer(text);
@@ -309,6 +313,12 @@ UnitId device_unit(const std::string& text, const profile::Profile& p) {
   if (text.empty()) return UnitId{units.fallback};
   return UnitId{
       static_cast<uint8_t>(parse_number(text, fmt::format("{} unit", p.name), units.min, units.max))};
+}
+
+std::string device_title(const profile::Profile& p) {
+  const profile::LinkDefaults link = profile::link_defaults(p);
+  return fmt::format("{} (unit {}, {} 8{}{} by default)", p.title, link.unit, link.baud, link.parity,
+                     link.stop_bits);
 }
 
 std::string device_unit_help(const profile::Profile& p) {

@@ -113,6 +113,8 @@ UnitId parse_unit(const std::string& text, bool tcp = false);
 /// one of the addresses its link-address row (or Profile::link) allows.
 /// Throws Failure{kUsage}: "unit 250 is out of range 1..247 (rehand6600)".
 UnitId device_unit(const std::string& text, const profile::Profile& p);
+/// "Inverjet counter-current swimming machine (unit 21, 9600 8N1 by default)".
+std::string device_title(const profile::Profile& p);
 /// The help of a device's --unit: "the device's address, 1..254 (default 21)".
 std::string device_unit_help(const profile::Profile& p);
 
@@ -220,6 +222,7 @@ CLI::App* add_command(CLI::App& parent, Action& action, const std::string& name,
 
 /// Sets the "Examples:" footer of a command's --help (one command a line).
 void examples(CLI::App& cmd, std::initializer_list<std::string_view> lines);
+void examples(CLI::App& cmd, std::span<const std::string_view> lines);
 
 /// rtukit's JSON documents (docs/json.md): objects keep their key order.
 using Json = nlohmann::ordered_json;

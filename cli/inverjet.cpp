@@ -38,23 +38,13 @@ namespace {
 namespace ij = rtukit::inverjet;
 using nlohmann::json;
 
-struct StartArgs {
-  bool free = false;
-  std::string timer, plan, speed, from;
-  bool remember = false;
-};
-
 // Every inverjet command's options (each command uses the ones it declares).
 struct JetArgs {
   LinkOptions link;
   std::string unit;  ///< empty: the machine's factory address (the address row's default)
   bool json = false;
   WatchOptions watch{500};
-  StartArgs start;
-  std::string value;          ///< speed, config value
-  std::string plan;           ///< plan number
-  std::string file;           ///< plan file
-  std::string what = "show";  ///< config item
+  std::string file;  ///< panel-password: the file to write
   // bridge
   std::vector<std::string> units;  ///< "21" or "22=lane2"
   std::string mqtt = "mqtt://127.0.0.1:1883", id, user, password_file, tls_ca,
@@ -79,7 +69,7 @@ struct Session {
   explicit Session(const JetArgs& a)
       : master(a.link.make_master()),
         jet(*master, device_unit(a.unit, ij::kProfile)),
-        context(fmt::format("Inverjet {} on {}", jet.unit().value, master->describe())),
+        context(fmt::format("Inverjet unit {} on {}", jet.unit().value, master->describe())),
         stats(a.link.stats) {
     identify();
   }
@@ -119,14 +109,6 @@ struct Session {
   bool stats;
 };
 
-uint16_t parse_speed(const std::string& text) {
-  return static_cast<uint16_t>(parse_number(text, "speed (%)", 0, ij::kMaxSpeed));
-}
-
-unsigned parse_plan_number(const std::string& text) {
-  return static_cast<unsigned>(parse_number(text, "plan", 1, ij::kPlanCount));
-}
-
 // The view is the device layer's (devices/inverjet/views.hpp, verbs.hpp):
 // the bridge and the panel show the same.
 Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
@@ -137,17 +119,6 @@ Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembe
 
 std::string panel_text(const ij::MachineStatus& s, ij::Family remembered) {
   return ij::status_panel(s, remembered, [](std::string_view t) { return LivePanel::alert(t); });
-}
-
-int run_status(const JetArgs& a) {
-  Session s(a);
-  Result<ij::MachineStatus> st = s.jet.status();
-  if (!st.ok()) s.fail(st.error(), "status");
-  if (a.json)
-    print_json(status_document(*st, s.jet.unit(), ij::Family::none));
-  else
-    fmt::print("{}", panel_text(*st, ij::Family::none));
-  return kOk;
 }
 
 int run_watch(const JetArgs& a) {
@@ -183,156 +154,6 @@ int run_watch(const JetArgs& a) {
     else
       fmt::print("{}\n", ij::status_line(*st, remembered, clock_hms()));
   });
-  return kOk;
-}
-
-// What a command did, as a line or as a JSON document.
-void done(const JetArgs& a, const Session& s, std::string_view action, const std::string& text,
-          Json values = Json::object()) {
-  if (!a.json) {
-    fmt::print("{}\n", text);
-    return;
-  }
-  Json out = json_document("inverjet", s.jet.unit().value);
-  out["action"] = action;
-  out["text"] = text;
-  if (!values.empty()) out["values"] = std::move(values);
-  print_json(out);
-}
-
-// The rules of a start are the device layer's (inverjet::check_start_options,
-// check_start), checked before the port is opened; the run is inverjet::start,
-// as the bridge's and the panel's.
-uint16_t run_duration(const std::string& text, std::string_view what, profile::Range range) {
-  const Outcome<uint16_t> t = ij::parse_run_duration(text, what, range);
-  if (!t.ok()) throw Failure{kUsage, std::string(t.error().reason())};
-  return *t;
-}
-
-int run_start(const JetArgs& a, const StartArgs& s) {
-  if (rtukit::Status e = ij::check_start_options(
-          {s.free, !s.timer.empty(), !s.plan.empty(), !s.speed.empty(), !s.from.empty(), s.remember}))
-    throw Failure{kUsage, std::string(e.reason())};
-  ij::StartRequest r;
-  r.mode = s.free ? ij::StartMode::free : s.timer.empty() ? ij::StartMode::plan : ij::StartMode::timer;
-  if (!s.speed.empty()) r.speed = parse_speed(s.speed);
-  if (!s.timer.empty()) r.duration_s = run_duration(s.timer, "timer", ij::timer_range());
-  if (!s.plan.empty()) r.plan = parse_plan_number(s.plan);
-  if (!s.from.empty()) r.from_s = run_duration(s.from, "--from", ij::from_range());
-  r.remember = s.remember;
-  if (rtukit::Status e = ij::check_start(r)) throw Failure{kUsage, std::string(e.reason())};
-  Session session(a);
-  const std::string what = ij::start_text(r);
-  const rtukit::Status e = ij::start(session.jet, r);
-  if (r.mode == ij::StartMode::plan && e == Errc::invalid_argument)
-    throw Failure{kUsage, fmt::format("{}: P{} has nothing to run from {} (see `plan show {}`)",
-                                      session.context, r.plan, profile::format_mm_ss(r.from_s), r.plan)};
-  session.check(e, "start " + what);
-  done(a, session, "start",
-       fmt::format("started {}{}", what, s.remember ? " (after 3 s; saved as memory)" : ""));
-  return kOk;
-}
-
-// pause, resume, stop: the command table every front-end runs (inverjet::run_command).
-int run_simple(const JetArgs& a, const std::string& verb) {
-  Session s(a);
-  nlohmann::json result;
-  const rtukit::Status e = ij::run_command(s.jet, verb, nlohmann::json::object(), result);
-  if (verb == "resume" && e == Errc::invalid_argument)
-    throw Failure{kUsage, s.context + ": resume: nothing is paused"};
-  s.check(e, verb);
-  done(a, s, verb, fmt::format("{}: ok", verb));
-  return kOk;
-}
-
-int run_speed(const JetArgs& a, const std::string& value) {
-  const uint16_t speed = parse_speed(value);
-  Session s(a);
-  nlohmann::json result;
-  s.check(ij::run_command(s.jet, "speed", {{"speed", speed}}, result), fmt::format("speed {} %", speed));
-  done(a, s, "speed", fmt::format("speed {} %", speed),
-       {{"speed", profile::entry_json(ij::kMap.row(ij::reg::speed), speed)}});
-  return kOk;
-}
-
-int run_plan_show(const JetArgs& a, const std::string& n) {
-  const unsigned plan = parse_plan_number(n);
-  Session s(a);
-  Outcome<std::vector<ij::Segment>> segments = s.jet.read_plan(plan);
-  if (!segments.ok()) s.fail(segments.error(), fmt::format("read plan P{}", plan));
-  if (a.json) {
-    Json out = json_document("inverjet", s.jet.unit().value);
-    out["plan"] = plan;
-    out["segments"] = ij::plan_json(*segments);
-    print_json(out);
-  } else {
-    fmt::print("# plan P{}: {} segment(s)\n{}", plan, segments->size(), ij::plan_to_csv(*segments));
-  }
-  return kOk;
-}
-
-int run_plan_set(const JetArgs& a, const std::string& n, const std::string& file) {
-  const unsigned plan = parse_plan_number(n);
-  const Outcome<std::vector<ij::Segment>> segments = ij::read_plan_file(file);
-  if (!segments.ok()) throw Failure{kUsage, std::string(segments.error().reason())};
-  Session s(a);
-  s.check(s.jet.write_plan(plan, *segments), fmt::format("write plan P{}", plan));
-  done(a, s, "plan set",
-       fmt::format("plan P{}: {} segment(s) written, ends at {}", plan, segments->size(),
-                   profile::format_mm_ss(segments->back().end)));
-  return kOk;
-}
-
-int run_plan_clear(const JetArgs& a, const std::string& n) {
-  const unsigned plan = parse_plan_number(n);
-  Session s(a);
-  s.check(s.jet.clear_plan(plan), fmt::format("clear plan P{}", plan));
-  done(a, s, "plan clear", fmt::format("plan P{}: factory plan ({})", plan, ij::factory_plan_text()));
-  return kOk;
-}
-
-int run_config(const JetArgs& a, const std::string& what, const std::string& value) {
-  if (what == "show" || what.empty()) {
-    Session s(a);
-    Result<ij::Config> c = s.jet.config();
-    if (!c.ok()) s.fail(c.error(), "config");
-    Json out = json_document("inverjet", s.jet.unit().value);
-    Json& values = out["values"] = Json::object();
-    for (const ij::ConfigValue& v : *c) {
-      if (a.json)
-        values[std::string(v.row->key)] = profile::entry_json(*v.row, v.raw);
-      else
-        fmt::print("{:<14} {}\n", v.row->key, profile::format_value(*v.row, v.raw));
-    }
-    if (a.json) print_json(out);
-    return kOk;
-  }
-  if (value.empty()) throw Failure{kUsage, fmt::format("config {} needs a value", what)};
-  // The key, the value and their checks are the device layer's (inverjet::parse_config).
-  const auto read = [](std::string_view text, std::string_view name, int64_t min, int64_t max) {
-    try {
-      return Outcome<int64_t>(parse_number(text, name, min, max));
-    } catch (const Failure& f) {
-      return Outcome<int64_t>(rtukit::Status(Errc::invalid_argument, f.message));
-    }
-  };
-  const Outcome<ij::ConfigChange> c = ij::parse_config(what, value, read);
-  if (!c.ok()) throw Failure{kUsage, std::string(c.error().reason())};
-  const std::string shown = profile::format_value(*c->row, c->raw);
-  const std::string_view key = c->key;
-  Session s(a);
-  const uint8_t was = s.jet.unit().value;  // the client follows an address change
-  s.check(ij::write_config(s.jet, *c), key == "pairing" ? std::string("set pairing")
-                                       : key == "mask"  ? fmt::format("set control mask {}", c->value)
-                                                        : fmt::format("set {} {}", key, c->value));
-  const std::string text =
-      key == "address"
-          ? fmt::format("address {} -> {} (talk to --unit {} from now on)", was, c->value, c->value)
-      : key == "baud" ? fmt::format("baud rate {} (talk at --baud {} from now on)", c->value, c->value)
-      : key == "mask" ? fmt::format("control mask {}", shown)
-                      : fmt::format("pairing {}", shown);
-  done(a, s, fmt::format("config {}", key), text,
-       {{std::string(c->row->key), profile::entry_json(*c->row, c->raw)}});
   return kOk;
 }
 
@@ -489,7 +310,7 @@ int run_panel_password(const JetArgs& a) {
 
 void add_inverjet_commands(CLI::App& app, Action& action) {
   CLI::App* jet =
-      app.add_subcommand("inverjet", "the Inverjet swimming machine (unit 21, 9600 8N1 by default)");
+      app.add_subcommand("inverjet", device_title(ij::kProfile));
   jet->require_subcommand(1);
   const std::string port = "--port /dev/ttyUSB0";
   add_command<JetArgs>(
@@ -547,14 +368,6 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
       },
       [](const JetArgs& a) { return run_panel_password(a); });
   add_command<JetArgs>(
-      *jet, action, "status", "mode, state, speed, time, faults, temperatures, motor",
-      [&](CLI::App& cmd, JetArgs& a) {
-        add_link(cmd, a, true);
-        examples(cmd,
-                 {"rtukit inverjet status " + port, "rtukit inverjet status " + port + " --unit 12 --json"});
-      },
-      [](const JetArgs& a) { return run_status(a); });
-  add_command<JetArgs>(
       *jet, action, "watch", "live status, refreshed until Ctrl-C",
       [&](CLI::App& cmd, JetArgs& a) {
         add_link(cmd, a, true);
@@ -563,85 +376,8 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
                        "rtukit inverjet watch " + port + " --json --interval 1000 > swim.jsonl"});
       },
       [](const JetArgs& a) { return run_watch(a); });
-  add_command<JetArgs>(
-      *jet, action, "start", "start free mode, a timer run or a training plan",
-      [&](CLI::App& cmd, JetArgs& a) {
-        StartArgs& s = a.start;
-        cmd.add_flag("--free", s.free, "free mode (counts up)");
-        cmd.add_option("--timer", s.timer,
-                       "timer mode for DURATION (mm:ss, or with a unit: 30m, 90s; at most 99:59)");
-        cmd.add_option("--plan", s.plan, "training plan 1..4");
-        cmd.add_option("--speed", s.speed, "speed 0..100 % (free: default from memory)");
-        cmd.add_option("--from", s.from, "with --plan: start this far into the plan (mm:ss)");
-        cmd.add_flag("--remember", s.remember,
-                     "start after the 3 s initial delay and save speed/time as the mode's memory");
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit inverjet start " + port + " --free --speed 60",
-                       "rtukit inverjet start " + port + " --timer 30:00 --speed 80 --remember",
-                       "rtukit inverjet start " + port + " --plan 1 --from 12:00"});
-      },
-      [](const JetArgs& a) { return run_start(a, a.start); });
-  for (const char* verb : {"pause", "resume", "stop"}) {
-    const std::string v = verb;
-    add_command<JetArgs>(
-        *jet, action, v,
-        v == "pause"    ? "pause the run (motor stops, time freezes)"
-        : v == "resume" ? "resume a paused run"
-                        : "stop the motor, machine off",
-        [&](CLI::App& cmd, JetArgs& a) {
-          add_link(cmd, a, false);
-          examples(cmd, {"rtukit inverjet " + v + " " + port});
-        },
-        [v](const JetArgs& a) { return run_simple(a, v); });
-  }
-  add_command<JetArgs>(
-      *jet, action, "speed", "set the running speed",
-      [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("SPEED", a.value, "0..100 %")->required();
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit inverjet speed " + port + " 75"});
-      },
-      [](const JetArgs& a) { return run_speed(a, a.value); });
-
-  CLI::App* plan = jet->add_subcommand("plan", "training plans P1..P4");
-  plan->require_subcommand(1);
-  add_command<JetArgs>(
-      *plan, action, "show", "print a plan (CSV, or --json)",
-      [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("N", a.plan, "plan 1..4")->required();
-        add_link(cmd, a, true);
-        examples(cmd, {"rtukit inverjet plan show " + port + " 1 > p1.csv",
-                       "rtukit inverjet plan show " + port + " 1 --json > p1.json"});
-      },
-      [](const JetArgs& a) { return run_plan_show(a, a.plan); });
-  add_command<JetArgs>(
-      *plan, action, "set", "write a plan from a CSV (speed,end per line) or JSON file",
-      [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("N", a.plan, "plan 1..4")->required();
-        cmd.add_option("FILE", a.file, "plan file (what `plan show` prints, CSV or --json)")->required();
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit inverjet plan set " + port + " 2 p1.csv"});
-      },
-      [](const JetArgs& a) { return run_plan_set(a, a.plan, a.file); });
-  add_command<JetArgs>(
-      *plan, action, "clear", "reset a plan to the factory plan (" + ij::factory_plan_text() + ")",
-      [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("N", a.plan, "plan 1..4")->required();
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit inverjet plan clear " + port + " 4"});
-      },
-      [](const JetArgs& a) { return run_plan_clear(a, a.plan); });
-  add_command<JetArgs>(
-      *jet, action, "config", "show or set address, baud, mask, pairing",
-      [&](CLI::App& cmd, JetArgs& a) {
-        cmd.add_option("WHAT", a.what, "show | address A | baud B | mask M | pairing off|wifi|remote|0..2")
-            ->capture_default_str();
-        cmd.add_option("VALUE", a.value, "the new value");
-        add_link(cmd, a, true);
-        examples(cmd, {"rtukit inverjet config " + port, "rtukit inverjet config " + port + " baud 19200",
-                       "rtukit inverjet config " + port + " address 12"});
-      },
-      [](const JetArgs& a) { return run_config(a, a.what, a.value); });
+  // status, start, pause, resume, stop, speed, plan, config: the device's
+  // verb table (inverjet::verb_table), added with every device's verbs.
 }
 
 }  // namespace rtukit::cli

@@ -7,6 +7,9 @@
 
 #include <fmt/core.h>
 
+#include <cctype>
+#include <map>
+
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -156,6 +159,8 @@ struct DeviceArgs {
   std::string map_file;
   WatchOptions watch{1000};
   std::string check_docs, write_docs;  ///< `devices`: the source tree whose docs to check or rewrite
+  std::map<std::string, std::string, std::less<>> verb_text;  ///< a device verb's arguments by name
+  std::map<std::string, bool, std::less<>> verb_flag;
 };
 
 // Each registered device's doc, its generated sections made from the tables
@@ -350,7 +355,114 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
         [source](const DeviceArgs& a) { return run_status(a, source.of(a)); });
 }
 
+// A device's own verb (profile/verb.hpp): the device checks the arguments,
+// opens the link through `open` when it needs it, and says what it did; this
+// prints it, or turns its refusal into one line and the exit code.
+int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::DeviceEntry& entry,
+                    const profile::Verb& verb) {
+  profile::VerbArgs args;
+  for (const profile::VerbArg& v : verb.args) {
+    const std::string name(v.name);
+    if (v.form == profile::VerbArg::Form::flag) {
+      if (a.verb_flag.at(name)) args[name] = "true";
+    } else if (cmd.count(v.form == profile::VerbArg::Form::positional ? name : "--" + name) > 0) {
+      args[name] = a.verb_text.at(name);
+    }
+  }
+  const profile::Profile& p = *entry.profile;
+  const UnitId unit = device_unit(a.unit, p);
+  std::unique_ptr<Master> master;
+  std::string context;
+  profile::VerbContext where{unit,
+                             [&]() -> Master& {
+                               master = a.link.make_master();
+                               context = fmt::format("{} unit {} on {}",
+                                                     entry.label.empty() ? p.name : entry.label,
+                                                     unit.value, master->describe());
+                               return *master;
+                             },
+                             [](std::string_view t) { return LivePanel::alert(t); }};
+  Outcome<profile::VerbResult> r = entry.run_verb(verb, args, where);
+  if (master && a.link.stats) print_stats(*master);
+  if (!r.ok()) {
+    const rtukit::Status& e = r.error();
+    const std::string line = context.empty() ? std::string(e.reason()) : fmt::format("{}: {}", context, e.reason());
+    if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
+    if (e.code() == Errc::refused) throw Failure{kRefused, line};
+    if (e.is_exception()) throw Failure{kModbusException, line};
+    fail(e.error(), line);
+  }
+  if (!a.json) {
+    fmt::print("{}\n", r->text);
+    return kOk;
+  }
+  Json out = json_document(p.name, verb.uses_link ? where.unit.value : -1);
+  if (!r->action.empty() || (r->values.is_null() && r->extra.is_null())) {
+    if (!r->action.empty()) out["action"] = r->action;
+    out["text"] = r->text;
+  }
+  if (!r->values.is_null()) out["values"] = r->values;
+  if (r->extra.is_object())
+    for (const auto& [key, value] : r->extra.items()) out[key] = value;
+  print_json(out);
+  return kOk;
+}
+
+void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& entry) {
+  for (const profile::Verb& verb : entry.verbs) {
+    // "plan show": the verb `show` in the group `plan`.
+    CLI::App* parent = &dev;
+    std::string_view name = verb.name;
+    if (const size_t space = name.find(' '); space != std::string_view::npos) {
+      const std::string group(name.substr(0, space));
+      parent = dev.get_subcommands([&group](CLI::App* s) { return s->get_name() == group; }).empty()
+                   ? dev.add_subcommand(group, fmt::format("{} ...", group))
+                   : dev.get_subcommand(group);
+      parent->require_subcommand(1);
+      name = name.substr(space + 1);
+    }
+    const std::string label = fmt::format("rtukit {} {}", entry.profile->name, verb.name);
+    add_command<DeviceArgs>(
+        *parent, action, std::string(name), verb.help,
+        [&entry, &verb, label](CLI::App& cmd, DeviceArgs& a) {
+          for (const profile::VerbArg& v : verb.args) {
+            const std::string key(v.name);
+            std::string help = v.help;
+            if (!v.fallback.empty()) help += fmt::format(" (default {})", v.fallback);
+            if (v.form == profile::VerbArg::Form::flag) {
+              cmd.add_flag("--" + key, a.verb_flag[key], help);
+            } else if (v.form == profile::VerbArg::Form::positional) {
+              std::string shown;
+              for (const char c : key) shown += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+              CLI::Option* o = cmd.add_option(key, a.verb_text[key], help);
+              o->option_text(shown);
+              if (v.required) o->required();
+            } else {
+              cmd.add_option("--" + key, a.verb_text[key], help);
+            }
+          }
+          if (verb.uses_link) {
+            cmd.add_option("--unit,-u", a.unit, device_unit_help(*entry.profile));
+            a.link.add_to(cmd, false, profile::link_defaults(*entry.profile).baud);
+          }
+          cmd.add_flag("--json", a.json,
+                       verb.reads ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
+          std::vector<std::string> lines;
+          for (std::string_view e : verb.examples) {
+            std::string line = label + " " + std::string(e);
+            if (const size_t at = line.find("{port}"); at != std::string::npos)
+              line.replace(at, 6, "--port /dev/ttyUSB0");
+            lines.push_back(line);
+          }
+          std::vector<std::string_view> views(lines.begin(), lines.end());
+          examples(cmd, views);
+        },
+        [&entry, &verb](const DeviceArgs& a, const CLI::App& cmd) { return run_device_verb(a, cmd, entry, verb); });
+  }
+}
+
 void add_device_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& entry) {
+  add_own_verbs(dev, action, entry);
   const auto has = [&dev](const char* name) {
     return !dev.get_subcommands([name](CLI::App* s) { return s->get_name() == name; }).empty();
   };

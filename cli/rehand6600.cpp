@@ -321,35 +321,10 @@ int run_host(const ChairArgs& a) {
   return kOk;
 }
 
-// Table 3, or one code with what it means and what to check.
-int run_errors(bool as_json, const std::string& code_text) {
-  std::vector<uint16_t> codes(rh::error_codes().begin(), rh::error_codes().end());
-  if (!code_text.empty()) {
-    // As the chair shows it ("10C3") or as a number (0x10C3, 4291).
-    const bool plain_hex =
-        code_text.size() == 4 && code_text.find_first_not_of("0123456789abcdefABCDEF") == std::string::npos;
-    codes = {static_cast<uint16_t>(plain_hex ? std::stoul(code_text, nullptr, 16)
-                                             : parse_number(code_text, "error code", 1, 0xFFFF))};
-  }
-  if (!as_json) {
-    if (code_text.empty())
-      fmt::print("{}", rh::errors_markdown());
-    else
-      fmt::print("{}: {}\n", rh::error_text(codes[0]), rh::error_advice(codes[0]));
-    return kOk;
-  }
-  Json out = json_document("rehand6600");
-  Json& list = out["errors"] = Json::array();
-  for (uint16_t c : codes) list.push_back(rh::error_json(c));
-  print_json(out);
-  return kOk;
-}
-
 }  // namespace
 
 void add_rehand6600_commands(CLI::App& app, Action& action) {
-  CLI::App* chair = app.add_subcommand(
-      "rehand6600", "the Rehand 6600 wheelchair controller (unit 1, 115200 8N1 by default)");
+  CLI::App* chair = app.add_subcommand("rehand6600", device_title(rh::kProfile));
   chair->require_subcommand(1);
   const std::string port = "--port /dev/ttyS3";
   add_command<ChairArgs>(
@@ -437,24 +412,7 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                  {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443"});
       },
       [](const ChairArgs& a) { return run_host(a); });
-  add_command<ChairArgs>(
-      *chair, action, "stopping",
-      "D-9: stopping time and distance per speed level and drive mode (model clock)",
-      [](CLI::App& cmd, ChairArgs&) { examples(cmd, {"rtukit rehand6600 stopping"}); },
-      [](const ChairArgs&) {
-        fmt::print("{}", rh::stopping_markdown());
-        return kOk;
-      });
-  add_command<ChairArgs>(
-      *chair, action, "errors",
-      "table 3: error codes, functions, UI texts, what each means and what to check",
-      [](CLI::App& cmd, ChairArgs& a) {
-        cmd.add_option("CODE", a.key, "one code, as the chair shows it (10C3)");
-        cmd.add_flag("--json", a.json, "print JSON (docs/json.md)");
-        examples(cmd, {"rtukit rehand6600 errors", "rtukit rehand6600 errors 10C3",
-                       "rtukit rehand6600 errors --json"});
-      },
-      [](const ChairArgs& a) { return run_errors(a.json, a.key); });
+  // errors, stopping: the device's verb table (rehand6600::verb_table).
 }
 
 }  // namespace rtukit::cli

@@ -430,7 +430,7 @@ TEST(InverjetIdentity, AnotherDeviceAtTheAddressIsRefused_Exit5) {
   Process slave({kRtukit, "slave", "--listen", "pty:" + tty, "--unit", "21"});
   ASSERT_TRUE(slave.wait_for_output("listening on")) << slave.output();
   const std::string not_jet =
-      "rtukit: Inverjet 21 on " + tty +
+      "rtukit: Inverjet unit 21 on " + tty +
       " 9600 8N1: not an Inverjet: its motor pole count (holding 0x0004) reads 0 where "
       "an Inverjet's always reads 5; check --port and --unit\n";
   for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{

@@ -3,6 +3,7 @@
 #include "rtukit/devices/inverjet/reference.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/devices/inverjet/sim.hpp"
+#include "rtukit/devices/inverjet/verbs.hpp"
 
 namespace rtukit::inverjet {
 
@@ -13,7 +14,10 @@ const profile::DeviceEntry& device_entry() {
         return make_sim_device();
       },
       .markdown = [] { return registers_markdown(); },
-      .doc = "docs/inverjet.md"};
+      .doc = "docs/inverjet.md",
+      .verbs = verb_table(),
+      .run_verb = run_verb,
+      .label = "Inverjet"};
   return entry;
 }
 

@@ -5,6 +5,7 @@
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/sim.hpp"
+#include "rtukit/devices/rehand6600/verbs.hpp"
 #include "rtukit/driver/simulation.hpp"
 
 namespace rtukit::rehand6600 {
@@ -32,7 +33,10 @@ const profile::DeviceEntry& device_entry() {
                                           .markdown = [] { return registers_markdown(); },
                                           .doc = "docs/rehand6600.md",
                                           .doc_sections = {{"errors", [] { return errors_markdown(); }},
-                                                           {"stopping", [] { return stopping_markdown(); }}}};
+                                                           {"stopping", [] { return stopping_markdown(); }}},
+                                          .verbs = verb_table(),
+                                          .run_verb = run_verb,
+                                          .label = "Rehand 6600"};
   return entry;
 }
 

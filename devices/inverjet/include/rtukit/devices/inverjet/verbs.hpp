@@ -20,6 +20,7 @@
 
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/profile/schema.hpp"
+#include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -161,5 +162,17 @@ rtukit::Status run_command(Client& client, std::string_view name, const nlohmann
 /// A command's documented body with a "ts", as an example for refusals and
 /// the docs; empty for an unknown command.
 std::string command_example(std::string_view name);
+
+// ---- the verb table ----
+
+/// The Inverjet's verbs as a command line takes them (profile/verb.hpp):
+/// status, start, pause, resume, stop, speed, plan show|set|clear, config;
+/// the help's ranges, limits and value names come from the rows.
+const std::vector<profile::Verb>& verb_table();
+/// Runs one: its arguments checked first (invalid_argument, nothing opened),
+/// then the machine identified (refused: another device), then the verb
+/// (start, run_command, the plan and config calls). profile::RunVerb.
+Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::VerbArgs& args,
+                                      profile::VerbContext& context);
 
 }  // namespace rtukit::inverjet

@@ -14,6 +14,7 @@
 
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/sim_host.hpp"
+#include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
@@ -56,6 +57,14 @@ struct DeviceEntry {
   std::string_view doc;
   /// Generated sections besides "registers" (which every device has).
   std::vector<DocSection> doc_sections;
+  /// The device's own verbs (verb.hpp) besides the ones every device has
+  /// (get, set, watch, status, registers), and how they run. A verb of the
+  /// same name as a common one replaces it.
+  std::vector<Verb> verbs;
+  RunVerb run_verb;
+  /// How messages name the device ("Inverjet" in "Inverjet unit 21 on
+  /// /dev/ttyUSB0"); empty: the profile's name.
+  std::string_view label;
 };
 
 /// Every generated section of `entry`'s doc: "registers" (`markdown`, or the

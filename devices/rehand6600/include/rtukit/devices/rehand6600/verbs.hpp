@@ -10,6 +10,7 @@
 #include <string_view>
 
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/status.hpp"
 
@@ -60,5 +61,11 @@ Outcome<SettingChange> parse_setting(std::string_view what, std::string_view val
 /// Writes it through the host controller (Host::set_drive_mode,
 /// set_speed_level, set_host_fault), waiting for the write.
 rtukit::Status write_setting(Host& host, const SettingChange& c);
+
+/// The verbs that print from the tables, as a command line takes them
+/// (profile/verb.hpp): `errors [CODE]`, `stopping`. profile::RunVerb.
+const std::vector<profile::Verb>& verb_table();
+Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::VerbArgs& args,
+                                      profile::VerbContext& context);
 
 }  // namespace rtukit::rehand6600

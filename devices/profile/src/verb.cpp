@@ -1,0 +1,56 @@
+// The verb table's helpers: argument lookup and the docs' table.
+#include "rtukit/devices/profile/verb.hpp"
+
+#include <fmt/core.h>
+
+namespace rtukit::profile {
+
+std::string_view arg(const VerbArgs& args, std::string_view name, std::string_view fallback) {
+  const auto it = args.find(name);
+  return it == args.end() ? fallback : std::string_view(it->second);
+}
+
+bool given(const VerbArgs& args, std::string_view name) {
+  return args.find(name) != args.end();
+}
+
+const Verb* find_verb(std::span<const Verb> verbs, std::string_view name) {
+  for (const Verb& v : verbs)
+    if (v.name == name) return &v;
+  return nullptr;
+}
+
+namespace {
+// "SPEED", "[--speed S]", "--free": as a command line takes it.
+std::string usage(const VerbArg& a) {
+  std::string word;
+  if (a.form == VerbArg::Form::positional) {
+    for (const char c : a.name) word += static_cast<char>(c >= 'a' && c <= 'z' ? c - 'a' + 'A' : c);
+  } else {
+    word = fmt::format("--{}", a.name);
+    if (a.form == VerbArg::Form::option) word += " V";
+  }
+  return a.required ? word : fmt::format("[{}]", word);
+}
+}  // namespace
+
+std::string verbs_markdown(std::string_view device, std::span<const Verb> verbs) {
+  std::string out = "| command | what it does | arguments |\n|---|---|---|\n";
+  for (const Verb& v : verbs) {
+    std::string line = fmt::format("`rtukit {} {}", device, v.name);
+    for (const VerbArg& a : v.args) line += " " + usage(a);
+    std::string args;
+    for (const VerbArg& a : v.args) {
+      if (!args.empty()) args += "; ";
+      args += fmt::format("{}: {}", usage(a), a.help);
+      if (!a.fallback.empty()) args += fmt::format(" (default {})", a.fallback);
+    }
+    // A table cell takes no '|': the alternatives are written "or".
+    std::string cell;
+    for (const char c : args) cell += c == '|' ? std::string(" or ") : std::string(1, c);
+    out += fmt::format("| {}` | {} | {} |\n", line, v.help, cell.empty() ? "none" : cell);
+  }
+  return out;
+}
+
+}  // namespace rtukit::profile
