@@ -1,14 +1,9 @@
 // `rtukit bus`: a virtual multi-drop RS-485 line on ptys, paced at its baud
 // rate, with collisions and fault injection.
 #include <fmt/core.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
-#include <algorithm>
-#include <cerrno>
 #include <csignal>
 #include <cstdio>
-#include <cstring>
 #include <functional>
 
 #include "commands.hpp"
@@ -16,112 +11,10 @@
 #include "rtukit/driver/virtual_bus.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/atomic_file.hpp"
+#include "rtukit/io/tap_server.hpp"
 
 namespace rtukit::cli {
 namespace {
-
-using Local = asio::local::stream_protocol;
-
-// Offers the tap on a Unix socket to `rtukit sniff --bus NAME`: the header,
-// then every character as a tap line, to every connected sniffer. The bus
-// never waits for a listener: one that falls 1 MB behind is disconnected.
-class TapServer {
- public:
-  TapServer(asio::io_context& ctx, std::string path, std::function<std::string()> header)
-      : acceptor_(ctx), path_(std::move(path)), header_(std::move(header)) {}
-  ~TapServer() {
-    if (listening_) ::unlink(path_.c_str());
-  }
-
-  /// Throws Failure when the socket cannot be made, or another bus has the name.
-  void listen(const std::string& name) {
-    const std::string dir = path_.substr(0, path_.rfind('/'));
-    if (::mkdir(dir.c_str(), 0700) != 0 && errno != EEXIST)
-      throw Failure{kIoError, fmt::format("--name {}: cannot make {}: {}", name, dir, std::strerror(errno))};
-    struct stat st {};
-    if (::lstat(dir.c_str(), &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != ::getuid())
-      throw Failure{kIoError, fmt::format("--name {}: {} is not a directory of ours", name, dir)};
-    if (::lstat(path_.c_str(), &st) == 0) {
-      if (!S_ISSOCK(st.st_mode))
-        throw Failure{kIoError, fmt::format("--name {}: {} exists and is not a socket", name, path_)};
-      Local::socket probe(acceptor_.get_executor());
-      boost::system::error_code ec;
-      probe.connect(Local::endpoint(path_), ec);
-      if (!ec)
-        throw Failure{kUsage, fmt::format("--name {}: a bus of that name is running ({})", name, path_)};
-      ::unlink(path_.c_str());  // left by a bus that was killed
-    }
-    boost::system::error_code ec;
-    acceptor_.open(Local(), ec);
-    if (!ec) acceptor_.bind(Local::endpoint(path_), ec);
-    if (!ec) acceptor_.listen(asio::socket_base::max_listen_connections, ec);
-    if (ec) throw Failure{kIoError, fmt::format("--name {}: {}: {}", name, path_, ec.message())};
-    listening_ = true;
-    accept();
-  }
-
-  void publish(const std::string& line) {
-    for (auto it = clients_.begin(); it != clients_.end();) {
-      Client& c = **it;
-      if (c.pending.size() + line.size() > kMaxBehind) {
-        boost::system::error_code ignored;
-        c.socket.close(ignored);
-        it = clients_.erase(it);
-        continue;
-      }
-      c.pending += line;
-      flush(*it);
-      ++it;
-    }
-  }
-
- private:
-  static constexpr size_t kMaxBehind = 1 << 20;
-  struct Client {
-    explicit Client(Local::socket s) : socket(std::move(s)) {}
-    Local::socket socket;
-    std::string pending, in_flight;
-    bool writing = false;
-  };
-
-  void accept() {
-    acceptor_.async_accept([this](const boost::system::error_code& ec, Local::socket socket) {
-      if (ec == asio::error::operation_aborted) return;
-      if (!ec) {
-        auto c = std::make_shared<Client>(std::move(socket));
-        c->pending = header_();
-        clients_.push_back(c);
-        flush(c);
-      }
-      accept();
-    });
-  }
-
-  void flush(const std::shared_ptr<Client>& c) {
-    if (c->writing || c->pending.empty() || !c->socket.is_open()) return;
-    c->writing = true;
-    c->in_flight.swap(c->pending);
-    c->pending.clear();
-    asio::async_write(c->socket, asio::buffer(c->in_flight),
-                      [this, c](const boost::system::error_code& ec, size_t) {
-                        c->writing = false;
-                        c->in_flight.clear();
-                        if (ec) {
-                          boost::system::error_code ignored;
-                          c->socket.close(ignored);
-                          clients_.erase(std::remove(clients_.begin(), clients_.end(), c), clients_.end());
-                          return;
-                        }
-                        flush(c);
-                      });
-  }
-
-  Local::acceptor acceptor_;
-  std::string path_;
-  std::function<std::string()> header_;
-  std::vector<std::shared_ptr<Client>> clients_;
-  bool listening_ = false;
-};
 
 struct BusArgs {
   unsigned ports = 2;
@@ -169,10 +62,10 @@ int run_bus(const BusArgs& a) {
     std::fputs(tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
   }
   asio::io_context ctx;
-  std::unique_ptr<TapServer> tap_server;
+  std::unique_ptr<io::TapServer> tap_server;
   const VirtualBus* started = nullptr;
   if (!a.name.empty())
-    tap_server = std::make_unique<TapServer>(ctx, bus_tap_socket(a.name), [&] {
+    tap_server = std::make_unique<io::TapServer>(ctx, bus_tap_socket(a.name), [&] {
       return tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
     });
   if (tap || tap_server)
@@ -184,7 +77,11 @@ int run_bus(const BusArgs& a) {
   Outcome<std::unique_ptr<VirtualBus>> bus = VirtualBus::start(ctx, o);
   if (!bus.ok()) throw Failure{exit_code(bus.error().error()), std::string(bus.error().reason())};
   started = bus->get();
-  if (tap_server) tap_server->listen(a.name);
+  if (tap_server) {
+    // "a bus of that name is running" is invalid_argument: a usage error (2), the rest I/O errors (4).
+    if (const Status s = tap_server->listen(); !s.ok())
+      throw Failure{exit_code(s.error()), fmt::format("--name {}: {}", a.name, s.reason())};
+  }
   fmt::print("bus: {} ports at {} baud, {} bits a character ({:.0f} us){}\n", a.ports, a.baud,
              o.line.bits_per_char, 1e6 * o.line.bits_per_char / a.baud,
              a.echo                  ? ", echo"

@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "rtukit/io/asio.hpp"
+#include "rtukit/io/line_console.hpp"
 
 namespace rtukit::cli {
 
@@ -27,7 +28,8 @@ inline void ignore_tty_stops() {
   std::signal(SIGTTOU, SIG_IGN);
 }
 
-using OnLine = std::function<void(const std::string& line, const std::function<void(std::string)>& reply)>;
+/// A console line and how to answer it: the same type for stdin and the socket (io/line_console.hpp).
+using OnLine = io::ConsoleHandler;
 
 // Reads console lines from stdin on its own thread and hands each one to the
 // io_context (the simulator is only touched there). Stops through a pipe, so

@@ -10,14 +10,9 @@
 // is not read), and ends on SIGTERM. `--console unix:PATH` drives it from
 // elsewhere (`socat - UNIX-CONNECT:PATH`).
 #include <fmt/core.h>
-#include <poll.h>
-#include <sys/stat.h>
-#include <unistd.h>
 
-#include <atomic>
 #include <csignal>
 #include <cstdio>
-#include <thread>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -26,78 +21,10 @@
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/io/asio.hpp"
+#include "rtukit/io/line_console.hpp"
 
 namespace rtukit::cli {
 namespace {
-
-// The console on a Unix socket: one line in, the reply out, any number of
-// clients, all on the io_context's thread.
-class SocketConsole {
- public:
-  static Outcome<std::unique_ptr<SocketConsole>> open(asio::io_context& ctx, const std::string& path,
-                                                      OnLine on_line) {
-    struct stat st {};
-    if (::lstat(path.c_str(), &st) == 0) {
-      if (!S_ISSOCK(st.st_mode))
-        return Status(Errc::invalid_argument,
-                      fmt::format("{} exists and is not a socket; not replacing it", path));
-      ::unlink(path.c_str());  // a socket left by an earlier run
-    }
-    auto c = std::unique_ptr<SocketConsole>(new SocketConsole(ctx, path, std::move(on_line)));
-    boost::system::error_code ec;
-    c->acceptor_.open(asio::local::stream_protocol(), ec);
-    if (!ec) (void)c->acceptor_.bind(asio::local::stream_protocol::endpoint(path), ec);
-    if (!ec) (void)c->acceptor_.listen(8, ec);
-    if (ec)
-      return Status(Error(Errc::io_error, ec.value()), fmt::format("console {}: {}", path, ec.message()));
-    ::chmod(path.c_str(), 0600);  // the console can inject faults: owner only
-    c->accept();
-    return c;
-  }
-  ~SocketConsole() {
-    boost::system::error_code ec;
-    acceptor_.close(ec);
-    ::unlink(path_.c_str());
-  }
-
- private:
-  struct Session : std::enable_shared_from_this<Session> {
-    explicit Session(asio::local::stream_protocol::socket s, OnLine* l) : socket(std::move(s)), on_line(l) {}
-    void read() {
-      auto self = shared_from_this();
-      asio::async_read_until(socket, asio::dynamic_buffer(input, 4096), '\n',
-                             [self](const boost::system::error_code& ec, size_t n) {
-                               if (ec) return;
-                               std::string line = self->input.substr(0, n - 1);
-                               self->input.erase(0, n);
-                               (*self->on_line)(line, [self](std::string text) {
-                                 auto out = std::make_shared<std::string>(std::move(text));
-                                 asio::async_write(self->socket, asio::buffer(*out),
-                                                   [self, out](const boost::system::error_code&, size_t) {});
-                               });
-                               self->read();
-                             });
-    }
-    asio::local::stream_protocol::socket socket;
-    OnLine* on_line;
-    std::string input;
-  };
-
-  SocketConsole(asio::io_context& ctx, std::string path, OnLine on_line)
-      : acceptor_(ctx), path_(std::move(path)), on_line_(std::move(on_line)) {}
-  void accept() {
-    acceptor_.async_accept(
-        [this](const boost::system::error_code& ec, asio::local::stream_protocol::socket s) {
-          if (ec) return;
-          std::make_shared<Session>(std::move(s), &on_line_)->read();
-          accept();
-        });
-  }
-
-  asio::local::stream_protocol::acceptor acceptor_;
-  std::string path_;
-  OnLine on_line_;
-};
 
 RequestLog request_logger() {
   return [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
@@ -176,9 +103,9 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
     if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
     if (host.quit_requested()) ctx.stop();
   };
-  std::unique_ptr<SocketConsole> socket_console;
+  std::unique_ptr<io::LineConsole> socket_console;
   if (!console_path.empty()) {
-    auto c = SocketConsole::open(ctx, console_path, on_line);
+    auto c = io::LineConsole::open(ctx, console_path, on_line);
     if (!c.ok())
       throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
                     std::string(c.error().reason())};

@@ -25,7 +25,7 @@
 #include "rtukit/devices/profile/transaction_text.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
-#include "rtukit/io/atomic_file.hpp"
+#include "rtukit/io/pcap_file.hpp"
 #include "rtukit/io/serial_config.hpp"
 
 namespace rtukit::cli {
@@ -79,65 +79,22 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
   return out;
 }
 
-// pcap (LINKTYPE_RAW: IPv4), each frame a UDP datagram to or from port 502,
-// so `tshark -d udp.port==502,mbrtu` decodes it as Modbus RTU.
-class PcapWriter {
- public:
-  // An existing capture (pcap's magic number first) is replaced; any other
-  // file only with --overwrite.
-  PcapWriter(const std::string& path, bool overwrite) {
-    const uint32_t header[] = {kMagic, 0x00040002, 0,
-                               0,      65535,      101};  // magic, v2.4, tz, sigfigs, snaplen, raw IP
-    const std::string_view magic(reinterpret_cast<const char*>(header), 4);
-    Outcome<int> fd = io::create_output_file(path, magic, overwrite);
-    if (!fd.ok()) throw Failure{exit_code(fd.error().error()), fmt::format("--pcap {}", fd.error().reason())};
-    out_.reset(::fdopen(*fd, "wb"));
-    if (!out_) throw Failure{kIoError, fmt::format("--pcap {}: cannot write", path)};
-    write(header, sizeof header);
-  }
-  void frame(const SniffedFrame& f, bool from_master) {
-    const size_t udp_len = 8 + f.bytes.size(), ip_len = 20 + udp_len;
-    std::vector<uint8_t> p{
-        0x45, 0, static_cast<uint8_t>(ip_len >> 8), static_cast<uint8_t>(ip_len), 0, 0, 0x40, 0, 64, 17,
-        0,    0};
-    const uint8_t master[] = {10, 0, 0, 1}, slave[] = {10, 0, 0, 2};
-    p.insert(p.end(), from_master ? master : slave, (from_master ? master : slave) + 4);
-    p.insert(p.end(), from_master ? slave : master, (from_master ? slave : master) + 4);
-    uint32_t sum = 0;
-    for (size_t i = 0; i < 20; i += 2) sum += static_cast<uint32_t>(p[i] << 8 | p[i + 1]);
-    while (sum >> 16) sum = (sum & 0xFFFF) + (sum >> 16);
-    p[10] = static_cast<uint8_t>(~sum >> 8);
-    p[11] = static_cast<uint8_t>(~sum);
-    const uint16_t sport = from_master ? 40000 : 502, dport = from_master ? 502 : 40000;
-    p.insert(p.end(), {static_cast<uint8_t>(sport >> 8), static_cast<uint8_t>(sport),
-                       static_cast<uint8_t>(dport >> 8), static_cast<uint8_t>(dport),
-                       static_cast<uint8_t>(udp_len >> 8), static_cast<uint8_t>(udp_len), 0, 0});
-    p.insert(p.end(), f.bytes.begin(), f.bytes.end());
-    const uint32_t record[] = {static_cast<uint32_t>(f.start_us / 1000000),
-                               static_cast<uint32_t>(f.start_us % 1000000), static_cast<uint32_t>(p.size()),
-                               static_cast<uint32_t>(p.size())};
-    write(record, sizeof record);
-    write(p.data(), p.size());
-    std::fflush(out_.get());
-  }
-
- private:
-  static constexpr uint32_t kMagic = 0xA1B2C3D4;
-  void write(const void* data, size_t size) { std::fwrite(data, 1, size, out_.get()); }
-  struct Close {
-    void operator()(std::FILE* f) const { std::fclose(f); }
-  };
-  std::unique_ptr<std::FILE, Close> out_;
-};
+// The --pcap file, if asked for.
+std::unique_ptr<io::PcapFile> open_pcap(const SniffArgs& a) {
+  if (a.pcap.empty()) return nullptr;
+  Outcome<std::unique_ptr<io::PcapFile>> f = io::PcapFile::create(a.pcap, a.overwrite);
+  if (!f.ok()) throw Failure{exit_code(f.error().error()), fmt::format("--pcap {}", f.error().reason())};
+  return std::move(*f);
+}
 
 // Times are printed from `origin` (when sniffing started; 0 for a tap, whose times start with the bus).
-void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, PcapWriter* pcap,
+void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, io::PcapFile* pcap,
             uint64_t origin = 0) {
   for (const SniffedTransaction& t : s.take()) {
     const SniffedFrame& first = t.request ? *t.request : *t.response;
     if (pcap) {
-      if (t.request) pcap->frame(*t.request, true);
-      if (t.response) pcap->frame(*t.response, !t.request);
+      if (t.request) pcap->frame(t.request->bytes, t.request->start_us, true);
+      if (t.response) pcap->frame(t.response->bytes, t.response->start_us, !t.request);
     }
     const std::string text = profile::transaction_text(t, profiles);
     const std::vector<std::string> flags = s.forensics(t);
@@ -225,8 +182,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
   const Interruptible interrupt;
   std::string buffer, header;
   std::unique_ptr<Sniffer> s;
-  std::unique_ptr<PcapWriter> pcap =
-      a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap, a.overwrite);
+  std::unique_ptr<io::PcapFile> pcap = open_pcap(a);
   int64_t offset = 0;  // our clock minus the bus's
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   bool ended = false;
@@ -287,8 +243,7 @@ int run_sniff(const SniffArgs& a) {
   Sniffer s(SnifferConfig{.baud = a.link.baud,
                           .bits_per_char = bits,
                           .response_timeout_us = static_cast<uint32_t>(a.link.timeout_ms) * 1000});
-  std::unique_ptr<PcapWriter> pcap =
-      a.pcap.empty() ? nullptr : std::make_unique<PcapWriter>(a.pcap, a.overwrite);
+  std::unique_ptr<io::PcapFile> pcap = open_pcap(a);
   if (!a.tap.empty()) {
     std::ifstream in(a.tap);
     if (!in) throw Failure{kIoError, fmt::format("--tap {}: cannot read", a.tap)};

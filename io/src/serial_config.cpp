@@ -183,4 +183,15 @@ Error drain(int fd) {
   return {};
 }
 
+// Asked before the port is taken for use (TIOCEXCL, flock): the answer
+// depends on the driver, not on the port's settings.
+bool kernel_rs485_available(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK);
+  if (fd < 0) return false;
+  serial_rs485 rs{};
+  const bool available = ::ioctl(fd, TIOCGRS485, &rs) == 0;
+  ::close(fd);
+  return available;
+}
+
 }  // namespace rtukit::io

@@ -41,4 +41,9 @@ Error drain(int fd);
 /// Puts a pty end in raw mode (no echo, no line discipline).
 Error make_raw(int fd);
 
+/// Whether the driver of the port at `path` has a kernel RS-485 mode
+/// (TIOCGRS485 answers). Asked without taking the port: opened non-blocking,
+/// nothing configured, closed at once. False when the port cannot be opened.
+bool kernel_rs485_available(const std::string& path);
+
 }  // namespace rtukit::io
