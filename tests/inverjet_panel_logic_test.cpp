@@ -110,7 +110,9 @@ TEST_F(PanelLogicTest, PollsAtPollHz_StartToStart) {
 
 TEST_F(PanelLogicTest, Start_ResultToItsPage_AndTheNextStateShowsTheMachineRunning) {
   run_for(1s);
+  logic_->step(clock_.now());  // the poll at 1 s
   EXPECT_EQ(last("state")["state"], "off");
+  clock_.advance(100ms);  // between two polls: the next is 400 ms away
   const size_t states = taken("state").size();
   ASSERT_TRUE(queue({{"op", "start"}, {"mode", "free"}, {"speed", 40}, {"id", "c1"}}));
   logic_->step(clock_.now());
@@ -121,7 +123,7 @@ TEST_F(PanelLogicTest, Start_ResultToItsPage_AndTheNextStateShowsTheMachineRunni
   EXPECT_TRUE(taken("result").empty());  // to its page only
   EXPECT_NE(machine_.phase(), inverjet::Phase::off);
   EXPECT_EQ(machine_.speed(), 40);
-  // The poll right after it, in the same step, shows the machine starting.
+  // An extra poll right after it, in the same step, shows the machine starting.
   ASSERT_EQ(taken("state").size(), states + 1);
   EXPECT_NE(last("state")["state"], "off");
   EXPECT_EQ(last("state")["speed"], 40);
@@ -130,7 +132,8 @@ TEST_F(PanelLogicTest, Start_ResultToItsPage_AndTheNextStateShowsTheMachineRunni
 
 TEST_F(PanelLogicTest, PastTheQueueLimit_BusyAtOnce_AndNeverRun) {
   run_for(1s);
-  for (size_t i = 0; i < kPanelCommandLimit; ++i) ASSERT_TRUE(queue({{"op", "stop"}, {"id", i}}));
+  ASSERT_EQ(kPanelCommandLimit, 16u);  // the panel's limit, as it was before PanelLogic
+  for (size_t i = 0; i < 16; ++i) ASSERT_TRUE(queue({{"op", "stop"}, {"id", i}}));
   // The one past the limit is a start: it must never reach the machine.
   EXPECT_FALSE(queue({{"op", "start"}, {"mode", "free"}, {"speed", 40}, {"id", "late"}}));
   const Json busy = last("result", kPage);  // before any step: on the caller's thread
@@ -140,7 +143,7 @@ TEST_F(PanelLogicTest, PastTheQueueLimit_BusyAtOnce_AndNeverRun) {
   EXPECT_NE(busy["error"].get<std::string>().find("busy"), std::string::npos) << busy.dump();
   logic_->step(clock_.now());
   run_for(2s);
-  EXPECT_EQ(taken("result", kPage).size(), kPanelCommandLimit + 1);
+  EXPECT_EQ(taken("result", kPage).size(), 17u);
   EXPECT_EQ(machine_.phase(), inverjet::Phase::off);
   EXPECT_EQ(last("state")["state"], "off");
   // The queue ran empty: the next command is taken again.
