@@ -1,7 +1,9 @@
-// The pool panel: a bus worker (driver/bus_worker.hpp: polls, commands,
-// history) and the web thread (pages). Commands cross from the web thread to
-// the worker with BusWorker::post; states, samples and results cross back with
-// Server::post.
+// The pool panel: PanelLogic (polls, commands, history, plans) on a bus
+// worker (driver/bus_worker.hpp), and the web thread (pages). Commands cross
+// from the web thread to the logic with PanelLogic::queue_command (and a
+// wake); its messages cross back with Server::post, numbered, so a page that
+// connects between a message and its delivery gets it once: in welcome() or
+// as the message, never both.
 //
 // Who may use it (docs/inverjet.md, "Pool panel"): the web layer checks
 // Origin and Host on every request; with a password file, every request but
@@ -22,7 +24,9 @@
 #include <chrono>
 #include <cstring>
 #include <ctime>
+#include <deque>
 #include <map>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <set>
 #include <sstream>
@@ -45,10 +49,6 @@ using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 namespace ij = inverjet;
 
-constexpr size_t kHistory = 2 * 60 * 60 * 2;  // two hours at 2 Hz
-/// Commands from the pages waiting for the bus; more are refused ("busy").
-constexpr size_t kJobLimit = 16;
-
 constexpr std::string_view kRecordTag = "rtukit-panel-password";
 constexpr std::string_view kRecordAlgorithm = "pbkdf2-sha256";
 constexpr size_t kSaltBytes = 16, kKeyBytes = 32, kTokenBytes = 32;
@@ -58,8 +58,8 @@ constexpr size_t kMaxSessions = 256;  ///< the oldest goes first beyond this
 constexpr int kWrongPerAddress = 10;  ///< wrong passwords per source address per kWrongWindow
 constexpr auto kWrongWindow = std::chrono::minutes(1);
 
-struct Job {
-  uint64_t socket = 0;
+struct Command {
+  uint64_t socket = 0;  ///< the page that sent it: its result goes there
   Json message;
 };
 
@@ -245,6 +245,202 @@ rtukit::Outcome<std::string> load_password_record(const std::string& path) {
   return *text;
 }
 
+// ---------------------------------------------------------------- the logic
+
+struct PanelLogic::Impl {
+  Impl(Master& master, const PanelOptions& o, DriverClock& c, PanelSend s)
+      : options(o),
+        clock(c),
+        send(std::move(s)),
+        client(master, UnitId{options.unit}),
+        began(clock.now()),
+        schedule(PollPolicy::at_hz(options.poll_hz), began) {}
+
+  const PanelOptions& options;
+  DriverClock& clock;
+  PanelSend send;
+  ij::Client client;
+
+  // step()'s only.
+  Clock::time_point began;  ///< the samples' "t" counts from here
+  PollSchedule schedule;
+  bool plans_read = false;
+  bool running_before = false;
+  bool online = false;
+  bool said_offline = false;                 // the page hears of a machine that never answered too
+  ij::Family remembered = ij::Family::none;  // the run family through a fault screen
+
+  /// Guards what follows: queue_command() and welcome() run on other threads.
+  mutable std::mutex mutex;
+  std::deque<Command> commands;
+  // What a page that connects is sent (welcome()), as of message `seq`.
+  std::string last_state;
+  std::vector<Json> history;
+  std::string plans;
+  uint64_t seq = 0;
+
+  // Numbers the message and sends it; `update` brings what welcome() sends
+  // up to it, under the same lock, so a page gets each message once.
+  void out(uint64_t to, std::string text, const std::function<void()>& update = {}) {
+    PanelMessage m{.to = to, .text = std::move(text)};
+    {
+      std::lock_guard lock(mutex);
+      if (update) update();
+      m.seq = ++seq;
+    }
+    send(m);
+  }
+
+  void send_plans() {
+    Json p = read_plans();
+    std::string text = p.dump();
+    out(0, text, [&] { plans = text; });
+  }
+
+  Json read_plans() {
+    Json all = Json::array();
+    for (unsigned p = 1; p <= 4; ++p) {
+      Outcome<std::vector<ij::Segment>> segments = client.read_plan(p);
+      Json list = Json::array();
+      if (segments)
+        for (const ij::Segment& s : *segments)
+          list.push_back({{"speed", s.speed}, {"end", profile::format_mm_ss(s.end)}, {"end_s", s.end}});
+      all.push_back(list);
+    }
+    return Json{{"type", "plans"}, {"plans", all}};
+  }
+
+  void run(const Command& c) {
+    const Json& m = c.message;
+    const std::string op = m["op"].get<std::string>();
+    Json result{{"type", "result"}, {"op", op}};
+    if (m.contains("id")) result["id"] = m["id"];
+    rtukit::Status e;
+    if (op == "plans") {
+      send_plans();
+    } else {
+      e = inverjet::run_command(client, op, m, result);
+      if (!e && op == "plan") send_plans();  // read back what the machine stored
+    }
+    result["ok"] = !e;
+    if (e)
+      result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
+                                                       e.error().exception_code(), e.name(), e.reason())
+                                         : std::string(e.reason());
+    out(c.socket, result.dump());
+    schedule.poll_soon();  // show its effect at once
+  }
+
+  void poll(Clock::time_point now) {
+    const Result<ij::MachineStatus> s = client.status();
+    schedule.polled(now, bool(s));
+    if (!s) {
+      if (schedule.offline() && (online || !said_offline)) {
+        online = false;
+        said_offline = true;
+        std::string text;
+        {
+          std::lock_guard lock(mutex);
+          Json st = last_state.empty() ? Json{{"type", "state"}} : Json::parse(last_state);
+          st["online"] = false;
+          text = st.dump();
+        }
+        out(0, text, [&] { last_state = text; });
+      }
+      return;
+    }
+    online = true;
+    const int64_t contact = unix_ms(clock.wall());
+    if (!plans_read) {
+      plans_read = true;
+      send_plans();
+    }
+    remembered = inverjet::remember_family(*s, remembered);
+    Json st = inverjet::state_document(*s, remembered);
+    st["type"] = "state";
+    st["online"] = true;
+    st["last_contact_ms"] = contact;
+    const bool running = s->phase() == ij::Phase::running || s->phase() == ij::Phase::starting ||
+                         s->phase() == ij::Phase::paused;
+    const bool new_run = running && !running_before;
+    running_before = running;
+    if (new_run)  // a new run: new charts
+      out(0, Json{{"type", "history"}, {"samples", Json::array()}}.dump(), [&] { history.clear(); });
+    if (running) {  // the run's samples; kept after it ends, for a look back
+      Json sample{{"type", "sample"},
+                  {"t", std::chrono::duration<double>(now - began).count()},
+                  {"speed", s->phase() == ij::Phase::running ? s->speed : 0},
+                  {"current_a", s->current_a},
+                  {"mosfet_c", s->mosfet_c},
+                  {"motor_c", s->motor_c}};
+      out(0, sample.dump(), [&] {
+        if (history.size() >= kPanelHistory) history.erase(history.begin());
+        history.push_back(sample);
+      });
+    }
+    std::string text = st.dump();
+    bool changed;
+    {
+      std::lock_guard lock(mutex);
+      changed = text != last_state;
+    }
+    if (changed) out(0, text, [&] { last_state = text; });
+  }
+};
+
+PanelLogic::PanelLogic(Master& master, const PanelOptions& options, DriverClock& clock, PanelSend send)
+    : impl_(std::make_unique<Impl>(master, options, clock, std::move(send))) {}
+
+PanelLogic::~PanelLogic() = default;
+
+bool PanelLogic::queue_command(uint64_t socket, Json command) {
+  Impl& l = *impl_;
+  if (!command.is_object() || !command.contains("op") || !command["op"].is_string()) {
+    l.out(socket, Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
+    return false;
+  }
+  Json busy{{"type", "result"},
+            {"op", command.value("op", Json())},
+            {"id", command.value("id", Json())},
+            {"ok", false},
+            {"error", "busy: too many commands waiting"}};
+  {
+    std::lock_guard lock(l.mutex);
+    if (l.commands.size() < kPanelCommandLimit) {
+      l.commands.push_back({socket, std::move(command)});
+      return true;
+    }
+  }
+  // A page that floods the bus waits for nobody: refused, with an answer.
+  l.out(socket, busy.dump(-1, ' ', false, Json::error_handler_t::replace));
+  return false;
+}
+
+std::vector<std::string> PanelLogic::welcome(uint64_t& seq) const {
+  const Impl& l = *impl_;
+  std::lock_guard lock(l.mutex);
+  std::vector<std::string> out;
+  if (!l.last_state.empty()) out.push_back(l.last_state);
+  out.push_back(Json{{"type", "history"}, {"samples", l.history}}.dump());
+  if (!l.plans.empty()) out.push_back(l.plans);
+  seq = l.seq;
+  return out;
+}
+
+io::Clock::time_point PanelLogic::step(io::Clock::time_point now) {
+  Impl& l = *impl_;
+  std::deque<Command> todo;
+  {
+    std::lock_guard lock(l.mutex);
+    todo.swap(l.commands);
+  }
+  for (const Command& c : todo) l.run(c);
+  if (l.schedule.due(now)) l.poll(now);
+  return l.schedule.next();
+}
+
+// ---------------------------------------------------------------- the panel: web server and bus worker
+
 struct Panel::Impl {
   Impl(std::unique_ptr<io::Link> link, PanelOptions o)
       : options(std::move(o)),
@@ -252,12 +448,10 @@ struct Panel::Impl {
         master(std::move(link),
                MasterOptions{.response_timeout = std::chrono::milliseconds(options.response_timeout_ms),
                              .clock = &clock}),
-        client(master, UnitId{options.unit}),
         server(web::ServerOptions{.listen = {listener()}, .clock = &clock}, handlers()),
-        began(clock.now()),
-        schedule(PollPolicy::at_hz(options.poll_hz), began),
-        worker([this](Clock::time_point now) { return step(now); },
-               {.clock = &clock, .job_limit = kJobLimit}) {
+        logic(master, options, clock,
+              [this](const PanelMessage& m) { server.post([this, m] { deliver(m); }); }),
+        worker([this](Clock::time_point now) { return logic.step(now); }, {.clock = &clock}) {
     if (!options.log)
       options.log = [this](const std::string& line) {
         const std::time_t now = io::WallClock::to_time_t(clock.wall());
@@ -271,25 +465,17 @@ struct Panel::Impl {
   PanelOptions options;
   DriverClock& clock;
   Master master;
-  ij::Client client;
   web::Server server;
-
-  // The bus worker's only.
-  Clock::time_point began;
-  PollSchedule schedule;
-  bool plans_read = false;
-  bool running_before = false;
-  bool online = false;
-  bool said_offline = false;  // the page hears of a machine that never answered too
-  inverjet::Family remembered = inverjet::Family::none;  // the run family through a fault screen
-  /// The one thread on the bus: the web thread posts it the page's commands.
+  PanelLogic logic;
+  /// The one thread on the bus: it runs the logic's steps.
   BusWorker worker;
 
   // Web thread only.
-  std::map<uint64_t, web::SocketPtr> sockets;
-  std::string last_state;
-  std::vector<Json> history;
-  std::string plans;
+  struct Page {
+    web::SocketPtr socket;
+    uint64_t welcomed = 0;  ///< the last message its welcome() covered
+  };
+  std::map<uint64_t, Page> sockets;
 
   // Who may use it. `record` is set by start() before the server runs; the
   // rest is the web thread's.
@@ -344,7 +530,7 @@ struct Panel::Impl {
     sessions.erase(id);
     for (auto it = socket_session.begin(); it != socket_session.end();) {
       if (it->second == id) {
-        if (auto s = sockets.find(it->first); s != sockets.end()) s->second->close(why);
+        if (auto s = sockets.find(it->first); s != sockets.end()) s->second.socket->close(why);
         it = socket_session.erase(it);
       } else {
         ++it;
@@ -497,10 +683,9 @@ struct Panel::Impl {
         }
         socket_session[s->id()] = id;
       }
-      sockets[s->id()] = s;
-      if (!last_state.empty()) s->send(last_state);
-      s->send(Json{{"type", "history"}, {"samples", history}}.dump());
-      if (!plans.empty()) s->send(plans);
+      Page& page = sockets[s->id()];
+      page.socket = s;
+      for (const std::string& text : logic.welcome(page.welcomed)) s->send(text);
     };
     h.closed = [this](const web::SocketPtr& s) {
       sockets.erase(s->id());
@@ -520,133 +705,23 @@ struct Panel::Impl {
       }
       if (op == "start" || op == "stop" || op == "plan")
         log(fmt::format("{} from {}", op, s->peer_address()));
-      Json busy{{"type", "result"},
-                {"op", m["op"]},
-                {"id", m.value("id", Json())},
-                {"ok", false},
-                {"error", "busy: too many commands waiting"}};
-      // A page that floods the bus waits for nobody: refused (kJobLimit).
-      if (!worker.post([this, job = Job{s->id(), std::move(m)}] { run_job(job); })) s->send(busy.dump());
+      // A page that floods the bus is answered "busy" by the logic.
+      if (logic.queue_command(s->id(), std::move(m))) worker.wake();
     };
     return h;
   }
 
   // ---------------------------------------------------------- web thread
 
-  void broadcast(const std::string& text) {
-    for (auto& [id, s] : sockets) s->send(text);
-  }
-
-  // ---------------------------------------------------------- bus thread
-
-  Json read_plans() {
-    Json all = Json::array();
-    for (unsigned p = 1; p <= 4; ++p) {
-      Outcome<std::vector<ij::Segment>> segments = client.read_plan(p);
-      Json list = Json::array();
-      if (segments)
-        for (const ij::Segment& s : *segments)
-          list.push_back({{"speed", s.speed}, {"end", profile::format_mm_ss(s.end)}, {"end_s", s.end}});
-      all.push_back(list);
-    }
-    return Json{{"type", "plans"}, {"plans", all}};
-  }
-
-  void run_job(const Job& job) {
-    const Json& m = job.message;
-    const std::string op = m["op"].get<std::string>();
-    Json result{{"type", "result"}, {"op", op}};
-    if (m.contains("id")) result["id"] = m["id"];
-    rtukit::Status e;
-    if (op == "plans") {
-      Json p = read_plans();
-      server.post([this, text = p.dump()] {
-        plans = text;
-        broadcast(text);
-      });
-    } else {
-      e = inverjet::run_command(client, op, m, result);
-      if (!e && op == "plan") {
-        Json p = read_plans();  // read back what the machine stored
-        server.post([this, text = p.dump()] {
-          plans = text;
-          broadcast(text);
-        });
-      }
-    }
-    result["ok"] = !e;
-    if (e)
-      result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
-                                                       e.error().exception_code(), e.name(), e.reason())
-                                         : std::string(e.reason());
-    server.post([this, socket = job.socket, text = result.dump()] {
-      if (auto it = sockets.find(socket); it != sockets.end()) it->second->send(text);
-    });
-    schedule.poll_soon();  // show its effect at once
-  }
-
-  // The worker's step: the poll, when it is due. Returns when the next one is.
-  Clock::time_point step(Clock::time_point now) {
-    if (schedule.due(now)) poll(now);
-    return schedule.next();
-  }
-
-  void poll(Clock::time_point now) {
-    const Result<ij::MachineStatus> s = client.status();
-    schedule.polled(now, bool(s));
-    if (!s) {
-      if (schedule.offline() && (online || !said_offline)) {
-        online = false;
-        said_offline = true;
-        server.post([this] {
-          Json st = last_state.empty() ? Json{{"type", "state"}} : Json::parse(last_state);
-          st["online"] = false;
-          last_state = st.dump();
-          broadcast(last_state);
-        });
-      }
+  // A message of the logic's, to its page or to every page but those whose
+  // welcome() already had it.
+  void deliver(const PanelMessage& m) {
+    if (m.to != 0) {
+      if (auto it = sockets.find(m.to); it != sockets.end()) it->second.socket->send(m.text);
       return;
     }
-    online = true;
-    const int64_t contact = unix_ms(clock.wall());
-    if (!plans_read) {
-      plans_read = true;
-      Json p = read_plans();
-      server.post([this, text = p.dump()] {
-        plans = text;
-        broadcast(text);
-      });
-    }
-    remembered = inverjet::remember_family(*s, remembered);
-    Json st = inverjet::state_document(*s, remembered);
-    st["type"] = "state";
-    st["online"] = true;
-    st["last_contact_ms"] = contact;
-    const bool running = s->phase() == ij::Phase::running || s->phase() == ij::Phase::starting ||
-                         s->phase() == ij::Phase::paused;
-    const bool new_run = running && !running_before;
-    running_before = running;
-    Json sample{{"type", "sample"},
-                {"t", std::chrono::duration<double>(now - began).count()},
-                {"speed", s->phase() == ij::Phase::running ? s->speed : 0},
-                {"current_a", s->current_a},
-                {"mosfet_c", s->mosfet_c},
-                {"motor_c", s->motor_c}};
-    server.post([this, text = st.dump(), sample = std::move(sample), new_run, running] {
-      if (new_run) {
-        history.clear();  // a new run: new charts
-        broadcast(Json{{"type", "history"}, {"samples", history}}.dump());
-      }
-      if (running) {  // the run's samples; kept after it ends, for a look back
-        if (history.size() >= kHistory) history.erase(history.begin());
-        history.push_back(sample);
-        broadcast(sample.dump());
-      }
-      if (text != last_state) {
-        last_state = text;
-        broadcast(text);
-      }
-    });
+    for (auto& [id, page] : sockets)
+      if (page.welcomed < m.seq) page.socket->send(m.text);
   }
 };
 

@@ -2,11 +2,11 @@
 // swimmer's phone or tablet (web/assets/inverjet/), served with its JSON API
 // over HTTP and WebSocket by the shared web layer (web/server.hpp).
 //
-// One bus thread owns the machine: it polls (2 Hz), runs the pages' commands
-// in arrival order through the same command runner as the MQTT bridge
-// (inverjet::run_command: the verbs every front-end runs), keeps the run's history for
-// the charts, and posts the results to the web thread. A page never waits
-// for the bus and never slows the polling.
+// One bus thread owns the machine: it runs PanelLogic (below), which polls
+// (2 Hz), runs the pages' commands in arrival order through the same command
+// runner as the MQTT bridge (inverjet::run_command: the verbs every front-end
+// runs), keeps the run's history for the charts, and hands its messages to
+// the web thread. A page never waits for the bus and never slows the polling.
 //
 // WebSocket /ws. Server -> page: {"type":"state", ...inverjet::state_document...,
 // "online"}, {"type":"sample","t","speed","current_a","mosfet_c","motor_c"},
@@ -21,14 +21,17 @@
 // gives (docs/inverjet.md, "Pool panel").
 #pragma once
 
+#include <cstdint>
 #include <functional>
 #include <memory>
+#include <nlohmann/json.hpp>
 #include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "rtukit/devices/inverjet/registers.hpp"
+#include "rtukit/driver/master.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
@@ -61,6 +64,72 @@ rtukit::Outcome<std::string> make_password_record(std::string_view password, uns
 rtukit::Outcome<bool> check_password(std::string_view record, std::string_view password);
 /// Loads a password file and checks its format. Errors: the file's, malformed.
 rtukit::Outcome<std::string> load_password_record(const std::string& path);
+
+/// Commands from the pages waiting for the bus; more are refused ("busy").
+inline constexpr size_t kPanelCommandLimit = 16;
+/// Samples kept for the charts: two hours at 2 Hz (the oldest goes first).
+inline constexpr size_t kPanelHistory = 2 * 60 * 60 * 2;
+
+/// One message for the pages (its JSON text), numbered in the order the
+/// logic made it.
+struct PanelMessage {
+  uint64_t to = 0;  ///< the page's socket id (a command's result); 0: every page
+  std::string text;
+  uint64_t seq = 0;  ///< 1, 2, ...: what welcome() covers is up to its seq
+};
+/// Where the logic's messages go: the web thread, or a test's list.
+using PanelSend = std::function<void(const PanelMessage&)>;
+
+/// The panel's logic, without the web server and without a thread: the
+/// polls on the shared schedule (driver/poll_schedule.hpp: `poll_hz`, the
+/// back-off, offline after two failed polls), the pages' commands (at most
+/// kPanelCommandLimit waiting), the run's history and the machine's plans.
+/// The Panel runs it on a BusWorker and carries its messages to the pages;
+/// tests run it on a ManualClock and a MemoryLink, step by step.
+///
+/// What it sends (the JSON in the Panel's comment above):
+///  - "state" when the state document changes (each answer has a new
+///    "last_contact_ms": in practice every poll), with "online": true;
+///    once the machine counts as offline, the last state with "online":
+///    false (also when it never answered), once per outage.
+///  - "sample" each poll while a run is on (starting, running, paused; the
+///    "speed" is 0 unless running), kept in the history (kPanelHistory at
+///    most; kept after the run ends); a new run empties the history and
+///    sends the empty "history" first.
+///  - "plans" (the four plans as the machine stores them) after its first
+///    answer ever, after the "plans" command and after a "plan" it took.
+///  - "result" for each command, to its page only, with the page's "id";
+///    the reason when it failed. A command's effect is polled at once.
+/// Commands run at the next step, before its poll, in the order queued,
+/// through inverjet::run_command (which refuses a bad one before it writes).
+/// A command that finds kPanelCommandLimit waiting is refused at once
+/// ("busy") and never runs.
+/// step() runs on one thread; queue_command() and welcome() on any. `send`
+/// is called on step()'s thread, and on queue_command()'s for "busy".
+class PanelLogic {
+ public:
+  /// `master`, `options` and `clock` must outlive the logic.
+  PanelLogic(Master& master, const PanelOptions& options, DriverClock& clock, PanelSend send);
+  ~PanelLogic();
+  PanelLogic(const PanelLogic&) = delete;
+  PanelLogic& operator=(const PanelLogic&) = delete;
+
+  /// A page's command (a JSON object with a string "op"; "id" optional),
+  /// run at the next step. Returns false when refused, with the answer sent
+  /// to `socket` at once: "busy", or an "error" for a message with no "op".
+  bool queue_command(uint64_t socket, nlohmann::json command);
+  /// What a page that connects now is sent first: the last state (if any),
+  /// the history, the plans (once read). `seq` is set to the last message
+  /// these include: the later ones (seq > it) are the page's to receive.
+  std::vector<std::string> welcome(uint64_t& seq) const;
+  /// Runs the commands queued, then the poll if it is due at `now` (or a
+  /// command asked for it). Returns when the next poll is due.
+  io::Clock::time_point step(io::Clock::time_point now);
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 class Panel {
  public:
