@@ -62,16 +62,10 @@ UnitId unit_of(const ChairArgs& a) {
   return device_unit(a.unit, rh::kProfile);
 }
 
-// 1010 with its reason and what to check; `code` the exit code (3 no answer, 5 another device).
+// 1010 with its reason and what to check (rehand6600::link_failure_text);
+// `code` the exit code (3 no answer, 5 another device).
 [[noreturn]] void master_error(const std::string& context, const std::string& reason, int code) {
-  const std::string check =
-      code == kRefused ? std::string("check --port and --unit: another device answers there")
-                       : fmt::format(
-                             "check that the controller is powered on, the UART cable and its connectors, "
-                             "--baud ({} unless changed) and --unit ({})",
-                             rh::kDefaultBaud, rh::kDefaultAddress);
-  throw Failure{code, fmt::format("{}: {}: {}; {}", context, rh::error_text(rh::kMasterCommunicationError),
-                                  reason, check)};
+  throw Failure{code, fmt::format("{}: {}", context, rh::link_failure_text(reason, code == kRefused))};
 }
 
 // The handshake, once (rehand6600::handshake): 4 the port, 3 no answer, 5 another device.

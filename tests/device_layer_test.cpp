@@ -327,7 +327,7 @@ TEST(DocsFromTheRegistry, EachSectionIsRewrittenFromItsTable_AMissingOneIsNamed)
   ASSERT_NE(rehand, nullptr);
   std::vector<std::string> names;
   for (const profile::DocSection& s : profile::doc_sections(*rehand)) names.emplace_back(s.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"registers", "errors", "stopping"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"registers", "commands", "errors", "stopping"}));
   EXPECT_EQ(rehand->doc, "docs/rehand6600.md");
 
   const profile::DeviceEntry* jet = devices::find("inverjet");

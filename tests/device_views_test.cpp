@@ -14,6 +14,7 @@
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
+#include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
 #include "rtukit/driver/master.hpp"
@@ -370,6 +371,120 @@ TEST(RehandVerbs, TheHandshakeTellsTheControllerFromAnotherDevice) {
   const rtukit::Status silent = rh::handshake(*other.master, UnitId{rh::kDefaultAddress});
   EXPECT_EQ(silent.code(), Errc::timeout);
   EXPECT_EQ(silent.reason(), "handshake: no answer (timeout)");
+}
+
+// ---------------------------------------------------------------- the verb tables
+
+// A context whose link is the rig's master, counting how often it is opened.
+struct Where {
+  explicit Where(Rig& rig, uint8_t unit) {
+    context.unit = UnitId{unit};
+    context.open = [this, &rig]() -> Master& {
+      ++opened;
+      return *rig.master;
+    };
+  }
+  profile::VerbContext context;
+  int opened = 0;
+};
+
+Outcome<profile::VerbResult> run(const std::vector<profile::Verb>& table,
+                                 Outcome<profile::VerbResult> (*runner)(const profile::Verb&,
+                                                                        const profile::VerbArgs&,
+                                                                        profile::VerbContext&),
+                                 std::string_view name, const profile::VerbArgs& args, Where& where) {
+  const profile::Verb* verb = profile::find_verb(table, name);
+  EXPECT_NE(verb, nullptr) << name;
+  return runner(*verb, args, where.context);
+}
+
+TEST(InverjetVerbTable, HelpsSayTheRowsRanges_AndThePairingNames) {
+  const auto& table = ij::verb_table();
+  std::vector<std::string> names;
+  for (const profile::Verb& v : table) names.emplace_back(v.name);
+  EXPECT_EQ(names, (std::vector<std::string>{"status", "start", "pause", "resume", "stop", "speed", "plan show",
+                                             "plan set", "plan clear", "config"}));
+  const profile::Verb& start = *profile::find_verb(table, "start");
+  ASSERT_EQ(start.args.size(), 6U);
+  EXPECT_NE(start.args[2].help.find(fmt::format("1..{}", ij::kPlanCount)), std::string::npos);
+  EXPECT_NE(start.args[3].help.find(fmt::format("0..{} %", ij::kMaxSpeed)), std::string::npos);
+  EXPECT_NE(start.args[1].help.find("99:59"), std::string::npos);
+  std::string pairing;
+  for (const profile::Named& n : ij::kMap.row(ij::reg::pairing).names) pairing += std::string(n.name) + "|";
+  EXPECT_NE(profile::find_verb(table, "config")->args[0].help.find(pairing), std::string::npos);
+  EXPECT_NE(profile::find_verb(table, "plan clear")->help.find(ij::factory_plan_text()), std::string::npos);
+  // The docs' table: one row per verb, a cell never split by a '|'.
+  const std::string md = profile::verbs_markdown("inverjet", table);
+  EXPECT_NE(md.find("| `rtukit inverjet speed SPEED` | set the running speed | SPEED: 0..100 % |"),
+            std::string::npos)
+      << md;
+  EXPECT_NE(md.find("off or wifi or remote or 0..2"), std::string::npos) << md;
+}
+
+TEST(InverjetVerbTable, ARefusedArgumentNeverOpensTheLink) {
+  Rig jet(21);
+  jet.bank.holding[ij::reg::kPoleCount] = ij::kMap.row(ij::reg::pole_count).writable_range.min;
+  Where where(jet, 21);
+  const auto& table = ij::verb_table();
+  for (const auto& [name, args] : std::vector<std::pair<std::string, profile::VerbArgs>>{
+           {"start", {{"plan", "1"}, {"speed", "30"}}},
+           {"start", {{"timer", "100m"}, {"speed", "30"}}},
+           {"start", {}},
+           {"speed", {{"speed", "101"}}},
+           {"plan show", {{"n", "5"}}},
+           {"plan set", {{"n", "1"}, {"file", "/nonexistent/plan.csv"}}},
+           {"config", {{"what", "baud"}, {"value", "115200"}}},
+           {"config", {{"what", "pairing"}}}}) {
+    const Outcome<profile::VerbResult> r = run(table, ij::run_verb, name, args, where);
+    ASSERT_FALSE(r.ok()) << name;
+    EXPECT_TRUE(r.error().code() == Errc::invalid_argument || r.error().code() == Errc::io_error)
+        << name << ": " << r.error().reason();
+  }
+  EXPECT_EQ(where.opened, 0);
+}
+
+TEST(InverjetVerbTable, AnotherDeviceIsRefused_TheMachineAnswersThroughTheVerbs) {
+  Rig other(21);  // pole count 0: not an Inverjet
+  Where there(other, 21);
+  const auto& table = ij::verb_table();
+  Outcome<profile::VerbResult> r = run(table, ij::run_verb, "stop", {}, there);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code(), Errc::refused);
+  EXPECT_NE(r.error().reason().find("not an Inverjet"), std::string::npos) << r.error().reason();
+  EXPECT_EQ(there.opened, 1);
+
+  Rig jet(21);
+  jet.bank.holding[ij::reg::kPoleCount] = ij::kMap.row(ij::reg::pole_count).writable_range.min;
+  Where here(jet, 21);
+  r = run(table, ij::run_verb, "config", {}, here);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  EXPECT_TRUE(r->action.empty());  // a reading
+  EXPECT_EQ(r->values["pole_count"]["value"], 5);
+  EXPECT_NE(r->text.find("pole_count     5"), std::string::npos) << r->text;
+  // A write says what it did, in the document's "action" too.
+  r = run(table, ij::run_verb, "config", {{"what", "mask"}, {"value", "0"}}, here);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  EXPECT_EQ(r->action, "config mask");
+}
+
+TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
+  Rig none(1);
+  Where where(none, 1);
+  const auto& table = rh::verb_table();
+  Outcome<profile::VerbResult> r = run(table, rh::run_verb, "errors", {{"code", "10C3"}}, where);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  EXPECT_EQ(r->text, fmt::format("{}: {}", rh::error_text(0x10C3), rh::error_advice(0x10C3)));
+  EXPECT_EQ(r->extra["errors"].size(), 1U);
+  // Four hex digits are the code as the chair shows it; else a number (0x10C3, 65535).
+  r = run(table, rh::run_verb, "errors", {{"code", "0x10C3"}}, where);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->extra["errors"][0]["code"], rh::error_json(0x10C3)["code"]);
+  r = run(table, rh::run_verb, "errors", {}, where);
+  ASSERT_TRUE(r.ok());
+  EXPECT_EQ(r->extra["errors"].size(), rh::error_codes().size());
+  EXPECT_FALSE(run(table, rh::run_verb, "errors", {{"code", "fly"}}, where).ok());
+  EXPECT_EQ(where.opened, 0);
+  EXPECT_FALSE(profile::find_verb(table, "errors")->uses_link);
 }
 
 }  // namespace

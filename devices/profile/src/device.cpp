@@ -11,6 +11,9 @@ std::vector<DocSection> doc_sections(const DeviceEntry& entry) {
   std::vector<DocSection> out;
   const Profile* p = entry.profile;
   out.push_back({"registers", entry.markdown ? entry.markdown : [p] { return registers_markdown(*p); }});
+  // The device's own verbs, from the same table the CLI builds them from.
+  if (!entry.verbs.empty())
+    out.push_back({"commands", [&entry] { return verbs_markdown(entry.profile->name, entry.verbs); }});
   out.insert(out.end(), entry.doc_sections.begin(), entry.doc_sections.end());
   return out;
 }

@@ -23,12 +23,12 @@ const Verb* find_verb(std::span<const Verb> verbs, std::string_view name) {
 namespace {
 // "SPEED", "[--speed S]", "--free": as a command line takes it.
 std::string usage(const VerbArg& a) {
-  std::string word;
-  if (a.form == VerbArg::Form::positional) {
-    for (const char c : a.name) word += static_cast<char>(c >= 'a' && c <= 'z' ? c - 'a' + 'A' : c);
-  } else {
+  std::string upper;
+  for (const char c : a.name) upper += static_cast<char>(c >= 'a' && c <= 'z' ? c - 'a' + 'A' : c);
+  std::string word = upper;
+  if (a.form != VerbArg::Form::positional) {
     word = fmt::format("--{}", a.name);
-    if (a.form == VerbArg::Form::option) word += " V";
+    if (a.form == VerbArg::Form::option) word += " " + upper;
   }
   return a.required ? word : fmt::format("[{}]", word);
 }
@@ -47,7 +47,15 @@ std::string verbs_markdown(std::string_view device, std::span<const Verb> verbs)
     }
     // A table cell takes no '|': the alternatives are written "or".
     std::string cell;
-    for (const char c : args) cell += c == '|' ? std::string(" or ") : std::string(1, c);
+    for (size_t i = 0; i < args.size(); ++i) {
+      if (args[i] != '|') {
+        cell += args[i];
+      } else if (i > 0 && args[i - 1] == ' ' && i + 1 < args.size() && args[i + 1] == ' ') {
+        cell += "or";  // " | " -> " or "
+      } else {
+        cell += " or ";
+      }
+    }
     out += fmt::format("| {}` | {} | {} |\n", line, v.help, cell.empty() ? "none" : cell);
   }
   return out;

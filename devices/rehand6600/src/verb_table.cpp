@@ -16,8 +16,9 @@ std::string without_final_newline(std::string text) {
   return text;
 }
 
-// Table 3, or one code (as the chair shows it, "10C3", or as a number,
-// 0x10C3 or 4291) with what it means and what to check.
+// Table 3, or one code with what it means and what to check: four hex
+// digits are the code as the chair shows it ("10C3"); anything else is a
+// number (0x10C3, 65535).
 Outcome<profile::VerbResult> errors(const profile::VerbArgs& args) {
   std::vector<uint16_t> codes(error_codes().begin(), error_codes().end());
   const std::string_view text = profile::arg(args, "code");

@@ -68,7 +68,8 @@ struct DeviceEntry {
 };
 
 /// Every generated section of `entry`'s doc: "registers" (`markdown`, or the
-/// kit's generic reference) first, then the device's own.
+/// kit's generic reference) first, "commands" (its verb table, when it has
+/// verbs), then the device's own.
 std::vector<DocSection> doc_sections(const DeviceEntry& entry);
 
 /// `text` (the device's doc) with every generated section rewritten from the

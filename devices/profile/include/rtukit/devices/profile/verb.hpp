@@ -71,7 +71,7 @@ struct VerbResult {
 /// asks for it (after its arguments are checked: an argument refused never
 /// opens the port, so nothing half-valid is sent).
 struct VerbContext {
-  UnitId unit;
+  UnitId unit{0};
   /// Opens the link (a front-end's transport); the Master lives as long as
   /// the context. A port that cannot be opened ends the verb in the front-end.
   std::function<Master&()> open;

@@ -40,4 +40,12 @@ nlohmann::ordered_json snapshot_values(const Snapshot& s, bool mph);
 /// "advice"} (`rtukit rehand6600 errors --json`).
 nlohmann::ordered_json error_json(uint16_t code);
 
+/// Why the host cannot talk to the controller, as the chair's own error says
+/// it, and what to check: "1010 Master Error: handshake: no answer (timeout);
+/// check that the controller is powered on, the UART cable and its
+/// connectors, --baud (115200 unless changed) and --unit (1)"; when another
+/// device answers (`another_device`): "1010 Master Error: REASON; check
+/// --port and --unit: another device answers there".
+std::string link_failure_text(std::string_view reason, bool another_device);
+
 }  // namespace rtukit::rehand6600
