@@ -334,11 +334,16 @@ TEST(DocsFromTheRegistry, EachSectionIsRewrittenFromItsTable_AMissingOneIsNamed)
   ASSERT_NE(jet, nullptr);
   const std::string stale =
       "# Inverjet\nintro\n<!-- BEGIN GENERATED: rtukit inverjet registers -->\nold table\n"
-      "<!-- END GENERATED: rtukit inverjet registers -->\nafter\n";
+      "<!-- END GENERATED: rtukit inverjet registers -->\nafter\n"
+      "<!-- BEGIN GENERATED: rtukit inverjet commands -->\nold commands\n"
+      "<!-- END GENERATED: rtukit inverjet commands -->\n";
   const Outcome<std::string> now = profile::regenerate_doc(*jet, stale);
   ASSERT_TRUE(now.ok()) << now.error().reason();
   EXPECT_EQ(now->find("old table"), std::string::npos);
   EXPECT_NE(now->find("| 0x0022 | `state` | state machine | RW |"), std::string::npos);
+  // The commands, from the verb table the CLI builds its subcommands from.
+  EXPECT_EQ(now->find("old commands"), std::string::npos);
+  EXPECT_NE(now->find("| `rtukit inverjet speed SPEED` | set the running speed |"), std::string::npos);
   EXPECT_EQ(now->rfind("# Inverjet\nintro\n", 0), 0u);
   EXPECT_NE(now->find("<!-- END GENERATED: rtukit inverjet registers -->\nafter\n"), std::string::npos);
   EXPECT_EQ(profile::regenerate_doc(*jet, *now).value(), *now);  // stable
