@@ -3,9 +3,7 @@
 // identity, the start rules, the settings and the command table; views.hpp
 // for the text) and prints. Values are checked before the port is opened
 // (one clear line, exit 2), so nothing half-valid is sent.
-#include <fcntl.h>
 #include <fmt/core.h>
-#include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -13,7 +11,6 @@
 #include <cerrno>
 #include <chrono>
 #include <csignal>
-#include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -27,7 +24,6 @@
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
 #include "rtukit/devices/profile/text.hpp"
-#include "rtukit/io/atomic_file.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 #include "rtukit/programs/inverjet_panel.hpp"
 #include "rtukit/web/server.hpp"
@@ -164,31 +160,17 @@ int run_bridge(const JetArgs& a) {
   if (rtukit::Status e = programs::parse_mqtt_url(a.mqtt, o)) throw Failure{kUsage, std::string(e.reason())};
   o.user = a.user;
   if (!a.password_file.empty()) {
-    const Outcome<std::string> pw = io::read_regular_file(a.password_file, 4096);
+    const Outcome<std::string> pw = programs::read_mqtt_password(a.password_file);
     if (!pw) throw Failure{kIoError, fmt::format("--password-file: {}", pw.error().reason())};
     o.password = *pw;
-    while (!o.password.empty() && (o.password.back() == '\n' || o.password.back() == '\r'))
-      o.password.pop_back();
   }
   o.poll_hz = a.poll_hz;
   o.max_rate = a.max_rate;
   o.discovery_prefix = a.no_discovery ? "" : a.discovery_prefix;
   o.response_timeout_ms = a.link.timeout_ms;
-  const std::vector<std::string> units = a.units.empty() ? std::vector<std::string>{""} : a.units;
-  for (const std::string& u : units) {
-    const size_t eq = u.find('=');
-    programs::BridgeMachine m;
-    m.unit = device_unit(u.substr(0, eq), ij::kProfile).value;
-    if (eq != std::string::npos)
-      m.id = u.substr(eq + 1);
-    else if (units.size() == 1)
-      m.id = a.id;
-    else
-      m.id = fmt::format("{}-{}", a.id, m.unit);
-    if (m.id.empty())
-      throw Failure{kUsage, "--id is required (the machine's name in the topics: rtukit/inverjet/ID/...)"};
-    o.machines.push_back(m);
-  }
+  Outcome<std::vector<programs::BridgeMachine>> machines = programs::bridge_machines(a.units, a.id);
+  if (!machines) throw Failure{kUsage, std::string(machines.error().reason())};
+  o.machines = std::move(*machines);
   programs::Bridge bridge(io::make_link(a.link.spec(false)), o);
   const Interruptible interrupt;
   if (rtukit::Status e = bridge.start())
@@ -265,40 +247,21 @@ std::string read_secret_line(const char* prompt) {
 // `rtukit inverjet panel-password FILE`: the panel's password file, from a
 // password read on stdin (docs/inverjet.md, "Pool panel").
 int run_panel_password(const JetArgs& a) {
-  struct stat st {};
-  if (!a.force && ::lstat(a.file.c_str(), &st) == 0)
-    throw Failure{kUsage, fmt::format("{} exists: not replaced (--force replaces it)", a.file)};
+  // Refused codes are the user's to fix (exit 2); the rest is the file's (4).
+  const auto check = [](const rtukit::Status& e) {
+    if (e)
+      throw Failure{e.code() == Errc::refused || e.code() == Errc::invalid_argument ? kUsage : kIoError,
+                    std::string(e.reason())};
+  };
+  check(programs::check_password_file_path(a.file, a.force));  // before asking for a password
   const std::string password = read_secret_line("New panel password: ");
-  size_t characters = 0;  // UTF-8: count code points, not bytes
-  for (const char c : password)
-    if ((static_cast<unsigned char>(c) & 0xC0) != 0x80) ++characters;
-  if (characters < 8)
-    throw Failure{kUsage, password.empty() ? std::string("no password on stdin (at least 8 characters)")
-                                           : fmt::format("the password has {} characters: at least 8, please",
-                                                         characters)};
+  if (password.empty())
+    throw Failure{kUsage, fmt::format("no password on stdin (at least {} characters)",
+                                      programs::kMinPasswordCharacters)};
+  check(programs::check_new_password(password));
   if (::isatty(0) && read_secret_line("Again: ") != password)
     throw Failure{kUsage, "the two passwords differ: nothing written"};
-  const Outcome<std::string> record = programs::make_password_record(password);
-  if (!record) throw Failure{kIoError, std::string(record.error().reason())};
-  if (a.force) {
-    if (rtukit::Status e = io::write_file_atomically(a.file, *record, 0600))
-      throw Failure{kIoError, fmt::format("{}: {}", a.file, e.reason())};
-  } else {
-    const int fd = ::open(a.file.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
-    if (fd < 0) {
-      if (errno == EEXIST)
-        throw Failure{kUsage, fmt::format("{} exists: not replaced (--force replaces it)", a.file)};
-      throw Failure{kIoError, fmt::format("{}: {}", a.file, std::strerror(errno))};
-    }
-    const bool written =
-        ::write(fd, record->data(), record->size()) == static_cast<ssize_t>(record->size()) &&
-        ::fsync(fd) == 0;
-    ::close(fd);
-    if (!written) {
-      ::unlink(a.file.c_str());
-      throw Failure{kIoError, fmt::format("{}: cannot write", a.file)};
-    }
-  }
+  check(programs::write_password_file(a.file, password, a.force));
   fmt::print(
       "{}: the panel's password (PBKDF2-HMAC-SHA256, mode 0600); use it with `rtukit inverjet panel "
       "--password-file {}`\n",

@@ -287,13 +287,8 @@ int run_host(const ChairArgs& a) {
   o.tls_key = a.tls_key;
   o.host_names = a.host_names;
   o.pairing_max_age = std::chrono::hours(24) * a.forget_days;
-  if (o.pairing_file.empty()) {
-    const char* state = std::getenv("STATE_DIRECTORY");  // systemd's StateDirectory=
-    const char* home = std::getenv("HOME");
-    o.pairing_file = state  ? std::string(state) + "/rehand6600-pairing.json"
-                     : home ? std::string(home) + "/.local/state/rtukit/rehand6600-pairing.json"
-                            : "rehand6600-pairing.json";
-  }
+  if (o.pairing_file.empty())
+    o.pairing_file = programs::default_pairing_file(std::getenv("STATE_DIRECTORY"), std::getenv("HOME"));
   o.host.unit = unit_of(a);
   o.host.response_timeout = std::chrono::milliseconds(a.link.timeout_ms);
   o.host.trace = a.link.tracer();

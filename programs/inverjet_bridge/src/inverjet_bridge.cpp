@@ -28,9 +28,11 @@
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/poll_schedule.hpp"
+#include "rtukit/io/atomic_file.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -90,6 +92,50 @@ rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o) {
   }
   if (o.host.empty()) return rtukit::Status(Errc::invalid_argument, fmt::format("{}: no host", url));
   return {};
+}
+
+rtukit::Outcome<std::vector<BridgeMachine>> bridge_machines(std::span<const std::string> units,
+                                                            std::string_view id) {
+  // No --unit at all is one machine at the factory address, named by --id.
+  static const std::string kFactory;
+  const std::span<const std::string> list = units.empty() ? std::span(&kFactory, 1) : units;
+  // The range is the table's (the address row), as for every other
+  // Inverjet command, so the bridge never accepts a unit the machine would not.
+  const profile::UnitRange range = profile::unit_range(ij::kProfile);
+  std::vector<BridgeMachine> machines;
+  for (const std::string& entry : list) {
+    const size_t eq = entry.find('=');
+    const std::string_view text = std::string_view(entry).substr(0, eq);
+    BridgeMachine m;
+    m.unit = range.fallback;
+    if (!text.empty()) {
+      const Outcome<int64_t> n =
+          profile::parse_number(text, fmt::format("{} unit", ij::kProfile.name), range.min, range.max);
+      if (!n) return n.error();
+      m.unit = static_cast<uint8_t>(*n);
+    }
+    if (eq != std::string::npos)
+      m.id = entry.substr(eq + 1);
+    else if (list.size() == 1)
+      m.id = id;
+    else  // several machines share --id: each is told apart by its unit
+      m.id = fmt::format("{}-{}", id, m.unit);
+    if (m.id.empty())
+      return rtukit::Status(Errc::invalid_argument,
+                            "--id is required (the machine's name in the topics: rtukit/inverjet/ID/...)");
+    machines.push_back(std::move(m));
+  }
+  return machines;
+}
+
+rtukit::Outcome<std::string> read_mqtt_password(const std::string& path) {
+  Outcome<std::string> text = io::read_regular_file(path, kMaxPasswordFile);
+  if (!text) return text.error();
+  // `echo secret > file` leaves a line end (CR LF from an editor on
+  // Windows) that is no part of the password the broker knows.
+  std::string password = std::move(*text);
+  while (!password.empty() && (password.back() == '\n' || password.back() == '\r')) password.pop_back();
+  return password;
 }
 
 rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload, bool retained, double now_s,

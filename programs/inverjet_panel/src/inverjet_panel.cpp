@@ -13,11 +13,14 @@
 // memory, for 12 hours. Wrong passwords: 10 per source address per minute.
 #include "rtukit/programs/inverjet_panel.hpp"
 
+#include <fcntl.h>
 #include <fmt/chrono.h>
 #include <fmt/core.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
 #include <sys/random.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <array>
 #include <cerrno>
@@ -243,6 +246,73 @@ rtukit::Outcome<std::string> load_password_record(const std::string& path) {
                                       "panel-password {}`)",
                                       path, path));
   return *text;
+}
+
+size_t password_characters(std::string_view password) noexcept {
+  size_t characters = 0;
+  // A UTF-8 continuation byte is 10xxxxxx: every other byte starts a character.
+  for (const char c : password)
+    if ((static_cast<unsigned char>(c) & 0xC0) != 0x80) ++characters;
+  return characters;
+}
+
+rtukit::Status check_new_password(std::string_view password) {
+  const size_t characters = password_characters(password);
+  if (characters < kMinPasswordCharacters)
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("the password has {} characters: at least {}, please", characters,
+                                      kMinPasswordCharacters));
+  return {};
+}
+
+namespace {
+rtukit::Status existing_file(const std::string& path) {
+  return rtukit::Status(Errc::refused, fmt::format("{} exists: not replaced (--force replaces it)", path));
+}
+}  // namespace
+
+rtukit::Status check_password_file_path(const std::string& path, bool force) {
+  // lstat, not stat: a symlink is something there too, even when it points
+  // nowhere (the exclusive create would refuse it anyway, after the prompt).
+  struct stat st {};
+  if (!force && ::lstat(path.c_str(), &st) == 0) return existing_file(path);
+  return {};
+}
+
+rtukit::Status write_password_file(const std::string& path, std::string_view password, bool force) {
+  if (rtukit::Status e = check_new_password(password)) return e;
+  if (rtukit::Status e = check_password_file_path(path, force)) return e;
+  const Outcome<std::string> record = make_password_record(password);
+  if (!record) return record.error();
+  if (force) {
+    if (rtukit::Status e = io::write_file_atomically(path, *record, 0600))
+      return rtukit::Status(e.error(), fmt::format("{}: {}", path, e.reason()));
+    return {};
+  }
+  // Created here or not at all: O_EXCL refuses whatever appeared since the
+  // check, O_NOFOLLOW a symlink planted to make us write elsewhere.
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0600);
+  if (fd < 0) {
+    const int err = errno;
+    if (err == EEXIST) return existing_file(path);
+    return rtukit::Status(Error(Errc::io_error, err), fmt::format("{}: {}", path, std::strerror(err)));
+  }
+  std::string_view rest = *record;
+  while (!rest.empty()) {
+    const ssize_t n = ::write(fd, rest.data(), rest.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    rest.remove_prefix(static_cast<size_t>(n));
+  }
+  const bool written = rest.empty() && ::fsync(fd) == 0;
+  ::close(fd);
+  if (!written) {
+    // The file is ours (we created it): a half record would only make the
+    // panel refuse to start later, so leave nothing.
+    ::unlink(path.c_str());
+    return rtukit::Status(Errc::io_error, fmt::format("{}: cannot write", path));
+  }
+  return {};
 }
 
 // ---------------------------------------------------------------- the logic

@@ -35,6 +35,15 @@ std::string hex(const unsigned char* data, size_t n) {
 
 }  // namespace
 
+std::string default_pairing_file(const char* state_directory, const char* home) {
+  // A service under systemd gets its own directory, kept across upgrades;
+  // a user's run keeps the phones in the XDG state directory.
+  constexpr std::string_view kName = "rehand6600-pairing.json";
+  if (state_directory) return fmt::format("{}/{}", state_directory, kName);
+  if (home) return fmt::format("{}/.local/state/rtukit/{}", home, kName);
+  return std::string(kName);
+}
+
 std::string sha256_hex(std::string_view text) {
   std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
   unsigned int n = 0;

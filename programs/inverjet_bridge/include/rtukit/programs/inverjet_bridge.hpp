@@ -30,6 +30,7 @@
 #include <functional>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <span>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -86,6 +87,32 @@ rtukit::Status mqtt_command_body(std::string_view name, std::string_view payload
 /// "mqtt://host:port" / "mqtts://host:port" into `o` (host, port; mqtts needs
 /// --tls-ca). Errors: invalid_argument with the reason.
 rtukit::Status parse_mqtt_url(const std::string& url, BridgeOptions& o);
+
+/// The machines of `rtukit inverjet bridge`, from its `--unit` list and its
+/// `--id`. Each entry of `units` is "UNIT" or "UNIT=ID"; UNIT is a number
+/// (decimal, or hex as 0x15) within the Inverjet's address range
+/// (profile::unit_range of inverjet::kProfile), and an empty UNIT (also an
+/// empty list: one machine) is the machine's factory address. A machine's
+/// id is its own "=ID"; else `id` when it is the only entry; else "ID-UNIT"
+/// (`id`, a dash, the unit in decimal) when there are several. The result
+/// keeps the order of `units`; ids are checked later (Bridge::start).
+/// Errors (the first, in the order of `units`): invalid_argument, the
+/// reason "inverjet unit 255 is out of range 1..254", "inverjet unit 'x' is
+/// not a number (decimal, or hex as 0x21)", or "--id is required (the
+/// machine's name in the topics: rtukit/inverjet/ID/...)" for a machine
+/// left without an id.
+rtukit::Outcome<std::vector<BridgeMachine>> bridge_machines(std::span<const std::string> units,
+                                                            std::string_view id);
+
+/// The largest MQTT password file read_mqtt_password reads.
+inline constexpr size_t kMaxPasswordFile = 4096;
+/// The MQTT password kept in `path` (`--password-file`): the file's whole
+/// text without its trailing CR and LF characters (any number of them; other
+/// whitespace is part of the password). Never blocks on a FIFO, never reads
+/// a device or more than kMaxPasswordFile bytes. Errors: those of
+/// io::read_regular_file (io_error with the OS error, malformed "not a
+/// regular file" / "larger than N bytes"), with the reason.
+rtukit::Outcome<std::string> read_mqtt_password(const std::string& path);
 
 /// One message the bridge publishes.
 struct MqttMessage {

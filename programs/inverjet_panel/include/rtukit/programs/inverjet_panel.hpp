@@ -65,6 +65,32 @@ rtukit::Outcome<bool> check_password(std::string_view record, std::string_view p
 /// Loads a password file and checks its format. Errors: the file's, malformed.
 rtukit::Outcome<std::string> load_password_record(const std::string& path);
 
+/// The shortest panel password, in characters (Unicode code points).
+inline constexpr size_t kMinPasswordCharacters = 8;
+/// Characters in `password`, taken as UTF-8: code points, not bytes ("école"
+/// is 5). Bytes that are not UTF-8 count one each, continuation bytes none.
+size_t password_characters(std::string_view password) noexcept;
+/// Whether `password` may become the panel's: at least kMinPasswordCharacters
+/// characters. Errors: invalid_argument "the password has 5 characters: at
+/// least 8, please".
+rtukit::Status check_new_password(std::string_view password);
+/// Whether a new password file may go to `path`: with `force` always; else
+/// only where nothing exists (no file, no directory, not even a symlink,
+/// dangling or not). Errors: refused "PATH exists: not replaced (--force
+/// replaces it)".
+rtukit::Status check_password_file_path(const std::string& path, bool force);
+/// Writes the panel's password file for `password` (make_password_record)
+/// to `path`, mode 0600 (less what the umask takes). Checks first, writing
+/// nothing when refused: check_new_password, check_password_file_path.
+/// Without `force` the file is created exclusively (O_EXCL, never through a
+/// symlink), so a file that appears meanwhile is refused too; it is flushed
+/// (fsync), and a failed write removes it: no half file is left. With
+/// `force` an existing file is replaced atomically (io::write_file_atomically):
+/// a failure leaves the old file whole. Errors: invalid_argument and refused
+/// as above; io_error "PATH: No such file or directory", "PATH: cannot
+/// write", make_password_record's (no path).
+rtukit::Status write_password_file(const std::string& path, std::string_view password, bool force);
+
 /// Commands from the pages waiting for the bus; more are refused ("busy").
 inline constexpr size_t kPanelCommandLimit = 16;
 /// Samples kept for the charts: two hours at 2 Hz (the oldest goes first).

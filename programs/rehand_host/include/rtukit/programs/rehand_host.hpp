@@ -84,6 +84,15 @@ class PairingStore {
   bool writable_ = true;
 };
 
+/// Where the pairing store is kept when `rtukit rehand6600 host` is given no
+/// --pairing-file, from two environment values (nullptr: unset):
+/// `state_directory` ($STATE_DIRECTORY, systemd's StateDirectory=) set:
+/// "<it>/rehand6600-pairing.json"; else `home` ($HOME) set:
+/// "<it>/.local/state/rtukit/rehand6600-pairing.json"; else
+/// "rehand6600-pairing.json" in the current directory. A set value is used
+/// as it is, even empty. Pure: reads no environment, touches no file.
+std::string default_pairing_file(const char* state_directory, const char* home);
+
 /// SHA-256 of `text`, lower-case hex.
 std::string sha256_hex(std::string_view text);
 
