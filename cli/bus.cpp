@@ -11,6 +11,7 @@
 #include "rtukit/driver/virtual_bus.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/atomic_file.hpp"
+#include "rtukit/io/tap_client.hpp"
 #include "rtukit/io/tap_server.hpp"
 
 namespace rtukit::cli {
@@ -59,14 +60,14 @@ int run_bus(const BusArgs& a) {
       if (f) std::fclose(f);
     });
     if (!tap) throw Failure{kIoError, fmt::format("--tap {}: cannot write", a.tap)};
-    std::fputs(tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
+    std::fputs(io::tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
   }
   asio::io_context ctx;
   std::unique_ptr<io::TapServer> tap_server;
   const VirtualBus* started = nullptr;
   if (!a.name.empty())
     tap_server = std::make_unique<io::TapServer>(ctx, bus_tap_socket(a.name), [&] {
-      return tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
+      return io::tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
     });
   if (tap || tap_server)
     o.tap = [&tap, &tap_server](const BusCharacter& c) {

@@ -486,13 +486,6 @@ std::optional<BusCharacter> parse_tap_line(const std::string& line) {
   return c;
 }
 
-std::string tap_header(uint32_t baud, uint32_t bits_per_char, uint64_t now_us) {
-  return fmt::format(
-      "# rtukit bus tap: start_us end_us sender(-1 stray) sent heard flags(c collision, d dropped); baud={} "
-      "bits={} now_us={}\n",
-      baud, bits_per_char, now_us);
-}
-
 std::string bus_tap_socket(const std::string& name) {
   const bool good = !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';

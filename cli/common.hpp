@@ -274,12 +274,11 @@ using profile::hex;
 
 /// The bus tap format (docs/bus-tools.md), one character a line:
 /// "start_us end_us sender sent heard [flags]", sender -1 for a stray byte,
-/// flags c (collision) and d (dropped). Lines starting with '#' are comments.
+/// flags c (collision) and d (dropped). Lines starting with '#' are comments;
+/// the first is the header (io::tap_header, rtukit/io/tap_client.hpp).
 std::string tap_line(const BusCharacter& c);
 /// One tap line read back; nullopt for a comment or a line that is not one.
 std::optional<BusCharacter> parse_tap_line(const std::string& line);
-/// The header line a tap starts with; `now_us`: the bus's clock when it was written.
-std::string tap_header(uint32_t baud, uint32_t bits_per_char, uint64_t now_us);
 
 /// Where `rtukit bus --name NAME` offers its tap to `rtukit sniff --bus NAME`:
 /// $XDG_RUNTIME_DIR/rtukit/bus-NAME.sock, else /tmp/rtukit-UID/bus-NAME.sock.

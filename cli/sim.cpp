@@ -16,12 +16,12 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "console.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/line_console.hpp"
+#include "rtukit/io/stdin_console.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -97,8 +97,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   profile::SimHost& host = **started;
   fmt::print("{}\n", host.banner());
 
-  const OnLine on_line = [&host, &ctx](const std::string& line,
-                                       const std::function<void(std::string)>& reply) {
+  const io::ConsoleHandler on_line = [&host, &ctx](const std::string& line, const io::ConsoleReply& reply) {
     const std::string text = host.command(line);
     if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
     if (host.quit_requested()) ctx.stop();
@@ -115,11 +114,11 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   if (!a.no_console) fmt::print("console: type 'help' for commands\n");
   std::fflush(stdout);
 
-  ignore_tty_stops();
+  io::ignore_tty_stops();
   asio::signal_set signals(ctx);
   stop_on_signals(signals, ctx);
-  std::unique_ptr<StdinConsole> console;
-  if (!a.no_console) console = std::make_unique<StdinConsole>(ctx, on_line);
+  std::unique_ptr<io::StdinConsole> console;
+  if (!a.no_console) console = std::make_unique<io::StdinConsole>(ctx, on_line);
   ctx.run();
   console.reset();
   return kOk;

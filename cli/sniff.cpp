@@ -1,22 +1,14 @@
 // `rtukit sniff`: listen to a line (a port, or a bus tap file), print each
 // transaction in device terms with its timing, write a pcap for Wireshark,
 // and sum up at the end. Listen-only: nothing is ever sent.
-#include <fcntl.h>
 #include <fmt/core.h>
 #include <fmt/format.h>
-#include <poll.h>
-#include <sys/socket.h>
-#include <sys/un.h>
-#include <termios.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <csignal>
+#include <chrono>
 #include <cstdio>
-#include <cstring>
 #include <fstream>
 #include <map>
-#include <sstream>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -25,8 +17,9 @@
 #include "rtukit/devices/profile/transaction_text.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
+#include "rtukit/io/listen_port.hpp"
 #include "rtukit/io/pcap_file.hpp"
-#include "rtukit/io/serial_config.hpp"
+#include "rtukit/io/tap_client.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -156,59 +149,38 @@ void feed_tap(Sniffer& s, const BusCharacter& c) {
   if (!c.dropped) s.feed(c.heard, c.end_us);
 }
 
-// "key=value" from a tap header; 0 when absent.
-uint64_t header_value(const std::string& header, const std::string& key) {
-  const size_t at = header.find(" " + key + "=");
-  return at == std::string::npos ? 0 : std::strtoull(header.c_str() + at + key.size() + 2, nullptr, 10);
-}
-
 // `--bus NAME`: the live tap of a running `rtukit bus --name NAME`, with the
 // bus's own rate and its exact character times.
 int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
   const std::string path = bus_tap_socket(a.bus);
-  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
-  sockaddr_un addr{};
-  addr.sun_family = AF_UNIX;
-  if (fd < 0 || path.size() >= sizeof addr.sun_path)
-    throw Failure{kIoError, fmt::format("--bus {}: cannot use {}", a.bus, path)};
-  std::memcpy(addr.sun_path, path.c_str(), path.size() + 1);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) != 0) {
-    const int e = errno;
-    ::close(fd);
-    throw Failure{kIoError, fmt::format("--bus {}: no bus of that name is running ({}: {}); start one with "
+  Outcome<std::unique_ptr<io::TapClient>> client = io::TapClient::connect(path);
+  if (!client.ok() && client.error().code() == Errc::not_connected)
+    throw Failure{kIoError, fmt::format("--bus {}: no bus of that name is running ({}); start one with "
                                         "`rtukit bus --name {}`",
-                                        a.bus, path, std::strerror(e), a.bus)};
-  }
+                                        a.bus, client.error().reason(), a.bus)};
+  if (!client.ok()) throw Failure{kIoError, fmt::format("--bus {}: cannot use {}", a.bus, path)};
   const Interruptible interrupt;
-  std::string buffer, header;
   std::unique_ptr<Sniffer> s;
   std::unique_ptr<io::PcapFile> pcap = open_pcap(a);
   int64_t offset = 0;  // our clock minus the bus's
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   bool ended = false;
-  char chunk[4096];
   while (!interrupt.interrupted() && !ended && (!until || io::now_us() < until)) {
-    pollfd p{fd, POLLIN, 0};
-    if (::poll(&p, 1, 5) > 0) {
-      const ssize_t n = ::read(fd, chunk, sizeof chunk);
-      if (n <= 0) ended = true;
-      if (n > 0) buffer.append(chunk, static_cast<size_t>(n));
-    }
-    for (size_t nl; (nl = buffer.find('\n')) != std::string::npos;) {
-      const std::string line = buffer.substr(0, nl);
-      buffer.erase(0, nl + 1);
+    Outcome<std::vector<std::string>> read = (*client)->read_lines(std::chrono::milliseconds(5));
+    ended = !read.ok();  // the bus stopped: what it sent is reported below, then the summary
+    const std::vector<std::string> lines = ended ? std::vector<std::string>{} : std::move(*read);
+    for (const std::string& line : lines) {
       if (!s) {
         // The first line is the header: the bus's rate and clock.
-        header = line;
-        const uint64_t baud = header_value(header, "baud"), bits = header_value(header, "bits");
-        if (baud == 0 || bits == 0) throw Failure{kIoError, fmt::format("--bus {}: not a bus tap", a.bus)};
-        offset = static_cast<int64_t>(io::now_us()) - static_cast<int64_t>(header_value(header, "now_us"));
-        s = std::make_unique<Sniffer>(SnifferConfig{.baud = static_cast<uint32_t>(baud),
-                                                    .bits_per_char = static_cast<uint32_t>(bits),
+        const std::optional<io::TapHeader> h = io::parse_tap_header(line);
+        if (!h) throw Failure{kIoError, fmt::format("--bus {}: not a bus tap", a.bus)};
+        offset = static_cast<int64_t>(io::now_us()) - static_cast<int64_t>(h->now_us);
+        s = std::make_unique<Sniffer>(SnifferConfig{.baud = h->baud,
+                                                    .bits_per_char = h->bits_per_char,
                                                     .response_timeout_us = a.link.timeout_ms * 1000u});
         fmt::print(stderr,
                    "sniff: bus {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n", a.bus,
-                   baud, ms(s->t15_us()), ms(s->t35_us()));
+                   h->baud, ms(s->t15_us()), ms(s->t35_us()));
         continue;
       }
       if (const std::optional<BusCharacter> c = parse_tap_line(line)) feed_tap(*s, *c);
@@ -224,7 +196,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
       report(a, *s, profiles, pcap.get());
     }
   }
-  ::close(fd);
+  client->reset();
   if (!s) throw Failure{kIoError, fmt::format("--bus {}: the bus closed before its tap began", a.bus)};
   if (ended) fmt::print(stderr, "sniff: the bus {} has stopped\n", a.bus);
   s->flush(io::now_us() - static_cast<uint64_t>(offset) + 10'000'000);
@@ -265,8 +237,8 @@ int run_sniff(const SniffArgs& a) {
   const io::PortSpec spec = a.link.spec(false);
   if (spec.kind != io::PortSpec::Kind::serial)
     throw Failure{kUsage, "sniff listens on a serial port or a bus port (/dev/ttyUSB0, /tmp/bus2)"};
-  Result<int> fd = io::open_serial_port(spec.path, spec.serial);
-  if (!fd.ok()) fail(fd.error(), "sniff " + spec.path);
+  Result<std::unique_ptr<io::ListenPort>> port = io::ListenPort::open(spec.path, spec.serial);
+  if (!port.ok()) fail(port.error(), "sniff " + spec.path);
   const Interruptible interrupt;
   fmt::print(stderr,
              "sniff: listening on {} ({} baud, t1.5 {:.2f} ms, t3.5 {:.2f} ms), Ctrl-C for the summary\n",
@@ -274,20 +246,20 @@ int run_sniff(const SniffArgs& a) {
   const uint64_t char_us = uint64_t{bits} * 1'000'000 / a.link.baud;
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   const uint64_t origin = io::now_us();
-  uint8_t buf[512];
   while (!interrupt.interrupted() && (!until || io::now_us() < until)) {
-    pollfd p{*fd, POLLIN, 0};
-    const int ready = ::poll(&p, 1, 5);
-    const uint64_t now = io::now_us();
-    if (ready > 0) {
-      const ssize_t n = ::read(*fd, buf, sizeof buf);
+    // A failed read (an unplugged adapter) is heard as silence until Ctrl-C or --seconds.
+    const Result<io::ListenPort::Chunk> chunk = (*port)->read(std::chrono::milliseconds(5));
+    const uint64_t now = chunk.ok() ? chunk->at_us : io::now_us();
+    if (chunk.ok()) {
       // A chunk arrives at once; its bytes ended one character apart.
-      for (ssize_t i = 0; i < n; ++i) s.feed(buf[i], now - static_cast<uint64_t>(n - 1 - i) * char_us);
+      const size_t n = chunk->bytes.size();
+      for (size_t i = 0; i < n; ++i)
+        s.feed(chunk->bytes[i], now - static_cast<uint64_t>(n - 1 - i) * char_us);
     }
     s.flush(now);
     report(a, s, profiles, pcap.get(), origin);
   }
-  ::close(*fd);
+  port->reset();
   s.flush(io::now_us() + 10'000'000);
   report(a, s, profiles, pcap.get(), origin);
   print_summary(s, a.json);
