@@ -79,7 +79,7 @@ TEST(BridgeMachines, AnEmptyUnitBeforeItsIdIsTheFactoryAddress) {
 
 TEST(BridgeMachines, AMachineWithoutAnIdIsRefused) {
   for (const std::vector<std::string>& units :
-       {std::vector<std::string>{}, {"21"}, {"21="}, {"21=lane1", "22="}}) {
+       {std::vector<std::string>{}, {"21"}, {"21="}, {"21=lane1", "22="}, {"21", "22"}}) {
     const auto m = machines(units, "");
     ASSERT_FALSE(m) << units.size();
     EXPECT_EQ(m.error().code(), Errc::invalid_argument);

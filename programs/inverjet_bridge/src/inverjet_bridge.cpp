@@ -118,8 +118,9 @@ rtukit::Outcome<std::vector<BridgeMachine>> bridge_machines(std::span<const std:
       m.id = entry.substr(eq + 1);
     else if (list.size() == 1)
       m.id = id;
-    else  // several machines share --id: each is told apart by its unit
+    else if (!id.empty())  // several machines share --id: each is told apart by its unit
       m.id = fmt::format("{}-{}", id, m.unit);
+    // else: no name at all ("-21" is no machine's name): refused below.
     if (m.id.empty())
       return rtukit::Status(Errc::invalid_argument,
                             "--id is required (the machine's name in the topics: rtukit/inverjet/ID/...)");
