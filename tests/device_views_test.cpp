@@ -478,7 +478,7 @@ TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
   // Four hex digits are the code as the chair shows it; else a number (0x10C3, 65535).
   r = run(table, rh::run_verb, "errors", {{"code", "0x10C3"}}, where);
   ASSERT_TRUE(r.ok());
-  EXPECT_EQ(r->extra["errors"][0]["code"], rh::error_json(0x10C3)["code"]);
+  EXPECT_EQ(r->extra["errors"][0]["code"].get<std::string>(), rh::error_json(0x10C3)["code"].get<std::string>());
   r = run(table, rh::run_verb, "errors", {}, where);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->extra["errors"].size(), rh::error_codes().size());

@@ -13,6 +13,7 @@
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/memory_link.hpp"
+#include "inverjet_on_memory_link.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
 namespace rtukit::programs {
@@ -21,13 +22,10 @@ namespace {
 using namespace std::chrono_literals;
 using Json = nlohmann::json;
 
-class BridgeLogicTest : public ::testing::Test {
+class BridgeLogicTest : public InverjetOnMemoryLink {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(engine_.add_unit(UnitId{21}, machine_).ok());
-    master_ = std::make_unique<Master>(
-        std::make_unique<MemoryLink>(clock_, [this](std::span<const uint8_t> r) { return answer(r); }),
-        MasterOptions{.response_timeout = 300ms, .clock = &clock_});
+    InverjetOnMemoryLink::SetUp();
     options_.machines = {{21, "lane1"}};
     options_.poll_hz = 2;
     options_.max_rate = 2;
@@ -36,21 +34,7 @@ class BridgeLogicTest : public ::testing::Test {
                                            [this](size_t, const MqttMessage& m) { sent_.push_back(m); });
   }
 
-  MemoryLink::Reply answer(std::span<const uint8_t> request) {
-    if (silent_) return {};
-    machine_.advance_to(static_cast<uint64_t>((clock_.now() - start_) / 1ms));
-    std::array<uint8_t, kMaxRtuAduSize> out{};
-    const size_t n = engine_.handle_rtu(request, out).length;
-    return {{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)}, 5ms};
-  }
-
-  // Steps until the clock reaches `until`, each at the time the logic asked.
-  void run_until(io::Clock::time_point until) {
-    for (int i = 0; i < 100000 && clock_.now() < until; ++i) {
-      const auto next = logic_->step(clock_.now());
-      clock_.sleep_until(std::min(std::max(next, clock_.now() + 1ms), until));
-    }
-  }
+  void run_until(io::Clock::time_point until) { run_logic_until(*logic_, until); }
   void run_for(io::Clock::duration d) { run_until(clock_.now() + d); }
 
   std::vector<MqttMessage> taken(const std::string& suffix) {
@@ -68,12 +52,6 @@ class BridgeLogicTest : public ::testing::Test {
     return body.dump();
   }
 
-  ManualClock clock_;
-  io::Clock::time_point start_ = clock_.now();
-  inverjet::Machine machine_;
-  SlaveEngine engine_;
-  bool silent_ = false;
-  std::unique_ptr<Master> master_;
   BridgeOptions options_;
   std::unique_ptr<BridgeLogic> logic_;
   std::vector<MqttMessage> sent_;

@@ -14,6 +14,7 @@
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/memory_link.hpp"
+#include "inverjet_on_memory_link.hpp"
 #include "rtukit/programs/inverjet_panel.hpp"
 
 namespace rtukit::programs {
@@ -24,13 +25,10 @@ using Json = nlohmann::json;
 
 constexpr uint64_t kPage = 7;  // the socket id of the page that sends commands
 
-class PanelLogicTest : public ::testing::Test {
+class PanelLogicTest : public InverjetOnMemoryLink {
  protected:
   void SetUp() override {
-    ASSERT_TRUE(engine_.add_unit(UnitId{21}, machine_).ok());
-    master_ = std::make_unique<Master>(
-        std::make_unique<MemoryLink>(clock_, [this](std::span<const uint8_t> r) { return answer(r); }),
-        MasterOptions{.response_timeout = 300ms, .clock = &clock_});
+    InverjetOnMemoryLink::SetUp();
     options_.unit = 21;
     options_.poll_hz = 2;
     make_logic();
@@ -41,22 +39,7 @@ class PanelLogicTest : public ::testing::Test {
                                           [this](const PanelMessage& m) { sent_.push_back(m); });
   }
 
-  MemoryLink::Reply answer(std::span<const uint8_t> request) {
-    if (request.size() > 1 && (request[1] == 0x06 || request[1] == 0x10)) ++writes_;
-    if (silent_) return {};
-    machine_.advance_to(static_cast<uint64_t>((clock_.now() - start_) / 1ms));
-    std::array<uint8_t, kMaxRtuAduSize> out{};
-    const size_t n = engine_.handle_rtu(request, out).length;
-    return {{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)}, 5ms};
-  }
-
-  // Steps until the clock reaches `until`, each at the time the logic asked.
-  void run_until(io::Clock::time_point until) {
-    for (int i = 0; i < 100000 && clock_.now() < until; ++i) {
-      const auto next = logic_->step(clock_.now());
-      clock_.sleep_until(std::min(std::max(next, clock_.now() + 1ms), until));
-    }
-  }
+  void run_until(io::Clock::time_point until) { run_logic_until(*logic_, until); }
   void run_for(io::Clock::duration d) { run_until(clock_.now() + d); }
 
   // The messages of `type` (for every page, or for `to`), parsed.
@@ -77,13 +60,6 @@ class PanelLogicTest : public ::testing::Test {
   // unsigned number; a C++ literal 40 is a signed one, which the commands refuse).
   bool queue(const Json& command) { return logic_->queue_command(kPage, Json::parse(command.dump())); }
 
-  ManualClock clock_;
-  io::Clock::time_point start_ = clock_.now();
-  inverjet::Machine machine_;
-  SlaveEngine engine_;
-  bool silent_ = false;
-  int writes_ = 0;  ///< write requests (FC06, FC10) sent to the machine
-  std::unique_ptr<Master> master_;
   PanelOptions options_;
   std::unique_ptr<PanelLogic> logic_;
   std::vector<PanelMessage> sent_;
