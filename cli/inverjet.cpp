@@ -272,8 +272,7 @@ int run_panel_password(const JetArgs& a) {
 }  // namespace
 
 void add_inverjet_commands(CLI::App& app, Action& action) {
-  CLI::App* jet =
-      app.add_subcommand("inverjet", device_title(ij::kProfile));
+  CLI::App* jet = app.add_subcommand("inverjet", device_title(ij::kProfile));
   jet->require_subcommand(1);
   const std::string port = "--port /dev/ttyUSB0";
   add_command<JetArgs>(

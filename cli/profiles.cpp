@@ -9,7 +9,6 @@
 
 #include <cctype>
 #include <map>
-
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
@@ -376,9 +375,9 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
   profile::VerbContext where{unit,
                              [&]() -> Master& {
                                master = a.link.make_master();
-                               context = fmt::format("{} unit {} on {}",
-                                                     entry.label.empty() ? p.name : entry.label,
-                                                     unit.value, master->describe());
+                               context =
+                                   fmt::format("{} unit {} on {}", entry.label.empty() ? p.name : entry.label,
+                                               unit.value, master->describe());
                                return *master;
                              },
                              [](std::string_view t) { return LivePanel::alert(t); }};
@@ -386,7 +385,8 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
   if (master && a.link.stats) print_stats(*master);
   if (!r.ok()) {
     const rtukit::Status& e = r.error();
-    const std::string line = context.empty() ? std::string(e.reason()) : fmt::format("{}: {}", context, e.reason());
+    const std::string line =
+        context.empty() ? std::string(e.reason()) : fmt::format("{}: {}", context, e.reason());
     if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
     if (e.code() == Errc::refused) throw Failure{kRefused, line};
     if (e.is_exception()) throw Failure{kModbusException, line};
@@ -433,7 +433,8 @@ void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& en
               cmd.add_flag("--" + key, a.verb_flag[key], help);
             } else if (v.form == profile::VerbArg::Form::positional) {
               std::string shown;
-              for (const char c : key) shown += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
+              for (const char c : key)
+                shown += static_cast<char>(std::toupper(static_cast<unsigned char>(c)));
               CLI::Option* o = cmd.add_option(key, a.verb_text[key], help);
               o->option_text(shown);
               if (v.required) o->required();
@@ -457,7 +458,9 @@ void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& en
           std::vector<std::string_view> views(lines.begin(), lines.end());
           examples(cmd, views);
         },
-        [&entry, &verb](const DeviceArgs& a, const CLI::App& cmd) { return run_device_verb(a, cmd, entry, verb); });
+        [&entry, &verb](const DeviceArgs& a, const CLI::App& cmd) {
+          return run_device_verb(a, cmd, entry, verb);
+        });
   }
 }
 

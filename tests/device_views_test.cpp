@@ -402,8 +402,8 @@ TEST(InverjetVerbTable, HelpsSayTheRowsRanges_AndThePairingNames) {
   const auto& table = ij::verb_table();
   std::vector<std::string> names;
   for (const profile::Verb& v : table) names.emplace_back(v.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"status", "start", "pause", "resume", "stop", "speed", "plan show",
-                                             "plan set", "plan clear", "config"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"status", "start", "pause", "resume", "stop", "speed",
+                                             "plan show", "plan set", "plan clear", "config"}));
   const profile::Verb& start = *profile::find_verb(table, "start");
   ASSERT_EQ(start.args.size(), 6U);
   EXPECT_NE(start.args[2].help.find(fmt::format("1..{}", ij::kPlanCount)), std::string::npos);
@@ -478,7 +478,8 @@ TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
   // Four hex digits are the code as the chair shows it; else a number (0x10C3, 65535).
   r = run(table, rh::run_verb, "errors", {{"code", "0x10C3"}}, where);
   ASSERT_TRUE(r.ok());
-  EXPECT_EQ(r->extra["errors"][0]["code"].get<std::string>(), rh::error_json(0x10C3)["code"].get<std::string>());
+  EXPECT_EQ(r->extra["errors"][0]["code"].get<std::string>(),
+            rh::error_json(0x10C3)["code"].get<std::string>());
   r = run(table, rh::run_verb, "errors", {}, where);
   ASSERT_TRUE(r.ok());
   EXPECT_EQ(r->extra["errors"].size(), rh::error_codes().size());

@@ -25,7 +25,6 @@ using profile::VerbResult;
 using Form = VerbArg::Form;
 using Json = nlohmann::json;
 
-
 // A number within [min, max], or invalid_argument naming `what`.
 Outcome<int64_t> number(std::string_view text, std::string_view what, int64_t min, int64_t max) {
   return profile::parse_number(text, what, min, max);
@@ -50,8 +49,7 @@ rtukit::Status failed(const rtukit::Status& e, std::string_view what) {
 rtukit::Status connect(VerbContext& c, std::optional<Client>& jet) {
   Master& m = c.open();
   const rtukit::Status e = identify(m, c.unit);
-  if (e.code() == Errc::refused)
-    return {e.error(), fmt::format("{}; check --port and --unit", e.reason())};
+  if (e.code() == Errc::refused) return {e.error(), fmt::format("{}; check --port and --unit", e.reason())};
   if (e) return {e.error(), "identify"};
   jet.emplace(m, c.unit);
   return {};
@@ -103,7 +101,8 @@ Outcome<VerbResult> start_verb(const VerbArgs& a, VerbContext& c) {
                           fmt::format("P{} has nothing to run from {} (see `plan show {}`)", r.plan,
                                       profile::format_mm_ss(r.from_s), r.plan));
   if (e) return failed(e, "start " + what);
-  return VerbResult{"start", fmt::format("started {}{}", what, r.remember ? " (after 3 s; saved as memory)" : ""),
+  return VerbResult{"start",
+                    fmt::format("started {}{}", what, r.remember ? " (after 3 s; saved as memory)" : ""),
                     nullptr, nullptr};
 }
 
@@ -126,7 +125,8 @@ Outcome<VerbResult> command(std::string_view verb, const VerbArgs& a, VerbContex
   if (e) return failed(e, what);
   if (verb != "speed") return VerbResult{std::string(verb), fmt::format("{}: ok", verb), nullptr, nullptr};
   const uint16_t speed = body["speed"].get<uint16_t>();
-  return VerbResult{"speed", what, Json{{"speed", profile::entry_json(kMap.row(reg::speed), speed)}}, nullptr};
+  return VerbResult{"speed", what, Json{{"speed", profile::entry_json(kMap.row(reg::speed), speed)}},
+                    nullptr};
 }
 
 Outcome<VerbResult> plan_verb(std::string_view verb, const VerbArgs& a, VerbContext& c) {
@@ -151,12 +151,14 @@ Outcome<VerbResult> plan_verb(std::string_view verb, const VerbArgs& a, VerbCont
   }
   if (verb == "plan set") {
     if (rtukit::Status e = jet->write_plan(plan, file)) return failed(e, fmt::format("write plan P{}", plan));
-    return VerbResult{"plan set", fmt::format("plan P{}: {} segment(s) written, ends at {}", plan, file.size(),
+    return VerbResult{"plan set",
+                      fmt::format("plan P{}: {} segment(s) written, ends at {}", plan, file.size(),
                                   profile::format_mm_ss(file.back().end)),
                       nullptr, nullptr};
   }
   if (rtukit::Status e = jet->clear_plan(plan)) return failed(e, fmt::format("clear plan P{}", plan));
-  return VerbResult{"plan clear", fmt::format("plan P{}: factory plan ({})", plan, factory_plan_text()), nullptr, nullptr};
+  return VerbResult{"plan clear", fmt::format("plan P{}: factory plan ({})", plan, factory_plan_text()),
+                    nullptr, nullptr};
 }
 
 Outcome<VerbResult> config_verb(const VerbArgs& a, VerbContext& c) {
@@ -189,11 +191,13 @@ Outcome<VerbResult> config_verb(const VerbArgs& a, VerbContext& c) {
                                          : fmt::format("set {} {}", ch.key, ch.value));
   const std::string shown = profile::format_value(*ch.row, ch.raw);
   const std::string text =
-      ch.key == "address" ? fmt::format("address {} -> {} (talk to --unit {} from now on)", was, ch.value, ch.value)
-      : ch.key == "baud"  ? fmt::format("baud rate {} (talk at --baud {} from now on)", ch.value, ch.value)
-      : ch.key == "mask"  ? fmt::format("control mask {}", shown)
-                          : fmt::format("pairing {}", shown);
-  return VerbResult{fmt::format("config {}", ch.key), text, Json{{std::string(ch.row->key), profile::entry_json(*ch.row, ch.raw)}}, nullptr};
+      ch.key == "address"
+          ? fmt::format("address {} -> {} (talk to --unit {} from now on)", was, ch.value, ch.value)
+      : ch.key == "baud" ? fmt::format("baud rate {} (talk at --baud {} from now on)", ch.value, ch.value)
+      : ch.key == "mask" ? fmt::format("control mask {}", shown)
+                         : fmt::format("pairing {}", shown);
+  return VerbResult{fmt::format("config {}", ch.key), text,
+                    Json{{std::string(ch.row->key), profile::entry_json(*ch.row, ch.raw)}}, nullptr};
 }
 
 }  // namespace
@@ -219,7 +223,8 @@ const std::vector<profile::Verb>& verb_table() {
                 {"plan", Form::option, "training " + plans},
                 {"speed", Form::option, "speed " + speed + " (free: default from memory)"},
                 {"from", Form::option, "with --plan: start this far into the plan (mm:ss)"},
-                {"remember", Form::flag, "start after the 3 s initial delay and save speed/time as the mode's memory"}},
+                {"remember", Form::flag,
+                 "start after the 3 s initial delay and save speed/time as the mode's memory"}},
        .examples = {"{port} --free --speed 60", "{port} --timer 30:00 --speed 80 --remember",
                     "{port} --plan 1 --from 12:00"}},
       {.name = "pause", .help = "pause the run (motor stops, time freezes)", .examples = {"{port}"}},
@@ -236,7 +241,8 @@ const std::vector<profile::Verb>& verb_table() {
        .reads = true},
       {.name = "plan set",
        .help = "write a plan from a CSV (speed,end per line) or JSON file",
-       .args = {plan_arg, {"file", Form::positional, "plan file (what `plan show` prints, CSV or --json)", true}},
+       .args = {plan_arg,
+                {"file", Form::positional, "plan file (what `plan show` prints, CSV or --json)", true}},
        .examples = {"{port} 2 p1.csv"}},
       {.name = "plan clear",
        .help = "reset a plan to the factory plan (" + factory_plan_text() + ")",
@@ -244,7 +250,8 @@ const std::vector<profile::Verb>& verb_table() {
        .examples = {"{port} 4"}},
       {.name = "config",
        .help = "show or set address, baud, mask, pairing",
-       .args = {{"what", Form::positional, fmt::format("show | address A | baud B | mask M | pairing {}0..{}", pairing,
+       .args = {{"what", Form::positional,
+                 fmt::format("show | address A | baud B | mask M | pairing {}0..{}", pairing,
                              kMap.row(reg::pairing).names.size() - 1),
                  false, "show"},
                 {"value", Form::positional, "the new value"}},
@@ -259,7 +266,8 @@ Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::
   const std::string_view name = verb.name;
   if (name == "status") return status(context);
   if (name == "start") return start_verb(args, context);
-  if (name == "pause" || name == "resume" || name == "stop" || name == "speed") return command(name, args, context);
+  if (name == "pause" || name == "resume" || name == "stop" || name == "speed")
+    return command(name, args, context);
   if (name.starts_with("plan ")) return plan_verb(name, args, context);
   if (name == "config") return config_verb(args, context);
   return rtukit::Status(Errc::invalid_argument, fmt::format("inverjet has no verb '{}'", name));

@@ -23,19 +23,20 @@ Outcome<profile::VerbResult> errors(const profile::VerbArgs& args) {
   std::vector<uint16_t> codes(error_codes().begin(), error_codes().end());
   const std::string_view text = profile::arg(args, "code");
   if (!text.empty()) {
-    const bool as_shown = text.size() == 4 && text.find_first_not_of("0123456789abcdefABCDEF") == std::string::npos;
-    const Outcome<int64_t> code = profile::parse_number(as_shown ? "0x" + std::string(text) : std::string(text),
-                                                        "error code", 1, 0xFFFF);
+    const bool as_shown =
+        text.size() == 4 && text.find_first_not_of("0123456789abcdefABCDEF") == std::string::npos;
+    const Outcome<int64_t> code = profile::parse_number(
+        as_shown ? "0x" + std::string(text) : std::string(text), "error code", 1, 0xFFFF);
     if (!code) return code.error();
     codes = {static_cast<uint16_t>(*code)};
   }
   nlohmann::ordered_json list = nlohmann::ordered_json::array();
   for (const uint16_t c : codes) list.push_back(error_json(c));
-  return profile::VerbResult{
-      "",
-      text.empty() ? without_final_newline(errors_markdown())
-                   : fmt::format("{}: {}", error_text(codes[0]), error_advice(codes[0])),
-      nullptr, nlohmann::json{{"errors", list}}};
+  return profile::VerbResult{"",
+                             text.empty()
+                                 ? without_final_newline(errors_markdown())
+                                 : fmt::format("{}: {}", error_text(codes[0]), error_advice(codes[0])),
+                             nullptr, nlohmann::json{{"errors", list}}};
 }
 
 }  // namespace
@@ -60,7 +61,8 @@ const std::vector<profile::Verb>& verb_table() {
 Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::VerbArgs& args,
                                       profile::VerbContext&) {
   if (verb.name == "errors") return errors(args);
-  if (verb.name == "stopping") return profile::VerbResult{"", without_final_newline(stopping_markdown()), nullptr, nullptr};
+  if (verb.name == "stopping")
+    return profile::VerbResult{"", without_final_newline(stopping_markdown()), nullptr, nullptr};
   return rtukit::Status(Errc::invalid_argument, fmt::format("rehand6600 has no verb '{}'", verb.name));
 }
 

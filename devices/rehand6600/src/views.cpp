@@ -117,9 +117,10 @@ Json error_json(uint16_t code) {
 std::string link_failure_text(std::string_view reason, bool another_device) {
   const std::string check =
       another_device ? std::string("check --port and --unit: another device answers there")
-                     : fmt::format("check that the controller is powered on, the UART cable and its connectors, "
-                                   "--baud ({} unless changed) and --unit ({})",
-                                   kDefaultBaud, kDefaultAddress);
+                     : fmt::format(
+                           "check that the controller is powered on, the UART cable and its connectors, "
+                           "--baud ({} unless changed) and --unit ({})",
+                           kDefaultBaud, kDefaultAddress);
   return fmt::format("{}: {}; {}", error_text(kMasterCommunicationError), reason, check);
 }
 

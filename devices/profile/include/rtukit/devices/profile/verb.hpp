@@ -84,7 +84,8 @@ struct VerbContext {
 /// the one expected, or a device rule refused), a Modbus exception (its
 /// Error kept, the reason in words), or the link's (timeout, io_error). The
 /// reason names what was being done; the front-end adds where.
-using RunVerb = std::function<Outcome<VerbResult>(const Verb& verb, const VerbArgs& args, VerbContext& context)>;
+using RunVerb =
+    std::function<Outcome<VerbResult>(const Verb& verb, const VerbArgs& args, VerbContext& context)>;
 
 /// The text of `name` in `args`, or `fallback`.
 std::string_view arg(const VerbArgs& args, std::string_view name, std::string_view fallback = {});
