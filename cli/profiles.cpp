@@ -372,25 +372,39 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
   const UnitId unit = device_unit(a.unit, p);
   std::unique_ptr<Master> master;
   std::string context;
-  profile::VerbContext where{unit,
-                             [&]() -> Master& {
+  const auto name_link = [&](std::string_view port) {
+    context = fmt::format("{} unit {} on {}", entry.label.empty() ? p.name : entry.label, unit.value, port);
+  };
+  profile::VerbContext where{.unit = unit,
+                             .open = [&]() -> Master& {
                                master = a.link.make_master();
-                               context =
-                                   fmt::format("{} unit {} on {}", entry.label.empty() ? p.name : entry.label,
-                                               unit.value, master->describe());
+                               name_link(master->describe());
                                return *master;
                              },
-                             [](std::string_view t) { return LivePanel::alert(t); }};
+                             .open_link =
+                                 [&] {
+                                   auto link = io::make_link(a.link.spec(false));
+                                   name_link(link->describe());
+                                   return link;
+                                 },
+                             .response_timeout = std::chrono::milliseconds(a.link.timeout_ms),
+                             .trace = a.link.tracer(),
+                             .alert = [](std::string_view t) { return LivePanel::alert(t); }};
   Outcome<profile::VerbResult> r = entry.run_verb(verb, args, where);
   if (master && a.link.stats) print_stats(*master);
   if (!r.ok()) {
     const rtukit::Status& e = r.error();
-    const std::string line =
-        context.empty() ? std::string(e.reason()) : fmt::format("{}: {}", context, e.reason());
-    if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
-    if (e.code() == Errc::refused) throw Failure{kRefused, line};
-    if (e.is_exception()) throw Failure{kModbusException, line};
-    fail(e.error(), line);
+    const auto line = [&](std::string_view reason) {
+      return context.empty() || reason.empty() ? std::string(context.empty() ? reason : context)
+                                               : fmt::format("{}: {}", context, reason);
+    };
+    if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line(e.reason())};
+    if (e.is_exception()) throw Failure{kModbusException, line(e.reason())};
+    // No answer: in the device's own words when it has them.
+    if (entry.no_answer && exit_code(e.error()) == kNoResponse)
+      throw Failure{kNoResponse, line(entry.no_answer(e))};
+    if (e.code() == Errc::refused) throw Failure{kRefused, line(e.reason())};
+    fail(e.error(), line(e.reason()));
   }
   if (!a.json) {
     fmt::print("{}\n", r->text);
@@ -443,6 +457,7 @@ void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& en
             }
           }
           if (verb.uses_link) {
+            a.link.timeout_ms = entry.answer_timeout_ms;
             cmd.add_option("--unit,-u", a.unit, device_unit_help(*entry.profile));
             a.link.add_to(cmd, false, profile::link_defaults(*entry.profile).baud);
           }
@@ -452,7 +467,7 @@ void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& en
           for (std::string_view e : verb.examples) {
             std::string line = label + " " + std::string(e);
             if (const size_t at = line.find("{port}"); at != std::string::npos)
-              line.replace(at, 6, "--port /dev/ttyUSB0");
+              line.replace(at, 6, fmt::format("--port {}", entry.example_port));
             lines.push_back(line);
           }
           std::vector<std::string_view> views(lines.begin(), lines.end());

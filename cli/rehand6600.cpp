@@ -68,13 +68,6 @@ UnitId unit_of(const ChairArgs& a) {
   throw Failure{code, fmt::format("{}: {}", context, rh::link_failure_text(reason, code == kRefused))};
 }
 
-// The handshake, once (rehand6600::handshake): 4 the port, 3 no answer, 5 another device.
-void handshake(Master& m, UnitId unit, const std::string& context) {
-  const rtukit::Status e = rh::handshake(m, unit);
-  if (e.code() == Errc::io_error || e.code() == Errc::not_connected) fail(e.error(), context);
-  if (e) master_error(context, std::string(e.reason()), e.code() == Errc::refused ? kRefused : kNoResponse);
-}
-
 // The views are the device layer's (devices/rehand6600/views.hpp).
 std::string panel_text(const rh::Snapshot& s, bool mph) {
   return rh::panel(s, mph, [](std::string_view t) { return LivePanel::alert(t); });
@@ -98,21 +91,6 @@ void done(const ChairArgs& a, std::string_view action, const std::string& text,
   out["text"] = text;
   if (!values.empty()) out["values"] = std::move(values);
   print_json(out);
-}
-
-int run_status(const ChairArgs& a) {
-  const UnitId unit = unit_of(a);
-  auto master = a.link.make_master();
-  const std::string context = fmt::format("Rehand 6600 unit {} on {}", unit.value, master->describe());
-  handshake(*master, unit, context);
-  rh::Snapshot s;
-  if (Error e = master->read_holding_registers(unit, 0, s.regs)) fail(e, context);
-  s.valid = true;
-  if (a.json)
-    print_json(snapshot_document(s, unit, a.mph));
-  else
-    fmt::print("{}", panel_text(s, a.mph));
-  return kOk;
 }
 
 // A running host controller for watch and hold; fails with 1010 when the
@@ -244,36 +222,6 @@ int run_hold(const ChairArgs& a, const std::string& key, const std::string& valu
   return kOk;
 }
 
-int run_pulse(const ChairArgs& a, const std::string& key) {
-  const rh::Register& r = *usage_or(rh::command_register(key, rh::Kind::pulse));
-  std::string context;
-  auto host = start_host(a, &context);
-  const rtukit::Status e = host->pulse(r.address);
-  const uint16_t active = host->active_error();
-  (void)host->wait_poll(std::chrono::milliseconds(500));
-  const rh::Snapshot s = host->snapshot();
-  host->stop();
-  if (e) refused_or_fail(e, context, key, "pulse", active);
-  done(a, "pulse",
-       fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key,
-                   rh::value_text(s, "main_light"), rh::value_text(s, "left_signal"),
-                   rh::value_text(s, "right_signal")));
-  return kOk;
-}
-
-int run_set(const ChairArgs& a, const std::string& what, const std::string& value) {
-  const rh::SettingChange c = usage_or(rh::parse_setting(what, value));
-  std::string context;
-  auto host = start_host(a, &context);
-  const rtukit::Status e = rh::write_setting(*host, c);
-  const uint16_t active = host->active_error();
-  host->stop();
-  if (e) refused_or_fail(e, context, what, "set", active);
-  done(a, "set", fmt::format("{} = {}", what, value),
-       {{std::string(c.row->key), profile::entry_json(*c.row, c.raw)}});
-  return kOk;
-}
-
 // The daemon on the RK3588: owns the UART, serves the HMI and the phone page
 // until SIGINT/SIGTERM.
 int run_host(const ChairArgs& a) {
@@ -317,14 +265,6 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
   chair->require_subcommand(1);
   const std::string port = "--port /dev/ttyS3";
   add_command<ChairArgs>(
-      *chair, action, "status", "handshake, then table 1: battery, motion, lights, posture, error",
-      [&](CLI::App& cmd, ChairArgs& a) {
-        add_link(cmd, a, true);
-        examples(cmd,
-                 {"rtukit rehand6600 status " + port, "rtukit rehand6600 status " + port + " --json --mph"});
-      },
-      [](const ChairArgs& a) { return run_status(a); });
-  add_command<ChairArgs>(
       *chair, action, "watch", "live panel from the host controller until Ctrl-C",
       [&](CLI::App& cmd, ChairArgs& a) {
         add_link(cmd, a, true);
@@ -352,24 +292,6 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                        "rtukit rehand6600 hold " + port + " stand sit --for 500ms --json"});
       },
       [](const ChairArgs& a) { return run_hold(a, a.key, a.value, a.duration); });
-  add_command<ChairArgs>(
-      *chair, action, "pulse", "a pulse command: light, phone_left_signal, phone_right_signal, phone_light",
-      [&](CLI::App& cmd, ChairArgs& a) {
-        cmd.add_option("CMD", a.key, "the command")->required();
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit rehand6600 pulse " + port + " light"});
-      },
-      [](const ChairArgs& a) { return run_pulse(a, a.key); });
-  add_command<ChairArgs>(
-      *chair, action, "set", "drive-mode normal|indoor|outdoor, speed-level 1..5, host-fault CODE",
-      [&](CLI::App& cmd, ChairArgs& a) {
-        cmd.add_option("WHAT", a.key, "drive-mode | speed-level | host-fault")->required();
-        cmd.add_option("VALUE", a.value, "the value")->required();
-        add_link(cmd, a, false);
-        examples(cmd, {"rtukit rehand6600 set " + port + " drive-mode outdoor",
-                       "rtukit rehand6600 set " + port + " speed-level 3 --json"});
-      },
-      [](const ChairArgs& a) { return run_set(a, a.key, a.value); });
   add_command<ChairArgs>(
       *chair, action, "host",
       "the RK3588 host daemon: owns the UART, serves the touch HMI and the phone remote",
@@ -401,7 +323,7 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                  {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443"});
       },
       [](const ChairArgs& a) { return run_host(a); });
-  // errors, stopping: the device's verb table (rehand6600::verb_table).
+  // status, pulse, set, errors, stopping: the device's verb table (rehand6600::verb_table).
 }
 
 }  // namespace rtukit::cli

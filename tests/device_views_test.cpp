@@ -14,6 +14,7 @@
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
+#include "rtukit/devices/rehand6600/device.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
@@ -486,6 +487,49 @@ TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
   EXPECT_FALSE(run(table, rh::run_verb, "errors", {{"code", "fly"}}, where).ok());
   EXPECT_EQ(where.opened, 0);
   EXPECT_FALSE(profile::find_verb(table, "errors")->uses_link);
+}
+
+// `status` through the table: the handshake first; another device or no
+// answer is the chair's 1010 (its no_answer words a link nobody answers).
+// The commands check their arguments before anything is opened.
+TEST(RehandVerbTable, StatusHandshakesFirst_CommandsCheckArgumentsBeforeOpening) {
+  Rig chair(1);
+  chair.bank.holding[rh::reg::kDeviceId] = rh::kDeviceId;
+  chair.bank.holding[rh::reg::kDeviceId + 1] = 77;  // not read as the ID: the next register
+  Where where(chair, 1);
+  const auto& table = rh::verb_table();
+  Outcome<profile::VerbResult> r = run(table, rh::run_verb, "status", {{"mph", "true"}}, where);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  EXPECT_EQ(r->values["device_id"]["raw"], rh::kDeviceId);
+  EXPECT_NE(r->text.find("mph"), std::string::npos) << r->text;
+  EXPECT_TRUE(r->action.empty());  // a reading
+  chair.bank.holding[rh::reg::kDeviceId] = 0x42;
+  r = run(table, rh::run_verb, "status", {}, where);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code(), Errc::refused);
+  EXPECT_TRUE(r.error().reason().starts_with(rh::error_text(rh::kMasterCommunicationError)))
+      << r.error().reason();
+  EXPECT_NE(r.error().reason().find("another device answers there"), std::string::npos);
+  chair.silent = true;
+  r = run(table, rh::run_verb, "status", {}, where);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code(), Errc::timeout);
+  const std::string said = rh::device_entry().no_answer(r.error());
+  EXPECT_TRUE(
+      said.starts_with("1010 Master Error: handshake: no answer (timeout); check that the controller"))
+      << said;
+  // pulse and set would run the host controller on open_link (unset here:
+  // calling it would fail the test): a bad argument never gets there.
+  const int opened = where.opened;
+  for (const auto& [verb, args] : std::vector<std::pair<std::string, profile::VerbArgs>>{
+           {"pulse", {{"cmd", "stand"}}},
+           {"set", {{"what", "speed-level"}, {"value", "6"}}},
+           {"set", {{"what", "drive-mode"}, {"value", "fast"}}}}) {
+    r = run(table, rh::run_verb, verb, args, where);
+    ASSERT_FALSE(r.ok()) << verb;
+    EXPECT_EQ(r.error().code(), Errc::invalid_argument) << r.error().reason();
+  }
+  EXPECT_EQ(where.opened, opened);
 }
 
 }  // namespace

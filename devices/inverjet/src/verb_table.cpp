@@ -23,7 +23,7 @@ using profile::VerbArgs;
 using profile::VerbContext;
 using profile::VerbResult;
 using Form = VerbArg::Form;
-using Json = nlohmann::json;
+using Json = nlohmann::ordered_json;
 
 // A number within [min, max], or invalid_argument naming `what`.
 Outcome<int64_t> number(std::string_view text, std::string_view what, int64_t min, int64_t max) {
@@ -108,7 +108,7 @@ Outcome<VerbResult> start_verb(const VerbArgs& a, VerbContext& c) {
 
 // pause, resume, stop, speed: the command table every front-end runs (run_command).
 Outcome<VerbResult> command(std::string_view verb, const VerbArgs& a, VerbContext& c) {
-  Json body = Json::object();
+  nlohmann::json body = nlohmann::json::object();
   std::string what(verb);
   if (verb == "speed") {
     const Outcome<int64_t> v = number(profile::arg(a, "speed"), "speed (%)", 0, kMaxSpeed);
@@ -118,7 +118,7 @@ Outcome<VerbResult> command(std::string_view verb, const VerbArgs& a, VerbContex
   }
   std::optional<Client> jet;
   if (rtukit::Status e = connect(c, jet)) return e;
-  Json result;
+  nlohmann::json result;
   const rtukit::Status e = run_command(*jet, verb, body, result);
   if (verb == "resume" && e == Errc::invalid_argument)
     return rtukit::Status(Errc::invalid_argument, "resume: nothing is paused");

@@ -32,6 +32,20 @@ std::string usage(const VerbArg& a) {
   }
   return a.required ? word : fmt::format("[{}]", word);
 }
+// A table cell takes no '|': alternatives are written "or" ("a | b", "a|b" -> "a or b").
+std::string cell_text(std::string_view text) {
+  std::string cell;
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] != '|')
+      cell += text[i];
+    else if (i > 0 && text[i - 1] == ' ' && i + 1 < text.size() && text[i + 1] == ' ')
+      cell += "or";  // " | " -> " or "
+    else
+      cell += " or ";
+  }
+  return cell;
+}
+
 }  // namespace
 
 std::string verbs_markdown(std::string_view device, std::span<const Verb> verbs) {
@@ -45,18 +59,8 @@ std::string verbs_markdown(std::string_view device, std::span<const Verb> verbs)
       args += fmt::format("{}: {}", usage(a), a.help);
       if (!a.fallback.empty()) args += fmt::format(" (default {})", a.fallback);
     }
-    // A table cell takes no '|': the alternatives are written "or".
-    std::string cell;
-    for (size_t i = 0; i < args.size(); ++i) {
-      if (args[i] != '|') {
-        cell += args[i];
-      } else if (i > 0 && args[i - 1] == ' ' && i + 1 < args.size() && args[i + 1] == ' ') {
-        cell += "or";  // " | " -> " or "
-      } else {
-        cell += " or ";
-      }
-    }
-    out += fmt::format("| {}` | {} | {} |\n", line, v.help, cell.empty() ? "none" : cell);
+    out +=
+        fmt::format("| {}` | {} | {} |\n", line, cell_text(v.help), args.empty() ? "none" : cell_text(args));
   }
   return out;
 }

@@ -6,6 +6,7 @@
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/sim.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
+#include "rtukit/devices/rehand6600/views.hpp"
 #include "rtukit/driver/simulation.hpp"
 
 namespace rtukit::rehand6600 {
@@ -27,16 +28,20 @@ Outcome<profile::SimDevice> make_sim(const profile::SimSettings& settings) {
 }  // namespace
 
 const profile::DeviceEntry& device_entry() {
-  static const profile::DeviceEntry entry{.profile = &kProfile,
-                                          .sim_options = kSimOptions,
-                                          .make_sim = make_sim,
-                                          .markdown = [] { return registers_markdown(); },
-                                          .doc = "docs/rehand6600.md",
-                                          .doc_sections = {{"errors", [] { return errors_markdown(); }},
-                                                           {"stopping", [] { return stopping_markdown(); }}},
-                                          .verbs = verb_table(),
-                                          .run_verb = run_verb,
-                                          .label = "Rehand 6600"};
+  static const profile::DeviceEntry entry{
+      .profile = &kProfile,
+      .sim_options = kSimOptions,
+      .make_sim = make_sim,
+      .markdown = [] { return registers_markdown(); },
+      .doc = "docs/rehand6600.md",
+      .doc_sections = {{"errors", [] { return errors_markdown(); }},
+                       {"stopping", [] { return stopping_markdown(); }}},
+      .verbs = verb_table(),
+      .run_verb = run_verb,
+      .label = "Rehand 6600",
+      .no_answer = [](const rtukit::Status& e) { return link_failure_text(e.reason(), false); },
+      .example_port = "/dev/ttyS3",
+      .answer_timeout_ms = 200};
   return entry;
 }
 

@@ -1,9 +1,13 @@
-// The Rehand 6600's verbs that print from the tables (profile/verb.hpp):
-// `errors [CODE]` (table 3) and `stopping` (D-9). The verbs that command the
-// chair (hold, pulse, set, watch) run the host controller and its rules.
+// The Rehand 6600's verbs (profile/verb.hpp): `status` (the handshake, then
+// table 1), `pulse` and `set` (through the host controller and its rules,
+// as the display's own buttons), and from the tables `errors [CODE]` (table
+// 3) and `stopping` (D-9). A failed link is the chair's 1010 (the entry's
+// no_answer for a link nobody answers). `watch` and `hold` run until Ctrl-C: the CLI drives those.
 #include <fmt/core.h>
 
+#include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
+#include "rtukit/devices/rehand6600/host.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
@@ -36,13 +40,115 @@ Outcome<profile::VerbResult> errors(const profile::VerbArgs& args) {
                              text.empty()
                                  ? without_final_newline(errors_markdown())
                                  : fmt::format("{}: {}", error_text(codes[0]), error_advice(codes[0])),
-                             nullptr, nlohmann::json{{"errors", list}}};
+                             nullptr, nlohmann::ordered_json{{"errors", list}}};
+}
+
+// Another device answered (the handshake refused it): the chair's 1010, with
+// what to check. A link nobody answers is worded by the entry's no_answer.
+rtukit::Status another_device(const rtukit::Status& e) {
+  return e.code() == Errc::refused ? rtukit::Status(Errc::refused, link_failure_text(e.reason(), true)) : e;
+}
+
+// The handshake, then table 1 in one read: the status panel, or its values.
+Outcome<profile::VerbResult> status(const profile::VerbArgs& args, profile::VerbContext& where) {
+  Master& master = where.open();
+  if (const rtukit::Status e = handshake(master, where.unit))
+    return e.code() == Errc::io_error || e.code() == Errc::not_connected
+               ? rtukit::Status(e.error(), "handshake")
+               : another_device(e);
+  Snapshot s;
+  if (const Error e = master.read_holding_registers(where.unit, 0, s.regs))
+    return e.code() == Errc::io_error || e.is_exception()
+               ? rtukit::Status(e, "reading table 1")
+               : rtukit::Status(e, fmt::format("reading table 1: no answer ({})", e.name()));
+  s.valid = true;
+  const bool mph = profile::given(args, "mph");
+  return profile::VerbResult{"", without_final_newline(panel(s, mph, where.alert)), snapshot_values(s, mph),
+                             nullptr};
+}
+
+// A host controller on the link, connected (its handshake done and table 1
+// read) within a few answer timeouts; the link's failure otherwise.
+Outcome<std::unique_ptr<Host>> connected_host(profile::VerbContext& where) {
+  HostOptions o;
+  o.unit = where.unit;
+  o.response_timeout = where.response_timeout;
+  o.trace = where.trace;
+  auto host = std::make_unique<Host>(where.open_link(), o);
+  host->start();
+  if (host->wait_connected(std::chrono::milliseconds(2000) + 4 * where.response_timeout)) return host;
+  const rtukit::Status why = host->last_failure();
+  host->stop();
+  if (why.ok()) return rtukit::Status(Errc::timeout, "no handshake");
+  return another_device(why);
+}
+
+// A command the controller's rules refused (with what to check when an
+// error is active), or the request's failure, named by what was asked.
+rtukit::Status refusal(const rtukit::Status& e, std::string_view verb, std::string_view key,
+                       uint16_t active_error) {
+  if (e.code() == Errc::refused)
+    return rtukit::Status(Errc::refused,
+                          fmt::format("{} refused: {}{}{}", key, e.reason(), active_error ? ": " : "",
+                                      active_error ? error_advice(active_error) : std::string()));
+  if (e.code() == Errc::invalid_argument)
+    return rtukit::Status(Errc::invalid_argument, fmt::format("{}: {}", key, e.reason()));
+  if (e.code() == Errc::io_error) return rtukit::Status(e.error(), fmt::format("{} {}", verb, key));
+  return rtukit::Status(e.error(), fmt::format("{} {}: no answer ({})", verb, key, e.error().name()));
+}
+
+Outcome<profile::VerbResult> pulse(const profile::VerbArgs& args, profile::VerbContext& where) {
+  const std::string key(profile::arg(args, "cmd"));
+  const Outcome<const Register*> r = command_register(key, Kind::pulse);
+  if (!r) return r.error();
+  Outcome<std::unique_ptr<Host>> host = connected_host(where);
+  if (!host) return host.error();
+  const rtukit::Status e = (*host)->pulse((*r)->address);
+  const uint16_t active = (*host)->active_error();
+  (void)(*host)->wait_poll(std::chrono::milliseconds(500));  // the lights as they are after it
+  const Snapshot s = (*host)->snapshot();
+  (*host)->stop();
+  if (e) return refusal(e, "pulse", key, active);
+  return profile::VerbResult{
+      "pulse",
+      fmt::format("pulsed {}: main light {}, left signal {}, right signal {}", key,
+                  value_text(s, "main_light"), value_text(s, "left_signal"), value_text(s, "right_signal")),
+      nullptr, nullptr};
+}
+
+Outcome<profile::VerbResult> set(const profile::VerbArgs& args, profile::VerbContext& where) {
+  const std::string_view what = profile::arg(args, "what"), value = profile::arg(args, "value");
+  const Outcome<SettingChange> c = parse_setting(what, value);  // a value outside the row: usage
+  if (!c) return rtukit::Status(Errc::invalid_argument, std::string(c.error().reason()));
+  Outcome<std::unique_ptr<Host>> host = connected_host(where);
+  if (!host) return host.error();
+  const rtukit::Status e = write_setting(**host, *c);
+  const uint16_t active = (*host)->active_error();
+  (*host)->stop();
+  if (e) return refusal(e, "set", what, active);
+  return profile::VerbResult{
+      "set", fmt::format("{} = {}", what, value),
+      nlohmann::ordered_json{{std::string(c->row->key), profile::entry_json(*c->row, c->raw)}}, nullptr};
 }
 
 }  // namespace
 
 const std::vector<profile::Verb>& verb_table() {
   static const std::vector<profile::Verb> verbs{
+      {.name = "status",
+       .help = "handshake, then table 1: battery, motion, lights, posture, error",
+       .args = {{"mph", profile::VerbArg::Form::flag, "speed in mph (default km/h)"}},
+       .examples = {"{port}", "{port} --json --mph"},
+       .reads = true},
+      {.name = "pulse",
+       .help = "a pulse command: light, phone_left_signal, phone_right_signal, phone_light",
+       .args = {{"cmd", profile::VerbArg::Form::positional, "the command", true}},
+       .examples = {"{port} light"}},
+      {.name = "set",
+       .help = "drive-mode normal|indoor|outdoor, speed-level 1..5, host-fault CODE",
+       .args = {{"what", profile::VerbArg::Form::positional, "drive-mode | speed-level | host-fault", true},
+                {"value", profile::VerbArg::Form::positional, "the value", true}},
+       .examples = {"{port} drive-mode outdoor", "{port} speed-level 3 --json"}},
       {.name = "errors",
        .help = "table 3: error codes, functions, UI texts, what each means and what to check",
        .args = {{"code", profile::VerbArg::Form::positional, "one code, as the chair shows it (10C3)"}},
@@ -59,7 +165,10 @@ const std::vector<profile::Verb>& verb_table() {
 }
 
 Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::VerbArgs& args,
-                                      profile::VerbContext&) {
+                                      profile::VerbContext& where) {
+  if (verb.name == "status") return status(args, where);
+  if (verb.name == "pulse") return pulse(args, where);
+  if (verb.name == "set") return set(args, where);
   if (verb.name == "errors") return errors(args);
   if (verb.name == "stopping")
     return profile::VerbResult{"", without_final_newline(stopping_markdown()), nullptr, nullptr};

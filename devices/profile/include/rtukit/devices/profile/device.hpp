@@ -65,6 +65,14 @@ struct DeviceEntry {
   /// How messages name the device ("Inverjet" in "Inverjet unit 21 on
   /// /dev/ttyUSB0"); empty: the profile's name.
   std::string_view label;
+  /// How the device words a request nobody answered (timeout, CRC, a wrong
+  /// answer), given the verb's failure, in place of a front-end's generic
+  /// advice (the Rehand 6600's "1010 Master Error" with what to check);
+  /// empty: the front-end's.
+  std::function<std::string(const rtukit::Status&)> no_answer;
+  /// The port its examples show, and the answer timeout its verbs start from.
+  std::string_view example_port = "/dev/ttyUSB0";
+  unsigned answer_timeout_ms = 1000;
 };
 
 /// Every generated section of `entry`'s doc: "registers" (`markdown`, or the

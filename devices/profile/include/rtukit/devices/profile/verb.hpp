@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "rtukit/driver/master.hpp"
+#include "rtukit/io/link.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
@@ -62,9 +63,9 @@ struct VerbResult {
   std::string text;  ///< a line (or a panel of lines) for people, without the final '\n'
   /// The document's "values" (decoded entries by key, profile::entry_json);
   /// null: none.
-  nlohmann::json values;
+  nlohmann::ordered_json values;
   /// Further fields of the document ("plan", "segments"); null: none.
-  nlohmann::json extra;
+  nlohmann::ordered_json extra;
 };
 
 /// Where a verb runs: the unit it talks to, and the link opened when the verb
@@ -75,6 +76,12 @@ struct VerbContext {
   /// Opens the link (a front-end's transport); the Master lives as long as
   /// the context. A port that cannot be opened ends the verb in the front-end.
   std::function<Master&()> open;
+  /// The link alone, for a verb that runs a controller of its own over it
+  /// (the Rehand 6600's host controller owns its port); same rules as `open`.
+  std::function<std::unique_ptr<io::Link>()> open_link;
+  /// For such a controller: the front-end's answer timeout and frame trace.
+  std::chrono::milliseconds response_timeout{1000};
+  std::function<void(const TraceEvent&)> trace;
   /// How the front-end marks what needs attention (a fault) in a text; nullptr: as it is.
   std::function<std::string(std::string_view)> alert;
 };
