@@ -14,6 +14,7 @@
 #include "profiles.hpp"
 #include "rtukit/devices/profile/address_notation.hpp"
 #include "rtukit/devices/profile/bank_file.hpp"
+#include "rtukit/devices/profile/typed_request.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
@@ -23,40 +24,17 @@ namespace rtukit::cli {
 namespace {
 
 using profile::Space;
-// An address as typed (0-based, --one-based, 40001 reference) and how to show it back: the kit's.
-using Address = profile::TypedAddress;
-using Notation = profile::AddressNotation;
 
-// A table as output and JSON name it ("table": "coils").
-const char* table_name(Space t) {
-  switch (t) {
-    case Space::holding:
-      return "holding";
-    case Space::input:
-      return "input";
-    case Space::coil:
-      return "coils";
-    case Space::discrete:
-      return "discrete";
-  }
-  return "?";
-}
+// Addresses as typed and shown, tables as output names them, reads and
+// writes planned, sent and shown: the kit's (profile/typed_request.hpp).
+using profile::put_address;
+using profile::ReadPlan;
+using profile::table_name;
 
-// JSON: "address" counted as typed (1-based for a reference, whose prefix is
-// the "table" key), and "pdu_address", the address on the wire, when that
-// count is not 0-based.
-void put_address(Json& doc, const Notation& notation, size_t pdu) {
-  const bool zero_based = notation.kind == Notation::Kind::zero_based;
-  doc["address"] = zero_based ? pdu : pdu + 1;
-  if (!zero_based) doc["pdu_address"] = pdu;
-}
-
-Address parse_address(const std::string& text, bool one_based) {
-  Outcome<Address> at = profile::parse_address(text, one_based);
-  if (!at.ok()) throw Failure{kUsage, std::string(at.error().reason())};
-  // Never silent: the same digits may also be a plain address.
-  if (!at->note.empty()) fmt::print(stderr, "note: {}\n", at->note);
-  return *at;
+// A reference is never taken silently: the same digits may also be a plain
+// address (parse_address's note), so the note is printed, also before a refusal.
+void print_note(std::string_view note) {
+  if (!note.empty()) fmt::print(stderr, "note: {}\n", note);
 }
 
 // --type and --word-order as the kit's (profile/typed_value.hpp); CLI11 checked the names.
@@ -92,98 +70,35 @@ struct ReadArgs {
   bool one_based = false;
 };
 
-// What one read asks for, from the read/poll arguments.
-struct ReadPlan {
-  UnitId unit{1};
-  Space table = Space::holding;
-  uint16_t address = 0;
-  uint16_t count = 1;
-  unsigned per_value = 1;
-  bool bits = false;
-  Notation notation;  ///< how the address was typed: how to print addresses
-};
-
+// The read/poll arguments as the kit's plan (profile/typed_request.hpp);
+// a refused plan is a usage error, and a reference's note is printed even then.
 ReadPlan plan_read(ReadArgs& a) {
   if (a.operands.empty() || a.operands.size() > 2)
     throw Failure{kUsage, "read takes ADDRESS [COUNT] (or --map FILE [KEY...])"};
   a.address = a.operands[0];
   if (a.operands.size() == 2) a.count = a.operands[1];
-  ReadPlan p;
-  p.unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
-  if (a.holding + a.input + a.coils + a.discrete > 1)
-    throw Failure{kUsage, "choose one of --holding, --input, --coils, --discrete"};
-  p.table = a.input ? Space::input : a.coils ? Space::coil : a.discrete ? Space::discrete : Space::holding;
-  if (p.unit.value == 0 && a.link.spec(false).kind != io::PortSpec::Kind::tcp)
-    throw Failure{kUsage,
-                  fmt::format("unit 0 is the broadcast address: nobody answers a broadcast, so it cannot be "
-                              "read (name a unit 1..{})",
-                              kMaxSerialUnit)};
-  const Address where = parse_address(a.address, a.one_based);
-  if (where.space && *where.space != p.table) {
-    if (a.holding + a.input + a.coils + a.discrete > 0)
-      throw Failure{kUsage,
-                    fmt::format("address {} names the {} registers; drop the table option or the prefix",
-                                a.address, table_name(*where.space))};
-    p.table = *where.space;
-  }
-  p.address = where.address;
-  p.notation = where.notation;
-  p.bits = p.table == Space::coil || p.table == Space::discrete;
-  p.per_value = p.bits ? 1 : profile::words_of(value_type_of(a.type));
-  const auto max_count = p.bits ? kMaxReadBits : kMaxReadRegisters / p.per_value;
-  p.count = static_cast<uint16_t>(parse_number(a.count, "count", 1, max_count));
-  if (size_t{p.address} + size_t{p.count} * p.per_value > 0x10000)
-    throw Failure{kUsage, "address + count passes 0xFFFF"};
-  return p;
-}
-
-std::string read_context(const ReadPlan& p, const Master& master) {
-  const uint8_t function = p.table == Space::holding ? 0x03
-                           : p.table == Space::input ? 0x04
-                           : p.table == Space::coil  ? 0x01
-                                                     : 0x02;
-  return fmt::format("FC{:02X} {} at {} x{} from unit {} on {}", function, function_name(function),
-                     p.notation.where(p.address), p.bits ? p.count : p.count * p.per_value, p.unit.value,
-                     master.describe());
-}
-
-// One read; the values decoded as the arguments ask (JSON numbers).
-Error read_values(Master& master, const ReadPlan& p, const ReadArgs& a, nlohmann::json& values) {
-  std::vector<uint16_t> regs(p.bits ? 0 : size_t{p.count} * p.per_value);
-  std::vector<uint8_t> flags(p.bits ? p.count : 0);
-  Error e;
-  switch (p.table) {
-    case Space::holding:
-      e = master.read_holding_registers(p.unit, p.address, regs);
-      break;
-    case Space::input:
-      e = master.read_input_registers(p.unit, p.address, regs);
-      break;
-    case Space::coil:
-      e = master.read_coils(p.unit, p.address, flags);
-      break;
-    case Space::discrete:
-      e = master.read_discrete_inputs(p.unit, p.address, flags);
-      break;
-  }
-  values = nlohmann::json::array();
-  if (e) return e;
-  for (size_t i = 0; i < p.count; ++i) {
-    values.push_back(p.bits ? nlohmann::json(flags[i])
-                            : profile::decode_typed(value_type_of(a.type),
-                                                    std::span(regs).subspan(i * p.per_value, p.per_value),
-                                                    word_order_of(a.order)));
-  }
-  return e;
+  const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
+  const profile::ReadRequest request{.unit = parse_unit(a.unit, tcp),
+                                     .tcp = tcp,
+                                     .tables_named = unsigned{a.holding} + a.input + a.coils + a.discrete,
+                                     .table = a.input      ? Space::input
+                                              : a.coils    ? Space::coil
+                                              : a.discrete ? Space::discrete
+                                                           : Space::holding,
+                                     .address = a.address,
+                                     .count = a.count,
+                                     .type = value_type_of(a.type),
+                                     .order = word_order_of(a.order),
+                                     .one_based = a.one_based};
+  std::string note;
+  Outcome<ReadPlan> plan = profile::plan_read(request, &note);
+  print_note(note);
+  if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
+  return *plan;
 }
 
 std::string value_text(const nlohmann::json& v, const ReadArgs& a, const ReadPlan& p) {
-  if (a.format == "hex" && !p.bits && a.type != "f32") {
-    const uint64_t raw = v.is_number_unsigned() ? v.get<uint64_t>() : static_cast<uint64_t>(v.get<int64_t>());
-    const uint64_t mask = p.per_value == 1 ? 0xFFFF : 0xFFFFFFFF;
-    return fmt::format("0x{:0{}X}", raw & mask, p.per_value == 1 ? 4 : 8);
-  }
-  return v.dump();
+  return profile::value_text(v, p, a.format == "hex");
 }
 
 int run_read(ReadArgs a) {
@@ -191,9 +106,9 @@ int run_read(ReadArgs a) {
   const ReadPlan p = plan_read(a);
   auto master = a.link.make_master();
   nlohmann::json values;
-  const Error e = read_values(*master, p, a, values);
+  const Error e = profile::read_values(*master, p, values);
   if (a.link.stats) print_stats(*master);
-  if (e) fail(e, read_context(p, *master));
+  if (e) fail(e, profile::read_context(p, *master));
   if (a.json) {
     Json out = json_document({}, p.unit.value);
     out["table"] = table_name(p.table);
@@ -222,7 +137,7 @@ int run_poll(PollArgs args) {
   ReadArgs& a = args.read;
   const ReadPlan p = plan_read(a);
   auto master = a.link.make_master();
-  const std::string context = read_context(p, *master);
+  const std::string context = profile::read_context(p, *master);
   if (args.output == "csv") {
     std::string header = "time";
     for (size_t i = 0; i < p.count; ++i) header += "," + p.notation.text(p.address + i * p.per_value);
@@ -232,7 +147,7 @@ int run_poll(PollArgs args) {
   unsigned failures = 0, polls = 0;
   watch_loop(args.watch, [&](unsigned) {
     nlohmann::json values;
-    last = read_values(*master, p, a, values);
+    last = profile::read_values(*master, p, values);
     ++polls;
     if (last) ++failures;
     Json line = json_document({}, p.unit.value);
@@ -296,68 +211,29 @@ int run_write(const WriteArgs& a) {
   if (a.mask.empty() && a.values.empty()) throw Failure{kUsage, "write needs values (or --mask AND OR)"};
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
   const UnitId unit = parse_unit(a.unit, tcp);
-  const Address where = parse_address(a.address, a.one_based);
-  const Space table = a.coils ? Space::coil : Space::holding;
-  if (where.space == Space::coil && !a.coils)
-    throw Failure{kUsage, fmt::format("address {} names a coil: add --coils to write coils", a.address)};
-  if (where.space && *where.space != table)
-    throw Failure{kUsage,
-                  fmt::format("address {} names the {} registers, which cannot be written{}", a.address,
-                              table_name(*where.space), a.coils ? "" : " (holding registers are 4xxxx)")};
-  const uint16_t address = where.address;
-  // Every value is checked and encoded before the port is opened: a value
-  // the type cannot hold is a usage error, whatever the link.
-  uint16_t and_mask = 0, or_mask = 0;
-  std::vector<uint8_t> bits;
-  std::vector<uint16_t> regs;
-  size_t count = 1;  // registers or coils written
-  if (!a.mask.empty()) {
-    and_mask = static_cast<uint16_t>(parse_number(a.mask[0], "AND mask", 0, 0xFFFF));
-    or_mask = static_cast<uint16_t>(parse_number(a.mask[1], "OR mask", 0, 0xFFFF));
-  } else if (a.coils) {
-    for (const auto& v : a.values) bits.push_back(static_cast<uint8_t>(parse_number(v, "coil value", 0, 1)));
-    if (bits.size() > kMaxWriteBits)
-      throw Failure{kUsage, fmt::format("at most {} coils per write", kMaxWriteBits)};
-    if (size_t{address} + bits.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
-    count = bits.size();
-  } else {
-    for (const auto& v : a.values) {
-      const Status e = profile::encode_typed(value_type_of(a.type), v, word_order_of(a.order), regs);
-      if (!e.ok()) throw Failure{kUsage, std::string(e.reason())};
-    }
-    if (regs.size() > kMaxWriteRegisters)
-      throw Failure{kUsage, fmt::format("at most {} registers per write", kMaxWriteRegisters)};
-    if (size_t{address} + regs.size() > 0x10000) throw Failure{kUsage, "address + count passes 0xFFFF"};
-    count = regs.size();
-  }
+  // Checked and encoded by the kit (profile/typed_request.hpp) before the port is opened.
+  std::string note;
+  Outcome<profile::WritePlan> plan = profile::plan_write({.unit = unit,
+                                                          .address = a.address,
+                                                          .one_based = a.one_based,
+                                                          .coils = a.coils,
+                                                          .multiple = a.multiple,
+                                                          .values = a.values,
+                                                          .mask = a.mask,
+                                                          .type = value_type_of(a.type),
+                                                          .order = word_order_of(a.order)},
+                                                         &note);
+  print_note(note);
+  if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
+  const profile::WritePlan& p = *plan;
   auto master = a.link.make_master();
-  // Which request went out, named as the read errors name theirs: "FC10 write multiple registers at 2
-  // (0x0002) x3".
-  const auto context_of = [&](uint8_t function) {
-    return fmt::format("FC{:02X} {} at {} x{} to unit {} on {}", function, function_name(function),
-                       where.notation.where(address), count, unit.value, master->describe());
-  };
-  std::string context;
-  Error e;
-  if (!a.mask.empty()) {
-    context = context_of(0x16);
-    e = master->mask_write_register(unit, address, and_mask, or_mask);
-  } else if (a.coils) {
-    const bool single = bits.size() == 1 && !a.multiple;
-    context = context_of(single ? 0x05 : 0x0F);
-    e = single ? master->write_single_coil(unit, address, bits[0] != 0)
-               : master->write_multiple_coils(unit, address, bits);
-  } else {
-    const bool single = regs.size() == 1 && !a.multiple;
-    context = context_of(single ? 0x06 : 0x10);
-    e = single ? master->write_single_register(unit, address, regs[0])
-               : master->write_multiple_registers(unit, address, regs);
-  }
+  const std::string context = profile::write_context(p, *master);
+  const Error e = profile::send_write(*master, p);
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
   // What was written, in one line: "wrote 1234 to holding register 40001 (0x0000) of unit 1".
   const std::string target =
-      fmt::format("{} {}", profile::space_noun(table, count > 1), where.notation.span(address, count));
+      fmt::format("{} {}", profile::space_noun(p.table, p.count > 1), p.notation.span(p.address, p.count));
   const bool broadcast = unit == kBroadcast && !tcp;
   const std::string to_whom =
       broadcast ? "of every unit (a broadcast: no unit answers it)" : fmt::format("of unit {}", unit.value);
@@ -370,7 +246,7 @@ int run_write(const WriteArgs& a) {
   if (a.json) {
     Json out = json_document({}, unit.value);
     out["table"] = a.coils ? "coils" : "holding";
-    put_address(out, where.notation, address);
+    put_address(out, p.notation, p.address);
     out["written"] = a.values.size();
     out["text"] = text;
     print_json(out);
@@ -392,49 +268,36 @@ struct ReadWriteArgs {
 
 int run_readwrite(const ReadWriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
-  if (unit == kBroadcast) throw Failure{kUsage, "FC17 reads: it cannot be broadcast (unit 0)"};
-  // Both addresses as any address is typed (0-based, --one-based, 40001); FC17 is for holding registers.
-  const auto holding = [&](const std::string& text) {
-    const Address at = parse_address(text, a.one_based);
-    if (at.space && *at.space != Space::holding)
-      throw Failure{kUsage, fmt::format("{} names the {} registers: FC17 reads and writes holding registers",
-                                        text, table_name(*at.space))};
-    return at;
-  };
-  const Address read_where = holding(a.read_address);
-  const Address write_where = holding(a.write_address);
-  const uint16_t read_at = read_where.address;
-  const uint16_t write_at = write_where.address;
-  std::vector<uint16_t> values;
-  for (const auto& v : a.values) values.push_back(static_cast<uint16_t>(parse_number(v, "value", 0, 0xFFFF)));
-  if (values.size() > kMaxReadWriteWriteRegisters)
-    throw Failure{kUsage,
-                  fmt::format("at most {} registers to write with FC17", kMaxReadWriteWriteRegisters)};
-  if (size_t{read_at} + a.count > 0x10000 || size_t{write_at} + values.size() > 0x10000)
-    throw Failure{kUsage, "address + count passes 0xFFFF"};
+  std::vector<std::string> notes;
+  Outcome<profile::ReadWritePlan> plan = profile::plan_readwrite({.unit = unit,
+                                                                  .read_address = a.read_address,
+                                                                  .count = static_cast<uint16_t>(a.count),
+                                                                  .write_address = a.write_address,
+                                                                  .values = a.values,
+                                                                  .one_based = a.one_based},
+                                                                 &notes);
+  for (const std::string& note : notes) print_note(note);
+  if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
+  const profile::ReadWritePlan& p = *plan;
   auto master = a.link.make_master();
-  std::vector<uint16_t> out(a.count);
-  const Error e = master->read_write_multiple_registers(unit, read_at, out, write_at, values);
+  std::vector<uint16_t> out(p.count);
+  const Error e = master->read_write_multiple_registers(unit, p.read_at, out, p.write_at, p.values);
   if (a.link.stats) print_stats(*master);
-  if (e)
-    fail(e,
-         fmt::format("FC17 read/write multiple registers: write {} at {}, read {} at {} from unit {} on {}",
-                     values.size(), write_where.notation.where(write_at), a.count,
-                     read_where.notation.where(read_at), unit.value, master->describe()));
+  if (e) fail(e, profile::readwrite_context(p, *master));
   if (a.json) {
     Json doc = json_document({}, unit.value);
     doc["table"] = "holding";
     Json written;
-    put_address(written, write_where.notation, write_at);
-    written["count"] = values.size();
+    put_address(written, p.write_notation, p.write_at);
+    written["count"] = p.values.size();
     doc["written"] = written;
-    put_address(doc, read_where.notation, read_at);
+    put_address(doc, p.read_notation, p.read_at);
     doc["values"] = out;
     print_json(doc);
     return kOk;
   }
   for (size_t i = 0; i < out.size(); ++i)
-    fmt::print("{}: {}\n", read_where.notation.where(read_at + i), out[i]);
+    fmt::print("{}: {}\n", p.read_notation.where(p.read_at + i), out[i]);
   return kOk;
 }
 

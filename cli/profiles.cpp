@@ -22,118 +22,27 @@ namespace rtukit::cli {
 
 using profile::Row;
 
-std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys,
-                                  bool for_write) {
-  const profile::RegisterMap map(p.rows);
-  std::vector<Selected> out;
-  if (keys.empty()) {
-    for (const Row& r : p.rows) {
-      if (!r.readable()) continue;
-      for (unsigned i = 0; i < r.repeat; ++i) out.push_back({&r, i});
-    }
-    return out;
-  }
-  for (const std::string& typed : keys) {
-    // key, or key[i] for an entry of a repeated block (0-based).
-    std::string key = typed;
-    std::optional<unsigned> index;
-    if (const size_t open = typed.find('['); open != std::string::npos && typed.ends_with(']')) {
-      key = typed.substr(0, open);
-      index = static_cast<unsigned>(
-          parse_number(typed.substr(open + 1, typed.size() - open - 2), "index", 0, 0xFFFF));
-    }
-    const Row* r = profile::find_row(map, key);
-    if (!r) {
-      std::string known;
-      for (const Row& row : p.rows) known += (known.empty() ? "" : ", ") + std::string(row.key);
-      throw Failure{kUsage, fmt::format("no register '{}' in {} (registers: {})", key, p.name, known)};
-    }
-    if (!for_write && !r->readable()) throw Failure{kUsage, fmt::format("{} is write-only", r->key)};
-    if (index && *index >= r->repeat)
-      throw Failure{kUsage, fmt::format("{} has entries 0..{}", r->key, r->repeat - 1)};
-    if (index || r->repeat == 1) {
-      out.push_back({r, index.value_or(0)});
-    } else {
-      for (unsigned i = 0; i < r->repeat; ++i) out.push_back({r, i});
-    }
-  }
-  return out;
-}
-
 namespace {
 
-// One bus read of `count` words (or bits) in `space`.
-Error read_words(Master& m, UnitId unit, profile::Space space, uint16_t address, std::span<uint16_t> out) {
-  switch (space) {
-    case profile::Space::holding:
-      return m.read_holding_registers(unit, address, out);
-    case profile::Space::input:
-      return m.read_input_registers(unit, address, out);
-    case profile::Space::coil:
-    case profile::Space::discrete: {
-      std::vector<uint8_t> bits(out.size());  // one element per bit: 0 or 1
-      const Error e = space == profile::Space::coil ? m.read_coils(unit, address, bits)
-                                                    : m.read_discrete_inputs(unit, address, bits);
-      for (size_t i = 0; i < out.size(); ++i) out[i] = bits[i];
-      return e;
-    }
-  }
-  return Errc::invalid_argument;
-}
+using profile::entry_name;
 
-std::string entry_name(const Selected& s) {
-  return s.row->repeat > 1 ? fmt::format("{}[{}]", s.row->key, s.index) : std::string(s.row->key);
+// The kit's selection; a bad key is a usage error.
+std::vector<Selected> select_or_fail(const profile::Profile& p, std::span<const std::string> keys,
+                                     bool for_write) {
+  Outcome<std::vector<Selected>> selected = profile::select_rows(p, keys, for_write);
+  if (!selected.ok()) throw Failure{kUsage, std::string(selected.error().reason())};
+  return std::move(*selected);
 }
 
 }  // namespace
 
-std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<const Selected> selected) {
-  std::vector<ReadValue> values;
-  values.reserve(selected.size());
-  // Adjacent entries of one space go in one request (up to 125 registers).
-  size_t i = 0;
-  while (i < selected.size()) {
-    const Row& first = *selected[i].row;
-    const uint16_t start = first.entry_address(selected[i].index);
-    size_t j = i + 1;
-    uint32_t end = uint32_t{start} + first.words();
-    while (j < selected.size() && selected[j].row->space == first.space &&
-           selected[j].row->entry_address(selected[j].index) == end &&
-           end - start + selected[j].row->words() <= 125) {
-      end += selected[j].row->words();
-      ++j;
-    }
-    std::vector<uint16_t> words(end - start);
-    const Error e = read_words(master, unit, first.space, start, words);
-    for (size_t k = i; k < j; ++k) {
-      const Row& r = *selected[k].row;
-      const size_t offset = r.entry_address(selected[k].index) - start;
-      values.push_back({selected[k],
-                        e ? 0 : profile::RegisterMap::decode(r, std::span(words).subspan(offset, r.words())),
-                        e});
-    }
-    i = j;
-  }
-  return values;
-}
-
-Json values_document(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values) {
-  Json out = json_document(p.name, unit.value);
-  Json& entries = out["values"] = Json::object();
-  for (const ReadValue& v : values) {
-    if (v.error) {
-      out["ok"] = false;
-      entries[entry_name(v.entry)] = {{"error", std::string(v.error.text())}};
-    } else {
-      entries[entry_name(v.entry)] = profile::entry_json(*v.entry.row, v.raw);
-    }
-  }
-  return out;
-}
-
 void print_values(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values, bool json) {
   if (json) {
-    print_json(values_document(p, unit, values));
+    profile::ValuesJson v = profile::values_json(values);
+    Json out = json_document(p.name, unit.value);
+    if (!v.ok) out["ok"] = false;
+    out["values"] = std::move(v.values);
+    print_json(out);
     return;
   }
   size_t width = 0;
@@ -188,10 +97,10 @@ int run_docs(const std::string& root, bool write) {
 }
 
 int run_get(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_rows(p, a.keys, false);
+  const std::vector<Selected> selected = select_or_fail(p, a.keys, false);
   auto master = a.link.make_master();
   const UnitId unit = device_unit(a.unit, p);
-  const std::vector<ReadValue> values = read_selected(*master, unit, selected);
+  const std::vector<ReadValue> values = profile::read_selected(*master, unit, selected);
   print_values(p, unit, values, a.json);
   for (const ReadValue& v : values) {
     if (!v.error) continue;
@@ -202,7 +111,7 @@ int run_get(const DeviceArgs& a, const profile::Profile& p) {
 }
 
 int run_set(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_rows(p, std::span(&a.key, 1), true);
+  const std::vector<Selected> selected = select_or_fail(p, std::span(&a.key, 1), true);
   if (selected.size() != 1)
     throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.key, a.key)};
   const Row& r = *selected[0].row;
@@ -238,11 +147,11 @@ int run_set(const DeviceArgs& a, const profile::Profile& p) {
 }
 
 int run_watch(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_rows(p, a.keys, false);
+  const std::vector<Selected> selected = select_or_fail(p, a.keys, false);
   auto master = a.link.make_master();
   const UnitId unit = device_unit(a.unit, p);
   watch_loop(a.watch, [&](unsigned) {
-    const std::vector<ReadValue> values = read_selected(*master, unit, selected);
+    const std::vector<ReadValue> values = profile::read_selected(*master, unit, selected);
     print_values(p, unit, values, a.json);
     if (!a.json) fmt::print("\n");
     std::fflush(stdout);

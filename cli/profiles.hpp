@@ -6,33 +6,17 @@
 #include <vector>
 
 #include "common.hpp"
+#include "rtukit/devices/profile/reading.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 
 namespace rtukit::cli {
 
-/// One entry of a row: the row and, for a repeated block, which entry.
-struct Selected {
-  const profile::Row* row;
-  unsigned index = 0;
-};
+// Selecting, reading and showing entries as JSON: the kit's (profile/reading.hpp).
+using profile::ReadValue;
+using profile::Selected;
 
-/// The entries named by `keys` ("speed", "p1_speed[3]", "p1_speed" = every
-/// entry); no keys: every readable entry. Throws Failure{kUsage} for an
-/// unknown key (listing the known ones) or a bad index.
-std::vector<Selected> select_rows(const profile::Profile& p, std::span<const std::string> keys,
-                                  bool for_write);
-
-struct ReadValue {
-  Selected entry;
-  int64_t raw = 0;
-  Error error;
-};
-/// Reads the entries from a device, adjacent ones in one request.
-std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<const Selected> selected);
-/// The values as one JSON document (docs/json.md): {"time", "ok", "device",
-/// "unit", "values": {key: entry}}; an entry that failed is {"error": ...}.
-Json values_document(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values);
-/// "key = 80 %" lines, or values_document.
+/// "key = 80 %" lines, or the JSON document (docs/json.md): {"time", "ok",
+/// "device", "unit", "values": {key: entry}}; an entry that failed is {"error": ...}.
 void print_values(const profile::Profile& p, UnitId unit, std::span<const ReadValue> values, bool json);
 
 /// Loads a map file or throws Failure (kUsage with the line-numbered reason,

@@ -1,0 +1,68 @@
+// rtukit device profiles, host side: reading a device's registers by name.
+// A front-end names entries as people type them ("speed", "p1_speed[3]"),
+// reads them from a device through a driver Master, and shows them; this is
+// the part between the typed keys and the shown values that is the same for
+// every front-end (the CLI's `get`, `watch`, `status`, `read --map`).
+#pragma once
+
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "rtukit/devices/profile/schema.hpp"
+#include "rtukit/driver/master.hpp"
+#include "rtukit/io/status.hpp"
+
+namespace rtukit::profile {
+
+/// One entry of a row: the row and, for a repeated block, which entry.
+/// `row` points into the profile's rows: it lives as long as the profile.
+struct Selected {
+  const Row* row;
+  unsigned index = 0;
+};
+
+/// The entries named by `keys` ("speed", "p1_speed[3]", "p1_speed" = every
+/// entry of the block), in the order named; no keys: every entry of every
+/// readable row. A write-only row may be named only `for_write`.
+/// Errors: invalid_argument, the reason says why: "no register 'x' in
+/// testdev (registers: speed, ...)", "command is write-only", "seg_speed has
+/// entries 0..3", or the index's own ("index 'x' is not a number ...").
+Outcome<std::vector<Selected>> select_rows(const Profile& p, std::span<const std::string> keys,
+                                           bool for_write);
+
+/// "key", or "key[i]" for an entry of a repeated block.
+std::string entry_name(const Selected& s);
+
+/// One entry as read: its raw value (RegisterMap::decode), or the error of
+/// the request that should have carried it (`raw` is then 0).
+struct ReadValue {
+  Selected entry;
+  int64_t raw = 0;
+  Error error;
+};
+
+/// One request for out.size() words (holding, input) or bits (coils,
+/// discrete inputs; each bit one word, 0 or 1) in `space` from `address`.
+/// Precondition: out.size() within the function's limit (125 registers,
+/// 2000 bits). Errors: the Master's.
+Error read_words(Master& master, UnitId unit, Space space, uint16_t address, std::span<uint16_t> out);
+
+/// Reads the entries from the device at `unit`, one ReadValue for each, in
+/// order. Entries next to each other in one space (each starting where the
+/// one before ends) go in one request of at most 125 registers; a failed
+/// request marks each of its entries with its error, and the others are
+/// still read.
+std::vector<ReadValue> read_selected(Master& master, UnitId unit, std::span<const Selected> selected);
+
+/// The values as JSON (docs/json.md's "values"): {entry_name: entry_json},
+/// an entry that failed {"error": its text}; `ok` false when any failed.
+struct ValuesJson {
+  nlohmann::ordered_json values = nlohmann::ordered_json::object();
+  bool ok = true;
+};
+ValuesJson values_json(std::span<const ReadValue> values);
+
+}  // namespace rtukit::profile
