@@ -1,21 +1,14 @@
 #include "common.hpp"
 
-#include <fcntl.h>
 #include <fmt/core.h>
-#include <poll.h>
-#include <unistd.h>
 
-#include <algorithm>
-#include <atomic>
 #include <cctype>
-#include <csignal>
+#include <cerrno>
 #include <cstdio>
-#include <cstdlib>
 #include <cstring>
-#include <ctime>
-#include <thread>
 
 #include "rtukit/devices/profile/typed_value.hpp"
+#include "rtukit/io/tap_client.hpp"
 
 namespace rtukit::cli {
 
@@ -137,27 +130,9 @@ MasterOptions LinkOptions::master_options() const {
 
 namespace {
 
-// The wall clock now, broken down (local time or UTC), with its milliseconds.
-struct WallTime {
-  std::tm tm{};
-  long ms = 0;
-};
-WallTime wall_time(bool utc) {
-  const auto now = time_source().wall();
-  const std::time_t t = std::chrono::system_clock::to_time_t(now);
-  WallTime w;
-  if (utc)
-    ::gmtime_r(&t, &w.tm);
-  else
-    ::localtime_r(&t, &w.tm);
-  w.ms = static_cast<long>(
-      std::chrono::duration_cast<std::chrono::milliseconds>(now.time_since_epoch()).count() % 1000);
-  return w;
-}
-
 // "14:02:07.123" in local time.
 std::string clock_text() {
-  const WallTime w = wall_time(false);
+  const io::WallTime w = io::wall_time(false, time_source());
   return fmt::format("{:02}:{:02}:{:02}.{:03}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
 }
 
@@ -211,47 +186,8 @@ void examples(CLI::App& cmd, std::span<const std::string_view> lines) {
   cmd.footer(text);
 }
 
-std::string clock_hms() {
-  const WallTime w = wall_time(false);
-  return fmt::format("{:02}:{:02}:{:02}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec);
-}
-
-LivePanel::LivePanel(std::string title, unsigned interval_ms)
-    : title_(std::move(title)), interval_ms_(interval_ms) {}
-
-bool LivePanel::colour() {
-  const char* no_color = std::getenv("NO_COLOR");
-  return ::isatty(STDOUT_FILENO) && (no_color == nullptr || *no_color == '\0');
-}
-
-std::string LivePanel::alert(std::string_view text) {
-  return colour() ? fmt::format("\x1b[1;31m{}\x1b[0m", text) : std::string(text);
-}
-
-void LivePanel::show(const std::string& body) {
-  last_body_ = body;
-  stale_since_.clear();
-  draw({});
-}
-
-void LivePanel::stale(std::string_view error) {
-  if (stale_since_.empty()) stale_since_ = clock_hms();
-  draw(alert(fmt::format("STALE since {}: {}", stale_since_, error)));
-}
-
-void LivePanel::draw(std::string_view banner) {
-  // Home and clear, then the whole panel at once: no scrolling, no flicker of half panels.
-  std::string out = "\x1b[H\x1b[2J";
-  out += fmt::format("{}\n(every {} ms, Ctrl-C to stop; updated {})\n\n", title_.substr(0, 80), interval_ms_,
-                     clock_hms());
-  if (!banner.empty()) out += fmt::format("{}\n\n", banner);
-  out += last_body_.empty() ? std::string("(no data yet)\n") : last_body_;
-  fmt::print("{}", out);
-  std::fflush(stdout);
-}
-
 Json json_document(std::string_view device, int unit) {
-  const WallTime w = wall_time(true);
+  const io::WallTime w = io::wall_time(true, time_source());
   Json j;
   j["time"] = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", w.tm.tm_year + 1900, w.tm.tm_mon + 1,
                           w.tm.tm_mday, w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
@@ -330,121 +266,6 @@ UnitId parse_unit(const std::string& text, bool tcp) {
   return UnitId{static_cast<uint8_t>(parse_number(text, "unit", 0, tcp ? 255 : kMaxSerialUnit))};
 }
 
-namespace {
-std::atomic<bool> g_interrupted{false};
-volatile std::sig_atomic_t g_stop_signal = 0;
-volatile std::sig_atomic_t g_output_broken = 0;
-
-// Called on SIGPIPE, also from a signal handler: only async-signal-safe
-// calls (poll, open, dup2, close). A pipe whose reader has gone polls as
-// POLLERR on its write end; such a stream is pointed at /dev/null.
-bool take_broken_output() {
-  bool broken = false;
-  for (int fd : {STDOUT_FILENO, STDERR_FILENO}) {
-    pollfd p{fd, POLLOUT, 0};
-    if (::poll(&p, 1, 0) != 1 || (p.revents & POLLERR) == 0) continue;
-    broken = true;
-    if (const int null = ::open("/dev/null", O_WRONLY | O_CLOEXEC); null >= 0) {
-      ::dup2(null, fd);
-      ::close(null);
-    }
-  }
-  if (broken) g_output_broken = 1;
-  return broken;
-}
-
-void on_stop_signal(int sig) {
-  if (sig != SIGPIPE || take_broken_output()) {
-    if (g_stop_signal == 0) g_stop_signal = sig;
-    g_interrupted = true;
-  }
-}
-
-constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
-
-void rearm(asio::signal_set& signals, asio::io_context& ctx) {
-  signals.async_wait([&signals, &ctx](const boost::system::error_code& ec, int sig) {
-    if (ec) return;
-    if (sig == SIGPIPE && !take_broken_output()) return rearm(signals, ctx);
-    ctx.stop();
-  });
-}
-}  // namespace
-
-void warn_if_exposed(const io::PortSpec& listen, std::string_view who) {
-  const std::string exposure = io::listener_exposure(listen);
-  if (exposure.empty()) return;
-  fmt::print(stderr,
-             "warning: {} listens on {} ({}): Modbus has no passwords, so anyone who can reach it reads and "
-             "writes the device; listen on tcp://127.0.0.1:PORT unless that is what you want\n",
-             who, exposure, listen.describe());
-}
-
-bool output_broken() {
-  // Also a write that failed with EPIPE before any handler saw the signal.
-  return g_output_broken != 0 || take_broken_output();
-}
-
-void catch_broken_output() {
-  std::signal(SIGPIPE, on_stop_signal);
-}
-
-void stop_on_signals(asio::signal_set& signals, asio::io_context& ctx) {
-  for (int sig : kStopSignals) signals.add(sig);
-  signals.add(SIGPIPE);  // while the loop runs; catch_broken_output's handler before and after
-  // Output broken while starting (`| head -n 1` took the first line): the
-  // loop returns at once and the server cleans up.
-  if (g_output_broken != 0) ctx.stop();
-  rearm(signals, ctx);
-}
-
-Interruptible::Interruptible() {
-  g_interrupted = g_output_broken != 0;
-  g_stop_signal = g_output_broken != 0 ? SIGPIPE : 0;
-  for (int sig : kStopSignals) std::signal(sig, on_stop_signal);
-}
-
-Interruptible::~Interruptible() {
-  for (int sig : kStopSignals) std::signal(sig, SIG_DFL);
-}
-
-bool Interruptible::interrupted() const {
-  return g_interrupted;
-}
-
-int Interruptible::signal() const {
-  return g_stop_signal;
-}
-
-bool Interruptible::sleep(std::chrono::milliseconds d) const {
-  // Small steps, so Ctrl-C ends the command at once.
-  const auto until = time_source().now() + d;
-  while (!g_interrupted && time_source().now() < until)
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  return !g_interrupted;
-}
-
-Progress::Progress() : active_(::isatty(STDERR_FILENO) != 0) {}
-
-Progress::~Progress() {
-  clear();
-}
-
-void Progress::show(std::string_view text) {
-  if (!active_) return;
-  // Carriage return and erase-line: the line is rewritten, never scrolled.
-  fmt::print(stderr, "\r\x1b[K{}", text.substr(0, 79));
-  std::fflush(stderr);
-  shown_ = true;
-}
-
-void Progress::clear() {
-  if (!active_ || !shown_) return;
-  fmt::print(stderr, "\r\x1b[K");
-  std::fflush(stderr);
-  shown_ = false;
-}
-
 void WatchOptions::add_to(CLI::App& cmd) {
   cmd.add_option("--interval", interval_ms, "ms between refreshes")
       ->capture_default_str()
@@ -461,41 +282,10 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
   }
 }
 
-std::string tap_line(const BusCharacter& c) {
-  return fmt::format("{} {} {} {:02X} {:02X}{}{}{}\n", c.start_us, c.end_us, c.sender, c.sent, c.heard,
-                     c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");
-}
-
-std::optional<BusCharacter> parse_tap_line(const std::string& line) {
-  if (line.empty() || line[0] == '#') return std::nullopt;
-  unsigned long long start = 0, end = 0;
-  int sender = 0;
-  unsigned sent = 0, heard = 0;
-  char flags[8] = {};
-  const int n =
-      std::sscanf(line.c_str(), "%llu %llu %d %x %x %7s", &start, &end, &sender, &sent, &heard, flags);
-  if (n < 5 || sent > 0xFF || heard > 0xFF) return std::nullopt;
-  BusCharacter c;
-  c.start_us = start;
-  c.end_us = end;
-  c.sender = sender;
-  c.sent = static_cast<uint8_t>(sent);
-  c.heard = static_cast<uint8_t>(heard);
-  c.collided = std::strchr(flags, 'c') != nullptr;
-  c.dropped = std::strchr(flags, 'd') != nullptr;
-  return c;
-}
-
 std::string bus_tap_socket(const std::string& name) {
-  const bool good = !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
-  });
-  if (!good)
-    throw Failure{kUsage, fmt::format("bus name '{}': use 1 to 64 letters, digits, '-' or '_'", name)};
-  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
-  const std::string dir =
-      runtime && *runtime ? std::string(runtime) + "/rtukit" : fmt::format("/tmp/rtukit-{}", ::getuid());
-  return dir + "/bus-" + name + ".sock";
+  Outcome<std::string> path = io::bus_tap_socket(name);
+  if (!path.ok()) throw Failure{kUsage, std::string(path.error().reason())};
+  return *path;
 }
 
 int exit_code(Error e) {

@@ -3,8 +3,6 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
-#include <boost/asio/io_context.hpp>
-#include <boost/asio/signal_set.hpp>
 #include <chrono>
 #include <cstdint>
 #include <functional>
@@ -27,8 +25,20 @@
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
+#include "rtukit/io/terminal.hpp"
 
 namespace rtukit::cli {
+
+// The terminal and the signals (rtukit/io/terminal.hpp: io is the only
+// layer that touches the OS), under the names the commands use.
+using io::catch_broken_output;
+using io::clock_hms;
+using io::Interruptible;
+using io::LivePanel;
+using io::output_broken;
+using io::Progress;
+using io::stop_on_signals;
+using io::warn_if_exposed;
 
 /// The CLI's clock: the real one (the commands are the outermost layer; what
 /// they call below takes a clock of its own).
@@ -127,70 +137,6 @@ int exit_code(Error e);
 /// Throws Failure with one clear line: what failed, on which port/unit.
 [[noreturn]] void fail(Error e, std::string_view context);
 
-/// One warning line on stderr when a Modbus TCP listener is reachable from
-/// beyond this machine (0.0.0.0, [::] or another address that is not
-/// loopback): Modbus has no authentication, so whoever reaches it reads and
-/// writes the device. Nothing for a serial port, a pty or loopback.
-void warn_if_exposed(const io::PortSpec& listen, std::string_view who);
-
-/// The signals that end a command cleanly, as Ctrl-C does: SIGINT, SIGTERM,
-/// SIGHUP (its terminal or session closed) and SIGPIPE when it comes from the
-/// command's own standard output or error (`rtukit slave -v | head` after
-/// head has ended). A SIGPIPE from anything else (a socket whose peer left,
-/// in a library that writes without MSG_NOSIGNAL) ends nothing: the write
-/// fails with EPIPE and its code handles that. Servers then return from their
-/// loop and clean up (a pty's link removed, state saved).
-
-/// For servers on an Asio loop: `signals` is armed and stops `ctx` on one of
-/// those signals.
-void stop_on_signals(asio::signal_set& signals, asio::io_context& ctx);
-
-/// True once a standard output or error was found broken by a SIGPIPE: both
-/// then write to /dev/null, so the command's last words (statistics) cannot
-/// fail, and it exits 0 like any filter whose reader has had enough.
-bool output_broken();
-
-/// Called first in main: a SIGPIPE from our own output, at any time, marks
-/// it broken (above) and interrupts instead of killing the process.
-void catch_broken_output();
-
-/// The same signals for commands that run until interrupted (watch, hold,
-/// the daemons with their own threads): while one exists, they set
-/// interrupted() instead of killing us.
-class Interruptible {
- public:
-  Interruptible();
-  ~Interruptible();
-  Interruptible(const Interruptible&) = delete;
-  Interruptible& operator=(const Interruptible&) = delete;
-  bool interrupted() const;
-  /// The signal that interrupted (SIGINT for Ctrl-C), 0 when none did.
-  int signal() const;
-  /// Sleeps `d` in small steps; false when interrupted meanwhile.
-  bool sleep(std::chrono::milliseconds d) const;
-};
-
-/// One line of progress on stderr, redrawn in place, for the waits that
-/// would otherwise be silent (scan, doctor, hold). Only when stderr is a
-/// terminal: a pipe or a file gets none of it. Cleared when it goes.
-class Progress {
- public:
-  Progress();
-  ~Progress();
-  Progress(const Progress&) = delete;
-  Progress& operator=(const Progress&) = delete;
-  /// Whether anything is shown (stderr is a terminal).
-  bool active() const { return active_; }
-  /// Replaces the line with `text` (cut to 79 columns).
-  void show(std::string_view text);
-  /// Removes the line (before printing something else on the terminal).
-  void clear();
-
- private:
-  bool active_;
-  bool shown_ = false;
-};
-
 /// --interval and --count of a `watch` command.
 struct WatchOptions {
   unsigned interval_ms;
@@ -240,49 +186,11 @@ bool& json_requested();
 /// {"time", "ok": false, "error": {"exit": 3, "kind": "no_response", "message": "..."}}.
 Json json_failure(const Failure& f);
 
-/// The live panel of a `watch` command, the same for every device: on a
-/// terminal it redraws in place (no scrolling), at most 80 columns. When a
-/// refresh fails the last good panel stays on screen, marked stale with the
-/// error and since when; faults are highlighted. Colour only on a terminal
-/// and never when NO_COLOR is set (https://no-color.org).
-class LivePanel {
- public:
-  /// `title`: the device and link ("Inverjet 21 on /dev/ttyUSB0").
-  LivePanel(std::string title, unsigned interval_ms);
-  /// Draws a fresh panel (lines of at most 80 columns).
-  void show(const std::string& body);
-  /// Keeps the last panel, marked stale: "STALE since 14:02:07: no response".
-  void stale(std::string_view error);
-  /// Whether to colour: stdout is a terminal and NO_COLOR is unset.
-  static bool colour();
-  /// `text` in bold red when colouring, else as it is.
-  static std::string alert(std::string_view text);
-
- private:
-  void draw(std::string_view banner);
-  std::string title_;
-  unsigned interval_ms_;
-  std::string last_body_;
-  std::string stale_since_;
-};
-
-/// The wall clock as "14:02:07" (local time).
-std::string clock_hms();
-
 /// Bytes as "15 03 00 21" (request logs).
 using profile::hex;
 
-/// The bus tap format (docs/bus-tools.md), one character a line:
-/// "start_us end_us sender sent heard [flags]", sender -1 for a stray byte,
-/// flags c (collision) and d (dropped). Lines starting with '#' are comments;
-/// the first is the header (io::tap_header, rtukit/io/tap_client.hpp).
-std::string tap_line(const BusCharacter& c);
-/// One tap line read back; nullopt for a comment or a line that is not one.
-std::optional<BusCharacter> parse_tap_line(const std::string& line);
-
 /// Where `rtukit bus --name NAME` offers its tap to `rtukit sniff --bus NAME`:
-/// $XDG_RUNTIME_DIR/rtukit/bus-NAME.sock, else /tmp/rtukit-UID/bus-NAME.sock.
-/// Throws Failure{kUsage} unless the name is 1..64 letters, digits, '-', '_'.
+/// io::bus_tap_socket, whose error becomes Failure{kUsage} with its reason.
 std::string bus_tap_socket(const std::string& name);
 
 /// Prints the master's counters to stderr (for --stats).

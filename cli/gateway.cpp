@@ -5,7 +5,6 @@
 #include <fmt/core.h>
 
 #include <algorithm>
-#include <csignal>
 
 #include "commands.hpp"
 #include "common.hpp"

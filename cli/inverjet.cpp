@@ -4,17 +4,11 @@
 // for the text) and prints. Values are checked before the port is opened
 // (one clear line, exit 2), so nothing half-valid is sent.
 #include <fmt/core.h>
-#include <termios.h>
-#include <unistd.h>
 
-#include <atomic>
-#include <cerrno>
 #include <chrono>
-#include <csignal>
 #include <fstream>
 #include <nlohmann/json.hpp>
 #include <sstream>
-#include <thread>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -119,7 +113,7 @@ std::string panel_text(const ij::MachineStatus& s, ij::Family remembered) {
 
 int run_watch(const JetArgs& a) {
   Session s(a);
-  const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
+  const bool tty = io::stdout_is_terminal() && !a.json;
   LivePanel panel(s.context, a.watch.interval_ms);
   ij::Family remembered = ij::Family::none;
   std::string down_since;
@@ -215,35 +209,6 @@ int run_panel(const JetArgs& a) {
   return kOk;
 }
 
-// One line from stdin without its line end; on a terminal, `prompt` first
-// (on stderr) and without echo.
-std::string read_secret_line(const char* prompt) {
-  const bool tty = ::isatty(0) != 0;
-  termios old{};
-  if (tty) {
-    fmt::print(stderr, "{}", prompt);
-    std::fflush(stderr);
-    ::tcgetattr(0, &old);
-    termios quiet = old;
-    quiet.c_lflag &= ~static_cast<tcflag_t>(ECHO);
-    ::tcsetattr(0, TCSAFLUSH, &quiet);
-  }
-  std::string line;
-  char c = 0;
-  while (line.size() < 4096) {
-    const ssize_t n = ::read(0, &c, 1);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0 || c == '\n') break;
-    line += c;
-  }
-  if (tty) {
-    ::tcsetattr(0, TCSAFLUSH, &old);
-    fmt::print(stderr, "\n");
-  }
-  if (!line.empty() && line.back() == '\r') line.pop_back();
-  return line;
-}
-
 // `rtukit inverjet panel-password FILE`: the panel's password file, from a
 // password read on stdin (docs/inverjet.md, "Pool panel").
 int run_panel_password(const JetArgs& a) {
@@ -254,12 +219,12 @@ int run_panel_password(const JetArgs& a) {
                     std::string(e.reason())};
   };
   check(programs::check_password_file_path(a.file, a.force));  // before asking for a password
-  const std::string password = read_secret_line("New panel password: ");
+  const std::string password = io::read_secret_line("New panel password: ");
   if (password.empty())
     throw Failure{kUsage, fmt::format("no password on stdin (at least {} characters)",
                                       programs::kMinPasswordCharacters)};
   check(programs::check_new_password(password));
-  if (::isatty(0) && read_secret_line("Again: ") != password)
+  if (io::stdin_is_terminal() && io::read_secret_line("Again: ") != password)
     throw Failure{kUsage, "the two passwords differ: nothing written"};
   check(programs::write_password_file(a.file, password, a.force));
   fmt::print(

@@ -11,7 +11,6 @@
 // elsewhere (`socat - UNIX-CONNECT:PATH`).
 #include <fmt/core.h>
 
-#include <csignal>
 #include <cstdio>
 
 #include "commands.hpp"

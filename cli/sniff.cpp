@@ -144,7 +144,7 @@ void print_summary(const Sniffer& s, bool json) {
 }
 
 // One character of a bus tap: exact times from the bus itself.
-void feed_tap(Sniffer& s, const BusCharacter& c) {
+void feed_tap(Sniffer& s, const io::TapCharacter& c) {
   s.flush(c.end_us);
   if (!c.dropped) s.feed(c.heard, c.end_us);
 }
@@ -183,7 +183,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
                    h->baud, ms(s->t15_us()), ms(s->t35_us()));
         continue;
       }
-      if (const std::optional<BusCharacter> c = parse_tap_line(line)) feed_tap(*s, *c);
+      if (const std::optional<io::TapCharacter> c = io::parse_tap_line(line)) feed_tap(*s, *c);
     }
     if (s) {
       // Close frames only as far as the tap has surely arrived: a busy bus
@@ -222,7 +222,7 @@ int run_sniff(const SniffArgs& a) {
     std::string line;
     uint64_t last = 0;
     while (std::getline(in, line)) {
-      const std::optional<BusCharacter> c = parse_tap_line(line);
+      const std::optional<io::TapCharacter> c = io::parse_tap_line(line);
       if (!c) continue;
       last = c->end_us;
       feed_tap(s, *c);

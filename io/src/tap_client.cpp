@@ -4,12 +4,16 @@
 // read may wait and does its own work between reads.
 #include "rtukit/io/tap_client.hpp"
 
+#include <fmt/core.h>
 #include <poll.h>
 #include <sys/socket.h>
 #include <sys/un.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cctype>
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 
@@ -39,6 +43,47 @@ std::optional<TapHeader> parse_tap_header(const std::string& line) {
   return TapHeader{.baud = static_cast<uint32_t>(baud),
                    .bits_per_char = static_cast<uint32_t>(bits),
                    .now_us = header_value(line, "now_us")};
+}
+
+std::string tap_line(const TapCharacter& c) {
+  return fmt::format("{} {} {} {:02X} {:02X}{}{}{}\n", c.start_us, c.end_us, c.sender, c.sent, c.heard,
+                     c.collided || c.dropped ? " " : "", c.collided ? "c" : "", c.dropped ? "d" : "");
+}
+
+std::optional<TapCharacter> parse_tap_line(const std::string& line) {
+  if (line.empty() || line[0] == '#') return std::nullopt;
+  unsigned long long start = 0, end = 0;
+  int sender = 0;
+  unsigned sent = 0, heard = 0;
+  char flags[8] = {};
+  const int n =
+      std::sscanf(line.c_str(), "%llu %llu %d %x %x %7s", &start, &end, &sender, &sent, &heard, flags);
+  if (n < 5 || sent > 0xFF || heard > 0xFF) return std::nullopt;
+  TapCharacter c;
+  c.start_us = start;
+  c.end_us = end;
+  c.sender = sender;
+  c.sent = static_cast<uint8_t>(sent);
+  c.heard = static_cast<uint8_t>(heard);
+  c.collided = std::strchr(flags, 'c') != nullptr;
+  c.dropped = std::strchr(flags, 'd') != nullptr;
+  return c;
+}
+
+Outcome<std::string> bus_tap_socket(const std::string& name) {
+  // The name becomes part of a path: no '/', no "..", nothing a shell quotes.
+  const bool good = !name.empty() && name.size() <= 64 && std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_';
+  });
+  if (!good)
+    return Status(Errc::invalid_argument,
+                  fmt::format("bus name '{}': use 1 to 64 letters, digits, '-' or '_'", name));
+  // The user's runtime folder (private to them) when the session has one;
+  // else one folder per user under /tmp.
+  const char* runtime = std::getenv("XDG_RUNTIME_DIR");
+  const std::string dir =
+      runtime && *runtime ? std::string(runtime) + "/rtukit" : fmt::format("/tmp/rtukit-{}", ::getuid());
+  return dir + "/bus-" + name + ".sock";
 }
 
 Outcome<std::unique_ptr<TapClient>> TapClient::connect(const std::string& path) {
