@@ -282,6 +282,35 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
   }
 }
 
+void watch_view(const WatchOptions& options, bool json, std::string_view device, UnitId unit,
+                const std::string& title, const std::function<ViewFrame(unsigned n)>& refresh) {
+  const bool tty = io::stdout_is_terminal() && !json;
+  LivePanel panel(title, options.interval_ms);
+  std::string down_since;
+  watch_loop(options, [&](unsigned n) {
+    ViewFrame f = refresh(n);
+    if (!f.ok && down_since.empty()) down_since = clock_hms();
+    if (f.ok) down_since.clear();
+    if (json) {
+      Json doc = json_document(device, unit.value);
+      if (!f.values.is_null()) doc["values"] = std::move(f.values);
+      if (!f.ok) {
+        doc["ok"] = false;
+        doc["error"] = {{"kind", f.kind}, {"message", f.why}, {"since", down_since}};
+      }
+      print_json(doc);
+    } else if (tty) {
+      if (f.ok)
+        panel.show(f.panel);
+      else
+        panel.stale(f.why);
+    } else {
+      fmt::print("{}\n",
+                 f.ok ? f.line : fmt::format("{} stale since {}: {}", clock_hms(), down_since, f.why));
+    }
+  });
+}
+
 std::string bus_tap_socket(const std::string& name) {
   Outcome<std::string> path = io::bus_tap_socket(name);
   if (!path.ok()) throw Failure{kUsage, std::string(path.error().reason())};

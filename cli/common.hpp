@@ -186,6 +186,25 @@ bool& json_requested();
 /// {"time", "ok": false, "error": {"exit": 3, "kind": "no_response", "message": "..."}}.
 Json json_failure(const Failure& f);
 
+/// One refresh of a device's live view (`rtukit <device> watch`).
+struct ViewFrame {
+  bool ok = true;                    ///< false: no fresh reading (the link is down): `why` says so
+  std::string why;                   ///< "no response", "1010 Master Error: ..."
+  std::string kind = "no_response";  ///< the error's kind in the document
+  std::string panel;                 ///< the panel, for a terminal
+  std::string line;                  ///< one line with its time, for a pipe
+  Json values;                       ///< the document's "values"; null: none
+};
+
+/// Every device's watch: refresh(n) each interval (watch_loop), printed as a
+/// JSON document (--json), the live panel on a terminal, else a line. A
+/// frame that is not ok keeps the last panel, marked stale since the first
+/// failure ("14:02:07 stale since 14:02:05: no response" on a pipe, and
+/// "ok": false with "error": {"kind": "no_response", "message", "since"}).
+/// `title`: the panel's head ("Inverjet unit 21 on /dev/ttyUSB0").
+void watch_view(const WatchOptions& options, bool json, std::string_view device, UnitId unit,
+                const std::string& title, const std::function<ViewFrame(unsigned n)>& refresh);
+
 /// Bytes as "15 03 00 21" (request logs).
 using profile::hex;
 

@@ -99,50 +99,26 @@ struct Session {
   bool stats;
 };
 
-// The view is the device layer's (devices/inverjet/views.hpp, verbs.hpp):
-// the bridge and the panel show the same.
-Json status_document(const ij::MachineStatus& s, UnitId unit, ij::Family remembered) {
-  Json out = json_document("inverjet", unit.value);
-  out["values"] = ij::status_values(s, remembered);
-  return out;
-}
-
 std::string panel_text(const ij::MachineStatus& s, ij::Family remembered) {
   return ij::status_panel(s, remembered, [](std::string_view t) { return LivePanel::alert(t); });
 }
 
 int run_watch(const JetArgs& a) {
   Session s(a);
-  const bool tty = io::stdout_is_terminal() && !a.json;
-  LivePanel panel(s.context, a.watch.interval_ms);
   ij::Family remembered = ij::Family::none;
-  std::string down_since;
-  watch_loop(a.watch, [&](unsigned n) {
+  watch_view(a.watch, a.json, "inverjet", s.jet.unit(), s.context, [&](unsigned n) {
     Result<ij::MachineStatus> st = s.jet.status();
     if (!st.ok()) {
       if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
-      if (down_since.empty()) down_since = clock_hms();
-      const std::string why(st.error().code() == Errc::timeout ? "no response" : st.error().text());
-      if (a.json) {
-        Json j = json_document("inverjet", s.jet.unit().value);
-        j["ok"] = false;
-        j["error"] = {{"kind", st.error().name()}, {"message", why}, {"since", down_since}};
-        print_json(j);
-      } else if (tty) {
-        panel.stale(why);
-      } else {
-        fmt::print("{} stale since {}: {}\n", clock_hms(), down_since, why);
-      }
-      return;
+      return ViewFrame{
+          .ok = false,
+          .why = std::string(st.error().code() == Errc::timeout ? "no response" : st.error().text()),
+          .kind = std::string(st.error().name())};
     }
-    down_since.clear();
     remembered = ij::remember_family(*st, remembered);
-    if (a.json)
-      print_json(status_document(*st, s.jet.unit(), remembered));
-    else if (tty)
-      panel.show(panel_text(*st, remembered));
-    else
-      fmt::print("{}\n", ij::status_line(*st, remembered, clock_hms()));
+    return ViewFrame{.panel = panel_text(*st, remembered),
+                     .line = ij::status_line(*st, remembered, clock_hms()),
+                     .values = ij::status_values(*st, remembered)};
   });
   return kOk;
 }

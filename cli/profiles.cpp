@@ -111,38 +111,20 @@ int run_get(const DeviceArgs& a, const profile::Profile& p) {
 }
 
 int run_set(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_or_fail(p, std::span(&a.key, 1), true);
-  if (selected.size() != 1)
-    throw Failure{kUsage, fmt::format("{} is a block: name one entry, {}[i]", a.key, a.key)};
-  const Row& r = *selected[0].row;
-  if (!r.writable()) throw Failure{kUsage, fmt::format("{} is read-only", r.key)};
-  // Motion and momentary commands need their device's own verbs (leases,
-  // releases, UI rules): a bare register write could leave a chair moving.
-  if (r.role == profile::Role::hold || r.role == profile::Role::pulse)
-    throw Failure{kRefused,
-                  fmt::format("{} is a {} command: use `rtukit {} {}`", r.key, profile::role_name(r.role),
-                              p.name, r.role == profile::Role::hold ? "hold" : "pulse")};
-  Outcome<int64_t> raw = profile::parse_value(r, a.value);
-  if (!raw.ok()) throw Failure{kUsage, std::string(raw.error().reason())};
-  std::array<uint16_t, 2> words{};
-  profile::RegisterMap::encode(r, *raw, std::span(words.data(), r.words()));
+  Outcome<profile::KeyWrite> w = profile::plan_key_write(p, a.key, a.value);
+  if (!w)
+    throw Failure{w.error().code() == Errc::refused ? kRefused : kUsage, std::string(w.error().reason())};
   auto master = a.link.make_master();
   const UnitId unit = device_unit(a.unit, p);
-  const uint16_t address = r.entry_address(selected[0].index);
-  Error e;
-  if (r.space == profile::Space::coil)
-    e = master->write_single_coil(unit, address, words[0] != 0);
-  else if (r.words() == 1)
-    e = master->write_single_register(unit, address, words[0]);
-  else
-    e = master->write_multiple_registers(unit, address, std::span<const uint16_t>(words.data(), 2));
-  if (e) fail(e, fmt::format("write {}", entry_name(selected[0])));
+  const std::string name = entry_name(w->entry);
+  if (const Error e = profile::write_entry(*master, unit, *w)) fail(e, fmt::format("write {}", name));
   if (a.json) {
     Json out = json_document(p.name, unit.value);
-    out["values"][entry_name(selected[0])] = profile::entry_json(r, *raw);
+    out["values"][name] = profile::entry_json(*w->entry.row, w->raw);
     print_json(out);
-  } else
-    fmt::print("{} = {}\n", entry_name(selected[0]), profile::format_value(r, *raw));
+  } else {
+    fmt::print("{} = {}\n", name, profile::format_value(*w->entry.row, w->raw));
+  }
   return kOk;
 }
 

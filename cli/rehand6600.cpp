@@ -73,12 +73,6 @@ std::string panel_text(const rh::Snapshot& s, bool mph) {
   return rh::panel(s, mph, [](std::string_view t) { return LivePanel::alert(t); });
 }
 
-Json snapshot_document(const rh::Snapshot& s, UnitId unit, bool mph) {
-  Json out = json_document("rehand6600", unit.value);
-  out["values"] = rh::snapshot_values(s, mph);
-  return out;
-}
-
 // What a command did, as a line or as a JSON document.
 void done(const ChairArgs& a, std::string_view action, const std::string& text,
           Json values = Json::object()) {
@@ -118,37 +112,20 @@ std::unique_ptr<rh::Host> start_host(const ChairArgs& a, std::string* context) {
 int run_watch(const ChairArgs& a) {
   std::string context;
   auto host = start_host(a, &context);
-  const bool tty = ::isatty(STDOUT_FILENO) && !a.json;
-  LivePanel live(context, a.watch.interval_ms);
-  std::string down_since;
-  watch_loop(a.watch, [&](unsigned) {
+  watch_view(a.watch, a.json, "rehand6600", unit_of(a), context, [&](unsigned) {
     const rh::Snapshot s = host->snapshot();
     const uint16_t err = host->active_error();
+    ViewFrame f{.panel = panel_text(s, a.mph),
+                .line = fmt::format("{} {}", clock_hms(), rh::line(s, a.mph)),
+                .values = rh::snapshot_values(s, a.mph)};
+    f.values["active_error"] =
+        quantity_json(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
     // 1010: the link is down; the last reading stays, marked stale.
-    const bool link_down = err == rh::kMasterCommunicationError;
-    const std::string why =
-        link_down ? fmt::format("{}: {}", rh::error_text(err), host->last_failure().reason()) : std::string();
-    if (link_down && down_since.empty()) down_since = clock_hms();
-    if (!link_down) down_since.clear();
-    if (a.json) {
-      Json j = snapshot_document(s, unit_of(a), a.mph);
-      j["values"]["active_error"] =
-          quantity_json(err ? rh::error_text(err) : "", {}, err ? rh::error_text(err) : "none");
-      if (link_down) {
-        j["ok"] = false;
-        j["error"] = {{"kind", "no_response"}, {"message", why}, {"since", down_since}};
-      }
-      print_json(j);
-    } else if (tty) {
-      if (link_down)
-        live.stale(why);
-      else
-        live.show(panel_text(s, a.mph));
-    } else if (link_down) {
-      fmt::print("{} stale since {}: {}\n", clock_hms(), down_since, why);
-    } else {
-      fmt::print("{} {}\n", clock_hms(), rh::line(s, a.mph));
+    if (err == rh::kMasterCommunicationError) {
+      f.ok = false;
+      f.why = fmt::format("{}: {}", rh::error_text(err), host->last_failure().reason());
     }
+    return f;
   });
   host->stop();
   return kOk;

@@ -262,6 +262,43 @@ Outcome<ReadPlan> plan(ReadRequest r, std::string* note = nullptr) {
   return plan_read(r, note);
 }
 
+// A write by key: the row's rules before any port opens, then the one
+// request the row's size asks for.
+TEST(ProfileReading, AWriteByKeyIsCheckedAgainstItsRow_ThenSentAsOneRequest) {
+  Outcome<KeyWrite> w = plan_key_write(kProfile, "temp", "-2.5");
+  ASSERT_TRUE(w.ok()) << w.error().reason();
+  EXPECT_EQ(w->raw, -25);
+  Rig rig;
+  ASSERT_FALSE(write_entry(*rig.master, UnitId{5}, *w));
+  EXPECT_EQ(rig.bank.holding[0x0012], 0xFFE7);
+  w = plan_key_write(kProfile, "energy", "70000");
+  ASSERT_TRUE(w.ok());
+  ASSERT_FALSE(write_entry(*rig.master, UnitId{5}, *w));
+  EXPECT_EQ(rig.seen.back(), (Rig::Seen{0x10, 0x0014, 2}));
+  w = plan_key_write(kProfile, "seg[2]", "7");
+  ASSERT_TRUE(w.ok());
+  ASSERT_FALSE(write_entry(*rig.master, UnitId{5}, *w));
+  EXPECT_EQ(rig.seen.back(), (Rig::Seen{0x06, 0x0102, 7}));
+  const size_t requests = rig.seen.size();
+  struct Refusal {
+    std::string key, value;
+    Errc code;
+    std::string says;
+  };
+  for (const Refusal& r : std::vector<Refusal>{
+           {"seg", "1", Errc::invalid_argument, "seg is a block: name one entry, seg[i]"},
+           {"volts", "1", Errc::invalid_argument, "volts is read-only"},
+           {"command", "1", Errc::refused, "command is a hold command: use `rtukit testdev hold`"},
+           {"mode", "fast", Errc::invalid_argument, "fast"},
+           {"nothing", "1", Errc::invalid_argument, "no register 'nothing'"}}) {
+    w = plan_key_write(kProfile, r.key, r.value);
+    ASSERT_FALSE(w.ok()) << r.key;
+    EXPECT_EQ(w.error().code(), r.code) << r.key;
+    EXPECT_NE(w.error().reason().find(r.says), std::string_view::npos) << w.error().reason();
+  }
+  EXPECT_EQ(rig.seen.size(), requests);  // nothing refused was sent
+}
+
 TEST(TypedRequest, ABroadcastIsNotReadOnASerialLine_OnTcpUnit0IsAUnit) {
   auto serial = plan({.unit = UnitId{0}, .address = "0"});
   ASSERT_FALSE(serial.ok());

@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <array>
 #include <optional>
 
 #include "rtukit/devices/profile/register_map.hpp"
@@ -117,6 +118,34 @@ ValuesJson values_json(std::span<const ReadValue> values) {
     }
   }
   return out;
+}
+
+Outcome<KeyWrite> plan_key_write(const Profile& p, std::string_view key, std::string_view value) {
+  const std::string typed(key);
+  Outcome<std::vector<Selected>> selected = select_rows(p, std::span(&typed, 1), true);
+  if (!selected) return selected.error();
+  if (selected->size() != 1)
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("{} is a block: name one entry, {}[i]", key, key));
+  const Row& r = *(*selected)[0].row;
+  if (!r.writable()) return rtukit::Status(Errc::invalid_argument, fmt::format("{} is read-only", r.key));
+  if (r.role == Role::hold || r.role == Role::pulse)
+    return rtukit::Status(
+        Errc::refused, fmt::format("{} is a {} command: use `rtukit {} {}`", r.key, role_name(r.role), p.name,
+                                   r.role == Role::hold ? "hold" : "pulse"));
+  Outcome<int64_t> raw = parse_value(r, value);
+  if (!raw) return rtukit::Status(Errc::invalid_argument, std::string(raw.error().reason()));
+  return KeyWrite{(*selected)[0], *raw};
+}
+
+Error write_entry(Master& master, UnitId unit, const KeyWrite& w) {
+  const Row& r = *w.entry.row;
+  std::array<uint16_t, 2> words{};
+  RegisterMap::encode(r, w.raw, std::span(words.data(), r.words()));
+  const uint16_t address = r.entry_address(w.entry.index);
+  if (r.space == Space::coil) return master.write_single_coil(unit, address, words[0] != 0);
+  if (r.words() == 1) return master.write_single_register(unit, address, words[0]);
+  return master.write_multiple_registers(unit, address, std::span<const uint16_t>(words.data(), 2));
 }
 
 }  // namespace rtukit::profile

@@ -65,4 +65,24 @@ struct ValuesJson {
 };
 ValuesJson values_json(std::span<const ReadValue> values);
 
+/// One entry to write by key (`rtukit <device> set KEY VALUE`): the entry
+/// and its raw value, checked against the row.
+struct KeyWrite {
+  Selected entry;
+  int64_t raw = 0;
+};
+
+/// The write of `value` (as people write it: "80", "80%", "outdoor", "30:00")
+/// to the entry `key` ("speed", "seg_speed[3]"). Errors: invalid_argument
+/// (the key's, a block named whole: "seg_speed is a block: name one entry,
+/// seg_speed[i]", "x is read-only", the value's, from parse_value); refused:
+/// a hold or pulse command ("stand is a hold command: use `rtukit rehand6600
+/// hold`"): motion and momentary commands need their device's verbs (leases,
+/// releases, rules), never a bare register write.
+Outcome<KeyWrite> plan_key_write(const Profile& p, std::string_view key, std::string_view value);
+
+/// Writes `w` to the device at `unit`: FC05 for a coil, FC06 for one
+/// register, FC10 for two. Errors: the Master's.
+Error write_entry(Master& master, UnitId unit, const KeyWrite& w);
+
 }  // namespace rtukit::profile
