@@ -8,6 +8,7 @@
 #include <cstring>
 
 #include "rtukit/devices/profile/typed_value.hpp"
+#include "rtukit/driver/trace_log.hpp"
 #include "rtukit/io/tap_client.hpp"
 
 namespace rtukit::cli {
@@ -128,46 +129,10 @@ MasterOptions LinkOptions::master_options() const {
   return o;
 }
 
-namespace {
-
-// "14:02:07.123" in local time.
-std::string clock_text() {
-  const io::WallTime w = io::wall_time(false, time_source());
-  return fmt::format("{:02}:{:02}:{:02}.{:03}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
-}
-
-}  // namespace
-
 std::function<void(const TraceEvent&)> LinkOptions::tracer() const {
-  if (!trace && log_file.empty()) return {};
-  std::shared_ptr<std::FILE> log;
-  if (!log_file.empty()) {
-    log.reset(std::fopen(log_file.c_str(), "a"), [](std::FILE* f) {
-      if (f) std::fclose(f);
-    });
-    if (!log)
-      throw Failure{kIoError,
-                    fmt::format("--log {}: cannot open for appending: {}", log_file, std::strerror(errno))};
-  }
-  const bool to_stderr = trace;
-  return [log, to_stderr](const TraceEvent& e) {
-    // "14:02:07.123 > 15 03 00 21 00 04 xx xx" and
-    // "14:02:07.141 < 15 03 08 ... (ok, 18.2 ms)".
-    std::string line;
-    if (e.direction == TraceEvent::Direction::sent) {
-      line = fmt::format("{} > {}{}{}\n", clock_text(), hex(e.bytes), e.outcome.empty() ? "" : "  (",
-                         e.outcome.empty() ? std::string() : std::string(e.outcome) + ")");
-    } else {
-      line = fmt::format("{} < {}({}, {:.1f} ms)\n", clock_text(),
-                         e.bytes.empty() ? std::string("nothing ") : hex(e.bytes) + "  ", e.outcome,
-                         static_cast<double>(e.elapsed.count()) / 1000.0);
-    }
-    if (to_stderr) std::fputs(line.c_str(), stderr);
-    if (log) {
-      std::fputs(line.c_str(), log.get());
-      std::fflush(log.get());
-    }
-  };
+  Outcome<std::function<void(const TraceEvent&)>> writer = trace_writer(trace, log_file, time_source());
+  if (!writer) throw Failure{kIoError, fmt::format("--log {}: {}", log_file, writer.error().reason())};
+  return std::move(*writer);
 }
 
 std::unique_ptr<Master> LinkOptions::make_master() const {
