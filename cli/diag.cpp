@@ -3,12 +3,12 @@
 #include <fmt/core.h>
 #include <fmt/format.h>
 
-#include <chrono>
 #include <string>
 #include <vector>
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "rtukit/devices/profile/diagnostics.hpp"
 #include "rtukit/devices/profile/protocol_text.hpp"
 
 namespace rtukit::cli {
@@ -23,27 +23,10 @@ struct DiagArgs {
   bool json = false;
 };
 
-// The FC08 counters in the specification's order.
-struct CounterName {
-  Diagnostic sub;
-  const char* key;
-  const char* text;
-};
-constexpr CounterName kCounters[] = {
-    {Diagnostic::bus_message_count, "bus_messages", "bus messages"},
-    {Diagnostic::bus_communication_error_count, "bus_crc_errors", "bus CRC errors"},
-    {Diagnostic::bus_exception_error_count, "bus_exceptions", "exceptions sent"},
-    {Diagnostic::server_message_count, "server_messages", "messages to this unit"},
-    {Diagnostic::server_no_response_count, "server_no_response", "left unanswered"},
-    {Diagnostic::server_nak_count, "server_nak", "NAK sent"},
-    {Diagnostic::server_busy_count, "server_busy", "busy (06) sent"},
-    {Diagnostic::bus_character_overrun_count, "bus_overruns", "character overruns"},
-    {Diagnostic::return_diagnostic_register, "diagnostic_register", "diagnostic register"},
-};
-
-// One FC0C event byte in words.
-std::string event_text(uint8_t e) {
-  return profile::comm_event_text(e);
+// A library step's failure: its code and its context, as fail() words them.
+using cli::fail;
+[[noreturn]] void fail(const Status& s) {
+  fail(s.error(), s.reason());
 }
 
 int run_diag(const DiagArgs& a) {
@@ -52,81 +35,66 @@ int run_diag(const DiagArgs& a) {
   if (!a.data.empty() && a.action != "echo")
     throw Failure{kUsage, fmt::format("'{}' takes no data (only echo does)", a.action)};
   auto master = a.link.make_master();
-  const std::string where = fmt::format("unit {} on {}", unit.value, master->describe());
   Json doc = json_document({}, unit.value);
   doc["action"] = a.action;
-  std::vector<uint8_t> answer;
   if (a.action == "counters") {
+    profile::DiagCounters c;
+    const Status s = profile::read_counters(*master, unit, c);
     Json counters = Json::object();
-    for (const CounterName& c : kCounters) {
-      uint16_t v = 0;
-      if (Error e = master->diagnostic_value(unit, c.sub, v))
-        fail(e, fmt::format("FC08 diagnostics sub-function 0x{:02X} ({}) to {}", static_cast<unsigned>(c.sub),
-                            c.text, where));
-      counters[c.key] = v;
-      if (!a.json) fmt::print("{:<22} {}\n", c.text, v);
+    for (size_t i = 0; i < c.values.size(); ++i) {
+      counters[profile::diag_counters()[i].key] = c.values[i];
+      if (!a.json) fmt::print("{:<22} {}\n", profile::diag_counters()[i].text, c.values[i]);
     }
-    uint8_t status = 0;
-    if (Error e = master->read_exception_status(unit, status))
-      fail(e, "FC07 read exception status from " + where);
-    Master::CommEvents events;
-    if (Error e = master->comm_events(unit, false, events))
-      fail(e, "FC0B get comm event counter from " + where);
-    counters["exception_status"] = status;
-    counters["event_count"] = events.event_count;
+    if (s) fail(s);
+    counters["exception_status"] = c.exception_status;
+    counters["event_count"] = c.event_count;
     doc["counters"] = counters;
     if (!a.json) {
-      fmt::print("{:<22} 0x{:02X}\n", "exception status", status);
-      fmt::print("{:<22} {}\n", "completed requests", events.event_count);
+      fmt::print("{:<22} 0x{:02X}\n", "exception status", c.exception_status);
+      fmt::print("{:<22} {}\n", "completed requests", c.event_count);
     }
   } else if (a.action == "events") {
-    Master::CommEvents log;
-    if (Error e = master->comm_events(unit, true, log)) fail(e, "FC0C get comm event log from " + where);
-    doc["status"] = log.status;
-    doc["event_count"] = log.event_count;
-    doc["message_count"] = log.message_count;
+    const auto log = profile::read_event_log(*master, unit);
+    if (!log.ok()) fail(log.error());
+    doc["status"] = log->status;
+    doc["event_count"] = log->event_count;
+    doc["message_count"] = log->message_count;
     Json events = Json::array();
-    for (uint8_t e : log.events) events.push_back({{"code", e}, {"text", event_text(e)}});
+    for (uint8_t e : log->events) events.push_back({{"code", e}, {"text", profile::comm_event_text(e)}});
     doc["events"] = events;
     if (!a.json) {
-      fmt::print("{} completed requests, {} bus messages{}; the newest event first:\n", log.event_count,
-                 log.message_count, log.status ? " (busy)" : "");
-      for (uint8_t e : log.events) fmt::print("  0x{:02X}  {}\n", e, event_text(e));
+      fmt::print("{} completed requests, {} bus messages{}; the newest event first:\n", log->event_count,
+                 log->message_count, log->status ? " (busy)" : "");
+      for (uint8_t e : log->events) fmt::print("  0x{:02X}  {}\n", e, profile::comm_event_text(e));
     }
   } else if (a.action == "echo") {
     std::vector<uint8_t> data;
     for (const std::string& d : a.data)
       data.push_back(static_cast<uint8_t>(parse_number(d, "echo byte", 0, 255)));
-    if (data.empty()) data = {0xA5, 0x37};
-    const auto t0 = time_source().now();
-    if (Error e = master->diagnostics(unit, Diagnostic::return_query_data, data, answer))
-      fail(e, "FC08 return query data to " + where);
-    const double ms = std::chrono::duration<double, std::milli>(time_source().now() - t0).count();
-    if (answer != data)
+    const auto echo = profile::echo(*master, unit, std::move(data), time_source());
+    if (!echo.ok()) fail(echo.error());
+    if (!echo->same())
       throw Failure{kNoResponse,
-                    fmt::format("echo from {} differs: sent {}, got {}", where, hex(data), hex(answer))};
-    doc["echo"] = hex(data);
-    doc["ms"] = ms;
-    if (!a.json) fmt::print("echo ok: {} ({} bytes) in {:.1f} ms\n", hex(data), data.size(), ms);
+                    fmt::format("echo from {} differs: sent {}, got {}", profile::unit_where(unit, *master),
+                                hex(echo->sent), hex(echo->answer))};
+    doc["echo"] = hex(echo->sent);
+    doc["ms"] = echo->ms;
+    if (!a.json)
+      fmt::print("echo ok: {} ({} bytes) in {:.1f} ms\n", hex(echo->sent), echo->sent.size(), echo->ms);
   } else if (a.action == "clear") {
-    const uint8_t zero[2] = {0, 0};
-    if (Error e = master->diagnostics(unit, Diagnostic::clear_counters, zero, answer))
-      fail(e, "FC08 clear counters to " + where);
+    if (const Status s = profile::clear_counters(*master, unit)) fail(s);
     if (!a.json) fmt::print("counters and diagnostic register cleared\n");
   } else if (a.action == "restart") {
-    const uint8_t data[2] = {static_cast<uint8_t>(a.clear_log ? 0xFF : 0x00), 0x00};
-    // A unit in listen-only mode restarts without answering.
-    const Error e = master->diagnostics(unit, Diagnostic::restart_communications, data, answer);
-    if (e && e.code() != Errc::timeout) fail(e, "FC08 restart communications to " + where);
-    doc["answered"] = !e;
+    const auto answered = profile::restart_communications(*master, unit, a.clear_log);
+    if (!answered.ok()) fail(answered.error());
+    doc["answered"] = *answered;
     if (!a.json)
-      fmt::print("{}\n", e ? "restart sent (no answer: it was in listen-only mode, and now listens again)"
-                           : "communications restarted, counters cleared" +
-                                 std::string(a.clear_log ? ", event log cleared" : ""));
+      fmt::print("{}\n", !*answered
+                             ? "restart sent (no answer: it was in listen-only mode, and now listens again)"
+                             : "communications restarted, counters cleared" +
+                                   std::string(a.clear_log ? ", event log cleared" : ""));
   } else if (a.action == "listen-only") {
-    const uint8_t zero[2] = {0, 0};
-    if (Error e = master->diagnostics(unit, Diagnostic::force_listen_only, zero, answer))
-      fail(e, "FC08 force listen only mode to " + where);
+    if (const Status s = profile::force_listen_only(*master, unit)) fail(s);
     if (!a.json)
       fmt::print("unit {} now only listens: it answers nothing until `rtukit diag restart`\n", unit.value);
   } else {
@@ -152,60 +120,37 @@ int run_ident(const IdentArgs& a) {
   if (unit == kBroadcast)
     throw Failure{kUsage, "identification needs an answer: unit 0 (broadcast) has none"};
   auto master = a.link.make_master();
-  const std::string where = fmt::format("unit {} on {}", unit.value, master->describe());
   Json doc = json_document({}, unit.value);
   if (a.server_id) {
-    std::vector<uint8_t> data;
-    if (Error e = master->report_server_id(unit, data)) fail(e, "FC11 report server id to " + where);
-    // Server id, run indicator, then device-specific bytes (text when printable).
-    const bool has_head = data.size() >= 2;
-    std::string rest;
-    bool printable = true;
-    for (size_t i = has_head ? 2 : 0; i < data.size(); ++i) {
-      printable = printable && data[i] >= 0x20 && data[i] < 0x7F;
-      rest += static_cast<char>(data[i]);
-    }
-    doc["server_id"] = has_head ? data[0] : 0;
-    doc["running"] = has_head && data[1] == 0xFF;
-    doc["data"] = printable ? rest : hex(data);
+    const auto id = profile::report_server_id(*master, unit);
+    if (!id.ok()) fail(id.error());
+    const std::string data = id->printable ? id->text : hex(id->data);
+    doc["server_id"] = id->id;
+    doc["running"] = id->running;
+    doc["data"] = data;
     if (a.json) {
       print_json(doc);
     } else {
-      if (has_head) fmt::print("server id {}, {}\n", data[0], data[1] == 0xFF ? "running" : "stopped");
-      fmt::print("{}\n", printable ? rest : hex(data));
+      if (id->has_head) fmt::print("server id {}, {}\n", id->id, id->running ? "running" : "stopped");
+      fmt::print("{}\n", data);
     }
     return kOk;
   }
-  DeviceIdAccess access = DeviceIdAccess::regular;
-  if (a.object >= 0)
-    access = DeviceIdAccess::individual;
-  else if (a.level == "basic")
-    access = DeviceIdAccess::basic;
-  else if (a.level == "extended")
-    access = DeviceIdAccess::extended;
-  else if (a.level != "regular")
-    throw Failure{kUsage, fmt::format("--level {}: use basic, regular or extended", a.level)};
-  Master::DeviceIdentification id;
-  if (Error e = master->read_device_identification(unit, access, id,
-                                                   a.object >= 0 ? static_cast<uint8_t>(a.object) : 0))
-    fail(e, "FC2B/0E read device identification from " + where);
-  const char* level_name = profile::conformity_level_name(id.conformity);
-  doc["conformity"] = level_name;
+  const auto access = profile::device_id_access(a.level, a.object >= 0);
+  if (!access.ok()) throw Failure{kUsage, std::string(access.error().reason())};
+  const auto id = profile::read_identification(*master, unit, *access,
+                                               a.object >= 0 ? static_cast<uint8_t>(a.object) : 0);
+  if (!id.ok()) fail(id.error());
+  doc["conformity"] = id->level;
   Json objects = Json::object();
-  for (const auto& [oid, text] : id.objects) {
-    const char* name = profile::device_object_name(oid);
-    objects[name ? std::string(name) : fmt::format("0x{:02X}", oid)] = text;
-  }
+  for (const auto& [name, text] : id->objects) objects[name] = text;
   doc["objects"] = objects;
   if (a.json) {
     print_json(doc);
     return kOk;
   }
-  for (const auto& [oid, text] : id.objects) {
-    const char* name = profile::device_object_name(oid);
-    fmt::print("{:<13} {}\n", name ? std::string(name) : fmt::format("0x{:02X}", oid), text);
-  }
-  fmt::print("(conformity: {}{})\n", level_name, id.conformity & 0x80 ? ", individual access" : "");
+  for (const auto& [name, text] : id->objects) fmt::print("{:<13} {}\n", name, text);
+  fmt::print("(conformity: {}{})\n", id->level, id->individual ? ", individual access" : "");
   return kOk;
 }
 

@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "common.hpp"
+#include "rtukit/devices/profile/diagnostics.hpp"
 #include "rtukit/driver/line_probe.hpp"
 #include "rtukit/io/serial_config.hpp"
 
@@ -78,36 +79,29 @@ int run_doctor(const DoctorArgs& a) {
                     "and wiring first (`rtukit scan`)",
                     spec.path, unit.value, a.rounds, address)};
   progress.clear();
-  const unsigned answered = r.answered;
-  const bool echo = r.echo;
-  const double added = r.added_us, turn50 = r.turnaround_p50_us, turn99 = r.turnaround_p99_us;
-  const bool latency = added > 2000;
+  const profile::LineAdvice advice = profile::line_advice(r, spec.serial.baud, kernel_rs485);
+  const double turn50 = r.turnaround_p50_us, turn99 = r.turnaround_p99_us;
   const std::optional<unsigned> best_gap = r.error_free_gap_ms;
-  std::string options = fmt::format("--baud {} --timeout {}", spec.serial.baud, r.timeout_ms);
-  if (echo) options += " --echo";
-  if (best_gap && *best_gap > 0) options += fmt::format(" --delay {}", *best_gap);
-  if (!best_gap) options += " --retries 2";
-  if (kernel_rs485) options += " --rs485";
 
   if (a.json) {
     Json j = json_document({}, unit.value);
     j["port"] = spec.path;
-    j["answered"] = answered;
+    j["answered"] = r.answered;
     j["probes"] = a.rounds;
-    j["echo"] = echo;
+    j["echo"] = r.echo;
     j["turnaround_p50_ms"] = ms2(turn50);
     j["turnaround_p99_ms"] = ms2(turn99);
-    j["added_latency_ms"] = ms2(added);
+    j["added_latency_ms"] = ms2(r.added_us);
     j["batched_delivery"] = r.batched;
     j["kernel_rs485"] = kernel_rs485;
     j["error_free_gap_ms"] = best_gap ? Json(*best_gap) : Json(nullptr);
-    j["recommended_options"] = options;
+    j["recommended_options"] = advice.options;
     print_json(j);
     return kOk;
   }
-  fmt::print("doctor: {} unit {}, {} probes, {} answered\n", spec.path, unit.value, a.rounds, answered);
+  fmt::print("doctor: {} unit {}, {} probes, {} answered\n", spec.path, unit.value, a.rounds, r.answered);
   fmt::print("  echo of our request    {}\n",
-             echo ? "yes: the adapter echoes what we send (use --echo)" : "no");
+             r.echo ? "yes: the adapter echoes what we send (use --echo)" : "no");
   fmt::print(
       "  device turnaround      p50 {:.2f} ms, p99 {:.2f} ms (spread {:.2f} ms; Modbus asks at least t3.5 = "
       "{:.2f} ms)\n",
@@ -115,10 +109,11 @@ int run_doctor(const DoctorArgs& a) {
   fmt::print("  wire time              {:.2f} ms for request + answer at {} baud, plus t3.5 {:.2f} ms\n",
              ms(r.wire_us), spec.serial.baud, ms(r.t35_us));
   fmt::print(
-      "  added latency          {:.2f} ms{}\n", ms(added),
-      latency ? " : the adapter or driver holds bytes back (a USB adapter's latency timer? set it to 1 ms: "
-                "echo 1 > /sys/bus/usb-serial/devices/ttyUSB0/latency_timer)"
-              : "");
+      "  added latency          {:.2f} ms{}\n", ms(r.added_us),
+      advice.high_latency
+          ? " : the adapter or driver holds bytes back (a USB adapter's latency timer? set it to 1 ms: "
+            "echo 1 > /sys/bus/usb-serial/devices/ttyUSB0/latency_timer)"
+          : "");
   fmt::print("  delivery               {}\n",
              r.batched ? "in batches (whole answers at once)" : "character by character");
   fmt::print("  kernel RS-485 mode     {}\n",
@@ -130,7 +125,7 @@ int run_doctor(const DoctorArgs& a) {
         "  error-free gap         none up to 50 ms: {} of {} requests failed even then; the line has errors "
         "(termination, grounding, cable length)\n",
         r.errors_at_largest_gap, a.rounds);
-  fmt::print("recommended: {}\n", options);
+  fmt::print("recommended: {}\n", advice.options);
   return kOk;
 }
 
