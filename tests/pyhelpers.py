@@ -26,8 +26,12 @@ def free_port():
 START_DEADLINE = 30.0
 
 
-def wait_for(fn, timeout=10.0, step=0.02):
-    """fn() until it returns something true, at most `timeout` s; its last value."""
+def wait_for(fn, timeout=START_DEADLINE, step=0.02):
+    """fn() until it returns something true, at most `timeout` s; its last value.
+
+    The default deadline is START_DEADLINE: an event on a loaded machine
+    (the full suite beside two compilers under ASan) comes late, and a wait
+    that succeeds returns as soon as it does, so only a failure waits it out."""
     end = time.monotonic() + timeout
     while time.monotonic() < end:
         v = fn()
