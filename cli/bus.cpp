@@ -71,13 +71,7 @@ int run_bus(const BusArgs& a) {
     });
   if (tap || tap_server)
     o.tap = [&tap, &tap_server](const BusCharacter& c) {
-      const std::string line = io::tap_line({.start_us = c.start_us,
-                                             .end_us = c.end_us,
-                                             .sender = c.sender,
-                                             .sent = c.sent,
-                                             .heard = c.heard,
-                                             .collided = c.collided,
-                                             .dropped = c.dropped});
+      const std::string line = io::tap_line(c);
       if (tap) std::fputs(line.c_str(), tap.get());
       if (tap_server) tap_server->publish(line);
     };

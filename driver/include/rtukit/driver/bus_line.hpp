@@ -28,6 +28,8 @@
 #include <span>
 #include <vector>
 
+#include "rtukit/io/tap_client.hpp"
+
 namespace rtukit {
 
 struct BusConfig {
@@ -52,16 +54,9 @@ struct BusDelivery {
   uint64_t at_us;
 };
 
-/// A character as it was on the line (for a tap or a sniffer).
-struct BusCharacter {
-  uint64_t start_us = 0;
-  uint64_t end_us = 0;
-  int sender = -1;    ///< the port that sent it; -1 for a stray byte
-  uint8_t sent = 0;   ///< what the sender sent
-  uint8_t heard = 0;  ///< what the listeners got (differs after a collision or bit error)
-  bool collided = false;
-  bool dropped = false;
-};
+/// A character as it was on the line (for a tap or a sniffer): the tap's
+/// own record (io/tap_client.hpp), so a tap line is read back as one.
+using BusCharacter = io::TapCharacter;
 
 struct BusLineStats {
   uint64_t characters = 0;  ///< characters that went out (stray ones included)
