@@ -10,6 +10,7 @@
 #include <optional>
 
 #include "rtukit/io/asio.hpp"
+#include "rtukit/io/pty.hpp"
 #include "rtukit/io/serial_config.hpp"
 
 namespace rtukit::io {
@@ -98,6 +99,9 @@ class SerialLink final : public Link {
 
   Error open() override {
     close();
+    // A simulator that died left its link; the pty number it points at may
+    // now be another program's: that line is not ours to take.
+    if (stale_pty_link(spec_.path)) return Error(Errc::io_error, ENOENT);
     const int fd = ::open(spec_.path.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) return Error(Errc::io_error, errno);
     const Result<SerialCapabilities> caps = configure_serial(fd, spec_.serial);

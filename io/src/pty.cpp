@@ -131,6 +131,17 @@ bool points_at_live_pty(const std::string& link, std::string& target) {
 
 }  // namespace
 
+bool stale_pty_link(const std::string& path) {
+  std::string target;
+  struct stat l {};
+  struct stat t {};
+  // A link to a pty newer than itself: the only case points_at_live_pty
+  // rejects among links that lead to a pty slave.
+  return ::lstat(path.c_str(), &l) == 0 && S_ISLNK(l.st_mode) && ::stat(path.c_str(), &t) == 0 &&
+         S_ISCHR(t.st_mode) && major(t.st_rdev) >= 136 && major(t.st_rdev) <= 143 &&
+         !points_at_live_pty(path, target);
+}
+
 std::string describe_command_line(std::string_view cmdline) {
   std::vector<std::string_view> args;
   for (size_t at = 0; at < cmdline.size();) {

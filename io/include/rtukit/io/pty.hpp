@@ -19,6 +19,14 @@ namespace rtukit::io {
 /// emulator. Empty in, empty out.
 std::string describe_command_line(std::string_view cmdline);
 
+/// Whether `path` is a symlink to a pty slave (/dev/pts/N) that was made
+/// after the link: the pty the link was made for is gone (its owner died
+/// without removing the link) and its number came back for another
+/// program's pty. Opening it would take that other program's line (a test's
+/// simulator, someone's terminal): SerialLink refuses it as if the port were
+/// absent. False for anything else (a live link, a real serial port).
+bool stale_pty_link(const std::string& path);
+
 class Pty {
  public:
   Pty() = default;
