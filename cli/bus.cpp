@@ -63,6 +63,10 @@ int run_bus(const BusArgs& a) {
     std::fputs(io::tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
   }
   asio::io_context ctx;
+  // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
+  // right after "listening on" ends the server cleanly too.
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   std::unique_ptr<io::TapServer> tap_server;
   const VirtualBus* started = nullptr;
   if (!a.name.empty())
@@ -93,8 +97,6 @@ int run_bus(const BusArgs& a) {
   if (tap_server) fmt::print("tap: rtukit sniff --bus {} ({})\n", a.name, bus_tap_socket(a.name));
   fmt::print("listening on {}\n", ports.front());
   std::fflush(stdout);
-  asio::signal_set signals(ctx);
-  stop_on_signals(signals, ctx);
   // A test engineer's switches, at run time: SIGUSR1 pulls the cable out
   // (nothing passes) and puts it back; SIGUSR2 stops the configured faults
   // (a clean line) and starts them again.

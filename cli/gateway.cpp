@@ -61,6 +61,10 @@ int run_gateway(const GatewayArgs& a) {
   o.server = a.server.options();
   std::unique_ptr<Master> bus = a.link.make_master();
   asio::io_context ctx;
+  // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
+  // right after "listening on" ends the server cleanly too.
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   Outcome<std::unique_ptr<Gateway>> gw = Gateway::start(ctx, *bus, listen, o);
   // A port that cannot be opened ends the gateway here, with one line and exit 4:
   // "rtukit: gateway: port /dev/ttyUSB9 9600 8N1: No such file or directory".
@@ -71,8 +75,6 @@ int run_gateway(const GatewayArgs& a) {
              a.cache_ms ? fmt::format(" (reads cached {} ms)", a.cache_ms) : std::string());
   fmt::print("listening on {}\n", (*gw)->where().front());
   std::fflush(stdout);
-  asio::signal_set signals(ctx);
-  stop_on_signals(signals, ctx);
   ctx.run();
   const GatewayStats s = (*gw)->stats();
   gw->reset();

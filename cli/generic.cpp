@@ -389,6 +389,10 @@ int run_slave(const SlaveArgs& a) {
   engine.set_answer_any_unit_over_tcp(a.any_unit);
   warn_if_exposed(spec, "the slave");
   asio::io_context ctx;
+  // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
+  // right after "listening on" ends the server cleanly too.
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   RequestLog log;
   if (a.verbose) {
     log = [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
@@ -403,8 +407,6 @@ int run_slave(const SlaveArgs& a) {
   for (const auto& u : a.units) fmt::print(" {}", parse_unit(u, true).value);
   fmt::print(")\n");
   std::fflush(stdout);
-  asio::signal_set signals(ctx);
-  stop_on_signals(signals, ctx);
   ctx.run();
   return kOk;
 }

@@ -91,6 +91,11 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   }
 
   asio::io_context ctx;
+  // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
+  // right after "listening on" ends the server cleanly too.
+  io::ignore_tty_stops();
+  asio::signal_set signals(ctx);
+  stop_on_signals(signals, ctx);
   Outcome<std::unique_ptr<profile::SimHost>> started = profile::SimHost::start(ctx, std::move(device), o);
   if (!started.ok()) throw Failure{exit_code(started.error().error()), std::string(started.error().reason())};
   profile::SimHost& host = **started;
@@ -113,9 +118,6 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   if (!a.no_console) fmt::print("console: type 'help' for commands\n");
   std::fflush(stdout);
 
-  io::ignore_tty_stops();
-  asio::signal_set signals(ctx);
-  stop_on_signals(signals, ctx);
   std::unique_ptr<io::StdinConsole> console;
   if (!a.no_console) console = std::make_unique<io::StdinConsole>(ctx, on_line);
   ctx.run();
