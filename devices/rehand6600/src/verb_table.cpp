@@ -70,6 +70,9 @@ Outcome<profile::VerbResult> status(const profile::VerbArgs& args, profile::Verb
 // A host controller on the link, connected (its handshake done and table 1
 // read) within a few answer timeouts; the link's failure otherwise.
 Outcome<std::unique_ptr<Host>> connected_host(profile::VerbContext& where) {
+  // A front-end that offers no link of its own cannot run the controller: say so, never call nothing.
+  if (!where.open_link)
+    return rtukit::Status(Errc::not_connected, "this front-end gives the host controller no link");
   HostOptions o;
   o.unit = where.unit;
   o.response_timeout = where.response_timeout;
