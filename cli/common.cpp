@@ -266,14 +266,28 @@ void watch_view(const WatchOptions& options, bool json, std::string_view device,
       print_json(doc);
     } else if (tty) {
       if (f.ok)
-        panel.show(f.panel);
+        panel.show(f.panel + "\n");
       else
         panel.stale(f.why);
     } else {
-      fmt::print("{}\n",
-                 f.ok ? f.line : fmt::format("{} stale since {}: {}", clock_hms(), down_since, f.why));
+      fmt::print("{}\n", f.ok ? fmt::format("{} {}", clock_hms(), f.line)
+                              : fmt::format("{} stale since {}: {}", clock_hms(), down_since, f.why));
     }
   });
+}
+
+int serve_until_stopped(std::string_view name, const std::function<rtukit::Status()>& start,
+                        const std::function<void()>& announce, const std::function<void()>& stop) {
+  const Interruptible interrupt;  // before start: a signal meanwhile still stops it cleanly
+  if (const rtukit::Status e = start())
+    throw Failure{e.code() == Errc::invalid_argument || e.code() == Errc::malformed ? kUsage : kIoError,
+                  fmt::format("{}: {}", name, e.reason())};
+  announce();
+  std::fflush(stdout);
+  while (interrupt.sleep(std::chrono::milliseconds(200))) {
+  }
+  stop();
+  return kOk;
 }
 
 std::string bus_tap_socket(const std::string& name) {

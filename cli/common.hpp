@@ -19,6 +19,7 @@
 #include "commands.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
@@ -186,15 +187,8 @@ bool& json_requested();
 /// {"time", "ok": false, "error": {"exit": 3, "kind": "no_response", "message": "..."}}.
 Json json_failure(const Failure& f);
 
-/// One refresh of a device's live view (`rtukit <device> watch`).
-struct ViewFrame {
-  bool ok = true;                    ///< false: no fresh reading (the link is down): `why` says so
-  std::string why;                   ///< "no response", "1010 Master Error: ..."
-  std::string kind = "no_response";  ///< the error's kind in the document
-  std::string panel;                 ///< the panel, for a terminal
-  std::string line;                  ///< one line with its time, for a pipe
-  Json values;                       ///< the document's "values"; null: none
-};
+/// One refresh of a device's live view (`rtukit <device> watch`): the device layer's.
+using ViewFrame = profile::LiveFrame;
 
 /// Every device's watch: refresh(n) each interval (watch_loop), printed as a
 /// JSON document (--json), the live panel on a terminal, else a line. A
@@ -204,6 +198,19 @@ struct ViewFrame {
 /// `title`: the panel's head ("Inverjet unit 21 on /dev/ttyUSB0").
 void watch_view(const WatchOptions& options, bool json, std::string_view device, UnitId unit,
                 const std::string& title, const std::function<ViewFrame(unsigned n)>& refresh);
+
+/// A program run from the CLI (the host daemon, the bridge, the panel):
+/// `start` it (a refusal is one line: exit 2 for its options, 4 for the
+/// rest), `announce` where it is, serve until SIGINT, SIGTERM or SIGHUP,
+/// `stop` it.
+int serve_until_stopped(std::string_view name, const std::function<rtukit::Status()>& start,
+                        const std::function<void()>& announce, const std::function<void()>& stop);
+/// The same for a program with start() -> rtukit::Status and stop().
+template <class Program>
+int serve(Program& program, std::string_view name, const std::function<void()>& announce) {
+  return serve_until_stopped(
+      name, [&program] { return program.start(); }, announce, [&program] { program.stop(); });
+}
 
 /// Bytes as "15 03 00 21" (request logs).
 using profile::hex;

@@ -1,39 +1,28 @@
-// `rtukit inverjet ...`: the Inverjet through its typed client. This file
-// wires options to the device layer (devices/inverjet: verbs.hpp for the
-// identity, the start rules, the settings and the command table; views.hpp
-// for the text) and prints. Values are checked before the port is opened
-// (one clear line, exit 2), so nothing half-valid is sent.
+// `rtukit inverjet bridge|panel|panel-password`: the programs that serve
+// the machine (programs/inverjet_bridge.hpp, inverjet_panel.hpp). Its other
+// commands (status, watch, start, pause, resume, stop, speed, plan, config)
+// are its verb table (devices/inverjet/src/verb_table.cpp), added with every
+// device's verbs (profiles.cpp); this file wires the programs' options.
 #include <fmt/core.h>
 
-#include <chrono>
-#include <fstream>
-#include <nlohmann/json.hpp>
-#include <sstream>
+#include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "rtukit/devices/inverjet/client.hpp"
-#include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
-#include "rtukit/devices/inverjet/verbs.hpp"
-#include "rtukit/devices/inverjet/views.hpp"
-#include "rtukit/devices/profile/text.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 #include "rtukit/programs/inverjet_panel.hpp"
-#include "rtukit/web/server.hpp"
 
 namespace rtukit::cli {
 namespace {
 
 namespace ij = rtukit::inverjet;
-using nlohmann::json;
 
 // Every inverjet command's options (each command uses the ones it declares).
 struct JetArgs {
   LinkOptions link;
   std::string unit;  ///< empty: the machine's factory address (the address row's default)
-  bool json = false;
-  WatchOptions watch{500};
   std::string file;  ///< panel-password: the file to write
   // bridge
   std::vector<std::string> units;  ///< "21" or "22=lane2"
@@ -46,82 +35,6 @@ struct JetArgs {
   bool force = false;                   ///< panel-password: replace an existing file
   bool no_discovery = false;
 };
-
-void add_link(CLI::App& cmd, JetArgs& a, bool json_flag) {
-  a.link.add_to(cmd, false, ij::kDefaultBaud);
-  cmd.add_option("--unit,-u", a.unit, device_unit_help(ij::kProfile));
-  cmd.add_flag("--json", a.json,
-               json_flag ? "print JSON (docs/json.md)" : "print the result as JSON (docs/json.md)");
-}
-
-// A master and the typed client on the command's link.
-struct Session {
-  explicit Session(const JetArgs& a)
-      : master(a.link.make_master()),
-        jet(*master, device_unit(a.unit, ij::kProfile)),
-        context(fmt::format("Inverjet unit {} on {}", jet.unit().value, master->describe())),
-        stats(a.link.stats) {
-    identify();
-  }
-  ~Session() {
-    if (stats) print_stats(*master);
-  }
-  // One line naming the failure, with the Inverjet's reason for an exception
-  // (inverjet::exception_reason); a refused argument is a usage error.
-  [[noreturn]] void fail(const rtukit::Status& e, std::string_view what) {
-    if (e.is_exception()) {
-      const std::string hint = ij::exception_reason(e);
-      throw Failure{kModbusException,
-                    fmt::format("{}: {} refused: Modbus exception {:02X} ({}){}{}", context, what,
-                                e.error().exception_code(), e.name(), hint.empty() ? "" : ": ", hint)};
-    }
-    if (e.code() == Errc::invalid_argument)
-      throw Failure{kUsage, fmt::format("{}: {}: {}", context, what, e.reason())};
-    cli::fail(e.error(), fmt::format("{}: {}", context, what));
-  }
-  void check(const rtukit::Status& e, std::string_view what) {
-    if (e) fail(e, what);
-  }
-  // Before anything else, as the Rehand commands check the device ID 0x68:
-  // is the slave at this address an Inverjet (inverjet::identify)? Another
-  // device: one line, exit 5 (the CLI's "not the expected device"), and
-  // nothing is written to it.
-  void identify() {
-    const rtukit::Status e = ij::identify(*master, jet.unit());
-    if (e.code() == Errc::refused)
-      throw Failure{kRefused, fmt::format("{}: {}; check --port and --unit", context, e.reason())};
-    if (e) cli::fail(e.error(), context);  // no answer, the port: as for any request
-  }
-
-  std::unique_ptr<Master> master;
-  ij::Client jet;
-  std::string context;
-  bool stats;
-};
-
-std::string panel_text(const ij::MachineStatus& s, ij::Family remembered) {
-  return ij::status_panel(s, remembered, [](std::string_view t) { return LivePanel::alert(t); });
-}
-
-int run_watch(const JetArgs& a) {
-  Session s(a);
-  ij::Family remembered = ij::Family::none;
-  watch_view(a.watch, a.json, "inverjet", s.jet.unit(), s.context, [&](unsigned n) {
-    Result<ij::MachineStatus> st = s.jet.status();
-    if (!st.ok()) {
-      if (n == 0) s.fail(st.error(), "watch");  // nothing there: say so and leave
-      return ViewFrame{
-          .ok = false,
-          .why = std::string(st.error().code() == Errc::timeout ? "no response" : st.error().text()),
-          .kind = std::string(st.error().name())};
-    }
-    remembered = ij::remember_family(*st, remembered);
-    return ViewFrame{.panel = panel_text(*st, remembered),
-                     .line = ij::status_line(*st, remembered, clock_hms()),
-                     .values = ij::status_values(*st, remembered)};
-  });
-  return kOk;
-}
 
 // The MQTT bridge, until SIGINT/SIGTERM.
 int run_bridge(const JetArgs& a) {
@@ -142,21 +55,14 @@ int run_bridge(const JetArgs& a) {
   if (!machines) throw Failure{kUsage, std::string(machines.error().reason())};
   o.machines = std::move(*machines);
   programs::Bridge bridge(io::make_link(a.link.spec(false)), o);
-  const Interruptible interrupt;
-  if (rtukit::Status e = bridge.start())
-    throw Failure{e.code() == Errc::invalid_argument ? kUsage : kIoError,
-                  fmt::format("inverjet bridge: {}", e.reason())};
-  const std::vector<std::string> ids = bridge.client_ids();
-  for (size_t i = 0; i < o.machines.size(); ++i)
-    fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on {}://{}:{} (client id {})\n",
-               o.machines[i].unit, o.machines[i].id, o.tls_ca.empty() ? "mqtt" : "mqtts", o.host, o.port,
-               ids.at(i));
-  for (const std::string& w : bridge.warnings()) fmt::print(stderr, "inverjet bridge: {}\n", w);
-  std::fflush(stdout);
-  while (interrupt.sleep(std::chrono::milliseconds(200))) {
-  }
-  bridge.stop();
-  return kOk;
+  return serve(bridge, "inverjet bridge", [&] {
+    const std::vector<std::string> ids = bridge.client_ids();
+    for (size_t i = 0; i < o.machines.size(); ++i)
+      fmt::print("inverjet bridge: unit {} as rtukit/inverjet/{}/ on {}://{}:{} (client id {})\n",
+                 o.machines[i].unit, o.machines[i].id, o.tls_ca.empty() ? "mqtt" : "mqtts", o.host, o.port,
+                 ids.at(i));
+    for (const std::string& w : bridge.warnings()) fmt::print(stderr, "inverjet bridge: {}\n", w);
+  });
 }
 
 // The pool panel, until SIGINT/SIGTERM. Off loopback it needs a password
@@ -172,17 +78,10 @@ int run_panel(const JetArgs& a) {
   o.tls_cert = a.tls_cert;
   o.tls_key = a.tls_key;
   programs::Panel panel(io::make_link(a.link.spec(false)), o);
-  const Interruptible interrupt;
-  if (rtukit::Status e = panel.start())
-    throw Failure{e.code() == Errc::invalid_argument || e.code() == Errc::malformed ? kUsage : kIoError,
-                  fmt::format("inverjet panel: {}", e.reason())};
-  fmt::print("inverjet panel: {}  (unit {}{})\n", panel.url(), o.unit,
-             o.password_file.empty() ? ", no password: loopback only" : ", password required");
-  std::fflush(stdout);
-  while (interrupt.sleep(std::chrono::milliseconds(200))) {
-  }
-  panel.stop();
-  return kOk;
+  return serve(panel, "inverjet panel", [&] {
+    fmt::print("inverjet panel: {}  (unit {}{})\n", panel.url(), o.unit,
+               o.password_file.empty() ? ", no password: loopback only" : ", password required");
+  });
 }
 
 // `rtukit inverjet panel-password FILE`: the panel's password file, from a
@@ -270,16 +169,7 @@ void add_inverjet_commands(CLI::App& app, Action& action) {
                        "printf '%s\\n' \"$PW\" | rtukit inverjet panel-password panel.pw --force"});
       },
       [](const JetArgs& a) { return run_panel_password(a); });
-  add_command<JetArgs>(
-      *jet, action, "watch", "live status, refreshed until Ctrl-C",
-      [&](CLI::App& cmd, JetArgs& a) {
-        add_link(cmd, a, true);
-        a.watch.add_to(cmd);
-        examples(cmd, {"rtukit inverjet watch " + port,
-                       "rtukit inverjet watch " + port + " --json --interval 1000 > swim.jsonl"});
-      },
-      [](const JetArgs& a) { return run_watch(a); });
-  // status, start, pause, resume, stop, speed, plan, config: the device's
+  // status, watch, start, pause, resume, stop, speed, plan, config: the device's
   // verb table (inverjet::verb_table), added with every device's verbs.
 }
 

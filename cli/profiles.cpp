@@ -8,8 +8,10 @@
 #include <fmt/core.h>
 
 #include <cctype>
+#include <csignal>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "commands.hpp"
 #include "common.hpp"
@@ -245,9 +247,26 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
         [source](const DeviceArgs& a) { return run_status(a, source.of(a)); });
 }
 
+// A verb's failure as one line and its exit code: `context` says where
+// ("Inverjet unit 21 on /dev/ttyUSB0"), the device's reason what.
+[[noreturn]] void verb_failed(const profile::DeviceEntry& entry, const std::string& context,
+                              const rtukit::Status& e) {
+  // No answer: in the device's own words when it has them.
+  const bool no_answer = entry.no_answer && exit_code(e.error()) == kNoResponse;
+  const std::string reason = no_answer ? entry.no_answer(e) : std::string(e.reason());
+  const std::string line = context.empty() || reason.empty() ? (context.empty() ? reason : context)
+                                                             : fmt::format("{}: {}", context, reason);
+  if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
+  if (e.is_exception()) throw Failure{kModbusException, line};
+  if (no_answer) throw Failure{kNoResponse, line};
+  if (e.code() == Errc::refused) throw Failure{kRefused, line};
+  fail(e.error(), line);
+}
+
 // A device's own verb (profile/verb.hpp): the device checks the arguments,
 // opens the link through `open` when it needs it, and says what it did; this
-// prints it, or turns its refusal into one line and the exit code.
+// prints it (a live verb: each refresh, as every watch does), or turns its
+// refusal into one line and the exit code.
 int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::DeviceEntry& entry,
                     const profile::Verb& verb) {
   profile::VerbArgs args;
@@ -262,10 +281,21 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
   const profile::Profile& p = *entry.profile;
   const UnitId unit = device_unit(a.unit, p);
   std::unique_ptr<Master> master;
+  struct StatsAtEnd {  // --stats: the master's counters, however the verb ends
+    const std::unique_ptr<Master>& master;
+    bool wanted;
+    ~StatsAtEnd() {
+      if (master && wanted) print_stats(*master);
+    }
+  } stats{master, a.link.stats};
   std::string context;
   const auto name_link = [&](std::string_view port) {
     context = fmt::format("{} unit {} on {}", entry.label.empty() ? p.name : entry.label, unit.value, port);
   };
+  // A lasting verb (a hold) gets Ctrl-C from the start, to end as it must.
+  std::optional<Interruptible> interrupt;
+  if (verb.lasting) interrupt.emplace(time_source());
+  std::optional<Progress> progress;
   profile::VerbContext where{.unit = unit,
                              .open = [&]() -> Master& {
                                master = a.link.make_master();
@@ -280,26 +310,35 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
                                  },
                              .response_timeout = std::chrono::milliseconds(a.link.timeout_ms),
                              .trace = a.link.tracer(),
-                             .alert = [](std::string_view t) { return LivePanel::alert(t); }};
+                             .alert = [](std::string_view t) { return LivePanel::alert(t); },
+                             .clock = &time_source(),
+                             .wait =
+                                 [&](std::chrono::milliseconds d) {
+                                   if (!interrupt) interrupt.emplace(time_source());
+                                   return interrupt->sleep(d);
+                                 },
+                             .progress =
+                                 [&](std::string_view t) {
+                                   if (!progress) progress.emplace();
+                                   t.empty() ? progress->clear() : progress->show(t);
+                                 }};
   Outcome<profile::VerbResult> r = entry.run_verb(verb, args, where);
-  if (master && a.link.stats) print_stats(*master);
-  if (!r.ok()) {
-    const rtukit::Status& e = r.error();
-    const auto line = [&](std::string_view reason) {
-      return context.empty() || reason.empty() ? std::string(context.empty() ? reason : context)
-                                               : fmt::format("{}: {}", context, reason);
-    };
-    if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line(e.reason())};
-    if (e.is_exception()) throw Failure{kModbusException, line(e.reason())};
-    // No answer: in the device's own words when it has them.
-    if (entry.no_answer && exit_code(e.error()) == kNoResponse)
-      throw Failure{kNoResponse, line(entry.no_answer(e))};
-    if (e.code() == Errc::refused) throw Failure{kRefused, line(e.reason())};
-    fail(e.error(), line(e.reason()));
+  if (!r.ok()) verb_failed(entry, context, r.error());
+  if (r->refresh) {
+    watch_view(a.watch, a.json, p.name, where.unit, context, [&](unsigned n) {
+      Outcome<profile::LiveFrame> f = r->refresh(n);
+      if (!f.ok()) verb_failed(entry, context, f.error());
+      return std::move(*f);
+    });
+    return kOk;
   }
+  // Cut short (Ctrl-C, SIGTERM, SIGHUP): 128 + the signal, 130 for Ctrl-C.
+  const int sig = r->interrupted && interrupt ? interrupt->signal() : 0;
+  const int code = sig == 0 || sig == SIGPIPE ? kOk : 128 + sig;
   if (!a.json) {
     fmt::print("{}\n", r->text);
-    return kOk;
+    if (!r->more.empty()) fmt::print("{}\n", r->more);
+    return code;
   }
   Json out = json_document(p.name, verb.uses_link ? where.unit.value : -1);
   if (!r->action.empty() || (r->values.is_null() && r->extra.is_null())) {
@@ -310,7 +349,7 @@ int run_device_verb(const DeviceArgs& a, const CLI::App& cmd, const profile::Dev
   if (r->extra.is_object())
     for (const auto& [key, value] : r->extra.items()) out[key] = value;
   print_json(out);
-  return kOk;
+  return code;
 }
 
 void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& entry) {
@@ -346,6 +385,10 @@ void add_own_verbs(CLI::App& dev, Action& action, const profile::DeviceEntry& en
             } else {
               cmd.add_option("--" + key, a.verb_text[key], help);
             }
+          }
+          if (verb.live_interval_ms != 0) {
+            a.watch.interval_ms = verb.live_interval_ms;
+            a.watch.add_to(cmd);
           }
           if (verb.uses_link) {
             a.link.timeout_ms = entry.answer_timeout_ms;

@@ -111,8 +111,8 @@ TEST(InverjetViews, ThePanelHighlightsOnlyAFault_TheLineStartsWithItsPrefix) {
   EXPECT_NE(alarm.find("faults    [voltage (0x0001)]\n"), std::string::npos) << alarm;
   // Without a highlight, the same text as it is.
   EXPECT_NE(ij::status_panel(fault).find("faults    voltage (0x0001)\n"), std::string::npos);
-  EXPECT_EQ(ij::status_line(s, ij::Family::none, "14:02:07"),
-            "14:02:07 timer running     speed  60 %  time 25:00 remaining  motor 1200 rpm 3.50 A  MOSFET "
+  EXPECT_EQ(ij::status_line(s),
+            "timer running     speed  60 %  time 25:00 remaining  motor 1200 rpm 3.50 A  MOSFET "
             "41.2 degC  motor 38.0 degC  faults none");
 }
 
@@ -403,7 +403,7 @@ TEST(InverjetVerbTable, HelpsSayTheRowsRanges_AndThePairingNames) {
   const auto& table = ij::verb_table();
   std::vector<std::string> names;
   for (const profile::Verb& v : table) names.emplace_back(v.name);
-  EXPECT_EQ(names, (std::vector<std::string>{"status", "start", "pause", "resume", "stop", "speed",
+  EXPECT_EQ(names, (std::vector<std::string>{"status", "watch", "start", "pause", "resume", "stop", "speed",
                                              "plan show", "plan set", "plan clear", "config"}));
   const profile::Verb& start = *profile::find_verb(table, "start");
   ASSERT_EQ(start.args.size(), 6U);
@@ -468,6 +468,38 @@ TEST(InverjetVerbTable, AnotherDeviceIsRefused_TheMachineAnswersThroughTheVerbs)
   EXPECT_EQ(r->action, "config mask");
 }
 
+// `watch` is a live verb: the machine identified first, then a frame per
+// refresh. Nothing there at the first refresh ends the view; a link lost
+// later keeps it, each frame marked not ok with the reason.
+TEST(InverjetVerbTable, WatchIsALiveViewThatOutlivesALostLink) {
+  Rig jet(21);
+  jet.bank.holding[ij::reg::kPoleCount] = ij::kMap.row(ij::reg::pole_count).writable_range.min;
+  Where where(jet, 21);
+  const profile::Verb& watch = *profile::find_verb(ij::verb_table(), "watch");
+  EXPECT_EQ(watch.live_interval_ms, 500U);
+  Outcome<profile::VerbResult> r = ij::run_verb(watch, {}, where.context);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  ASSERT_TRUE(r->refresh);
+  Outcome<profile::LiveFrame> f = r->refresh(0);
+  ASSERT_TRUE(f.ok()) << f.error().reason();
+  EXPECT_TRUE(f->ok);
+  EXPECT_TRUE(f->line.starts_with("off")) << f->line;
+  EXPECT_NE(f->panel.find("speed"), std::string::npos) << f->panel;
+  EXPECT_FALSE(f->panel.ends_with("\n"));
+  EXPECT_TRUE(f->values.contains("state"));
+  jet.silent = true;
+  f = r->refresh(1);
+  ASSERT_TRUE(f.ok());  // the view goes on, stale
+  EXPECT_FALSE(f->ok);
+  EXPECT_EQ(f->why, "no response");
+  EXPECT_EQ(f->kind, "timeout");
+  // Nothing answering when it starts: no view, the reason instead.
+  r = ij::run_verb(watch, {}, where.context);
+  ASSERT_FALSE(r.ok());
+  EXPECT_EQ(r.error().code(), Errc::timeout);
+  EXPECT_EQ(where.opened, 2);
+}
+
 TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
   Rig none(1);
   Where where(none, 1);
@@ -523,6 +555,9 @@ TEST(RehandVerbTable, StatusHandshakesFirst_CommandsCheckArgumentsBeforeOpening)
   const int opened = where.opened;
   for (const auto& [verb, args] : std::vector<std::pair<std::string, profile::VerbArgs>>{
            {"pulse", {{"cmd", "stand"}}},
+           {"hold", {{"cmd", "seat_lift"}}},
+           {"hold", {{"cmd", "seat_lift"}, {"value", "up"}, {"for", "11min"}}},
+           {"hold", {{"cmd", "light"}, {"value", "up"}}},
            {"set", {{"what", "speed-level"}, {"value", "6"}}},
            {"set", {{"what", "drive-mode"}, {"value", "fast"}}}}) {
     r = run(table, rh::run_verb, verb, args, where);

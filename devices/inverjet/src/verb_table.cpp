@@ -63,6 +63,37 @@ Outcome<VerbResult> status(VerbContext& c) {
   return VerbResult{"", status_panel(*s, Family::none, c.alert), status_values(*s), nullptr};
 }
 
+// The live status: the machine identified, then a status read each refresh.
+// Nothing there at the first refresh ends the view; later a failed read
+// keeps it, marked stale. The run family a paused run had is remembered, so
+// its time keeps its meaning (time_counts).
+Outcome<VerbResult> watch(VerbContext& c) {
+  struct View {
+    std::optional<Client> jet;
+    Family remembered = Family::none;
+  };
+  auto view = std::make_shared<View>();
+  if (rtukit::Status e = connect(c, view->jet)) return e;
+  VerbResult r;
+  r.refresh = [view, alert = c.alert](unsigned n) -> Outcome<profile::LiveFrame> {
+    Result<MachineStatus> s = view->jet->status();
+    if (!s.ok()) {
+      if (n == 0) return failed(s.error(), "watch");
+      return profile::LiveFrame{
+          .ok = false,
+          .why = std::string(s.error().code() == Errc::timeout ? "no response" : s.error().text()),
+          .kind = std::string(s.error().name())};
+    }
+    view->remembered = remember_family(*s, view->remembered);
+    std::string panel = status_panel(*s, view->remembered, alert);
+    if (!panel.empty() && panel.back() == '\n') panel.pop_back();
+    return profile::LiveFrame{.panel = std::move(panel),
+                              .line = status_line(*s, view->remembered),
+                              .values = status_values(*s, view->remembered)};
+  };
+  return r;
+}
+
 Outcome<VerbResult> start_verb(const VerbArgs& a, VerbContext& c) {
   using profile::given;
   if (rtukit::Status e = check_start_options({given(a, "free"), given(a, "timer"), given(a, "plan"),
@@ -214,6 +245,11 @@ const std::vector<profile::Verb>& verb_table() {
        .help = "mode, state, speed, time, faults, temperatures, motor",
        .examples = {"{port}", "{port} --unit 12 --json"},
        .reads = true},
+      {.name = "watch",
+       .help = "live status, refreshed until Ctrl-C",
+       .examples = {"{port}", "{port} --json --interval 1000 > swim.jsonl"},
+       .reads = true,
+       .live_interval_ms = 500},
       {.name = "start",
        .help = "start free mode, a timer run or a training plan",
        .args = {{"free", Form::flag, "free mode (counts up)"},
@@ -265,6 +301,7 @@ Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::
                                       profile::VerbContext& context) {
   const std::string_view name = verb.name;
   if (name == "status") return status(context);
+  if (name == "watch") return watch(context);
   if (name == "start") return start_verb(args, context);
   if (name == "pause" || name == "resume" || name == "stop" || name == "speed")
     return command(name, args, context);

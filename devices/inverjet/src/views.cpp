@@ -46,11 +46,11 @@ std::string status_panel(const MachineStatus& s, Family remembered, const Highli
       version_text(s.driver_hardware));
 }
 
-std::string status_line(const MachineStatus& s, Family remembered, std::string_view prefix) {
+std::string status_line(const MachineStatus& s, Family remembered) {
   return fmt::format(
-      "{} {:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  "
+      "{:<17} speed {:>3} %  time {}  motor {} rpm {:.2f} A  MOSFET {:.1f} degC  motor {:.1f} degC  "
       "faults {}",
-      prefix, s.state_name(), s.speed, time_text(s, remembered), s.rpm, s.current_a, s.mosfet_c, s.motor_c,
+      s.state_name(), s.speed, time_text(s, remembered), s.rpm, s.current_a, s.mosfet_c, s.motor_c,
       faults_text(s));
 }
 

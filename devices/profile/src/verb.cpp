@@ -14,6 +14,16 @@ bool given(const VerbArgs& args, std::string_view name) {
   return args.find(name) != args.end();
 }
 
+bool wait(VerbContext& context, std::chrono::milliseconds d) {
+  if (context.wait) return context.wait(d);
+  clock_or_steady(context.clock).sleep_for(d);
+  return true;
+}
+
+void progress(VerbContext& context, std::string_view text) {
+  if (context.progress) context.progress(text);
+}
+
 const Verb* find_verb(std::span<const Verb> verbs, std::string_view name) {
   for (const Verb& v : verbs)
     if (v.name == name) return &v;
@@ -58,6 +68,13 @@ std::string verbs_markdown(std::string_view device, std::span<const Verb> verbs)
       if (!args.empty()) args += "; ";
       args += fmt::format("{}: {}", usage(a), a.help);
       if (!a.fallback.empty()) args += fmt::format(" (default {})", a.fallback);
+    }
+    if (v.live_interval_ms != 0) {  // what every front-end's live view takes
+      line += " [--interval MS] [--count N]";
+      args += fmt::format(
+          "{}[--interval MS]: ms between refreshes (default {}); [--count N]: stop after N "
+          "(default 0: until Ctrl-C)",
+          args.empty() ? "" : "; ", v.live_interval_ms);
     }
     out +=
         fmt::format("| {}` | {} | {} |\n", line, cell_text(v.help), args.empty() ? "none" : cell_text(args));

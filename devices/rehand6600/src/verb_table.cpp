@@ -2,8 +2,13 @@
 // table 1), `pulse` and `set` (through the host controller and its rules,
 // as the display's own buttons), and from the tables `errors [CODE]` (table
 // 3) and `stopping` (D-9). A failed link is the chair's 1010 (the entry's
-// no_answer for a link nobody answers). `watch` and `hold` run until Ctrl-C: the CLI drives those.
+// no_answer for a link nobody answers). `watch` (a live view of the host
+// controller) and `hold` (a lease renewed as a finger on a button does, then
+// released) run until done or until the person stops them.
 #include <fmt/core.h>
+
+#include <algorithm>
+#include <cmath>
 
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
@@ -18,6 +23,15 @@ namespace {
 std::string without_final_newline(std::string text) {
   if (!text.empty() && text.back() == '\n') text.pop_back();
   return text;
+}
+
+// The hold commands by name, from the command table.
+std::string hold_commands() {
+  std::string names;
+  for (const Register& x : registers())
+    if (x.role == Kind::hold && x.address != reg::kHostReady)
+      names += (names.empty() ? "" : ", ") + std::string(x.key);
+  return names;
 }
 
 // Table 3, or one code with what it means and what to check: four hex
@@ -134,6 +148,84 @@ Outcome<profile::VerbResult> set(const profile::VerbArgs& args, profile::VerbCon
       nlohmann::ordered_json{{std::string(c->row->key), profile::entry_json(*c->row, c->raw)}}, nullptr};
 }
 
+// The live panel from the host controller; while the link is down (1010)
+// the last reading stays, marked stale with the reason.
+Outcome<profile::VerbResult> watch(const profile::VerbArgs& args, profile::VerbContext& where) {
+  Outcome<std::unique_ptr<Host>> started = connected_host(where);
+  if (!started) return started.error();
+  std::shared_ptr<Host> host = std::move(*started);  // stopped when the view ends (~Host)
+  profile::VerbResult r;
+  r.refresh = [host, mph = profile::given(args, "mph"),
+               alert = where.alert](unsigned) -> Outcome<profile::LiveFrame> {
+    const Snapshot s = host->snapshot();
+    const uint16_t err = host->active_error();
+    profile::LiveFrame f{.panel = without_final_newline(panel(s, mph, alert)),
+                         .line = line(s, mph),
+                         .values = snapshot_values(s, mph)};
+    f.values["active_error"] =
+        profile::quantity_json(err ? error_text(err) : "", {}, err ? error_text(err) : "none");
+    if (err == kMasterCommunicationError) {
+      f.ok = false;
+      f.why = fmt::format("{}: {}", error_text(err), host->last_failure().reason());
+    }
+    return f;
+  };
+  return r;
+}
+
+// A hold command for a while, its lease renewed every 100 ms (well within
+// its 300 ms, as the display renews while the button is held), then
+// released; a stop request (Ctrl-C) releases it at once. Refused by the
+// controller's rules: released, with what to check.
+Outcome<profile::VerbResult> hold(const profile::VerbArgs& args, profile::VerbContext& where) {
+  const std::string key(profile::arg(args, "cmd"));
+  const Outcome<const Register*> found = command_register(key, Kind::hold);
+  if (!found) return found.error();
+  const Register& r = **found;
+  const Outcome<uint16_t> value = command_value(r, profile::arg(args, "value"));
+  if (!value) return value.error();
+  const Outcome<std::chrono::milliseconds> length = parse_hold_duration(profile::arg(args, "for", "1s"));
+  if (!length) return length.error();
+  Outcome<std::unique_ptr<Host>> started = connected_host(where);
+  if (!started) return started.error();
+  Host& host = **started;
+  DriverClock& clock = clock_or_steady(where.clock);
+  const auto start = clock.now();
+  bool interrupted = false;
+  while (clock.now() - start < *length) {
+    if (const rtukit::Status e = host.hold(r.address, *value)) {
+      profile::progress(where, "");
+      const uint16_t active = host.active_error();
+      host.stop();
+      return refusal(e, "hold", key, active);
+    }
+    const std::chrono::duration<double> left = *length - (clock.now() - start);
+    profile::progress(where, fmt::format("holding {} {}: {:.1f} s left (Ctrl-C releases)", key,
+                                         format_value(r, *value), std::max(0.0, left.count())));
+    if (!profile::wait(where, std::chrono::milliseconds(100))) {
+      interrupted = true;
+      break;
+    }
+  }
+  profile::progress(where, "");
+  (void)host.release(r.address);
+  (void)host.wait_poll(std::chrono::milliseconds(500));
+  const Snapshot s = host.snapshot();
+  host.stop();
+  const double held = std::chrono::duration<double>(clock.now() - start).count();
+  profile::VerbResult done{
+      "hold",
+      fmt::format("held {} = {} for {:.1f} s, released{}", key, format_value(r, *value), held,
+                  interrupted ? " (interrupted)" : ""),
+      nlohmann::ordered_json{
+          {std::string(r.key), profile::entry_json(r, *value)},
+          {"held", profile::quantity_json(std::round(held * 10) / 10, "s", fmt::format("{:.1f} s", held))}},
+      nullptr};
+  done.interrupted = interrupted;
+  if (!interrupted) done.more = without_final_newline(panel(s, false, where.alert));
+  return done;
+}
+
 }  // namespace
 
 const std::vector<profile::Verb>& verb_table() {
@@ -152,6 +244,23 @@ const std::vector<profile::Verb>& verb_table() {
        .args = {{"what", profile::VerbArg::Form::positional, "drive-mode | speed-level | host-fault", true},
                 {"value", profile::VerbArg::Form::positional, "the value", true}},
        .examples = {"{port} drive-mode outdoor", "{port} speed-level 3 --json"}},
+      {.name = "watch",
+       .help = "live panel from the host controller until Ctrl-C",
+       .args = {{"mph", profile::VerbArg::Form::flag, "speed in mph (default km/h)"}},
+       .examples = {"{port}", "{port} --json --interval 1000 > chair.jsonl"},
+       .reads = true,
+       .live_interval_ms = 250},
+      {.name = "hold",
+       .help = "hold a command (posture, phone drive, anti-pinch...) for a while, then release",
+       .args = {{"cmd", profile::VerbArg::Form::positional, hold_commands(), true},
+                {"value", profile::VerbArg::Form::positional,
+                 "the direction, required where the command has two: stand|sit, up|down (seat_lift, "
+                 "leg_rotate), forward|back (backrest, seat_tilt, plate_tilt), extend|retract "
+                 "(leg_extend); none for the others"},
+                {"for", profile::VerbArg::Form::option, "how long (2s, 500ms; at most 10 minutes)", false,
+                 "1s"}},
+       .examples = {"{port} seat_lift up --for 2s", "{port} stand sit --for 500ms --json"},
+       .lasting = true},
       {.name = "errors",
        .help = "table 3: error codes, functions, UI texts, what each means and what to check",
        .args = {{"code", profile::VerbArg::Form::positional, "one code, as the chair shows it (10C3)"}},
@@ -172,6 +281,8 @@ Outcome<profile::VerbResult> run_verb(const profile::Verb& verb, const profile::
   if (verb.name == "status") return status(args, where);
   if (verb.name == "pulse") return pulse(args, where);
   if (verb.name == "set") return set(args, where);
+  if (verb.name == "watch") return watch(args, where);
+  if (verb.name == "hold") return hold(args, where);
   if (verb.name == "errors") return errors(args);
   if (verb.name == "stopping")
     return profile::VerbResult{"", without_final_newline(stopping_markdown()), nullptr, nullptr};

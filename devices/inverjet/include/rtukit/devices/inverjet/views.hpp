@@ -28,7 +28,7 @@ std::string time_text(const MachineStatus& s, Family remembered = Family::none);
 /// the state (in the fault screen) and the faults (when any) go through `alert`.
 std::string status_panel(const MachineStatus& s, Family remembered = Family::none,
                          const Highlight& alert = nullptr);
-/// The status in one line (a `watch` into a pipe), after `prefix` and a space.
-std::string status_line(const MachineStatus& s, Family remembered, std::string_view prefix);
+/// The status in one line (a `watch` into a pipe: the front-end puts the time first).
+std::string status_line(const MachineStatus& s, Family remembered = Family::none);
 
 }  // namespace rtukit::inverjet

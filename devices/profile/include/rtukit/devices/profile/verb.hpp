@@ -49,11 +49,28 @@ struct Verb {
   bool uses_link = true;
   /// Whether the verb's result is a reading (its --json prints the values).
   bool reads = false;
+  /// Non-zero: a live view (`watch`), refreshed this often by default until
+  /// the person stops it; the front-end takes the interval and a count.
+  unsigned live_interval_ms = 0;
+  /// The verb lasts (a hold): the front-end catches a stop request (Ctrl-C)
+  /// from the start and hands it over through VerbContext::wait, so the verb
+  /// ends the way it must (a hold released), never killed half-way.
+  bool lasting = false;
 };
 
 /// The arguments a front-end collected: the text of each given argument by
 /// name; a flag given is "true". Absent: not in the map.
 using VerbArgs = std::map<std::string, std::string, std::less<>>;
+
+/// One refresh of a live verb (Verb::live_interval_ms).
+struct LiveFrame {
+  bool ok = true;                    ///< false: no fresh reading (the link is down): `why` says so
+  std::string why;                   ///< "no response", "1010 Master Error: ..."
+  std::string kind = "no_response";  ///< the error's kind in the document
+  std::string panel;                 ///< the panel, for a terminal (without the final '\n')
+  std::string line;                  ///< one line, for a pipe (the front-end puts the time first)
+  nlohmann::ordered_json values;     ///< the document's "values"; null: none
+};
 
 /// What a verb did, for people and for machines.
 struct VerbResult {
@@ -66,6 +83,16 @@ struct VerbResult {
   nlohmann::ordered_json values;
   /// Further fields of the document ("plan", "segments"); null: none.
   nlohmann::ordered_json extra;
+  /// For people only, after the text (the chair's panel after a hold); not in the document.
+  std::string more;
+  /// A lasting verb ended early because the person asked (VerbContext::wait
+  /// said so); the front-end's exit code says it was cut short.
+  bool interrupted = false;
+  /// A live verb's refresh, called for n = 0, 1, ... each interval while the
+  /// result lives (destroying it ends the view: a controller stopped). An
+  /// error ends the view (nothing there at the first refresh); a frame that
+  /// is not ok keeps it going, marked stale. Empty for other verbs.
+  std::function<Outcome<LiveFrame>(unsigned n)> refresh;
 };
 
 /// Where a verb runs: the unit it talks to, and the link opened when the verb
@@ -84,7 +111,20 @@ struct VerbContext {
   std::function<void(const TraceEvent&)> trace;
   /// How the front-end marks what needs attention (a fault) in a text; nullptr: as it is.
   std::function<std::string(std::string_view)> alert;
+  /// The clock a lasting verb measures its length on; nullptr: the steady clock.
+  DriverClock* clock = nullptr;
+  /// For a lasting verb: waits `d`; false when the person asked to stop
+  /// (then the verb ends safely at once). nullptr: waits on `clock`.
+  std::function<bool(std::chrono::milliseconds d)> wait;
+  /// Shows how far a lasting verb is ("holding seat_lift up (1): 1.2 s
+  /// left"); "" removes it. nullptr: nothing shown.
+  std::function<void(std::string_view text)> progress;
 };
+
+/// `context.wait(d)`, or a sleep of `d` on its clock when the front-end gives none.
+bool wait(VerbContext& context, std::chrono::milliseconds d);
+/// `context.progress(text)` when the front-end shows progress.
+void progress(VerbContext& context, std::string_view text);
 
 /// Runs `verb` with `args`. Errors: invalid_argument (an argument, with the
 /// rule it breaks: the front-end's usage error), refused (the device is not
