@@ -15,10 +15,10 @@ using Action = std::function<int()>;
 /// read, write, scan, slave.
 void add_generic_commands(CLI::App& app, Action& action);
 
-/// inverjet status|watch|start|pause|resume|stop|speed|plan|config|registers.
+/// inverjet bridge|panel|panel-password: the programs (the machine's verbs are its table's).
 void add_inverjet_commands(CLI::App& app, Action& action);
 
-/// rehand6600 status|watch|hold|pulse|set|errors|registers.
+/// rehand6600 host: the RK3588 daemon (the chair's verbs are its table's).
 void add_rehand6600_commands(CLI::App& app, Action& action);
 
 /// gateway: one process owns the serial bus, Modbus TCP clients share it.

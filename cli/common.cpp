@@ -210,10 +210,9 @@ std::vector<unsigned> parse_units(const std::string& text, unsigned max) {
 }
 
 UnitId device_unit(const std::string& text, const profile::Profile& p) {
-  const profile::UnitRange units = profile::unit_range(p);
-  if (text.empty()) return UnitId{units.fallback};
-  return UnitId{
-      static_cast<uint8_t>(parse_number(text, fmt::format("{} unit", p.name), units.min, units.max))};
+  const Outcome<uint8_t> unit = profile::device_unit(p, text);
+  if (!unit) throw Failure{kUsage, std::string(unit.error().reason())};
+  return UnitId{*unit};
 }
 
 std::string device_title(const profile::Profile& p) {

@@ -197,14 +197,6 @@ struct WriteArgs {
   std::vector<std::string> mask;  ///< FC16: AND OR
 };
 
-// The values of a write as the confirmation names them: "5, 6"; past 8,
-// "1, 2, 3, 4, ..., 10 (10 values)".
-std::string values_text(const std::vector<std::string>& values) {
-  if (values.size() <= 8) return fmt::format("{}", fmt::join(values, ", "));
-  return fmt::format("{}, {}, {}, {}, ..., {} ({} values)", values[0], values[1], values[2], values[3],
-                     values.back(), values.size());
-}
-
 int run_write(const WriteArgs& a) {
   if (!a.mask.empty() && (a.coils || a.multiple || !a.values.empty()))
     throw Failure{kUsage, "--mask AND OR writes one register: no values, --coils or --multiple with it"};
@@ -213,16 +205,16 @@ int run_write(const WriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, tcp);
   // Checked and encoded by the kit (profile/typed_request.hpp) before the port is opened.
   std::string note;
-  Outcome<profile::WritePlan> plan = profile::plan_write({.unit = unit,
-                                                          .address = a.address,
-                                                          .one_based = a.one_based,
-                                                          .coils = a.coils,
-                                                          .multiple = a.multiple,
-                                                          .values = a.values,
-                                                          .mask = a.mask,
-                                                          .type = value_type_of(a.type),
-                                                          .order = word_order_of(a.order)},
-                                                         &note);
+  const profile::WriteRequest request{.unit = unit,
+                                      .address = a.address,
+                                      .one_based = a.one_based,
+                                      .coils = a.coils,
+                                      .multiple = a.multiple,
+                                      .values = a.values,
+                                      .mask = a.mask,
+                                      .type = value_type_of(a.type),
+                                      .order = word_order_of(a.order)};
+  Outcome<profile::WritePlan> plan = profile::plan_write(request, &note);
   print_note(note);
   if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
   const profile::WritePlan& p = *plan;
@@ -231,18 +223,7 @@ int run_write(const WriteArgs& a) {
   const Error e = profile::send_write(*master, p);
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
-  // What was written, in one line: "wrote 1234 to holding register 40001 (0x0000) of unit 1".
-  const std::string target =
-      fmt::format("{} {}", profile::space_noun(p.table, p.count > 1), p.notation.span(p.address, p.count));
-  const bool broadcast = unit == kBroadcast && !tcp;
-  const std::string to_whom =
-      broadcast ? "of every unit (a broadcast: no unit answers it)" : fmt::format("of unit {}", unit.value);
-  std::string text;
-  if (!a.mask.empty())
-    text = fmt::format("masked {} {} with AND {} OR {}", target, to_whom, a.mask[0], a.mask[1]);
-  else
-    text = fmt::format("wrote {}{} to {} {}", values_text(a.values),
-                       a.coils || a.type == "u16" ? "" : " (" + a.type + ")", target, to_whom);
+  const std::string text = profile::write_text(request, p, tcp);
   if (a.json) {
     Json out = json_document({}, unit.value);
     out["table"] = a.coils ? "coils" : "holding";

@@ -15,6 +15,7 @@
 #include "profiles.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/devices/profile/transaction_text.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
 #include "rtukit/io/listen_port.hpp"
@@ -46,28 +47,19 @@ double seconds(uint64_t us) {
 
 using profile::UnitProfiles;
 
+// --device NAME@UNIT and --map FILE@UNIT: the registry's devices and map files.
 UnitProfiles unit_profiles(const SniffArgs& a) {
   UnitProfiles out;
-  const auto split = [](const std::string& s, const char* what) {
-    const size_t at = s.rfind('@');
-    if (at == std::string::npos || at == 0 || at + 1 == s.size())
-      throw Failure{kUsage, fmt::format("{} '{}': write NAME@UNIT (inverjet@21)", what, s)};
-    return std::pair{s.substr(0, at), s.substr(at + 1)};
-  };
   for (const std::string& d : a.devices) {
-    const auto [name, unit] = split(d, "--device");
-    const profile::DeviceEntry* entry = devices::find(name);
-    std::string known;
-    for (const profile::DeviceEntry* e : devices::registered())
-      known += (known.empty() ? "" : ", ") + std::string(e->profile->name);
-    if (!entry)
-      throw Failure{kUsage, fmt::format("--device {}: no such device ({}; or --map FILE@UNIT)", name, known)};
-    out[device_unit(unit, *entry->profile).value] = entry->profile;
+    const Outcome<devices::DeviceAt> at = devices::find_at(d);
+    if (!at) throw Failure{kUsage, fmt::format("--device: {}", at.error().reason())};
+    out[at->unit.value] = at->entry->profile;
   }
   for (const std::string& m : a.maps) {
-    const auto [file, unit] = split(m, "--map");
-    const profile::Profile& p = load_map_or_fail(file);
-    out[device_unit(unit, p).value] = &p;
+    const auto split = profile::split_at_unit(m);
+    if (!split) throw Failure{kUsage, fmt::format("--map: {}", split.error().reason())};
+    const profile::Profile& p = load_map_or_fail(split->first);
+    out[device_unit(split->second, p).value] = &p;
   }
   return out;
 }

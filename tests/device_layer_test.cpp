@@ -17,6 +17,7 @@
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/device.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 
@@ -45,6 +46,25 @@ TEST(LinkRows, TheRangeAndDefaultsComeFromTheRows) {
   EXPECT_EQ(chair.max, 247);
   EXPECT_EQ(chair.fallback, 1);
   EXPECT_EQ(profile::link_defaults(rehand6600::kProfile).baud, 115200u);
+}
+
+// A unit as typed is checked against the device's own range, in the kit
+// and in the registry's NAME@UNIT (the sniffer's --device).
+TEST(LinkRows, AUnitAsTypedIsTheDevicesRange_NameAtUnitTheRegistrys) {
+  EXPECT_EQ(*profile::device_unit(inverjet::kProfile, ""), 21);
+  EXPECT_EQ(*profile::device_unit(inverjet::kProfile, "250"), 250);
+  EXPECT_EQ(profile::device_unit(rehand6600::kProfile, "250").error().reason(),
+            "rehand6600 unit 250 is out of range 1..247");
+  const auto at = devices::find_at("inverjet@250");
+  ASSERT_TRUE(at.ok()) << at.error().reason();
+  EXPECT_EQ(at->entry, devices::find("inverjet"));
+  EXPECT_EQ(at->unit.value, 250);
+  EXPECT_EQ(devices::find_at("inverjet").error().reason(), "'inverjet': write NAME@UNIT (inverjet@21)");
+  const std::string unknown(devices::find_at("fly@2").error().reason());
+  EXPECT_TRUE(unknown.starts_with("no such device 'fly' (")) << unknown;
+  EXPECT_NE(unknown.find("rehand6600"), std::string::npos) << unknown;
+  EXPECT_EQ(devices::find_at("rehand6600@0").error().reason(), "rehand6600 unit 0 is out of range 1..247");
+  EXPECT_EQ(profile::split_at_unit("maps/m@x.yaml@5")->first, "maps/m@x.yaml");
 }
 
 TEST(LinkRows, AWriteMovesTheDeviceAfterTheResponse_ARefusedOneDoesNot) {

@@ -436,6 +436,27 @@ TEST(TypedRequest, AWriteIsEncodedBeforeAnyPortOpens_OneValueIsASingleWrite) {
             "FC06 write single register at 40003 (0x0002) x1 to unit 5 on " + rig.master->describe());
 }
 
+// The confirmation names what was written, where and to whom; a broadcast
+// on a serial line says that no unit answers it.
+TEST(TypedRequest, AWriteSaysWhatItWroteInOneLine) {
+  const std::vector<std::string> one{"1234"}, f32{"1.5"},
+      many{"1", "2", "3", "4", "5", "6", "7", "8", "9", "10"}, mask{"0xFFF7", "0"};
+  const WriteRequest single{.unit = UnitId{1}, .address = "0", .values = one};
+  EXPECT_EQ(write_text(single, *plan_write(single), false),
+            "wrote 1234 to holding register 0 (0x0000) of unit 1");
+  const WriteRequest typed{.unit = UnitId{0}, .address = "2", .values = f32, .type = ValueType::f32};
+  EXPECT_EQ(write_text(typed, *plan_write(typed), false),
+            "wrote 1.5 (f32) to holding registers 2..3 (0x0002..0x0003) of every unit (a broadcast: no unit "
+            "answers it)");
+  EXPECT_TRUE(write_text(typed, *plan_write(typed), true).ends_with("of unit 0"));
+  const WriteRequest list{.unit = UnitId{5}, .address = "0", .values = many};
+  EXPECT_TRUE(
+      write_text(list, *plan_write(list), false).starts_with("wrote 1, 2, 3, 4, ..., 10 (10 values) to"));
+  const WriteRequest masked{.unit = UnitId{5}, .address = "40", .mask = mask};
+  EXPECT_TRUE(write_text(masked, *plan_write(masked), false).starts_with("masked holding register 40"));
+  EXPECT_TRUE(write_text(masked, *plan_write(masked), false).ends_with("of unit 5 with AND 0xFFF7 OR 0"));
+}
+
 TEST(TypedRequest, AWriteRefusesWhatItCannotWrite) {
   const std::vector<std::string> one{"1"}, two{"2"}, big{"40000"};
   auto coil = plan_write({.address = "00001", .values = one});

@@ -170,6 +170,25 @@ std::string write_context(const WritePlan& p, const Master& master) {
                      p.notation.where(p.address), p.count, p.unit.value, master.describe());
 }
 
+std::string write_text(const WriteRequest& request, const WritePlan& p, bool tcp) {
+  const std::span<const std::string> v = request.values;
+  const std::string values = v.size() <= 8 ? fmt::format("{}", fmt::join(v, ", "))
+                                           : fmt::format("{}, {}, {}, {}, ..., {} ({} values)", v[0], v[1],
+                                                         v[2], v[3], v.back(), v.size());
+  const std::string target =
+      fmt::format("{} {}", space_noun(p.table, p.count > 1), p.notation.span(p.address, p.count));
+  const std::string to_whom = p.unit == kBroadcast && !tcp ? "of every unit (a broadcast: no unit answers it)"
+                                                           : fmt::format("of unit {}", p.unit.value);
+  if (!request.mask.empty())
+    return fmt::format("masked {} {} with AND {} OR {}", target, to_whom, request.mask[0], request.mask[1]);
+  constexpr const char* kTypes[] = {"u16", "i16", "u32", "i32", "f32"};
+  return fmt::format("wrote {}{} to {} {}", values,
+                     request.coils || request.type == ValueType::u16
+                         ? ""
+                         : fmt::format(" ({})", kTypes[static_cast<unsigned>(request.type)]),
+                     target, to_whom);
+}
+
 Error send_write(Master& master, const WritePlan& p) {
   switch (p.function) {
     case 0x16:

@@ -37,6 +37,21 @@ Outcome<int64_t> parse_number(std::string_view text, std::string_view what, int6
   return v;
 }
 
+Outcome<uint8_t> device_unit(const Profile& p, std::string_view text) {
+  const UnitRange units = unit_range(p);
+  if (text.empty()) return units.fallback;
+  const Outcome<int64_t> n = parse_number(text, fmt::format("{} unit", p.name), units.min, units.max);
+  if (!n) return n.error();
+  return static_cast<uint8_t>(*n);
+}
+
+Outcome<std::pair<std::string, std::string>> split_at_unit(std::string_view text) {
+  const size_t at = text.rfind('@');
+  if (at == std::string_view::npos || at == 0 || at + 1 == text.size())
+    return Status(Errc::invalid_argument, fmt::format("'{}': write NAME@UNIT (inverjet@21)", text));
+  return std::pair{std::string(text.substr(0, at)), std::string(text.substr(at + 1))};
+}
+
 std::optional<ValueType> value_type(std::string_view name) noexcept {
   if (name == "u16") return ValueType::u16;
   if (name == "i16") return ValueType::i16;

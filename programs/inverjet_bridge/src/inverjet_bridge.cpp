@@ -101,19 +101,13 @@ rtukit::Outcome<std::vector<BridgeMachine>> bridge_machines(std::span<const std:
   const std::span<const std::string> list = units.empty() ? std::span(&kFactory, 1) : units;
   // The range is the table's (the address row), as for every other
   // Inverjet command, so the bridge never accepts a unit the machine would not.
-  const profile::UnitRange range = profile::unit_range(ij::kProfile);
   std::vector<BridgeMachine> machines;
   for (const std::string& entry : list) {
     const size_t eq = entry.find('=');
-    const std::string_view text = std::string_view(entry).substr(0, eq);
+    const Outcome<uint8_t> unit = profile::device_unit(ij::kProfile, std::string_view(entry).substr(0, eq));
+    if (!unit) return unit.error();
     BridgeMachine m;
-    m.unit = range.fallback;
-    if (!text.empty()) {
-      const Outcome<int64_t> n =
-          profile::parse_number(text, fmt::format("{} unit", ij::kProfile.name), range.min, range.max);
-      if (!n) return n.error();
-      m.unit = static_cast<uint8_t>(*n);
-    }
+    m.unit = *unit;
     if (eq != std::string::npos)
       m.id = entry.substr(eq + 1);
     else if (list.size() == 1)

@@ -126,6 +126,13 @@ Outcome<WritePlan> plan_write(const WriteRequest& request, std::string* note = n
 /// (0x0002) x3 to unit 5 on /dev/ttyUSB0 9600 8N1".
 std::string write_context(const WritePlan& p, const Master& master);
 
+/// What the write did, in one line: "wrote 1234 to holding register 40001
+/// (0x0000) of unit 1", "wrote 1.5 (f32) to ...", "masked holding register
+/// ... with AND 0xFFF7 OR 0 of unit 5"; past 8 values "1, 2, 3, 4, ..., 10
+/// (10 values)"; unit 0 on a serial line (not `tcp`): "of every unit (a
+/// broadcast: no unit answers it)". `request`: what plan_write was given.
+std::string write_text(const WriteRequest& request, const WritePlan& p, bool tcp);
+
 /// Sends the write. Errors: the Master's.
 Error send_write(Master& master, const WritePlan& p);
 

@@ -15,6 +15,7 @@
 #include <optional>
 #include <span>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 #include "rtukit/devices/profile/schema.hpp"
@@ -26,6 +27,16 @@ namespace rtukit::profile {
 /// reason naming `what`: "address 'x' is not a number (decimal, or hex as
 /// 0x21)", "count 300 is out of range 1..125".
 Outcome<int64_t> parse_number(std::string_view text, std::string_view what, int64_t min, int64_t max);
+
+/// A device's unit address as typed: empty is its factory address, else one
+/// of the addresses its link-address row (or Profile::link) allows. Errors:
+/// invalid_argument, "inverjet unit 300 is out of range 1..254".
+Outcome<uint8_t> device_unit(const Profile& p, std::string_view text);
+
+/// "inverjet@21", "meter.yaml@5" -> {"inverjet", "21"}: a device (or a map
+/// file) and the unit it answers at, as a sniffer names them. Errors:
+/// invalid_argument, "'inverjet': write NAME@UNIT (inverjet@21)".
+Outcome<std::pair<std::string, std::string>> split_at_unit(std::string_view text);
 
 enum class ValueType : uint8_t { u16, i16, u32, i32, f32 };
 
