@@ -344,6 +344,13 @@ void fail(Error e, std::string_view context) {
   throw Failure{exit_code(e), line};
 }
 
+RequestLog print_requests() {
+  return [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
+    fmt::print("rx {} -> {}\n", hex(rx), tx.empty() ? std::string("(silence)") : "tx " + hex(tx));
+    std::fflush(stdout);
+  };
+}
+
 void print_stats(const Master& master) {
   const MasterStats s = master.stats();
   fmt::print(stderr,

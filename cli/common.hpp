@@ -219,6 +219,9 @@ using profile::hex;
 /// io::bus_tap_socket, whose error becomes Failure{kUsage} with its reason.
 std::string bus_tap_socket(const std::string& name);
 
+/// A server's -v: each request and its answer on stdout, "rx 15 03 ... -> tx 15 03 ..." or "(silence)".
+RequestLog print_requests();
+
 /// Prints the master's counters to stderr (for --stats).
 void print_stats(const Master& master);
 

@@ -374,14 +374,8 @@ int run_slave(const SlaveArgs& a) {
   // right after "listening on" ends the server cleanly too.
   asio::signal_set signals(ctx);
   stop_on_signals(signals, ctx);
-  RequestLog log;
-  if (a.verbose) {
-    log = [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
-      fmt::print("rx {} -> {}\n", hex(rx), tx.empty() ? std::string("(silence)") : "tx " + hex(tx));
-      std::fflush(stdout);
-    };
-  }
-  auto listener = SlaveListener::start(ctx, engine, spec, log, a.server.options());
+  auto listener = SlaveListener::start(ctx, engine, spec, a.verbose ? print_requests() : RequestLog{},
+                                       a.server.options());
   if (!listener.ok())
     throw Failure{exit_code(listener.error().error()), std::string(listener.error().reason())};
   fmt::print("listening on {} (units", (*listener)->where());

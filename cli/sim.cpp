@@ -25,13 +25,6 @@
 namespace rtukit::cli {
 namespace {
 
-RequestLog request_logger() {
-  return [](std::span<const uint8_t> rx, std::span<const uint8_t> tx) {
-    fmt::print("rx {} -> {}\n", hex(rx), tx.empty() ? std::string("(silence)") : "tx " + hex(tx));
-    std::fflush(stdout);
-  };
-}
-
 struct SimArgs {
   LinkOptions link;
   std::string unit;
@@ -81,7 +74,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
     fmt::print("{}\n", line);
     std::fflush(stdout);
   };
-  if (a.verbose) o.log = request_logger();
+  if (a.verbose) o.log = print_requests();
   o.server = a.server.options();
   std::string console_path;
   if (!a.console.empty()) {
