@@ -15,7 +15,7 @@ cd "$(dirname "$0")/.."
 
 targets=(fuzz_rtu_framer fuzz_slave_engine fuzz_pdu_codec fuzz_mbap fuzz_master_response
          fuzz_inverjet_machine fuzz_rehand_chair fuzz_rehand_session fuzz_device_engine fuzz_map_file fuzz_plan_file
-         fuzz_state_file fuzz_mqtt_command fuzz_host_message fuzz_gateway_request)
+         fuzz_state_file fuzz_mqtt_command fuzz_host_message fuzz_gateway_request fuzz_ble_gatt)
 
 if [ "${1:-}" = "--list" ]; then
   printf '%s\n' "${targets[@]}"
