@@ -30,6 +30,7 @@ struct ChairArgs {
   unsigned forget_days = 30;            ///< a pairing unused this many days is forgotten
   std::string unit;                     ///< empty: the controller's factory address
   bool mph = false;
+  std::string ble;  ///< --ble[=ADAPTER]: phones over Bluetooth LE
 };
 
 // The daemon on the RK3588: owns the UART, serves the HMI and the phone page
@@ -44,6 +45,7 @@ int run_host(const ChairArgs& a) {
   o.tls_cert = a.tls_cert;
   o.tls_key = a.tls_key;
   o.host_names = a.host_names;
+  o.ble_adapter = a.ble;
   o.pairing_max_age = std::chrono::hours(24) * a.forget_days;
   if (o.pairing_file.empty())
     o.pairing_file = programs::default_pairing_file(std::getenv("STATE_DIRECTORY"), std::getenv("HOME"));
@@ -80,6 +82,9 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
         cmd.add_option("--phone", a.phone,
                        "a TLS listener for phones (HOST:PORT, repeatable): the chair's hotspot address, e.g. "
                        "192.168.4.1:8443");
+        cmd.add_flag("--ble{hci0}", a.ble,
+                     "phones over Bluetooth LE too, on this adapter (--ble: hci0, --ble=hci1; "
+                     "docs/rehand6600-ble.md)");
         cmd.add_option(
             "--tls-cert", a.tls_cert,
             "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
@@ -97,7 +102,8 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                        "days after which a phone that has not connected is forgotten (default 30)")
             ->check(CLI::Range(1u, 3650u));
         examples(cmd,
-                 {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443"});
+                 {"rtukit rehand6600 host --port /dev/ttyS9 --http 127.0.0.1:8080 --phone 192.168.4.1:8443",
+                  "rtukit rehand6600 host --port /dev/ttyS9 --ble"});
       },
       [](const ChairArgs& a) { return run_host(a); });
   // status, watch, hold, pulse, set, errors, stopping: the device's verb table (rehand6600::verb_table).

@@ -3,11 +3,10 @@
 // them to the command characteristic.
 // Properties: never crashes; a command parsed is well formed (a version-1
 // command of 10 bytes, a hold function pressed, renewed or released with a
-// press id, a pulse function pulsed with press id 0 and value 0..1 for the
-// light, 1 otherwise) and encodes back to the same bytes; its function's
-// register is one of the phone's (0x006E..0x0075); a result is at most 20
-// bytes and its reason is never cut inside a UTF-8 character (valid UTF-8 in,
-// valid UTF-8 out); the reference client's parsers never crash either.
+// press id, a pulse function pulsed with press id 0 and value 1) and encodes back to the same bytes; its
+// function's register is one of the phone's (0x006E..0x0075); a result is at most 20 bytes and its reason is
+// never cut inside a UTF-8 character (valid UTF-8 in, valid UTF-8 out); the reference client's parsers never
+// crash either.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>

@@ -30,6 +30,9 @@ PACKAGES=(
   libboost-dev libssl-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
   # the Inverjet MQTT bridge (libmosquitto) and its tests (a real broker and its clients)
   libmosquitto-dev mosquitto mosquitto-clients
+  # the Rehand host daemon's Bluetooth LE link (BlueZ over D-Bus) and its tests: a private bus with a
+  # mock BlueZ (python3-dbusmock's bluez5 template)
+  libsdbus-c++-dev dbus-daemon python3-dbus python3-dbusmock python3-gi
 )
 if [ "$target" = "aarch64" ]; then
   if ! dpkg --print-foreign-architectures | grep -qx arm64; then
@@ -39,7 +42,7 @@ if [ "$target" = "aarch64" ]; then
   PACKAGES+=(
     g++-aarch64-linux-gnu qemu-user qemu-user-binfmt
     libfmt-dev:arm64 libspdlog-dev:arm64 libgtest-dev:arm64 libgmock-dev:arm64 libqrencode-dev:arm64
-    libmosquitto-dev:arm64 libboost-dev:arm64 libssl-dev:arm64 libmodbus-dev:arm64
+    libmosquitto-dev:arm64 libboost-dev:arm64 libssl-dev:arm64 libmodbus-dev:arm64 libsdbus-c++-dev:arm64
     # Debian 12's libyaml-cpp-dev is not multi-arch: its arm64 runtime library only (CMakeLists.txt)
     libyaml-cpp0.7:arm64
   )

@@ -48,7 +48,7 @@ TEST(RehandBleGatt, AMalformedCommandIsRefusedSayingWhy) {
       {bytes({1, 1, 1, 1, 0, 0, 0, 0, 0, 0}), "press id 0: a press id starts at 1"},
       {bytes({1, 4, 1, 1, 0, 0, 0, 0, 0, 0}), "a hold function is pressed, renewed and released, not pulsed"},
       {bytes({1, 1, 8, 1, 7, 0, 0, 0, 0, 0}), "a pulse function is op 4 (pulse)"},
-      {bytes({1, 4, 8, 5, 0, 0, 0, 0, 0, 0}), "light: value 0 or 1, not 5"},
+      {bytes({1, 4, 8, 5, 0, 0, 0, 0, 0, 0}), "a pulse's value is 1, not 5"},
       {bytes({1, 4, 6, 1, 3, 0, 0, 0, 0, 0}), "a pulse has press id 0"},
   };
   for (const auto& [input, reason] : cases) {
@@ -57,7 +57,8 @@ TEST(RehandBleGatt, AMalformedCommandIsRefusedSayingWhy) {
     EXPECT_EQ(c.error().code(), Errc::invalid_argument);
     EXPECT_EQ(c.error().reason(), reason);
   }
-  EXPECT_TRUE(parse_command(bytes({1, 4, 8, 0, 0, 0, 0, 0, 0, 0})).ok());  // the light off
+  EXPECT_TRUE(parse_command(bytes({1, 4, 8, 1, 0, 0, 0, 0, 0, 0})).ok());  // the light
+  EXPECT_TRUE(parse_command(bytes({1, 3, 1, 0, 7, 0, 0, 0, 0, 0})).ok());  // a release's value is any
 }
 
 // The session's answer becomes the result: a renewal refused is "ended",
@@ -106,7 +107,7 @@ TEST(RehandBleGatt, TheStateByteByByte) {
   s.regs[reg::kDistanceFront + 1] = 70000 & 0xFFFF;
   v.active_error = 0x10C3;
   v.disabled.drive = "the joystick on the chair is in use";
-  v.this_phone_drives = true;
+  v.phone_driving = true;
   const auto b = encode_state(v);
   EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.end()), bytes({1, 0b0110'1101, 87, 6, 2, 1, 0, 0, 0, 2, 0xC3,
                                                              0x10, 0b010, 0xDC, 0x05, 0x70, 0x11, 0x34}));

@@ -79,9 +79,7 @@ Outcome<Command> parse_command(std::span<const uint8_t> b) {
                                    : "a pulse function is op 4 (pulse)");
   if (c.op == Op::pulse) {
     if (c.press != 0) return bad("a pulse has press id 0");
-    if (c.function == Function::light ? c.value > 1 : c.value != 1)
-      return bad(c.function == Function::light ? fmt::format("light: value 0 or 1, not {}", c.value)
-                                               : fmt::format("a signal's value is 1, not {}", c.value));
+    if (c.value != 1) return bad(fmt::format("a pulse's value is 1, not {}", c.value));
     return c;
   }
   if (c.press == 0) return bad("press id 0: a press id starts at 1");
@@ -146,7 +144,7 @@ std::array<uint8_t, kStateSize> encode_state(const StateView& v) {
                         s[reg::kMainLight] != 0,
                         s[reg::kLeftSignal] != 0,
                         s[reg::kRightSignal] != 0,
-                        v.this_phone_drives,
+                        v.phone_driving,
                         v.emergency};
   for (unsigned i = 0; i < 8; ++i) b[1] |= static_cast<uint8_t>(flags[i] ? 1u << i : 0u);
   b[2] = u8_of(s.battery());

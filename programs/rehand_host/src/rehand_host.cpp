@@ -18,11 +18,14 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <future>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
 
+#include "ble_peripheral.hpp"
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
@@ -327,15 +330,17 @@ struct HostDaemon::Impl {
         std::string fresh = random_code();
         if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
         code = {std::move(fresh), clock.now() + kCodeLifetime, 0};
+        if (ble) ble->set_pairing(true);
         log("pairing code shown on the display");
         broadcast_state();
         return {};
       }
       case Kind::pair_cancel:
-        code = {};
+        close_pairing();
         broadcast_state();
         return {};
       case Kind::forget: {
+        if (k.phone.starts_with("ble:")) return ble_forget(k.phone);
         const std::string name = name_of(k.phone);
         if (rtukit::Status e = pairing.remove(k.phone)) return e;
         drop_phone(k.phone, "this phone was forgotten by the display");
@@ -348,6 +353,9 @@ struct HostDaemon::Impl {
         for (const PairedPhone& p : pairing.phones()) ids.push_back(p.id);
         if (rtukit::Status e = pairing.remove_all()) return e;
         for (const std::string& id : ids) drop_phone(id, "every phone was forgotten by the display");
+        if (ble)
+          for (const BleDevice& b : ble->devices())
+            if (b.bonded) (void)ble_forget(ble_id(b.path));
         log(fmt::format("every phone forgotten by the display ({})", ids.size()));
         broadcast_state();
         return {};
@@ -417,7 +425,7 @@ struct HostDaemon::Impl {
         c.socket->close("authentication timeout");
     }
     if (!code.code.empty() && now > code.until) {
-      code = {};
+      close_pairing();
       broadcast_state();
     }
     if (now - last_expiry_check > std::chrono::minutes(1)) {
@@ -436,6 +444,101 @@ struct HostDaemon::Impl {
     const bool near = host.near_obstacle();
     if (near && !near_obstacle) broadcast({{"type", "event"}, {"event", "near_obstacle"}});
     near_obstacle = near;
+  }
+
+  // ------------------------------------------------------------ Bluetooth LE
+
+  // A BLE phone is named in the display's list by its address.
+  std::string ble_id(const std::string& path) const {
+    if (ble)
+      for (const BleDevice& b : ble->devices())
+        if (b.path == path) return "ble:" + b.address;
+    return "ble:" + path;
+  }
+  // The name of the BLE phone behind session client `client`, "" when it is none.
+  std::string ble_name(uint64_t client) const {
+    for (const auto& [path, id] : ble_clients) {
+      if (id != client) continue;
+      if (ble)
+        for (const BleDevice& b : ble->devices())
+          if (b.path == path) return b.name;
+      return path;
+    }
+    return {};
+  }
+
+  void close_pairing() {
+    code = {};
+    ble_passkey.clear();
+    if (ble) ble->set_pairing(false);
+  }
+
+  // A bonded phone wrote a command: the session decides, the result goes back
+  // on the result characteristic. The phone joins the session at its first command.
+  void ble_command(const std::string& device, const std::vector<uint8_t>& bytes) {
+    namespace ble_gatt = rh::ble;
+    const Outcome<ble_gatt::Command> c = ble_gatt::parse_command(bytes);
+    if (!c) {
+      const uint16_t sequence =
+          bytes.size() == ble_gatt::kCommandSize ? static_cast<uint16_t>(bytes[8] | bytes[9] << 8) : 0;
+      ble->publish_result(ble_gatt::encode_result({.sequence = sequence,
+                                                   .code = ble_gatt::ResultCode::invalid,
+                                                   .reason = std::string(c.error().reason())}));
+      return;
+    }
+    uint64_t& id = ble_clients[device];
+    if (id == 0) {
+      id = next_ble_client++;
+      host.join(id, rh::ClientKind::phone);
+      log(fmt::format("Bluetooth phone '{}' ({}) connected", ble_name(id), ble_id(device)));
+    }
+    const uint16_t address = ble_gatt::register_of(c->function);
+    rtukit::Status e;
+    switch (c->op) {
+      case ble_gatt::Op::press:
+        e = host.press(id, address, 1, c->press);
+        break;
+      case ble_gatt::Op::renew:
+        e = host.renew(id, c->press);
+        break;
+      case ble_gatt::Op::release:
+        host.release_press(id, c->press);
+        break;
+      case ble_gatt::Op::pulse:
+        e = host.send(id, address, 1);
+        break;
+    }
+    ble->publish_result(ble_gatt::encode_result(ble_gatt::result_of(*c, e)));
+  }
+
+  // The phone's link is gone: the session treats it as a loss of control
+  // when it was driving (the stop command), like a web phone's socket.
+  void ble_gone(const std::string& device, std::string_view why) {
+    const auto it = ble_clients.find(device);
+    if (it == ble_clients.end()) return;
+    log(fmt::format("Bluetooth phone '{}' ({}) {}", ble_name(it->second), ble_id(device), why));
+    host.leave(it->second);
+    ble_clients.erase(it);
+    broadcast_state();
+  }
+
+  void ble_show_passkey(const std::string& device, uint32_t passkey) {
+    ble_passkey = device.empty() ? std::string() : fmt::format("{:06d}", passkey);
+    if (!device.empty())
+      log(fmt::format("Bluetooth pairing: passkey shown on the display for {}", ble_id(device)));
+    broadcast_state();
+  }
+
+  rtukit::Status ble_forget(const std::string& phone) {
+    if (!ble) return rtukit::Status(Errc::invalid_argument, "no Bluetooth LE link");
+    for (const BleDevice& b : ble->devices()) {
+      if (ble_id(b.path) != phone) continue;
+      ble_gone(b.path, "forgotten by the display");
+      ble->forget(b.path);
+      log(fmt::format("Bluetooth phone '{}' ({}) forgotten by the display: its bond removed", b.name, phone));
+      return {};
+    }
+    return rtukit::Status(Errc::invalid_argument, fmt::format("no such phone '{}'", phone));
   }
 
   // ------------------------------------------------------------ state
@@ -493,14 +596,19 @@ struct HostDaemon::Impl {
     for (const rh::Session::Press& p : held) {
       auto owner = clients.find(p.client);
       const bool phone = owner != clients.end() && owner->second.role == Role::phone;
+      const std::string ble_phone = ble_name(p.client);
       presses.push_back({{"command", key_of(p.command)},
                          {"value", p.value},
-                         {"owner", phone ? name_of(owner->second.phone) : "display"}});
+                         {"owner", !ble_phone.empty() ? ble_phone
+                                   : phone            ? name_of(owner->second.phone)
+                                                      : "display"}});
     }
     const rh::Disabled d = host.disabled();
     std::string driver;
     if (const auto id = host.driver()) {
       if (auto it = clients.find(*id); it != clients.end()) driver = it->second.phone;
+      for (const auto& [path, client] : ble_clients)
+        if (client == *id) driver = ble_id(path);
     }
     Json st{{"type", "state"},
             {"connected", live},
@@ -542,6 +650,19 @@ struct HostDaemon::Impl {
                         {"driving", !driver.empty() && driver == p.id},
                         {"last_contact", local_time(p.last_contact, "%Y-%m-%d %H:%M:%S")}});
     }
+    // Bonded Bluetooth phones in the same list, "ble:ADDRESS" (forget removes the bond).
+    if (ble) {
+      for (const BleDevice& b : ble->devices()) {
+        if (!b.bonded) continue;
+        phones.push_back({{"phone", ble_id(b.path)},
+                          {"name", b.name},
+                          {"paired_code", "Bluetooth"},
+                          {"connected", b.connected},
+                          {"driving", !driver.empty() && driver == ble_id(b.path)},
+                          {"last_contact", ""}});
+      }
+      st["ble_passkey"] = ble_passkey.empty() ? "" : ble_passkey;
+    }
     st["phones"] = phones;
     return st;
   }
@@ -549,6 +670,15 @@ struct HostDaemon::Impl {
   // The state goes to every display and authenticated phone; the pairing
   // code, the fingerprint and the phone list to displays only.
   void broadcast_state() {
+    if (ble)
+      ble->publish_state([&] {
+        const auto b = rh::ble::encode_state({.snapshot = host.snapshot(),
+                                              .active_error = host.active_error(),
+                                              .disabled = host.disabled(),
+                                              .phone_driving = host.driver().has_value(),
+                                              .emergency = host.emergency()});
+        return std::vector<uint8_t>(b.begin(), b.end());
+      }());
     const std::string for_phones = state_json(false).dump();
     const std::string for_displays = state_json(true).dump();
     for (auto& [id, c] : clients) {
@@ -634,6 +764,7 @@ struct HostDaemon::Impl {
   rh::Host host;
   PairingStore pairing;
   std::unique_ptr<web::Server> server;
+  std::unique_ptr<BlePeripheral> ble;  ///< --ble: set by start() before the server runs its handlers
   std::atomic<bool> flush_pending{false};
   // Server-thread state.
   std::map<uint64_t, Client> clients;
@@ -652,6 +783,9 @@ struct HostDaemon::Impl {
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
   Clock::time_point last_expiry_check{};
+  std::map<std::string, uint64_t> ble_clients;    ///< a BLE phone's device path -> its session client
+  uint64_t next_ble_client = uint64_t{1} << 62;   ///< apart from the web sockets' ids
+  std::string ble_passkey;                        ///< shown on the display while a phone pairs
   std::string phone_url, fingerprint, cert_path;  ///< set by start(), read on the server thread after
   bool started = false;
 };
@@ -722,6 +856,38 @@ rtukit::Status HostDaemon::start() {
     }
   }
   d.server->post([&d, phone_url] { d.phone_url = phone_url; });
+  if (!o.ble_adapter.empty()) {
+    BleHandlers h;
+    h.command = [&d](const std::string& device, std::vector<uint8_t> value) {
+      d.server->post([&d, device, value = std::move(value)] { d.ble_command(device, value); });
+    };
+    h.disconnected = [&d](const std::string& device) {
+      d.server->post([&d, device] { d.ble_gone(device, "disconnected"); });
+    };
+    h.unsubscribed = [&d] {
+      d.server->post([&d] {
+        const auto gone = d.ble_clients;
+        for (const auto& [device, id] : gone) d.ble_gone(device, "stopped listening");
+      });
+    };
+    h.passkey = [&d](const std::string& device, uint32_t passkey) {
+      d.server->post([&d, device, passkey] { d.ble_show_passkey(device, passkey); });
+    };
+    h.devices_changed = [&d] { d.server->post([&d] { d.broadcast_state(); }); };
+    Outcome<std::unique_ptr<BlePeripheral>> ble =
+        BlePeripheral::start({.adapter = o.ble_adapter}, std::move(h));
+    if (!ble) {
+      d.server->stop();
+      return ble.error();
+    }
+    // Handed to the server thread, which reads it from then on.
+    std::promise<void> handed;
+    d.server->post([&d, &ble, &handed] {
+      d.ble = std::move(*ble);
+      handed.set_value();
+    });
+    handed.get_future().wait();
+  }
   d.host.start();
   d.started = true;
   d.log(fmt::format("started: display {}, {} phone listener(s), {} paired phone(s)", o.http, o.phone.size(),
@@ -733,7 +899,8 @@ void HostDaemon::stop() {
   Impl& d = *impl_;
   if (!d.started) return;
   d.started = false;
-  d.host.stop();  // releases every hold first
+  d.host.stop();                                       // releases every hold first
+  if (d.ble) d.server->post([&d] { d.ble.reset(); });  // unregistered from BlueZ on the server thread
   d.server->stop();
   d.log("stopped: every command released");
 }

@@ -11,6 +11,8 @@
 //  - a phone: WebSocket /ws on a phone listener, TLS only. Its first message
 //    authenticates it (a token, never in a URL) or pairs it (the one-time
 //    code the display shows); then it drives under the session's rules.
+//  - a phone over Bluetooth LE (--ble): bonded with the passkey the display
+//    shows; the same session and rules (docs/rehand6600-ble.md).
 //
 // Every rule about who may command what, and for how long, is the host
 // controller's Session (rehand6600/session.hpp); this daemon only carries
@@ -114,6 +116,11 @@ struct HostDaemonOptions {
   std::string phone_url;
   std::chrono::seconds pairing_max_age{std::chrono::hours(24 * 30)};  ///< unused this long: forgotten
   std::chrono::seconds auth_timeout{5};  ///< a phone socket that has not authenticated by then is closed
+  /// Non-empty: phones are also served over Bluetooth LE on this BlueZ
+  /// adapter ("hci0"; docs/rehand6600-ble.md): a GATT service, passkey
+  /// pairing shown on the display while "Pair a phone" is open, bonded
+  /// phones in the display's phone list.
+  std::string ble_adapter;
   rehand6600::HostOptions host;
   bool mph = false;  ///< show speed in mph
   /// One line per security-relevant event (pairing, forgetting, link loss and

@@ -54,7 +54,7 @@ enum class Function : uint8_t {
   horn = 5,          ///< hold: phone_horn
   left_signal = 6,   ///< pulse: phone_left_signal
   right_signal = 7,  ///< pulse: phone_right_signal
-  light = 8,         ///< pulse: phone_light (value 0 off, 1 on)
+  light = 8,         ///< pulse: phone_light (the lighting on or off, as the chair's button)
 };
 
 /// The register a function writes (reg::kCommands row), e.g. 0x006E for forward.
@@ -63,7 +63,7 @@ uint16_t register_of(Function f) noexcept;
 bool is_hold(Function f) noexcept;
 
 /// A command as the phone writes it: 10 bytes.
-///   0 version, 1 op, 2 function, 3 value (a pulse's; 1 for a hold),
+///   0 version, 1 op, 2 function, 3 value (1 for a press and a pulse; any for renew, release),
 ///   4..7 press id (u32), 8..9 sequence (u16, echoed in the result).
 struct Command {
   Op op = Op::press;
@@ -76,8 +76,8 @@ inline constexpr size_t kCommandSize = 10;
 
 /// The command in `bytes`. Errors: invalid_argument naming what is wrong
 /// ("a command is 10 bytes, not 3", "version 2: this chair speaks 1", "op 9",
-/// "function 0", "a hold's value is 1, not 2", "light: value 0 or 1, not 5",
-/// "a pulse is op 4, press id 0").
+/// "function 0", "a hold's value is 1, not 2", "a pulse's value is 1, not 5",
+/// "a pulse has press id 0").
 Outcome<Command> parse_command(std::span<const uint8_t> bytes);
 std::array<uint8_t, kCommandSize> encode_command(const Command& c);
 
@@ -109,8 +109,9 @@ Result result_of(const Command& c, const rtukit::Status& answer);
 /// The state a phone reads and is notified of: 18 bytes.
 ///   0 version
 ///   1 flags: bit 0 the controller answers (no 1010), 1 charging, 2 clutch
-///     in drive, 3 main light, 4 left signal, 5 right signal, 6 this phone
-///     is the one driving, 7 a lost phone's emergency stop is in progress
+///     in drive, 3 main light, 4 left signal, 5 right signal, 6 a phone
+///     drives (holds the driver's seat), 7 a lost phone's emergency stop is
+///     in progress
 ///   2 battery (%), 3 speed (km/h), 4 motion state (table 1's 0x0005)
 ///   5 stand/sit, 6 seat lift, 7 backrest, 8 seat tilt, 9 leg rest (table 1's
 ///     0x0012, 0x0010, 0x0011, 0x0013, 0x0014: 0 still, 1 and 2 moving)
@@ -124,7 +125,7 @@ struct StateView {
   Snapshot snapshot;
   uint16_t active_error = 0;
   Disabled disabled;
-  bool this_phone_drives = false;
+  bool phone_driving = false;  ///< a phone (over BLE or the web) holds the driver's seat
   bool emergency = false;
 };
 inline constexpr size_t kStateSize = 18;

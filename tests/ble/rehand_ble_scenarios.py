@@ -1,0 +1,223 @@
+#!/usr/bin/python3
+"""The Rehand 6600 host daemon's Bluetooth LE link against a mock BlueZ
+(tests/ble/bluez_mock.py) on a private system bus, with the simulated
+controller on a pty: registration, pairing on the display, the same session
+rules as the web phone (a press lives while renewed, a lapse stops, a late
+renewal never restarts, a lost phone stops with the emergency rate), an
+unbonded device refused, forgetting removes the bond.
+
+Usage: rehand_ble_scenarios.py RTUKIT
+Prints one line per check ("ok NAME ..." / "FAIL NAME ..."); exits 1 when a
+check failed. Starts what it needs and stops it by PID.
+"""
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, ".."))
+sys.path.insert(0, os.path.join(HERE, "..", "browser"))
+from pyhelpers import START_DEADLINE, WebSocket, connect_tcp, free_port, stop_processes, temp_dir  # noqa: E402
+from browser_common import Console, check, summary  # noqa: E402
+from bluez_mock import MockBluez  # noqa: E402
+
+RTUKIT = sys.argv[1]
+SERVICE = "7e6a6600-0001-4b1e-9c3d-52e4a8f0c6a1"
+STATE = "7e6a6600-0002-4b1e-9c3d-52e4a8f0c6a1"
+COMMAND = "7e6a6600-0003-4b1e-9c3d-52e4a8f0c6a1"
+RESULT = "7e6a6600-0004-4b1e-9c3d-52e4a8f0c6a1"
+PHONE = "AA:BB:CC:DD:EE:01"
+STRANGER = "AA:BB:CC:DD:EE:02"
+PRESS, RENEW, RELEASE, PULSE = 1, 2, 3, 4
+FORWARD, LEFT_SIGNAL = 1, 6
+
+
+def command(op, function, press, sequence):
+    return [1, op, function, 1, press & 0xFF, (press >> 8) & 0xFF, (press >> 16) & 0xFF, press >> 24,
+            sequence & 0xFF, sequence >> 8]
+
+
+def state(port):
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/state", timeout=10) as r:
+        return json.load(r)
+
+
+def display_request(port, message):
+    ws = WebSocket(port, "/ws?role=display")
+    try:
+        return ws.request(message)
+    finally:
+        ws.close()
+
+
+def register(con, key):
+    """A register of the simulated controller, as its console reads it ("phone_forward = on (1)" -> 1)."""
+    m = re.search(r"\((\d+)\)", con.ask(f"get {key}"))
+    return int(m.group(1)) if m else -1
+
+
+def main():
+    work = temp_dir("rtukit-ble-")
+    pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
+    port = free_port()
+    procs = []
+    bluez = MockBluez(work)
+    try:
+        sim = subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
+                                "--console", f"unix:{console_path}"], stdout=subprocess.DEVNULL,
+                               stderr=subprocess.DEVNULL)
+        procs.append(sim)
+        con = Console(console_path)
+        log_path = os.path.join(work, "host.log")
+        host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{port}",
+                                 "--pairing-file", os.path.join(work, "pairing.json"), "--ble"],
+                                stdout=subprocess.DEVNULL, stderr=open(log_path, "w"), env=bluez.env)
+        procs.append(host)
+
+        # ---- registration: BlueZ calls back before RegisterApplication returns
+        registered = bluez.pump(START_DEADLINE, lambda: bluez.app is not None and bluez.advertisement is not None)
+        check("the daemon registers its GATT application and advertisement (answering BlueZ's call back)",
+              registered, open(log_path).read()[-400:] if not registered else "")
+        if not registered:
+            return summary()
+        connect_tcp(port).close()
+        check("the daemon connects to the controller",
+              bluez.pump(START_DEADLINE, lambda: state(port)["connected"]))
+        check("state and result are read and notified only over an authenticated encrypted link",
+              bluez.flags(STATE) == ["encrypt-authenticated-read", "notify"] and
+              bluez.flags(RESULT) == ["encrypt-authenticated-read", "notify"], f"{bluez.flags(STATE)}")
+        check("commands are written only over an authenticated encrypted link",
+              bluez.flags(COMMAND) == ["encrypt-authenticated-write"], f"{bluez.flags(COMMAND)}")
+        adv = bluez.advertisement[2]
+        check("the advertisement names the chair and its service",
+              adv.get("LocalName") == "Rehand 6600" and SERVICE in [str(u) for u in adv.get("ServiceUUIDs", [])],
+              f"{dict(adv)}")
+        _, agent_path, caps = bluez.agent()
+        check("the pairing agent shows a passkey (DisplayOnly)", caps.get(agent_path) == "DisplayOnly", f"{caps}")
+        check("the adapter is not pairable until the display asks",
+              not bluez.adapter_property("Pairable") and not bluez.adapter_property("Discoverable"))
+
+        # ---- a device that has not bonded gets nothing
+        bluez.add_phone(STRANGER, "Stranger")
+        bluez.connect(STRANGER)
+        bluez.pump(0.2)
+        err = bluez.write(STRANGER, COMMAND, command(PRESS, FORWARD, 1, 1))
+        check("an unbonded device's command is refused", err == "org.bluez.Error.NotAuthorized", err)
+        value, err = bluez.read(STRANGER, STATE)
+        check("an unbonded device cannot read the state", value is None and err == "org.bluez.Error.NotAuthorized",
+              err)
+        check("and the chair did not move", register(con, "phone_forward") == 0)
+        err = bluez.display_passkey(STRANGER, 111111)
+        check("outside the pairing window the agent refuses to pair", err == "org.bluez.Error.Rejected", err)
+
+        # ---- pairing: the display opens the window, the passkey is shown there
+        r = display_request(port, {"op": "pair_start"})
+        check("the display opens \"Pair a phone\"", r is not None and r.get("ok"), f"{r}")
+        check("the adapter is pairable and discoverable while it is open, for at most 2 minutes",
+              bluez.pump(START_DEADLINE, lambda: bool(bluez.adapter_property("Pairable")) and
+                         bool(bluez.adapter_property("Discoverable"))) and
+              int(bluez.adapter_property("PairableTimeout")) == 120)
+        bluez.add_phone(PHONE, "Pixel")
+        bluez.connect(PHONE)
+        err = bluez.display_passkey(PHONE, 48213)
+        check("the agent accepts to show the passkey while the window is open", err == "", err)
+        check("the display shows the passkey (6 digits)",
+              bluez.pump(START_DEADLINE, lambda: state(port).get("ble_passkey") == "048213"),
+              f"{state(port).get('ble_passkey')}")
+        bluez.bond(PHONE)
+        phone_id = f"ble:{PHONE}"
+        check("the bonded phone is in the display's phone list",
+              bluez.pump(START_DEADLINE, lambda: phone_id in [p["phone"] for p in state(port)["phones"]]))
+        display_request(port, {"op": "pair_cancel"})
+        check("closing the window makes the adapter unpairable and hides the passkey",
+              bluez.pump(START_DEADLINE, lambda: not bluez.adapter_property("Pairable") and
+                         state(port).get("ble_passkey") == ""))
+
+        # ---- the bonded phone drives under the session's rules
+        bluez.start_notify(STATE)
+        bluez.start_notify(RESULT)
+        state_path, result_path = bluez.characteristic(STATE), bluez.characteristic(RESULT)
+        value, err = bluez.read(PHONE, STATE)
+        check("the bonded phone reads the state (18 bytes, version 1, the link up)",
+              value is not None and len(value) == 18 and value[0] == 1 and value[1] & 1, f"{value} {err}")
+
+        def result(sequence):
+            for path, v in reversed(bluez.notified):
+                if path == result_path and len(v) >= 4 and v[1] | v[2] << 8 == sequence:
+                    return v
+            return None
+
+        err = bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 1, 10))
+        got = bluez.pump(START_DEADLINE, lambda: result(10) is not None) and result(10)
+        check("a press is accepted (result notified with its sequence)", err == "" and got and got[3] == 0,
+              f"{err} {got}")
+        check("the chair drives forward while the press is renewed",
+              bluez.pump(START_DEADLINE, lambda: register(con, "phone_forward") == 1))
+        held = True
+        for n in range(8):  # a finger on the button: renewed well within the 300 ms lease
+            bluez.write(PHONE, COMMAND, command(RENEW, FORWARD, 1, 11 + n))
+            bluez.pump(0.1)
+            held = held and register(con, "phone_forward") == 1
+        check("renewals keep it driving", held)
+        stopped_at = time.monotonic()
+        check("a lapse (no renewal) stops it",
+              bluez.pump(START_DEADLINE, lambda: register(con, "phone_forward") == 0),
+              f"after {time.monotonic() - stopped_at:.2f} s")
+        bluez.write(PHONE, COMMAND, command(RENEW, FORWARD, 1, 30))
+        got = bluez.pump(START_DEADLINE, lambda: result(30) is not None) and result(30)
+        check("a late renewal is answered 'ended' and never restarts the chair",
+              got and got[3] == 3 and register(con, "phone_forward") == 0, f"{got}")
+        check("the state was notified", any(p == state_path for p, _ in bluez.notified))
+
+        # ---- a phone lost mid-press stops with the emergency rate
+        # (the lapse was a loss of control too: the chair first stops, then a new press may drive)
+        check("the lapse's emergency stop ends once the chair is still",
+              bluez.pump(START_DEADLINE, lambda: not state(port)["emergency"]))
+        bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 2, 40))
+        got = bluez.pump(START_DEADLINE, lambda: result(40) is not None) and result(40)
+        check("a new press drives again", got and got[3] == 0 and
+              bluez.pump(START_DEADLINE, lambda: register(con, "phone_forward") == 1), f"{got}")
+        bluez.write(PHONE, COMMAND, command(RENEW, FORWARD, 2, 41))
+        lost_at = time.monotonic()
+        bluez.disconnect(PHONE)
+        check("a disconnect mid-press stops it through the controller's stop command (0x006A)",
+              bluez.pump(START_DEADLINE, lambda: register(con, "anti_pinch") == 1 or
+                         "emergency stop" in open(log_path).read()) and
+              bluez.pump(START_DEADLINE, lambda: register(con, "phone_forward") == 0),
+              f"after {time.monotonic() - lost_at:.2f} s")
+        check("the log says the phone was lost", "Bluetooth phone 'Pixel'" in open(log_path).read())
+
+        # ---- a malformed command is answered, and moves nothing
+        bluez.connect(PHONE)
+        bad = [1, PRESS, FORWARD, 1, 0, 0, 0, 0, 50, 0]  # press id 0
+        err = bluez.write(PHONE, COMMAND, bad)
+        got = bluez.pump(START_DEADLINE, lambda: result(50) is not None) and result(50)
+        check("a malformed command is answered 'invalid' with the reason", got and got[3] == 2 and b"press id" in got,
+              f"{got}")
+
+        # ---- forgetting on the display removes the bond
+        r = display_request(port, {"op": "forget", "phone": phone_id})
+        check("the display forgets the Bluetooth phone", r is not None and r.get("ok"), f"{r}")
+        check("and BlueZ removed the device and its bond", bluez.pump(START_DEADLINE, lambda: not bluez.known(PHONE)))
+        check("it left the display's list",
+              bluez.pump(START_DEADLINE, lambda: phone_id not in [p["phone"] for p in state(port)["phones"]]))
+
+        # ---- on SIGTERM the daemon unregisters from BlueZ
+        host.send_signal(signal.SIGTERM)
+        ended = bluez.pump(START_DEADLINE, lambda: host.poll() is not None)
+        check("SIGTERM ends the daemon, which unregisters its application and advertisement",
+              ended and host.returncode == 0 and bluez.app[1] in bluez.unregistered and
+              bluez.advertisement[1] in bluez.unregistered, f"exit {host.returncode} {bluez.unregistered}")
+    finally:
+        stop_processes(procs)
+        bluez.stop()
+    return summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
