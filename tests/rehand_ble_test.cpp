@@ -7,6 +7,7 @@
 // phone stopped with the emergency rate, forgetting that removes the bond.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 
 #include "process.hpp"
@@ -16,12 +17,14 @@ namespace {
 using namespace std::chrono_literals;
 
 TEST(RehandBle, ThePhoneOverBluetoothKeepsTheSessionsRules) {
+  const std::string out = std::string(ARTIFACTS_DIR) + "/rehand-ble";
   const rtukit::test::RunResult r = rtukit::test::run(
-      {"/usr/bin/python3", std::string(SCRIPTS_DIR) + "/rehand_ble_scenarios.py", RTUKIT_BIN}, 280000ms);
+      {"/usr/bin/python3", std::string(SCRIPTS_DIR) + "/rehand_ble_scenarios.py", RTUKIT_BIN, out}, 280000ms);
   std::cout << r.output;
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.output.find("\nPASS"), std::string::npos);
   EXPECT_EQ(r.output.find("FAIL "), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(out + "/hmi-ble-passkey.png"));
 }
 
 }  // namespace

@@ -6,8 +6,8 @@ rules as the web phone (a press lives while renewed, a lapse stops, a late
 renewal never restarts, a lost phone stops with the emergency rate), an
 unbonded device refused, forgetting removes the bond.
 
-Usage: rehand_ble_scenarios.py RTUKIT
-Prints one line per check ("ok NAME ..." / "FAIL NAME ..."); exits 1 when a
+Usage: rehand_ble_scenarios.py RTUKIT [OUT]
+OUT: where the display's screenshots go (the passkey on the HMI). Prints one line per check ("ok NAME ..." / "FAIL NAME ..."); exits 1 when a
 check failed. Starts what it needs and stops it by PID.
 """
 import json
@@ -27,6 +27,7 @@ from browser_common import Console, check, summary  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
 
 RTUKIT = sys.argv[1]
+OUT = sys.argv[2] if len(sys.argv) > 2 else None
 SERVICE = "7e6a6600-0001-4b1e-9c3d-52e4a8f0c6a1"
 STATE = "7e6a6600-0002-4b1e-9c3d-52e4a8f0c6a1"
 COMMAND = "7e6a6600-0003-4b1e-9c3d-52e4a8f0c6a1"
@@ -53,6 +54,29 @@ def display_request(port, message):
         return ws.request(message)
     finally:
         ws.close()
+
+
+def hmi_passkey(port, passkey):
+    """The passkey as the kiosk's Chromium shows it on the display page, with a screenshot."""
+    from browser_common import browser, layout  # noqa: E402 (selenium only when screenshots are asked for)
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+    os.makedirs(OUT, exist_ok=True)
+    d = browser(1280, 800)
+    try:
+        d.get(f"http://127.0.0.1:{port}/")
+        shown = ""
+        try:
+            WebDriverWait(d, START_DEADLINE).until(
+                lambda drv: drv.find_element(By.ID, "ble-passkey").is_displayed() and
+                drv.find_element(By.ID, "ble-passkey").text == passkey)
+            shown = d.find_element(By.ID, "ble-passkey").text
+        except Exception:  # noqa: BLE001 (the check below says what was shown)
+            shown = d.find_element(By.ID, "ble-passkey").text
+        layout(d, "hmi-ble-passkey", OUT)
+        return shown
+    finally:
+        d.quit()
 
 
 def register(con, key):
@@ -129,6 +153,10 @@ def main():
         check("the display shows the passkey (6 digits)",
               bluez.pump(START_DEADLINE, lambda: state(port).get("ble_passkey") == "048213"),
               f"{state(port).get('ble_passkey')}")
+        if OUT:
+            shown = hmi_passkey(port, "048213")
+            check("the HMI in Chromium shows the passkey (screenshot hmi-ble-passkey.png)", shown == "048213",
+                  f"{shown!r}")
         bluez.bond(PHONE)
         phone_id = f"ble:{PHONE}"
         check("the bonded phone is in the display's phone list",

@@ -361,12 +361,23 @@ struct BlePeripheral::Impl {
         });
   }
 
+  // Asynchronous, as every call the loop makes while it runs: the loop never
+  // waits for BlueZ, so a renewal is never held up behind a property change.
+  void set_adapter(const char* name, const sdbus::Variant& value) {
+    adapter->callMethodAsync("Set")
+        .onInterface("org.freedesktop.DBus.Properties")
+        .withArguments(std::string(kAdapterIface), std::string(name), value)
+        .uponReplyInvoke([name](const sdbus::Error* e) {
+          if (e) fmt::print(stderr, "rehand6600 host: Bluetooth LE: setting {}: {}\n", name, e->getMessage());
+        });
+  }
+
   void set_discoverable(bool open) {
     const auto seconds = static_cast<uint32_t>(options.pairing_window.count());
-    adapter->setProperty("PairableTimeout").onInterface(kAdapterIface).toValue(seconds);
-    adapter->setProperty("DiscoverableTimeout").onInterface(kAdapterIface).toValue(seconds);
-    adapter->setProperty("Pairable").onInterface(kAdapterIface).toValue(open);
-    adapter->setProperty("Discoverable").onInterface(kAdapterIface).toValue(open);
+    set_adapter("PairableTimeout", sdbus::Variant(seconds));
+    set_adapter("DiscoverableTimeout", sdbus::Variant(seconds));
+    set_adapter("Pairable", sdbus::Variant(open));
+    set_adapter("Discoverable", sdbus::Variant(open));
   }
 
   void unregister() {
@@ -390,7 +401,10 @@ struct BlePeripheral::Impl {
             .withTimeout(std::chrono::seconds(2))
             .withArguments(sdbus::ObjectPath(kApp));
       });
-    quietly([this] { set_discoverable(false); });
+    quietly([this] {
+      for (const char* name : {"Pairable", "Discoverable"})
+        adapter->setProperty(name).onInterface(kAdapterIface).toValue(false);
+    });
     quietly([this] {
       agent_manager->callMethod("UnregisterAgent")
           .onInterface("org.bluez.AgentManager1")
@@ -445,7 +459,9 @@ Outcome<std::unique_ptr<BlePeripheral>> BlePeripheral::start(BleOptions options,
         .onInterface("org.bluez.AgentManager1")
         .withTimeout(std::chrono::seconds(5))
         .withArguments(sdbus::ObjectPath(kAgent));
-    d->set_discoverable(false);  // pairing only while the display's window is open
+    // Pairing only while the display's window is open (before the loop runs: synchronously).
+    for (const char* name : {"Pairable", "Discoverable"})
+      d->adapter->setProperty(name).onInterface(kAdapterIface).toValue(false);
   } catch (const sdbus::Error& e) {
     return failed(e.getMessage());
   }
@@ -522,10 +538,13 @@ std::vector<BleDevice> BlePeripheral::devices() const {
 void BlePeripheral::forget(const std::string& path) {
   Impl& d = *impl_;
   d.post([&d, path] {
-    d.adapter->callMethod("RemoveDevice")
+    d.adapter->callMethodAsync("RemoveDevice")
         .onInterface(kAdapterIface)
-        .withTimeout(std::chrono::seconds(5))
-        .withArguments(sdbus::ObjectPath(path));
+        .withArguments(sdbus::ObjectPath(path))
+        .uponReplyInvoke([path](const sdbus::Error* e) {
+          if (e)
+            fmt::print(stderr, "rehand6600 host: Bluetooth LE: forgetting {}: {}\n", path, e->getMessage());
+        });
   });
 }
 

@@ -656,7 +656,8 @@ struct HostDaemon::Impl {
         if (!b.bonded) continue;
         phones.push_back({{"phone", ble_id(b.path)},
                           {"name", b.name},
-                          {"paired_code", "Bluetooth"},
+                          {"paired_code", ""},
+                          {"link", "ble"},
                           {"connected", b.connected},
                           {"driving", !driver.empty() && driver == ble_id(b.path)},
                           {"last_contact", ""}});

@@ -287,6 +287,10 @@ function renderPhones(s) {
   }
   if (!code) codeShown = '';
   showFingerprint(s.fingerprint || '');
+  // A phone pairing over Bluetooth LE: the passkey BlueZ asked the display to show.
+  const passkey = s.ble_passkey || '';
+  $('#ble-passkey-box').classList.toggle('hidden', !passkey);
+  $('#ble-passkey').textContent = passkey;
 
   const phones = s.phones || [];
   const drawn = JSON.stringify(phones);
@@ -314,7 +318,8 @@ function phoneRow(p) {
   name.className = 'phone-name';
   // The name is the phone's own word; the code it paired with is the
   // display user's proof of which phone this is.
-  name.textContent = `${p.name || p.phone}${p.paired_code ? ` (code ${p.paired_code})` : ''}`;
+  const how = p.link === 'ble' ? ' (Bluetooth)' : p.paired_code ? ` (code ${p.paired_code})` : '';
+  name.textContent = `${p.name || p.phone}${how}`;
   const status = document.createElement('span');
   status.className = 'phone-status';
   status.textContent = p.driving ? 'driving' : p.connected ? 'connected'
