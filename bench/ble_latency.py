@@ -7,13 +7,15 @@ on a private system bus, with the simulated controller on a pty:
       to the command register (phone_forward) reading 1 in the simulated
       controller (its console, polled every 0.2 ms or so);
   change -> notify: from a change on the controller (the battery, through
-      its console) to the state notification that carries it.
+      its console, at a random moment of the 50-ms poll period) to the state
+      notification that carries it.
 
 The radio is not in it (no Bluetooth here): add the connection interval of
 the real link (7.5..50 ms, the phone's choice) to both. A documented run,
 not a CI test. Usage: bench/ble_latency.py RTUKIT [ROUNDS]
 """
 import os
+import random
 import subprocess
 import sys
 import time
@@ -75,6 +77,8 @@ def main():
         change_to_notify = []
         for n in range(ROUNDS):
             level = 40 + n % 2
+            # A change comes at any moment of the poll period (50 ms), not right after a notification.
+            bluez.pump(random.uniform(0, 0.05))
             bluez.notified.clear()
             t0 = time.perf_counter()
             con.ask(f"battery {level}")
