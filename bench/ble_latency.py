@@ -16,7 +16,6 @@ not a CI test. Usage: bench/ble_latency.py RTUKIT [ROUNDS]
 """
 import os
 import random
-import subprocess
 import sys
 import time
 
@@ -25,9 +24,9 @@ sys.path.insert(0, os.path.join(HERE, "..", "tests"))
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "browser"))
 sys.path.insert(0, os.path.join(HERE, "..", "tests", "ble"))
 from pyhelpers import START_DEADLINE, connect_tcp, free_port, pct, stop_processes, temp_dir  # noqa: E402
-from browser_common import Console  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
-from rehand_ble_scenarios import COMMAND, FORWARD, PRESS, RELEASE, STATE, command, display_request, register  # noqa: E402
+from rehand_ble_scenarios import (COMMAND, FORWARD, PRESS, RELEASE, STATE, command, display_request,  # noqa: E402
+                                  register, start_chair)
 
 RTUKIT = sys.argv[1]
 ROUNDS = int(sys.argv[2]) if len(sys.argv) > 2 else 200
@@ -36,18 +35,11 @@ PHONE = "AA:BB:CC:DD:EE:07"
 
 def main():
     work = temp_dir("rtukit-blebench-")
-    pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     port = free_port()
     procs = []
     bluez = MockBluez(work)
     try:
-        procs.append(subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state",
-                                       "--no-console", "--console", f"unix:{console_path}"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
-        con = Console(console_path)
-        procs.append(subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{port}",
-                                       "--pairing-file", os.path.join(work, "pairing.json"), "--ble"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=bluez.env))
+        con, _, _ = start_chair(bluez, work, port, procs)
         assert bluez.pump(START_DEADLINE, lambda: bluez.app is not None and bluez.advertisement is not None)
         connect_tcp(port).close()
         display_request(port, {"op": "pair_start"})

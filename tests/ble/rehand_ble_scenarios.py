@@ -85,23 +85,30 @@ def register(con, key):
     return int(m.group(1)) if m else -1
 
 
+def start_chair(bluez, work, port, procs):
+    """The simulated controller on a pty (its console on a unix socket) and
+    the daemon with --ble on the mock's bus, both added to `procs`.
+    Returns the console, the daemon's process and its log's path."""
+    pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
+    procs.append(subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state",
+                                   "--no-console", "--console", f"unix:{console_path}"],
+                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+    con = Console(console_path)
+    log_path = os.path.join(work, "host.log")
+    host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{port}",
+                             "--pairing-file", os.path.join(work, "pairing.json"), "--ble"],
+                            stdout=subprocess.DEVNULL, stderr=open(log_path, "w"), env=bluez.env)
+    procs.append(host)
+    return con, host, log_path
+
+
 def main():
     work = temp_dir("rtukit-ble-")
-    pty, console_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     port = free_port()
     procs = []
     bluez = MockBluez(work)
     try:
-        sim = subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
-                                "--console", f"unix:{console_path}"], stdout=subprocess.DEVNULL,
-                               stderr=subprocess.DEVNULL)
-        procs.append(sim)
-        con = Console(console_path)
-        log_path = os.path.join(work, "host.log")
-        host = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", pty, "--http", f"127.0.0.1:{port}",
-                                 "--pairing-file", os.path.join(work, "pairing.json"), "--ble"],
-                                stdout=subprocess.DEVNULL, stderr=open(log_path, "w"), env=bluez.env)
-        procs.append(host)
+        con, host, log_path = start_chair(bluez, work, port, procs)
 
         # ---- registration: BlueZ calls back before RegisterApplication returns
         registered = bluez.pump(START_DEADLINE, lambda: bluez.app is not None and bluez.advertisement is not None)
