@@ -500,6 +500,48 @@ TEST(InverjetVerbTable, WatchIsALiveViewThatOutlivesALostLink) {
   EXPECT_EQ(where.opened, 2);
 }
 
+// A stop asked for before the first press (Ctrl-C during the handshake)
+// never presses: the hold ends interrupted and the command register is never
+// written, not even for one lease.
+TEST(RehandVerbTable, AHoldStoppedBeforeItsFirstPressNeverPresses) {
+  Rig chair(1);
+  chair.bank.holding[rh::reg::kDeviceId] = rh::kDeviceId;
+  std::vector<std::vector<uint8_t>> requests;  // read after the verb: its controller's thread has ended
+  Where where(chair, 1);
+  where.context.response_timeout = 100ms;
+  where.context.open_link = [&] {
+    return std::make_unique<MemoryLink>(SteadyClock::instance(), [&](std::span<const uint8_t> request) {
+      requests.emplace_back(request.begin(), request.end());
+      std::array<uint8_t, kMaxRtuAduSize> out{};
+      const size_t n = chair.engine.handle_rtu(request, out).length;
+      return MemoryLink::Reply{{out.begin(), out.begin() + static_cast<std::ptrdiff_t>(n)}, 1ms};
+    });
+  };
+  std::vector<std::string> shown;  // the countdown is shown right after each press
+  where.context.progress = [&](std::string_view t) { shown.emplace_back(t); };
+  int waits = 0;
+  where.context.wait = [&](std::chrono::milliseconds) {
+    ++waits;
+    return false;  // the person already asked to stop
+  };
+  const Outcome<profile::VerbResult> r = run(rh::verb_table(), rh::run_verb, "hold",
+                                             {{"cmd", "seat_lift"}, {"value", "up"}, {"for", "2s"}}, where);
+  ASSERT_TRUE(r.ok()) << r.error().reason();
+  EXPECT_TRUE(r->interrupted);
+  EXPECT_GE(waits, 1);
+  for (const std::string& t : shown) EXPECT_FALSE(t.starts_with("holding")) << "pressed: " << t;
+  bool handshake = false;
+  for (const auto& q : requests) {
+    ASSERT_GE(q.size(), 4U);
+    const uint16_t address = static_cast<uint16_t>(q[2] << 8 | q[3]);
+    handshake = handshake || (q[1] == 0x03 && address == rh::reg::kDeviceId);
+    const bool write = q[1] == 0x06 || q[1] == 0x10;
+    EXPECT_FALSE(write && address == rh::reg::kSeatLift) << "the seat lift was written";
+    if (q[1] == 0x06) EXPECT_FALSE(address == rh::reg::kSeatLift && (q[4] << 8 | q[5]) != 0);
+  }
+  EXPECT_TRUE(handshake);  // the controller was reached: only the press was withheld
+}
+
 TEST(RehandVerbTable, ErrorsAsTheChairShowsThem_WithoutALink) {
   Rig none(1);
   Where where(none, 1);

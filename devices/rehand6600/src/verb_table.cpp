@@ -193,6 +193,11 @@ Outcome<profile::VerbResult> hold(const profile::VerbArgs& args, profile::VerbCo
   const auto start = clock.now();
   bool interrupted = false;
   while (clock.now() - start < *length) {
+    // A stop asked for before a (re)press (during the handshake, say): never press again.
+    if (!profile::wait(where, std::chrono::milliseconds(0))) {
+      interrupted = true;
+      break;
+    }
     if (const rtukit::Status e = host.hold(r.address, *value)) {
       profile::progress(where, "");
       const uint16_t active = host.active_error();
