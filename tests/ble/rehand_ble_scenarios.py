@@ -57,26 +57,29 @@ def display_request(port, message):
 
 
 def hmi_passkey(port, passkey):
-    """The passkey as the kiosk's Chromium shows it on the display page, with a screenshot."""
+    """The passkey as the kiosk's Chromium shows it on the display page, at
+    the display's two sizes (1280x800, 1024x600), with a screenshot of each.
+    Returns what each size showed."""
     from browser_common import browser, layout  # noqa: E402 (selenium only when screenshots are asked for)
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import WebDriverWait
     os.makedirs(OUT, exist_ok=True)
-    d = browser(1280, 800)
-    try:
-        d.get(f"http://127.0.0.1:{port}/")
-        shown = ""
+    shown = []
+    for width, height in ((1280, 800), (1024, 600)):
+        d = browser(width, height)
         try:
-            WebDriverWait(d, START_DEADLINE).until(
-                lambda drv: drv.find_element(By.ID, "ble-passkey").is_displayed() and
-                drv.find_element(By.ID, "ble-passkey").text == passkey)
-            shown = d.find_element(By.ID, "ble-passkey").text
-        except Exception:  # noqa: BLE001 (the check below says what was shown)
-            shown = d.find_element(By.ID, "ble-passkey").text
-        layout(d, "hmi-ble-passkey", OUT)
-        return shown
-    finally:
-        d.quit()
+            d.get(f"http://127.0.0.1:{port}/")
+            try:
+                WebDriverWait(d, START_DEADLINE).until(
+                    lambda drv: drv.find_element(By.ID, "ble-passkey").is_displayed() and
+                    drv.find_element(By.ID, "ble-passkey").text == passkey)
+            except Exception:  # noqa: BLE001 (the caller's check says what was shown)
+                pass
+            shown.append(d.find_element(By.ID, "ble-passkey").text)
+            layout(d, f"hmi-ble-passkey-{width}x{height}", OUT)
+        finally:
+            d.quit()
+    return shown
 
 
 def register(con, key):
@@ -162,8 +165,8 @@ def main():
               f"{state(port).get('ble_passkey')}")
         if OUT:
             shown = hmi_passkey(port, "048213")
-            check("the HMI in Chromium shows the passkey (screenshot hmi-ble-passkey.png)", shown == "048213",
-                  f"{shown!r}")
+            check("the HMI in Chromium shows the passkey at both display sizes (hmi-ble-passkey-*.png)",
+                  shown == ["048213", "048213"], f"{shown!r}")
         bluez.bond(PHONE)
         phone_id = f"ble:{PHONE}"
         check("the bonded phone is in the display's phone list",
