@@ -162,7 +162,7 @@ TEST(RehandHostLogic, ARewriteAfterAPollWritesTheTargetOfNow_NotOfThePoll) {
   rig.t = rig.logic.wake_at();
   const auto poll = rig.due();
   ASSERT_EQ(poll.kind, Kind::poll);
-  rig.answer(poll);  // the rewrite of seat_lift = 1 is queued now
+  rig.answer(poll);                         // the rewrite of seat_lift = 1 is queued now
   rig.logic.set_target(reg::kSeatLift, 0);  // the finger lifts
   const auto writes = rig.flush();
   ASSERT_EQ(writes.size(), 1U) << "the 0, and no stale 1 after it";
@@ -266,6 +266,34 @@ TEST(RehandHostLogic, AFailedTargetWriteIsReported_AndZeroedAfterTheNextPoll) {
   EXPECT_EQ(writes[0].address, reg::kSeatLift);
   EXPECT_EQ(writes[0].value, 0);
   EXPECT_TRUE(rig.cycle().empty());  // once
+}
+
+// What the controller may hold, for whoever stops the host: a release set
+// but not yet written still counts (found by a CI run: the CLI's hold
+// stopped its host while the 0 waited behind a poll, and the seat went on
+// rising); so does a 0 whose write failed.
+TEST(RehandHostLogic, AReleaseNotYetWrittenStillMayHold_UntilItsZeroIsWritten) {
+  Rig rig;
+  rig.connect();
+  rig.cycle();
+  EXPECT_FALSE(rig.logic.may_hold(reg::kSeatLift));
+  rig.logic.set_target(reg::kSeatLift, 1);
+  EXPECT_TRUE(rig.logic.may_hold(reg::kSeatLift));
+  ASSERT_EQ(rig.flush().size(), 1U);
+  rig.logic.set_target(reg::kSeatLift, 0);  // released: the 0 is queued, not sent
+  EXPECT_EQ(rig.logic.target(reg::kSeatLift), 0);
+  EXPECT_TRUE(rig.logic.may_hold(reg::kSeatLift)) << "the controller still holds 1";
+  auto zero = rig.logic.next(rig.t);
+  ASSERT_TRUE(zero.has_value());
+  EXPECT_EQ(zero->value, 0);
+  rig.logic.on_result(rig.t, Errc::timeout);  // the 0 may not have arrived
+  EXPECT_TRUE(rig.logic.may_hold(reg::kSeatLift));
+  rig.logic.set_target(reg::kSeatLift, 1);
+  rig.flush();
+  rig.logic.set_target(reg::kSeatLift, 0);
+  rig.flush();  // the 0 written and answered
+  EXPECT_FALSE(rig.logic.may_hold(reg::kSeatLift));
+  EXPECT_FALSE(rig.logic.may_hold(reg::kBackrest));  // never pressed
 }
 
 }  // namespace

@@ -71,7 +71,10 @@ void Host::stop() {
     session_.stop_all(clock_.now());
     for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
       const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
-      if (logic_.target(command) != 0) held.push_back(command);
+      // Not only what is held now: a release the worker had not sent yet
+      // (stop() right after release()) is written here, or the controller
+      // would go on moving until its watchdog.
+      if (logic_.may_hold(command)) held.push_back(command);
     }
   }
   // Best effort: the controller's watchdog is the backstop.
@@ -134,6 +137,13 @@ void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> word
   const std::optional<Request> done = std::exchange(in_flight_, std::nullopt);
   if (done && done->kind == Request::Kind::write && done->address != reg::kHostReady) {
     if (done->ticket) results_.emplace_back(done->ticket, e);
+    if (!done->ticket && done->address >= reg::kCommandFirst &&
+        done->address < reg::kCommandFirst + reg::kCommandCount) {
+      // What the controller may hold now: a lost answer may follow an
+      // executed write, so a failed 0 leaves the word before it standing.
+      uint16_t& sent = targets_[done->address - reg::kCommandFirst].sent;
+      if (!e || done->value != 0) sent = done->value;
+    }
     if (e && done->target && done->value != 0) {
       // The controller may or may not hold it: the session ends the press,
       // and 0 follows after the next poll.
@@ -219,7 +229,7 @@ void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words)
     // session ends every press when it hears of the error.
     for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
       Target& t = targets_[i];
-      if (t.value != 0) t = {.value = 0, .zero_pending = true};
+      if (t.value != 0) t = {.value = 0, .zero_pending = true, .sent = t.sent};
     }
     urgent_.erase(std::remove_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return r.target; }),
                   urgent_.end());
@@ -244,7 +254,7 @@ void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
   queue_.clear();
   // Nothing to write to: the controller's watchdog stops what it held, and
   // the session ends every press when it hears of 1010 (D-8).
-  for (Target& t : targets_) t = {};
+  for (Target& t : targets_) t = {.sent = t.sent};  // stop() still tries to write 0
   fail_queued(cause);
   if (!comm_error_) {
     comm_error_ = true;

@@ -142,6 +142,14 @@ class HostLogic {
   /// answer may follow an executed write, and any doubt about motion: stop.
   void set_target(uint16_t command, uint16_t value);
   uint16_t target(uint16_t command) const { return targets_[command - reg::kCommandFirst].value; }
+  /// True while the controller may hold hold-type `command`: its target is
+  /// not 0, or the last target word it was sent was not 0 (a release not yet
+  /// written, or one whose write failed). Whoever stops the host writes 0
+  /// to each of these: a release queued but never sent must not be lost.
+  bool may_hold(uint16_t command) const {
+    const Target& t = targets_[command - reg::kCommandFirst];
+    return t.value != 0 || t.sent != 0;
+  }
   /// Queues a one-shot write (a pulse's edge, a setting), sent after the
   /// pending target changes. False: kQueueLimit writes wait already, or the
   /// link is down (nothing would be written). Its outcome comes back from
@@ -181,6 +189,7 @@ class HostLogic {
   struct Target {
     uint16_t value = 0;
     bool zero_pending = false;  ///< a target write failed: 0 is written after the next poll
+    uint16_t sent = 0;          ///< the last word written (a failed write of 0 keeps the one before)
   };
   std::array<Target, reg::kCommandCount> targets_{};
 };
