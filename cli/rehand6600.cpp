@@ -1,7 +1,8 @@
 // `rtukit rehand6600 host`: the RK3588 host daemon (programs/rehand_host.hpp).
 // The chair's other commands (status, watch, hold, pulse, set, errors,
 // stopping) are its verb table (devices/rehand6600/verb_table.cpp), added
-// with every device's verbs (profiles.cpp); this file wires the daemon's options.
+// with every device's verbs (profiles.cpp); this file wires the daemon's
+// options and the BLE reference client's (programs/rehand_ble_remote.hpp).
 #include <fmt/core.h>
 
 #include <chrono>
@@ -11,6 +12,7 @@
 #include "common.hpp"
 #include "rtukit/devices/rehand6600/device.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
+#include "rtukit/programs/rehand_ble_remote.hpp"
 #include "rtukit/programs/rehand_host.hpp"
 
 namespace rtukit::cli {
@@ -18,34 +20,18 @@ namespace {
 
 namespace rh = rtukit::rehand6600;
 
-// The host daemon's options.
+// The host daemon's options, bound to the daemon's own (HostDaemonOptions).
 struct ChairArgs {
   LinkOptions link;
-  std::string http = "127.0.0.1:8080";  ///< the display's listener
-  std::vector<std::string> phone;       ///< phone listeners
-  std::string pairing_file;             ///< paired phones
-  std::string phone_url;                ///< what phones open (QR code)
-  std::string tls_cert, tls_key;        ///< the phone listener's certificate
-  std::vector<std::string> host_names;  ///< names phones may use for the chair
-  unsigned forget_days = 30;            ///< a pairing unused this many days is forgotten
-  std::string unit;                     ///< empty: the controller's factory address
-  bool mph = false;
-  std::string ble;  ///< --ble[=ADAPTER]: phones over Bluetooth LE
+  programs::HostDaemonOptions o;
+  unsigned forget_days = 30;  ///< a pairing unused this many days is forgotten
+  std::string unit;           ///< empty: the controller's factory address
 };
 
 // The daemon on the RK3588: owns the UART, serves the HMI and the phone page
 // until SIGINT/SIGTERM.
-int run_host(const ChairArgs& a) {
-  programs::HostDaemonOptions o;
-  o.http = a.http;
-  o.phone = a.phone;
-  o.mph = a.mph;
-  o.pairing_file = a.pairing_file;
-  o.phone_url = a.phone_url;
-  o.tls_cert = a.tls_cert;
-  o.tls_key = a.tls_key;
-  o.host_names = a.host_names;
-  o.ble_adapter = a.ble;
+int run_host(ChairArgs a) {
+  programs::HostDaemonOptions& o = a.o;
   o.pairing_max_age = std::chrono::hours(24) * a.forget_days;
   if (o.pairing_file.empty())
     o.pairing_file = programs::default_pairing_file(std::getenv("STATE_DIRECTORY"), std::getenv("HOME"));
@@ -75,28 +61,28 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
         a.link.timeout_ms = rh::device_entry().answer_timeout_ms;
         a.link.add_to(cmd, false, rh::kDefaultBaud);
         cmd.add_option("--unit,-u", a.unit, device_unit_help(rh::kProfile));
-        cmd.add_flag("--mph", a.mph, "speed in mph on the display (default km/h)");
-        cmd.add_option("--http", a.http,
+        cmd.add_flag("--mph", a.o.mph, "speed in mph on the display (default km/h)");
+        cmd.add_option("--http", a.o.http,
                        "the display's listener (HOST:PORT), loopback only: the kiosk browser on this board")
             ->capture_default_str();
-        cmd.add_option("--phone", a.phone,
+        cmd.add_option("--phone", a.o.phone,
                        "a TLS listener for phones (HOST:PORT, repeatable): the chair's hotspot address, e.g. "
                        "192.168.4.1:8443");
-        cmd.add_flag("--ble{hci0}", a.ble,
+        cmd.add_flag("--ble{hci0}", a.o.ble_adapter,
                      "phones over Bluetooth LE too, on this adapter (--ble: hci0, --ble=hci1; "
                      "docs/rehand6600-ble.md)");
         cmd.add_option(
-            "--tls-cert", a.tls_cert,
+            "--tls-cert", a.o.tls_cert,
             "the phone listener's certificate, PEM (default: made at first start beside the pairing file)");
-        cmd.add_option("--tls-key", a.tls_key, "its private key, PEM (with --tls-cert)");
+        cmd.add_option("--tls-key", a.o.tls_key, "its private key, PEM (with --tls-cert)");
         cmd.add_option(
-            "--host-name", a.host_names,
+            "--host-name", a.o.host_names,
             "a name phones may use for the chair besides its IP address (repeatable), e.g. chair.local");
         cmd.add_option(
-            "--phone-url", a.phone_url,
+            "--phone-url", a.o.phone_url,
             "what phones open, for the pairing QR code (default https://<this machine's address>:PORT)");
         cmd.add_option(
-            "--pairing-file", a.pairing_file,
+            "--pairing-file", a.o.pairing_file,
             "paired phones (default $STATE_DIRECTORY or ~/.local/state/rtukit/rehand6600-pairing.json)");
         cmd.add_option("--forget-after", a.forget_days,
                        "days after which a phone that has not connected is forgotten (default 30)")
@@ -106,6 +92,21 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
                   "rtukit rehand6600 host --port /dev/ttyS9 --ble"});
       },
       [](const ChairArgs& a) { return run_host(a); });
+  add_command<programs::BleRemoteOptions>(
+      *chair, action, "remote", "the reference Bluetooth LE client: drive the chair from a terminal's keys",
+      [](CLI::App& cmd, programs::BleRemoteOptions& o) {
+        cmd.add_option("--ble", o.address, "the chair's Bluetooth address, paired (docs/rehand6600-ble.md)")
+            ->required();
+        cmd.add_option("--adapter", o.adapter, "this computer's Bluetooth adapter")->capture_default_str();
+        cmd.add_option("--key-gap", o.key_gap, "a held key that stops repeating this long is let go (ms)")
+            ->capture_default_str();
+        examples(cmd, {"rtukit rehand6600 remote --ble 00:1A:7D:DA:71:13"});
+      },
+      [](const programs::BleRemoteOptions& o) {
+        if (const rtukit::Status e = programs::run_ble_remote(o))
+          throw Failure{exit_code(e.error()), fmt::format("rehand6600 remote: {}", e.reason())};
+        return 0;
+      });
   // status, watch, hold, pulse, set, errors, stopping: the device's verb table (rehand6600::verb_table).
 }
 

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
+#include "rtukit/devices/rehand6600/ble_remote.hpp"
 
 namespace rtukit::rehand6600::ble {
 namespace {
@@ -128,6 +129,128 @@ TEST(RehandBleGatt, TheStateByteByByte) {
   EXPECT_EQ(down[10], 0x10);
   EXPECT_FALSE(parse_state(bytes({1, 2, 3})).ok());
   EXPECT_LE(kStateSize, kMaxValue);
+}
+
+// ------------------------------------------------ the reference client's keys (virtual time)
+
+using namespace std::chrono_literals;
+using T = RemoteKeys::TimePoint;
+
+// A held key: pressed at its first byte, renewed every 100 ms while the
+// terminal repeats it, released when it stops repeating for key_gap.
+TEST(RemoteKeys, AHeldKeyPressesRenewsWhileRepeated_ReleasesWhenLetGo) {
+  RemoteKeys keys({.renew_every = 100ms, .key_gap = 400ms});
+  T t{};
+  auto out = keys.on_byte('w', t);
+  ASSERT_EQ(out.size(), 1U);
+  EXPECT_EQ(out[0].op, Op::press);
+  EXPECT_EQ(out[0].function, Function::forward);
+  const uint32_t press = out[0].press;
+  EXPECT_NE(press, 0U);
+  EXPECT_EQ(keys.wake_at(), t + 100ms);
+  int renewals = 0;
+  for (int ms = 10; ms <= 1000; ms += 10) {  // repeats every 30 ms, after a first delay of 300 ms
+    const T now = t + std::chrono::milliseconds(ms);
+    if (ms >= 300 && ms % 30 == 0) EXPECT_TRUE(keys.on_byte('w', now).empty());
+    for (const Command& c : keys.due(now)) {
+      EXPECT_EQ(c.op, Op::renew);
+      EXPECT_EQ(c.press, press);
+      ++renewals;
+    }
+  }
+  EXPECT_EQ(renewals, 10);
+  EXPECT_EQ(keys.held(), Function::forward);
+  // The last repeat was at 990 ms: let go at 990 + 400.
+  EXPECT_TRUE(keys.due(t + 1380ms).size() <= 1U);
+  out = keys.due(t + 1390ms);
+  ASSERT_EQ(out.size(), 1U);
+  EXPECT_EQ(out[0].op, Op::release);
+  EXPECT_EQ(out[0].press, press);
+  EXPECT_FALSE(keys.held());
+  EXPECT_FALSE(keys.wake_at());
+}
+
+// Sequences grow with every command; another key releases the first; arrows
+// are escape sequences; space releases; x quits, releasing what is held.
+TEST(RemoteKeys, AnotherKeyReleasesTheFirst_ArrowsSpaceAndQuit) {
+  RemoteKeys keys({});
+  T t{};
+  auto a = keys.on_byte('w', t);
+  EXPECT_TRUE(keys.on_byte(0x1B, t).empty());
+  EXPECT_TRUE(keys.on_byte('[', t).empty());
+  auto b = keys.on_byte('D', t);  // left arrow
+  ASSERT_EQ(b.size(), 2U);
+  EXPECT_EQ(b[0].op, Op::release);
+  EXPECT_EQ(b[0].press, a[0].press);
+  EXPECT_EQ(b[1].op, Op::press);
+  EXPECT_EQ(b[1].function, Function::left);
+  EXPECT_GT(b[1].press, a[0].press);
+  EXPECT_EQ(b[0].sequence, a[0].sequence + 1);
+  EXPECT_EQ(b[1].sequence, a[0].sequence + 2);
+  auto stop = keys.on_byte(' ', t);
+  ASSERT_EQ(stop.size(), 1U);
+  EXPECT_EQ(stop[0].op, Op::release);
+  EXPECT_TRUE(keys.on_byte('?', t).empty());
+  keys.on_byte('h', t);
+  auto quit = keys.on_byte('x', t);
+  EXPECT_TRUE(keys.quit());
+  ASSERT_EQ(quit.size(), 1U);
+  EXPECT_EQ(quit[0].function, Function::horn);
+  EXPECT_EQ(quit[0].op, Op::release);
+}
+
+// A pulse key fires once per press of the key, not once per repeat; its
+// command has press id 0, as the service requires.
+TEST(RemoteKeys, APulseKeyFiresOncePerPress) {
+  RemoteKeys keys({.key_gap = 400ms});
+  T t{};
+  auto out = keys.on_byte('l', t);
+  ASSERT_EQ(out.size(), 1U);
+  EXPECT_EQ(out[0].op, Op::pulse);
+  EXPECT_EQ(out[0].press, 0U);
+  EXPECT_TRUE(parse_command(encode_command(out[0])).ok());
+  for (int ms = 300; ms < 1000; ms += 30)
+    EXPECT_TRUE(keys.on_byte('l', t + std::chrono::milliseconds(ms)).empty());
+  EXPECT_EQ(keys.on_byte('l', t + 1500ms).size(), 1U);  // let go, pressed again
+  EXPECT_EQ(keys.on_byte('e', t + 1500ms).size(), 1U);  // another pulse key at once
+}
+
+// A press the chair ended (a lapse, a refusal) is never pressed again by the
+// same held key: no renewals, no new press until the key is let go.
+TEST(RemoteKeys, APressTheChairEndedIsNotRenewedNorPressedAgainWhileTheKeyIsHeld) {
+  RemoteKeys keys({.renew_every = 100ms, .key_gap = 400ms});
+  T t{};
+  const Command press = keys.on_byte('w', t)[0];
+  keys.on_result({.sequence = static_cast<uint16_t>(press.sequence - 1), .code = ResultCode::refused});
+  EXPECT_EQ(keys.held(), Function::forward) << "an older command's answer is not about this press";
+  keys.on_result({.sequence = press.sequence, .code = ResultCode::refused, .reason = "charging"});
+  EXPECT_FALSE(keys.held());
+  for (int ms = 30; ms < 600; ms += 30) {
+    EXPECT_TRUE(keys.on_byte('w', t + std::chrono::milliseconds(ms)).empty());
+    EXPECT_TRUE(keys.due(t + std::chrono::milliseconds(ms)).empty());
+  }
+  EXPECT_TRUE(keys.due(t + 1100ms).empty());  // let go: nothing to release (it had ended)
+  const auto again = keys.on_byte('w', t + 1200ms);
+  ASSERT_EQ(again.size(), 1U);
+  EXPECT_EQ(again[0].op, Op::press);
+  EXPECT_GT(again[0].press, press.press);
+}
+
+TEST(RemoteKeys, TheStateAsOneLine) {
+  State s;
+  EXPECT_EQ(describe(s), "no controller (1010)  battery 0 %");
+  s.link = true;
+  s.battery = 80;
+  s.motion = 1;
+  s.main_light = true;
+  s.driving = true;
+  s.active_error = 0x10C3;
+  const std::string line = describe(s);
+  EXPECT_NE(line.find("battery 80 %"), std::string::npos) << line;
+  EXPECT_NE(line.find("static"), std::string::npos) << line;
+  EXPECT_NE(line.find("light on"), std::string::npos) << line;
+  EXPECT_NE(line.find("a phone drives"), std::string::npos) << line;
+  EXPECT_NE(line.find("10C3 Seat lift Error"), std::string::npos) << line;
 }
 
 }  // namespace

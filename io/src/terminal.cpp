@@ -16,6 +16,7 @@
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <utility>
 
 #include "rtukit/io/asio.hpp"
@@ -105,6 +106,24 @@ bool Interruptible::sleep(std::chrono::milliseconds d) const {
   while (!g_interrupted && clock_.now() < until)
     clock_.sleep_until(std::min(until, clock_.now() + std::chrono::milliseconds(20)));
   return !g_interrupted;
+}
+
+KeysAtOnce::KeysAtOnce() {
+  static_assert(sizeof(termios) <= sizeof saved_);
+  termios t{};
+  if (::isatty(STDIN_FILENO) == 0 || ::tcgetattr(STDIN_FILENO, &t) != 0) return;
+  std::memcpy(saved_, &t, sizeof t);
+  t.c_lflag &= ~static_cast<tcflag_t>(ICANON | ECHO);  // ISIG stays: Ctrl-C is a signal
+  t.c_cc[VMIN] = 1;
+  t.c_cc[VTIME] = 0;
+  changed_ = ::tcsetattr(STDIN_FILENO, TCSANOW, &t) == 0;
+}
+
+KeysAtOnce::~KeysAtOnce() {
+  if (!changed_) return;
+  termios t{};
+  std::memcpy(&t, saved_, sizeof t);
+  (void)::tcsetattr(STDIN_FILENO, TCSANOW, &t);
 }
 
 bool stdout_is_terminal() {

@@ -22,6 +22,13 @@ peripheral's own refusal of unbonded devices is exercised, but the link's
 encryption is the phone's and the board's Bluetooth stacks' (see
 docs/rehand6600-ble.md for the check-list to run once on the RK3588).
 
+For the reference client (`rtukit rehand6600 remote --ble`), add_central()
+adds a second adapter, hci1 (the engineer's laptop), that knows the chair
+as a bonded device; once connected, its GATT objects under that device
+forward every read, write and subscription to the daemon's application, as
+coming from the laptop (a bonded device of hci0), and mirror the
+application's notifications: the radio between the two adapters.
+
 Use: bus = MockBluez(work_dir); env = bus.env (DBUS_SYSTEM_BUS_ADDRESS for
 the program under test); ...; bus.stop(). Everything it starts it stops by PID.
 """
@@ -95,6 +102,8 @@ class MockBluez:
         self.advertisement = None  # (sender, path, properties)
         self.unregistered = []
         self.notified = []       # (characteristic path, bytes) from PropertiesChanged on Value
+        self.mirrors = {}        # the application's characteristic -> the laptop's copy (notifying)
+        self.central = None      # (chair's address, laptop's address) once add_central was called
         self.adapter.AddMethods("org.bluez.GattManager1", [
             # dbusmock calls plain functions only (not bound methods): hence the lambdas
             ("RegisterApplication", "oa{sv}", "", lambda a, path, o: self._register_application(a, path, o)),
@@ -141,6 +150,69 @@ class MockBluez:
     def _properties_changed(self, interface, changed, _invalidated, path=None, sender=None):
         if interface == CHAR and "Value" in changed and self.app and sender == self.app[0]:
             self.notified.append((str(path), bytes(changed["Value"])))
+            copy = self.mirrors.get(str(path))
+            if copy in mockobject.objects:
+                mockobject.objects[copy].UpdateProperties(CHAR, {"Value": dbus.Array(changed["Value"], signature="y")})
+
+    # ------------------------------------------------------------ the laptop (a central on hci1)
+
+    def add_central(self, chair, laptop, bonded=True):
+        """hci1 knows the chair (address `chair`), bonded unless told; the
+        chair's hci0 knows the laptop (address `laptop`), bonded alike.
+        Returns the chair's device path on hci1."""
+        self.template.AddAdapter(self.root, "hci1", "laptop")
+        path = self.template.AddDevice(self.root, "hci1", chair, "Rehand 6600")
+        self.add_phone(laptop, "laptop")
+        if bonded:
+            self.template.PairDevice(self.root, "hci1", chair, 5898764)
+            self.bond(laptop)
+        self.central = (chair, laptop)
+        device = mockobject.objects[path]
+        device.AddMethods(DEVICE, [
+            ("Connect", "", "", lambda _d: self._central_connect(str(path))),
+            ("Disconnect", "", "", lambda _d: self._central_disconnect(str(path))),
+        ])
+        return str(path)
+
+    def _central_connect(self, path):
+        if not self.app:
+            raise dbus.exceptions.DBusException("the chair does not answer", name="org.bluez.Error.Failed")
+        self.connect(self.central[1])  # the chair sees the laptop connect
+        laptop = dbus.ObjectPath(device_path(self.central[1]))
+        service = f"{path}/service0010"
+        if service not in mockobject.objects:
+            svc = [p for p, i in self.app[2].items() if SERVICE in i][0]
+            self.root.AddObject(service, SERVICE, {"UUID": self.app[2][svc][SERVICE]["UUID"],
+                                                   "Primary": dbus.Boolean(True), "Device": dbus.ObjectPath(path)}, [])
+            for n, (app_path, interfaces) in enumerate(sorted((p, i) for p, i in self.app[2].items() if CHAR in i)):
+                copy = f"{service}/char{0x11 + n:04x}"
+                target = str(app_path)
+
+                def forward(method, *args, target=target):
+                    return self._call(target, method, *args)
+                options = lambda o: dbus.Dictionary(dict(o, device=laptop, link="LE"), signature="sv")  # noqa: E731
+                self.root.AddObject(copy, CHAR, {
+                    "UUID": interfaces[CHAR]["UUID"], "Service": dbus.ObjectPath(service),
+                    "Flags": interfaces[CHAR]["Flags"], "Value": dbus.Array([], signature="y"),
+                    "Notifying": dbus.Boolean(False)}, [
+                    ("ReadValue", "a{sv}", "ay", lambda _c, o, f=forward: f("ReadValue", options(o))),
+                    ("WriteValue", "aya{sv}", "", lambda _c, v, o, f=forward: f("WriteValue", v, options(o))),
+                    ("StartNotify", "", "", lambda _c, f=forward, t=target, c=copy: self._mirror(f, t, c)),
+                    ("StopNotify", "", "", lambda _c, f=forward, t=target: (self.mirrors.pop(t, None),
+                                                                           f("StopNotify"))[1]),
+                ])
+        mockobject.objects[path].UpdateProperties(DEVICE, {"Connected": dbus.Boolean(True),
+                                                           "ServicesResolved": dbus.Boolean(True)})
+
+    def _mirror(self, forward, target, copy):
+        forward("StartNotify")
+        self.mirrors[target] = copy
+
+    def _central_disconnect(self, path):
+        self.mirrors.clear()
+        self.disconnect(self.central[1])
+        mockobject.objects[path].UpdateProperties(DEVICE, {"Connected": dbus.Boolean(False),
+                                                           "ServicesResolved": dbus.Boolean(False)})
 
     # ------------------------------------------------------------ the test's side
 

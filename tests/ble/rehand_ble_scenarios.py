@@ -105,6 +105,77 @@ def start_chair(bluez, work, port, procs):
     return con, host, log_path
 
 
+class Client:
+    """`rtukit rehand6600 remote --ble` with its keys on a pipe; its output
+    collected by a thread (the test's thread pumps the mock BlueZ)."""
+
+    def __init__(self, bluez, args):
+        import threading
+        self.proc = subprocess.Popen([RTUKIT, "rehand6600", "remote"] + args, stdin=subprocess.PIPE,
+                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=bluez.env)
+        self.lines = []
+        self.reader = threading.Thread(target=lambda: self.lines.extend(iter(self.proc.stdout.readline, b"")),
+                                       daemon=True)
+        self.reader.start()
+
+    def output(self):
+        return b"".join(self.lines).decode(errors="replace")
+
+    def key(self, k):
+        self.proc.stdin.write(k.encode())
+        self.proc.stdin.flush()
+
+    def stop(self):
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait()
+
+
+def reference_client(bluez, con, port):
+    chair, laptop = "00:1A:7D:DA:71:13", "AA:BB:CC:DD:EE:03"
+    bluez.add_central(chair, laptop)
+    check("the chair is still before the client connects",
+          bluez.pump(START_DEADLINE, lambda: not state(port)["emergency"] and register(con, "phone_forward") == 0))
+    client = Client(bluez, ["--ble", chair, "--adapter", "hci1", "--key-gap", "400"])
+    try:
+        check("the client connects and prints the chair's state",
+              bluez.pump(START_DEADLINE, lambda: "battery" in client.output()), client.output())
+        # A held key: the terminal repeats it every 50 ms for a second.
+        driving = False
+        for _ in range(20):
+            client.key("w")
+            bluez.pump(0.05)
+            driving = driving or register(con, "phone_forward") == 1
+        check("a held key drives the chair (pressed, renewed while the key repeats)",
+              driving and register(con, "phone_forward") == 1 and "forward: accepted" in client.output(),
+              client.output()[-300:])
+        let_go = time.monotonic()
+        check("letting go of the key stops it (released, not lapsed: no emergency stop)",
+              bluez.pump(START_DEADLINE, lambda: register(con, "phone_forward") == 0) and
+              not state(port)["emergency"], f"after {time.monotonic() - let_go:.2f} s")
+        light = register(con, "main_light")
+        for _ in range(5):  # a pulse key held: one pulse, not one per repeat
+            client.key("l")
+            bluez.pump(0.05)
+        check("a pulse key toggles the light once however long it is held",
+              bluez.pump(START_DEADLINE, lambda: register(con, "main_light") == 1 - light) and
+              client.output().count("light: accepted") == 1, client.output()[-300:])
+        client.key("x")
+        check("x quits: the client exits 0 and disconnects",
+              bluez.pump(START_DEADLINE, lambda: client.proc.poll() is not None) and client.proc.returncode == 0,
+              client.output()[-300:])
+    finally:
+        client.stop()
+    unknown = Client(bluez, ["--ble", "00:00:00:00:00:01", "--adapter", "hci1"])
+    try:
+        bluez.pump(START_DEADLINE, lambda: unknown.proc.poll() is not None)
+        check("a chair BlueZ does not know is one clear line, exit 4",
+              unknown.proc.returncode == 4 and "does not know 00:00:00:00:00:01" in unknown.output() and
+              unknown.output().count("\n") == 1, unknown.output())
+    finally:
+        unknown.stop()
+
+
 def main():
     work = temp_dir("rtukit-ble-")
     port = free_port()
@@ -244,6 +315,9 @@ def main():
         check("and BlueZ removed the device and its bond", bluez.pump(START_DEADLINE, lambda: not bluez.known(PHONE)))
         check("it left the display's list",
               bluez.pump(START_DEADLINE, lambda: phone_id not in [p["phone"] for p in state(port)["phones"]]))
+
+        # ---- the reference client (`rtukit rehand6600 remote --ble`) on the laptop's adapter
+        reference_client(bluez, con, port)
 
         # ---- on SIGTERM the daemon unregisters from BlueZ
         host.send_signal(signal.SIGTERM)

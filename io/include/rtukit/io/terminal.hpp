@@ -69,6 +69,21 @@ class Interruptible {
   DriverClock& clock_;
 };
 
+/// While it exists, a terminal on stdin hands every key over at once and
+/// does not echo it (the keys of a remote control); Ctrl-C still signals.
+/// Restored when it goes. Nothing happens when stdin is not a terminal.
+class KeysAtOnce {
+ public:
+  KeysAtOnce();
+  ~KeysAtOnce();
+  KeysAtOnce(const KeysAtOnce&) = delete;
+  KeysAtOnce& operator=(const KeysAtOnce&) = delete;
+
+ private:
+  bool changed_ = false;
+  unsigned char saved_[64];  ///< the terminal's settings (a termios) before
+};
+
 /// Whether standard output / standard input is a terminal.
 bool stdout_is_terminal();
 bool stdin_is_terminal();
