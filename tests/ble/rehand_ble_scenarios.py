@@ -82,6 +82,37 @@ def hmi_passkey(port, passkey):
     return shown
 
 
+def hmi_forget_all(bluez, port, names):
+    """The display's phone list in Chromium shows the bonded Bluetooth
+    phones (a screenshot, hmi-ble-phones-1280x800.png); then "Forget all
+    phones" and its confirmation, tapped as a person would. Returns the rows
+    the list showed."""
+    from browser_common import browser, layout  # noqa: E402
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import WebDriverWait
+    d = browser(1280, 800)
+    try:
+        d.get(f"http://127.0.0.1:{port}/")
+        rows = lambda: [r.text for r in d.find_elements(By.CSS_SELECTOR, "#phone-list > .phone")]  # noqa: E731
+        try:
+            WebDriverWait(d, START_DEADLINE).until(
+                lambda _d: all(any(n in r and "(Bluetooth)" in r for r in rows()) for n in names))
+        except Exception:  # noqa: BLE001 (the caller's check says what was shown)
+            pass
+        shown = rows()
+        d.execute_script("document.getElementById('phones').scrollIntoView()")
+        layout(d, "hmi-ble-phones-1280x800", OUT)
+        WebDriverWait(d, START_DEADLINE).until(lambda _d: d.find_element(By.ID, "forget-all").is_enabled())
+        d.find_element(By.ID, "forget-all").click()
+        WebDriverWait(d, START_DEADLINE).until(lambda _d: d.find_element(By.ID, "confirm-yes").is_displayed())
+        d.find_element(By.ID, "confirm-yes").click()
+        # BlueZ removes the devices while its mock runs: the list empties then.
+        emptied = bluez.pump(START_DEADLINE, lambda: not rows())
+        return shown, emptied
+    finally:
+        d.quit()
+
+
 def register(con, key):
     """A register of the simulated controller, as its console reads it ("phone_forward = on (1)" -> 1)."""
     m = re.search(r"\((\d+)\)", con.ask(f"get {key}"))
@@ -309,6 +340,19 @@ def main():
         check("a malformed command is answered 'invalid' with the reason", got and got[3] == 2 and b"press id" in got,
               f"{got}")
 
+        # ---- a bonded phone that floods is refused before the daemon, and nobody is slowed
+        flood_started = time.monotonic()
+        errors = [bluez.write(PHONE, COMMAND, command(RENEW, FORWARD, 7, 100 + n)) for n in range(400)]
+        flood_s = time.monotonic() - flood_started
+        passed = errors.count("")
+        check("a flood of commands is cut at 50 a second (bursts of 100): the rest refused 'Failed'",
+              passed <= 100 + 50 * flood_s + 2 and errors.count("org.bluez.Error.Failed") == 400 - passed,
+              f"{passed} of 400 passed in {flood_s:.2f} s")
+        check("the display still answers meanwhile", state(port)["connected"])
+        bluez.pump(1.0)
+        check("after a second's pause the phone's commands pass again",
+              bluez.write(PHONE, COMMAND, command(RENEW, FORWARD, 7, 600)) == "")
+
         # ---- forgetting on the display removes the bond
         r = display_request(port, {"op": "forget", "phone": phone_id})
         check("the display forgets the Bluetooth phone", r is not None and r.get("ok"), f"{r}")
@@ -318,6 +362,29 @@ def main():
 
         # ---- the reference client (`rtukit rehand6600 remote --ble`) on the laptop's adapter
         reference_client(bluez, con, port)
+
+        # ---- "Forget all phones" removes every Bluetooth bond too
+        other = "AA:BB:CC:DD:EE:04"
+        bluez.add_phone(other, "Galaxy")
+        bluez.bond(other)
+        laptop = "AA:BB:CC:DD:EE:03"
+        check("the display lists both bonded Bluetooth phones",
+              bluez.pump(START_DEADLINE, lambda: {f"ble:{other}", f"ble:{laptop}"} <=
+                         {p["phone"] for p in state(port)["phones"]}), f"{state(port)['phones']}")
+        if OUT:
+            shown, emptied = hmi_forget_all(bluez, port, ["Galaxy", "laptop"])
+            check("the HMI lists them as Bluetooth phones (hmi-ble-phones-1280x800.png), the laptop "
+                  "with its last contact (it drove), the other never",
+                  len(shown) == 2 and all("(Bluetooth)" in r for r in shown) and
+                  any("laptop" in r and re.search(r"last contact \d{4}-\d\d-\d\d", r) for r in shown) and
+                  any("Galaxy" in r and "last contact never" in r for r in shown), f"{shown}")
+            check("\"Forget all phones\", confirmed on the HMI, empties its list", emptied)
+        else:
+            r = display_request(port, {"op": "forget_all"})
+            check("the display forgets all phones", r is not None and r.get("ok"), f"{r}")
+        check("BlueZ removed both devices and their bonds",
+              bluez.pump(START_DEADLINE, lambda: not bluez.known(other) and not bluez.known(laptop)))
+        check("and the display's list is empty", bluez.pump(START_DEADLINE, lambda: not state(port)["phones"]))
 
         # ---- on SIGTERM the daemon unregisters from BlueZ
         host.send_signal(signal.SIGTERM)

@@ -81,6 +81,11 @@ struct BlePeripheral::Impl {
   std::atomic<bool> pairing_open{false};
   mutable std::mutex mutex;                ///< guards the devices, the jobs, the registration's answer
   std::map<std::string, BleDevice> known;  ///< by object path
+  struct Bucket {
+    double tokens;
+    std::chrono::steady_clock::time_point refilled;
+  };
+  std::map<std::string, Bucket> buckets;  ///< commands per device (loop thread)
   std::deque<std::function<void()>> jobs;
   std::condition_variable registered_cv;
   int registrations_left = 2;
@@ -141,6 +146,20 @@ struct BlePeripheral::Impl {
     return d != known.end() && d->second.bonded;
   }
 
+  // A token bucket per device (the loop thread's only): max_commands_per_s,
+  // bursts up to two seconds' worth, as the web server bounds a socket.
+  bool within_rate(const std::string& device) {
+    const auto now = std::chrono::steady_clock::now();
+    const double rate = options.max_commands_per_s;
+    auto [it, added] = buckets.try_emplace(device, Bucket{2 * rate, now});
+    Bucket& b = it->second;
+    b.tokens = std::min(2 * rate, b.tokens + std::chrono::duration<double>(now - b.refilled).count() * rate);
+    b.refilled = now;
+    if (b.tokens < 1) return false;
+    b.tokens -= 1;
+    return true;
+  }
+
   std::string device_of(const Options& call) {
     const auto it = call.find("device");
     return it != call.end() && it->second.containsValueOfType<sdbus::ObjectPath>()
@@ -186,6 +205,7 @@ struct BlePeripheral::Impl {
             was_connected = it->second.connected;
             known.erase(it);
           }
+          buckets.erase(path);
           if (was_connected && handlers.disconnected) handlers.disconnected(path);
           if (handlers.devices_changed) handlers.devices_changed();
         });
@@ -249,7 +269,10 @@ struct BlePeripheral::Impl {
           .withInputParamNames("value", "options")
           .implementedAs([this](const std::vector<uint8_t>& bytes, const Options& o) {
             if (!bonded(o)) not_authorized("pair with the chair first");
-            if (handlers.command) handlers.command(device_of(o), bytes);
+            const std::string device = device_of(o);
+            if (!within_rate(device))
+              throw sdbus::Error("org.bluez.Error.Failed", "too many commands: slow down");
+            if (handlers.command) handlers.command(device, bytes);
           });
     }
     obj->finishRegistration();

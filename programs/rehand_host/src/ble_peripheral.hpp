@@ -13,7 +13,8 @@
 // What it enforces itself, as BlueZ would with the characteristic flags:
 // a read or a write from a device that is not bonded is refused
 // (org.bluez.Error.NotAuthorized), and no pairing is accepted while the
-// pairing window is closed.
+// pairing window is closed. It also bounds each device's commands
+// (BleOptions::max_commands_per_s).
 #pragma once
 
 #include <chrono>
@@ -54,6 +55,11 @@ struct BleOptions {
   std::string adapter = "hci0";
   std::string name = "Rehand 6600";  ///< advertised
   std::chrono::seconds pairing_window{120};
+  /// Commands a device may write per second, averaged over 2 s (a phone
+  /// renews 10 times a second). More are refused (org.bluez.Error.Failed
+  /// "too many commands") before they reach the daemon: a flooding phone's
+  /// renewals lapse and the chair stops, and nobody else is slowed.
+  unsigned max_commands_per_s = 50;
 };
 
 class BlePeripheral {

@@ -486,6 +486,8 @@ struct HostDaemon::Impl {
                                                    .reason = std::string(c.error().reason())}));
       return;
     }
+    ble_contact[device] =
+        std::chrono::duration_cast<std::chrono::seconds>(clock.wall().time_since_epoch()).count();
     uint64_t& id = ble_clients[device];
     if (id == 0) {
       id = next_ble_client++;
@@ -534,6 +536,7 @@ struct HostDaemon::Impl {
     for (const BleDevice& b : ble->devices()) {
       if (ble_id(b.path) != phone) continue;
       ble_gone(b.path, "forgotten by the display");
+      ble_contact.erase(b.path);
       ble->forget(b.path);
       log(fmt::format("Bluetooth phone '{}' ({}) forgotten by the display: its bond removed", b.name, phone));
       return {};
@@ -654,13 +657,15 @@ struct HostDaemon::Impl {
     if (ble) {
       for (const BleDevice& b : ble->devices()) {
         if (!b.bonded) continue;
-        phones.push_back({{"phone", ble_id(b.path)},
-                          {"name", b.name},
-                          {"paired_code", ""},
-                          {"link", "ble"},
-                          {"connected", b.connected},
-                          {"driving", !driver.empty() && driver == ble_id(b.path)},
-                          {"last_contact", ""}});
+        phones.push_back(
+            {{"phone", ble_id(b.path)},
+             {"name", b.name},
+             {"paired_code", ""},
+             {"link", "ble"},
+             {"connected", b.connected},
+             {"driving", !driver.empty() && driver == ble_id(b.path)},
+             {"last_contact",
+              ble_contact.contains(b.path) ? local_time(ble_contact.at(b.path), "%Y-%m-%d %H:%M:%S") : ""}});
       }
       st["ble_passkey"] = ble_passkey.empty() ? "" : ble_passkey;
     }
@@ -785,6 +790,7 @@ struct HostDaemon::Impl {
   bool near_obstacle = false;
   Clock::time_point last_expiry_check{};
   std::map<std::string, uint64_t> ble_clients;    ///< a BLE phone's device path -> its session client
+  std::map<std::string, int64_t> ble_contact;     ///< a BLE phone's device path -> its last command (unix s)
   uint64_t next_ble_client = uint64_t{1} << 62;   ///< apart from the web sockets' ids
   std::string ble_passkey;                        ///< shown on the display while a phone pairs
   std::string phone_url, fingerprint, cert_path;  ///< set by start(), read on the server thread after
