@@ -93,7 +93,9 @@ def hmi_forget_all(bluez, port, names):
     d = browser(1280, 800)
     try:
         d.get(f"http://127.0.0.1:{port}/")
-        rows = lambda: [r.text for r in d.find_elements(By.CSS_SELECTOR, "#phone-list > .phone")]  # noqa: E731
+        # In one script: the list may be redrawn between finding a row and reading it.
+        rows = lambda: d.execute_script(  # noqa: E731
+            "return [...document.querySelectorAll('#phone-list > .phone')].map(e => e.innerText)")
         try:
             WebDriverWait(d, START_DEADLINE).until(
                 lambda _d: all(any(n in r and "(Bluetooth)" in r for r in rows()) for n in names))
