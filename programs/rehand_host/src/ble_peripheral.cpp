@@ -24,6 +24,7 @@
 #include <thread>
 
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
+#include "rtukit/io/clock.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -149,7 +150,7 @@ struct BlePeripheral::Impl {
   // A token bucket per device (the loop thread's only): max_commands_per_s,
   // bursts up to two seconds' worth, as the web server bounds a socket.
   bool within_rate(const std::string& device) {
-    const auto now = std::chrono::steady_clock::now();
+    const auto now = SteadyClock::instance().now();
     const double rate = options.max_commands_per_s;
     auto [it, added] = buckets.try_emplace(device, Bucket{2 * rate, now});
     Bucket& b = it->second;

@@ -16,6 +16,7 @@
 #include <regex>
 
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/terminal.hpp"
 #include "rtukit/programs/rehand_ble_remote.hpp"
 
@@ -94,15 +95,15 @@ class Remote {
 
   // Runs the bus for at most `d`, or until `done()`.
   bool pump_until(Clock::duration d, const std::function<bool()>& done) {
-    const auto until = Clock::now() + d;
+    const auto until = clock_.now() + d;
     while (!done()) {
       while (bus_->processPendingRequest()) {
       }
       if (done()) return true;
-      if (Clock::now() >= until || interrupts_.interrupted()) return false;
+      if (clock_.now() >= until || interrupts_.interrupted()) return false;
       const sdbus::IConnection::PollData p = bus_->getEventLoopPollData();
       pollfd fd{p.fd, p.events, 0};
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - Clock::now());
+      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(until - clock_.now());
       (void)::poll(&fd, 1, static_cast<int>(std::clamp<int64_t>(left.count(), 0, 50)));
     }
     return true;
@@ -250,11 +251,11 @@ class Remote {
         keys_.release_all();
         return failed(Errc::io_error, "the chair disconnected");
       }
-      send(keys_.due(Clock::now()));
+      send(keys_.due(clock_.now()));
       const sdbus::IConnection::PollData p = bus_->getEventLoopPollData();
       int timeout = std::min(p.getPollTimeout() < 0 ? 1000 : p.getPollTimeout(), 1000);
       if (const auto wake = keys_.wake_at()) {
-        const auto left = std::chrono::ceil<std::chrono::milliseconds>(*wake - Clock::now()).count();
+        const auto left = std::chrono::ceil<std::chrono::milliseconds>(*wake - clock_.now()).count();
         timeout = std::min<int>(timeout, static_cast<int>(std::max<int64_t>(left, 0)));
       }
       pollfd fds[2] = {{p.fd, p.events, 0}, {input ? STDIN_FILENO : -1, POLLIN, 0}};
@@ -264,10 +265,10 @@ class Remote {
         const ssize_t n = ::read(STDIN_FILENO, buf, sizeof buf);
         if (n <= 0) {
           input = false;  // the end of input: quit, as x does
-          send(keys_.on_byte('x', Clock::now()));
+          send(keys_.on_byte('x', clock_.now()));
           break;
         }
-        for (ssize_t i = 0; i < n; ++i) send(keys_.on_byte(buf[i], Clock::now()));
+        for (ssize_t i = 0; i < n; ++i) send(keys_.on_byte(buf[i], clock_.now()));
       }
     }
     send(keys_.release_all());
@@ -293,6 +294,7 @@ class Remote {
   }
 
   BleRemoteOptions options_;
+  DriverClock& clock_ = SteadyClock::instance();  // the keys' time (a terminal's keys are real-time)
   gatt::RemoteKeys keys_;
   io::Interruptible interrupts_;
   std::unique_ptr<sdbus::IConnection> bus_;
