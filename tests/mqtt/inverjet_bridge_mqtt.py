@@ -574,8 +574,12 @@ def main():
               and json.loads(retained(aport, "rtukit/inverjet/jetA/state", authH) or "{}").get("versions")
               and retained(aport, "homeassistant/button/rtukit_inverjet_jetA/squatter/config", authH) is None)
         availability = [m.split(" ", 1)[1] for m in seen if m.startswith("rtukit/inverjet/jetA/availability ")]
+        # Each of the squatter's connections may knock it off again, or find it
+        # reconnecting: how many offline/online pairs is the machine's timing
+        # (a busy CI run saw online, offline, online, online). What must hold:
+        # knocked off at least once, and online last.
         check("what no ACL stops: the squatter knocks the bridge off (its last will, offline), and it comes back",
-              availability[-2:] == ["offline", "online"], availability)
+              "offline" in availability[1:] and availability[-1] == "online", availability)
         # Warnings: no credentials (the pool1 bridge above ran anonymous).
         err = open(b.files + ".err").read()
         check("the bridge warns when it has no broker credentials", "no broker credentials" in err, err[:300])
