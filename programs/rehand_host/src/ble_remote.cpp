@@ -72,7 +72,10 @@ class Remote {
       return failed(Errc::io_error, fmt::format("no system bus ({})", e.getMessage()));
     }
     try {
-      if (rtukit::Status e = connect()) return e;
+      if (rtukit::Status e = connect()) {
+        finish();  // a connection we made for a chair we cannot use is closed again
+        return e;
+      }
       rtukit::Status e = loop();
       finish();
       return e;
