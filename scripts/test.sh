@@ -1,8 +1,12 @@
 #!/usr/bin/env bash
 # The whole test suite: installs what is missing, builds, runs every test
-# (core, drivers, CLI, interop with libmodbus / pymodbus / mbpoll) under ctest.
+# (core, drivers, CLI, interop with libmodbus / pymodbus / mbpoll) under ctest,
+# under AddressSanitizer + UndefinedBehaviorSanitizer: a memory error or
+# undefined behaviour fails the test that met it.
 # Usage: scripts/test.sh [--busy] [PRESET] [CTEST_ARGS...]
-#   PRESET  default (the default) or asan; CTEST_ARGS go to ctest (-R, -E...)
+#   PRESET  asan (the default: build/asan) or default (the plain optimised
+#           build the demo uses, build/default); CTEST_ARGS go to ctest
+#           (-R, -E...)
 #   --busy  (or RTUKIT_BUSY=1): run the suite with one core kept busy by a
 #           busy loop this script starts and stops by PID (scripts/busy.sh;
 #           RTUKIT_BUSY_LOOPS=N for more). Timing in the tests comes from the
@@ -15,7 +19,7 @@ if [ "${1:-}" = "--busy" ]; then
   busy=1
   shift
 fi
-preset="${1:-default}"
+preset="${1:-asan}"
 shift || true
 scripts/build.sh "$preset"
 # Tests leave nothing behind: a run that leaves new rtukit-* files or folders
