@@ -99,7 +99,8 @@ void add_rehand6600_commands(CLI::App& app, Action& action) {
             ->required();
         cmd.add_option("--adapter", o.adapter, "this computer's Bluetooth adapter")->capture_default_str();
         cmd.add_option("--key-gap", o.key_gap, "a held key that stops repeating this long is let go (ms)")
-            ->capture_default_str();
+            ->capture_default_str()
+            ->check(CLI::Range(100, 2000));
         examples(cmd, {"rtukit rehand6600 remote --ble 00:1A:7D:DA:71:13"});
       },
       [](const programs::BleRemoteOptions& o) {

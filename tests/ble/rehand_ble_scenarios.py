@@ -207,6 +207,17 @@ def reference_client(bluez, con, port):
               unknown.output().count("\n") == 1, unknown.output())
     finally:
         unknown.stop()
+    # A key gap of 0 would let go of every key at once; a long one would move the chair on long after
+    # the key is let go: refused before anything is opened.
+    for gap in ("0", "5000"):
+        refused = Client(bluez, ["--ble", chair, "--adapter", "hci1", "--key-gap", gap])
+        try:
+            bluez.pump(START_DEADLINE, lambda: refused.proc.poll() is not None)
+            check(f"a key gap of {gap} ms is refused in one line, exit 2, nothing opened",
+                  refused.proc.returncode == 2 and "--key-gap" in refused.output() and
+                  refused.output().count("\n") == 1 and "connected" not in refused.output(), refused.output())
+        finally:
+            refused.stop()
 
 
 def main():
