@@ -103,4 +103,4 @@ wait_for "$meter"
 run read --port "$meter" --map "$map" voltage current power demand_period relay
 run read --port "$meter" --unit 1 0x0002 1                      # the same register by address: 900 s
 run write --port "$meter" --unit 1 0x0002 30                    # 30 s is below the map's 60..3600: exception 03
-run watch --port "$meter" --map "$map" voltage frequency --count 2 --interval 300
+run map watch --port "$meter" --map "$map" voltage frequency --count 2 --interval 300

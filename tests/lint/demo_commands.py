@@ -1,0 +1,53 @@
+#!/usr/bin/env python3
+"""Every command the README's demo (scripts/demo.sh) runs is a command the
+rtukit binary has: a command renamed or moved (as `rtukit watch` became
+`rtukit map watch`) would otherwise leave the demo printing "unknown command"
+while still exiting 0.
+
+Usage: demo_commands.py RTUKIT   (exit 1 naming each line that fails)
+"""
+import pathlib
+import re
+import shlex
+import subprocess
+import sys
+
+DEMO = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "demo.sh"
+
+
+def command_words(args):
+    """The leading words that name the (sub)command: up to the first option,
+    quoted shell value or number."""
+    words = []
+    for word in args:
+        if word.startswith(("-", "$", '"')) or word[:1].isdigit():
+            break
+        words.append(word)
+    return words
+
+
+def main():
+    rtukit = sys.argv[1]
+    failures, checked = [], 0
+    for number, line in enumerate(DEMO.read_text().splitlines(), 1):
+        match = re.match(r'\s*(?:run|"\$rtukit")\s+(.*)', line)
+        if not match or line.lstrip().startswith("run()"):
+            continue
+        code = match.group(1).split("#", 1)[0]
+        words = command_words(shlex.split(code, posix=False))
+        if not words:
+            continue
+        checked += 1
+        done = subprocess.run([rtukit, *words, "--help"], capture_output=True, text=True, timeout=60)
+        if done.returncode != 0:
+            failures.append(f"scripts/demo.sh:{number}: rtukit {' '.join(words)}: "
+                            f"{(done.stderr or done.stdout).strip().splitlines()[:1]}")
+    if checked < 20:
+        failures.append(f"only {checked} demo commands found in {DEMO}: did the demo's `run` helper change?")
+    for failure in failures:
+        print(failure)
+    return 1 if failures else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
