@@ -140,6 +140,8 @@ Server start(const std::string& which, const Scenario& s, const TempDir& dir, co
     argv = {
         rtukit, "slave",  "--unit", "1",        "--registers",
         "200",  "--baud", "115200", "--listen", s.transport == "pty" ? listen : "tcp://127.0.0.1:" + listen};
+    // Every client of the bench comes from 127.0.0.1: no per-address share.
+    if (s.transport != "pty") argv.insert(argv.end(), {"--max-per-source", "0"});
   } else {
     argv = {libmodbus_server, s.transport == "pty" ? "rtu" : "tcp", listen};
     if (s.transport == "pty") argv.push_back("115200");

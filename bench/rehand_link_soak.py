@@ -34,7 +34,7 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, WebSocket, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
+from pyhelpers import Console, WebSocket, child_problems, free_port, pct, start, stop_processes, temp_dir, wait_for  # noqa: E402
 
 RTUKIT = sys.argv[1]
 MASTER_ERROR = 0x1010  # "1010 Master Error": error codes are hex (table 3)
@@ -123,17 +123,15 @@ def main():
     http, phone = free_port(), free_port()
     procs = []
     try:
-        bus = subprocess.Popen([RTUKIT, "bus", "--ports", "2", "--links", f"{host_pty},{chair_pty}", "--baud", "115200"],
-                               stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        # Each child's stderr kept and checked when stopped (pyhelpers.check_child).
+        bus = start([RTUKIT, "bus", "--ports", "2", "--links", f"{host_pty},{chair_pty}", "--baud", "115200"], work)
         procs.append(bus)
         wait_for(lambda: os.path.exists(chair_pty) and os.path.exists(host_pty))
-        procs.append(subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", chair_pty, "--no-state", "--no-console",
-                                       "--console", f"unix:{con_path}"],
-                                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL))
+        procs.append(start([RTUKIT, "sim", "rehand6600", "--listen", chair_pty, "--no-state", "--no-console",
+                            "--console", f"unix:{con_path}"], work))
         wait_for(lambda: os.path.exists(con_path))
-        daemon = subprocess.Popen([RTUKIT, "rehand6600", "host", "--port", host_pty, "--http", f"127.0.0.1:{http}",
-                                   "--phone", f"127.0.0.1:{phone}", "--pairing-file", os.path.join(work, "pairing.json")],
-                                  stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        daemon = start([RTUKIT, "rehand6600", "host", "--port", host_pty, "--http", f"127.0.0.1:{http}",
+                        "--phone", f"127.0.0.1:{phone}", "--pairing-file", os.path.join(work, "pairing.json")], work)
         procs.append(daemon)
         con = Console(con_path)
 
@@ -207,6 +205,7 @@ def main():
         d.ws.close()
     finally:
         stop_processes(procs)
+        failures.extend(f"child process: {c}" for c in child_problems)
 
     for f in failures[:20]:
         print(f, file=sys.stderr)

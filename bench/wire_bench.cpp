@@ -186,9 +186,20 @@ GatewayRow run_gateway(unsigned clients, unsigned cache_ms, double seconds) {
   if (!rig.ready()) return row;
   const TempDir& dir = rig.dir;
   const std::string where = "tcp://127.0.0.1:" + std::to_string(free_tcp_port());
-  std::vector<std::string> argv{
-      rtukit, "gateway",   "--port", dir / "host",        "--baud", std::to_string(baud), "--listen",
-      where,  "--timeout", "1000",   "--max-connections", "200"};
+  std::vector<std::string> argv{rtukit,
+                                "gateway",
+                                "--port",
+                                dir / "host",
+                                "--baud",
+                                std::to_string(baud),
+                                "--listen",
+                                where,
+                                "--timeout",
+                                "1000",
+                                "--max-connections",
+                                "200",
+                                "--max-per-source",
+                                "0"};  // one address
   if (cache_ms) argv.insert(argv.end(), {"--cache-ms", std::to_string(cache_ms)});
   Process gateway(argv);
   if (!gateway.wait_for_output("listening on")) return row;

@@ -30,6 +30,9 @@ void add_gateway_command(CLI::App& app, Action& action);
 /// bus: a virtual RS-485 line on ptys.
 void add_bus_command(CLI::App& app, Action& action);
 
+/// relay: a man in the middle of an RTU line, with faults chosen frame by frame.
+void add_relay_command(CLI::App& app, Action& action);
+
 /// sniff: listen to a line, transactions in device terms.
 void add_sniff_command(CLI::App& app, Action& action);
 

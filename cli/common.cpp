@@ -51,6 +51,10 @@ void ServerArgs::add_to(CLI::App& cmd_app, bool serial) {
   cmd.add_option("--max-connections", max_connections, "TCP: clients served at once; more are refused")
       ->capture_default_str()
       ->check(CLI::Range(1, 10000));
+  cmd.add_option("--max-per-source", max_per_source,
+                 "TCP: connections one client address may hold (its share of --max-connections; 0: no share)")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 10000));
   cmd.add_option("--idle-timeout", idle_timeout_s,
                  "TCP: close a connection silent for this many s (0: never)")
       ->capture_default_str();
@@ -63,6 +67,7 @@ void ServerArgs::add_to(CLI::App& cmd_app, bool serial) {
 ServerOptions ServerArgs::options() const {
   ServerOptions o;
   o.max_connections = max_connections;
+  o.max_per_source = max_per_source;
   o.idle_timeout = std::chrono::seconds(idle_timeout_s);
   if (turnaround_ms >= 0)
     o.turnaround = std::chrono::microseconds(static_cast<int64_t>(turnaround_ms * 1000.0));

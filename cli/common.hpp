@@ -101,6 +101,7 @@ struct LinkOptions {
 /// idle timeout, the answer's turnaround on serial lines.
 struct ServerArgs {
   unsigned max_connections = 64;
+  unsigned max_per_source = 16;
   unsigned idle_timeout_s = 60;
   double turnaround_ms = -1;  ///< < 0: the default (t3.5 on serial ports, none on ptys)
   /// `serial`: the command may listen on a serial line (--turnaround-ms means something).

@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   add_sim_commands(app, action);
   add_gateway_command(app, action);
   add_bus_command(app, action);
+  add_relay_command(app, action);
   add_sniff_command(app, action);
   add_doctor_command(app, action);
   add_completion_command(app, action);

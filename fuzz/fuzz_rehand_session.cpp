@@ -93,7 +93,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
         session.release(client, c % 16, now);
         break;
       case 5:
-        session.stop_all(now);
+        if (b & 1)
+          session.stop_all(now);
+        else
+          session.lift_stop();
         break;
       case 6:
         (void)session.check_command(client, command, b % 6);
@@ -105,7 +108,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       case 8:  // a poll: any value in any register
         status.regs[a % reg::kStatusCount] = static_cast<uint16_t>(b | (c << 8));
         status.regs[reg::kErrorCode] = 0;
-        session.on_status(status, error, now);
+        ++status.sequence;  // a new reading (the rules wait for one after a link loss)
+        session.on_status(status, error, now, /*stop_settled=*/(c & 1) != 0);
         break;
       case 9:  // the error overlay comes and goes
         error = b % 3 == 0 ? 0 : b % 3 == 1 ? uint16_t{0x10C3} : kMasterCommunicationError;

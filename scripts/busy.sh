@@ -26,6 +26,8 @@ if [ $# -eq 0 ] || ! [[ "$loops" =~ ^[0-9]+$ ]]; then
   exit 2
 fi
 
+# The tests read it: a bound on the host's own clock gets its busy margin.
+export RTUKIT_BUSY=1
 busy_pids=()
 stop_loops() {
   for pid in "${busy_pids[@]}"; do

@@ -9,8 +9,10 @@
 #  3. a generic slave written and read with the generic commands.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scripts/build.sh default >/dev/null
-rtukit=build/default/cli/rtukit
+# Only what the demo runs: the rtukit binary (Release, no tests), with only the
+# packages building it needs (scripts/setup.sh programs).
+scripts/build.sh programs rtukit >/dev/null
+rtukit=build/programs/cli/rtukit
 dir=$(mktemp -d /tmp/rtukit-demo.XXXXXX)
 pids=()
 trap 'exec 3>&- 4>&- 2>/dev/null; for p in "${pids[@]}"; do kill "$p" 2>/dev/null; wait "$p" 2>/dev/null; done; rm -rf "$dir"' EXIT

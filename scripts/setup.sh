@@ -1,21 +1,41 @@
 #!/usr/bin/env bash
-# Installs every Debian package that rtukit's build, tests, benchmarks and
-# fuzzers need. Idempotent: packages already present are not reinstalled and
+# Installs the Debian packages a command of rtukit needs, and only those.
+# Idempotent: packages already present are not reinstalled and
 # `apt-get update` runs only when something is missing.
-# Usage: scripts/setup.sh            (as root, or with sudo available)
-#        scripts/setup.sh aarch64    also the RK3588 cross build: Debian's aarch64 cross compiler,
-#                                    arm64 multiarch libraries, qemu-user with binfmt_misc, so the
-#                                    aarch64 test binaries (and the programs they start) run here
+# Usage: scripts/setup.sh [PURPOSE]   (as root, or with sudo available)
+#   programs  what building the programs needs (the compiler, CMake, the
+#             libraries they link): the demo (scripts/demo.sh) asks for this
+#   all       (the default) also what the tests, benchmarks, fuzzers, packages
+#             and the Cortex-M check need: the peers we did not write
+#             (libmodbus, pymodbus, mbpoll, tshark, Mosquitto, Chromium,
+#             python3-dbusmock), GoogleTest, Benchmark, clang: scripts/test.sh
+#   aarch64   all, and the RK3588 cross build: Debian's aarch64 cross compiler,
+#             arm64 multiarch libraries, qemu-user with binfmt_misc, so the
+#             aarch64 test binaries (and the programs they start) run here
 set -euo pipefail
-target="${1:-}"
+target="${1:-all}"
+case "$target" in
+  programs | all | aarch64) ;;
+  *)
+    echo "setup: unknown purpose '$target' (programs, all or aarch64)" >&2
+    exit 2
+    ;;
+esac
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
 
 PACKAGES=(
-  # build
-  cmake ninja-build g++ clang clang-format libclang-rt-14-dev pkg-config
-  # libraries we use instead of writing them
+  # build (ccache: a clone elsewhere reuses this machine's compiles, scripts/ccache-env.sh)
+  cmake ninja-build g++ pkg-config ccache
+  # libraries we use instead of writing them: the command line, formatting, JSON, logs, YAML profiles,
+  # the event loop (Boost.Asio) and the web layer (Boost.Beast, both header-only), TLS (OpenSSL), the
+  # pairing QR code, the MQTT bridge (libmosquitto), Bluetooth LE (BlueZ over D-Bus)
   libcli11-dev libfmt-dev nlohmann-json3-dev libspdlog-dev libyaml-cpp-dev
+  libboost-dev libssl-dev libqrencode-dev libmosquitto-dev libsdbus-c++-dev
+)
+if [ "$target" != "programs" ]; then PACKAGES+=(
+  # the clang builds (warnings, fuzzers), the format check
+  clang clang-format libclang-rt-14-dev
   # packaging: man page, .deb contents check
   help2man dpkg-dev file
   libgtest-dev libgmock-dev libbenchmark-dev
@@ -25,15 +45,13 @@ PACKAGES=(
   libmodbus-dev python3-pymodbus python3-serial python3-serial-asyncio mbpoll socat
   # the sniffer's pcap files, decoded by Wireshark's dissector
   tshark
-  # the event loop of io/, driver/, cli/ and web/ (Boost.Asio, header-only), the web layer (Boost.Beast,
-  # header-only; TLS listeners on OpenSSL) and its pages tested in a real browser
-  libboost-dev libssl-dev libqrencode-dev chromium chromium-driver python3-selenium zbar-tools
-  # the Inverjet MQTT bridge (libmosquitto) and its tests (a real broker and its clients)
-  libmosquitto-dev mosquitto mosquitto-clients
-  # the Rehand host daemon's Bluetooth LE link (BlueZ over D-Bus) and its tests: a private bus with a
-  # mock BlueZ (python3-dbusmock's bluez5 template)
-  libsdbus-c++-dev dbus-daemon python3-dbus python3-dbusmock python3-gi
-)
+  # the web pages tested in a real browser (and the pairing QR code read back)
+  chromium chromium-driver python3-selenium zbar-tools
+  # the Inverjet MQTT bridge's tests: a real broker and its clients
+  mosquitto mosquitto-clients
+  # the Bluetooth LE tests: a private bus with a mock BlueZ (python3-dbusmock's bluez5 template)
+  dbus-daemon python3-dbus python3-dbusmock python3-gi
+); fi
 if [ "$target" = "aarch64" ]; then
   if ! dpkg --print-foreign-architectures | grep -qx arm64; then
     $SUDO dpkg --add-architecture arm64

@@ -44,7 +44,7 @@ TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
             "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
             "scan, slave, diag, ident, "
             "inverjet, rehand6600, devices, " kExampleDevice
-            "map, sim, gateway, bus, sniff, doctor, completion)\n");
+            "map, sim, gateway, bus, relay, sniff, doctor, completion)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),

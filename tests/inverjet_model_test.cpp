@@ -249,6 +249,11 @@ std::vector<Segment> fifty_segments() {
   return s;
 }
 
+// Listed by name (ctest -N, a failure's header), not as the object's bytes.
+void PrintTo(const Scenario& c, std::ostream* os) {
+  *os << c.name;
+}
+
 class InverjetStateMachine : public ::testing::TestWithParam<Scenario> {};
 
 TEST_P(InverjetStateMachine, FollowsTheSchedule) {
@@ -511,7 +516,8 @@ TEST(InverjetRegisters, FormatsValuesFromTheTable) {
   // A bare number has no unit: refused, with an example.
   EXPECT_FALSE(profile::parse_duration("30").ok());
   EXPECT_NE(profile::parse_duration("30").error().reason().find("30:00"), std::string_view::npos);
-  for (const char* bad : {"", "1:5", "abc", "1:60", "m", "s", "30x", "1m60s", "-5s", "1m30", ":30", "999999s"})
+  for (const char* bad :
+       {"", "1:5", "abc", "1:60", "m", "s", "30x", "1m60s", "-5s", "1m30", ":30", "999999s"})
     EXPECT_FALSE(profile::parse_duration(bad).ok()) << bad;
 }
 
@@ -543,6 +549,21 @@ TEST(InverjetMotor, CurrentRisesWithSpeedAndRampsFromStandstill) {
   rig.at(20000);
   const uint16_t at80 = rig.input(reg::kMotorCurrent + 1);
   EXPECT_GT(at80, 2 * at40);
+}
+
+// A motor at rest draws nothing, and the bus then shows the mains (a mutant
+// that gave a stopped motor its idle current survived: scripts/mutate.py).
+TEST(InverjetMotor, AtRestItDrawsNothing) {
+  Rig rig;
+  rig.at(5000);
+  EXPECT_EQ(rig.input(reg::kMotorCurrent + 1), 0);
+  EXPECT_EQ(rig.input(reg::kBusVoltage), 3110);
+  rig.write(reg::kWorkMode, {0, 3, 40});
+  rig.at(10000);
+  EXPECT_GT(rig.input(reg::kMotorCurrent + 1), 0);
+  rig.write(reg::kState, {0});  // off: the motor coasts to a stop
+  rig.at(60000);
+  EXPECT_EQ(rig.input(reg::kMotorCurrent + 1), 0);
 }
 
 }  // namespace

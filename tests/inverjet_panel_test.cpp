@@ -187,25 +187,7 @@ class PanelFixture : public ::testing::Test {
   }
 
   // The simulator's console: one line in, one line out.
-  std::string ask(const std::string& line) {
-    const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
-    sockaddr_un a{};
-    a.sun_family = AF_UNIX;
-    const std::string path = dir_ / "console";
-    std::snprintf(a.sun_path, sizeof a.sun_path, "%s", path.c_str());
-    if (!eventually([&] { return ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0; },
-                    rtukit::test::kStartDeadline)) {
-      ::close(fd);
-      return {};
-    }
-    const std::string out = line + "\n";
-    (void)::write(fd, out.data(), out.size());
-    std::string answer;
-    char ch = 0;
-    while (::read(fd, &ch, 1) == 1 && ch != '\n') answer += ch;
-    ::close(fd);
-    return answer;
-  }
+  std::string ask(const std::string& line) { return rtukit::test::ask_console(dir_ / "console", line); }
 
   bool machine_off() { return ask("get state").rfind("state = off", 0) == 0; }
 

@@ -5,11 +5,13 @@
 // core is busy (scripts/busy.sh) takes seconds where an idle one takes ms.
 #pragma once
 
+#include <arpa/inet.h>
 #include <fcntl.h>
 #include <netinet/in.h>
 #include <signal.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -23,9 +25,41 @@
 #include <thread>
 #include <vector>
 
+#ifndef RTUKIT_NO_GTEST  // the bench programs use these helpers without GoogleTest
+#include <gtest/gtest.h>
+#endif
+
 namespace rtukit::test {
 
 using namespace std::chrono_literals;
+
+/// A child process's problem (a sanitizer report, an unclean end): a failure
+/// of the running test (GoogleTest), else one line on stderr and exit code 1
+/// at the end (the bench programs).
+inline void child_problem(const std::string& what) {
+#ifndef RTUKIT_NO_GTEST
+  ADD_FAILURE() << what;
+#else
+  std::fprintf(stderr, "child process problem: %s\n", what.c_str());
+  static const bool registered = [] {
+    std::atexit([] { std::_Exit(1); });
+    return true;
+  }();
+  (void)registered;
+#endif
+}
+
+/// The lines of `output` a sanitizer or UBSan wrote ("ERROR: AddressSanitizer",
+/// "WARNING: ThreadSanitizer", "runtime error:", "SUMMARY: ...Sanitizer"), "" if none.
+inline std::string sanitizer_lines(const std::string& output) {
+  std::string found;
+  std::istringstream in(output);
+  for (std::string line; std::getline(in, line);) {
+    if (line.find("Sanitizer") != std::string::npos || line.find("runtime error:") != std::string::npos)
+      found += line + "\n";
+  }
+  return found;
+}
 
 inline std::string read_file(const std::string& path) {
   std::ifstream in(path);
@@ -79,11 +113,44 @@ class TempDir {
   std::string path_;
 };
 
+/// One line to a console on a Unix socket (a simulator's, the relay's), one
+/// line back (without its newline); "" when nobody accepts within the start
+/// deadline. Connects anew each time: a console may be starting.
+inline std::string ask_console(const std::string& socket_path, const std::string& line) {
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM, 0);
+  sockaddr_un a{};
+  a.sun_family = AF_UNIX;
+  std::snprintf(a.sun_path, sizeof a.sun_path, "%s", socket_path.c_str());
+  if (!eventually([&] { return ::connect(fd, reinterpret_cast<sockaddr*>(&a), sizeof a) == 0; },
+                  kStartDeadline)) {
+    ::close(fd);
+    return {};
+  }
+  const std::string out = line + "\n";
+  (void)::write(fd, out.data(), out.size());
+  std::string answer;
+  char ch = 0;
+  while (::read(fd, &ch, 1) == 1 && ch != '\n') answer += ch;
+  ::close(fd);
+  return answer;
+}
+
 /// A TCP connection to 127.0.0.1:port (its file descriptor), -1 if refused.
 /// `rcvbuf`: a small receive buffer, for a client that stops reading.
-inline int connect_to(uint16_t port, int rcvbuf = 0) {
+/// `source`: the client's own address, another of 127.0.0.0/8 ("127.0.0.2":
+/// a second machine, as the server sees it).
+inline int connect_to(uint16_t port, int rcvbuf = 0, const char* source = nullptr) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   if (rcvbuf) ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &rcvbuf, sizeof rcvbuf);
+  if (source) {
+    sockaddr_in from{};
+    from.sin_family = AF_INET;
+    ::inet_pton(AF_INET, source, &from.sin_addr);
+    if (::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof from) != 0) {
+      ::close(fd);
+      return -1;
+    }
+  }
   sockaddr_in a{};
   a.sin_family = AF_INET;
   a.sin_port = htons(port);
@@ -114,7 +181,8 @@ inline uint16_t free_tcp_port() {
 class Process {
  public:
   /// `stdin_pipe`: the program reads what send() writes (else /dev/null).
-  explicit Process(const std::vector<std::string>& argv, bool stdin_pipe = false) {
+  explicit Process(const std::vector<std::string>& argv, bool stdin_pipe = false)
+      : name_(argv.empty() ? std::string() : argv[0]) {
     std::string tmpl = temp_root() + "/rtukit-proc-XXXXXX";
     // Close-on-exec: other programs this test starts do not inherit it (the
     // dup2 onto 1 and 2 below clears the flag for this one's own output).
@@ -147,8 +215,15 @@ class Process {
     if (in[0] >= 0) ::close(in[0]);
     stdin_ = in[1];
   }
+  /// Stops the program if it still runs, then checks its end (issue 36: a
+  /// child's sanitizer report or crash on its shutdown path fails the test
+  /// that started it): no sanitizer line in its output, and, for our own
+  /// `rtukit` binary stopped here by SIGTERM, an exit of its own within the
+  /// deadline with 0 or 128 + SIGTERM (a command cut short says so). Foreign
+  /// peers (socat, Python, libmodbus) may die by the signal.
   ~Process() {
     stop();
+    check_end();
     if (stdin_ >= 0) ::close(stdin_);
     ::close(log_);
   }
@@ -179,6 +254,7 @@ class Process {
     int status = 0;
     if (::waitpid(pid_, &status, WNOHANG) == pid_) {
       exited_ = true;
+      signaled_ = !WIFEXITED(status);
       code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
       return false;
     }
@@ -197,23 +273,52 @@ class Process {
     }
     return code_;
   }
-  /// SIGTERM, then SIGKILL after 2 s. By PID only.
-  void stop() {
+  /// SIGTERM, then SIGKILL when it has not ended within `deadline` (a
+  /// failure of the test for our own binary: see ~Process). By PID only.
+  void stop(std::chrono::milliseconds deadline = 10000ms) {
     if (pid_ <= 0 || !running()) return;
     ::kill(pid_, SIGTERM);
-    if (!eventually([&] { return !running(); }, 2000ms)) {
+    terminated_ = true;
+    if (!eventually([&] { return !running(); }, deadline)) {
       ::kill(pid_, SIGKILL);
       int status = 0;
       ::waitpid(pid_, &status, 0);
       exited_ = true;
+      killed_ = true;
     }
   }
+  /// Whether the test expects this program to end unclean on SIGTERM (a test
+  /// of what a crash leaves behind, say): the end is then not checked.
+  void expect_unclean_end() { unclean_ok_ = true; }
 
  private:
+  bool ours() const {
+    const std::string base = name_.substr(name_.find_last_of('/') + 1);
+    return base == "rtukit";
+  }
+  void check_end() {
+    if (pid_ <= 0) return;
+    if (const std::string lines = sanitizer_lines(output()); !lines.empty())
+      child_problem(name_ + " reported:\n" + lines);
+    if (unclean_ok_ || !ours() || !terminated_) return;
+    if (killed_)
+      child_problem(name_ + " did not end within its deadline after SIGTERM (killed)");
+    else if (signaled_ || (code_ != 0 && code_ != 128 + SIGTERM))
+      child_problem(
+          name_ + " ended unclean after SIGTERM: " +
+          (signaled_ ? "killed by signal " + std::to_string(code_ - 128) : "exit " + std::to_string(code_)) +
+          "\n" + output().substr(output().size() > 2000 ? output().size() - 2000 : 0));
+  }
+
+  std::string name_;
   pid_t pid_ = -1;
   int stdin_ = -1;
   int log_ = -1;  // the output file (unlinked), read with pread
   bool exited_ = false;
+  bool terminated_ = false;  // stop() sent SIGTERM
+  bool killed_ = false;      // ...and it took SIGKILL
+  bool signaled_ = false;    // it ended by a signal (not an exit of its own)
+  bool unclean_ok_ = false;
   int code_ = -1;
 };
 

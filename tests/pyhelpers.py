@@ -1,7 +1,8 @@
 """What the Python tests and benchmarks share: a free loopback port, polling
 with a deadline, whether a TCP port accepts, connecting to a server that may
 still be starting, a percentile, a simulator's console, a small WebSocket
-client and temporary folders that go when the program ends. Import with the tests/ folder on sys.path.
+client, temporary folders that go when the program ends, and children
+started with their stderr kept and checked when they are stopped. Import with the tests/ folder on sys.path.
 
 Timing: a test waits for events (a socket that accepts, an answer, a state
 seen) with generous deadlines, never for a fixed time: a deadline only costs
@@ -24,6 +25,27 @@ def free_port():
 # How long a started program may take to open its socket and accept: a
 # sanitizer build on a machine whose other core is busy starts in seconds.
 START_DEADLINE = 30.0
+
+# The bound of every stop path of the Rehand 6600 host (docs/rehand6600.md,
+# "How the host writes"): the 300-ms lease + one poll (at most 100 ms) +
+# 500 ms for the machine; 950 ms with RTUKIT_BUSY (scripts/test.sh --busy).
+# Never seconds.
+STOP_BOUND_S = 0.3 + 0.1 + (0.95 if os.environ.get("RTUKIT_BUSY") else 0.5)
+
+
+def host_polls_later(state, n=2, wait=None):
+    """Returns once the Rehand host daemon has polled its controller `n` more
+    times (its state()'s last_contact_ms moves at each poll): long enough for
+    anything it would write to have reached the controller, and for motion to
+    show. An event, not a sleep. `state`: a function returning the daemon's
+    /api/state document; `wait(seconds, until)`: how to wait (the mock
+    BlueZ's pump), wait_for by default. False when a poll did not come."""
+    for _ in range(n):
+        seen = state()["last_contact_ms"]
+        until = lambda: state()["last_contact_ms"] > seen  # noqa: E731
+        if not (wait(START_DEADLINE, until) if wait else wait_for(until, START_DEADLINE, 0.01)):
+            return False
+    return True
 
 
 def wait_for(fn, timeout=START_DEADLINE, step=0.02):
@@ -217,20 +239,96 @@ class WebSocket:
         self.s.close()
 
 
-def stop_processes(procs, timeout=5.0):
+# What stop_processes found wrong with a child (a sanitizer report, a crash,
+# our binary ending unclean after SIGTERM): each a line; the tests' verdict
+# (browser_common.summary) fails on any.
+child_problems = []
+_started = [0]
+
+
+def start(argv, log_dir, stdout=None, stderr=None, **kw):
+    """subprocess.Popen(argv) whose stderr is kept for stop_processes' check:
+    in `stderr` when it is a file the caller opened (its name is read back),
+    else in a file of its own under `log_dir` (PROGRAM-N.stderr). stdout goes
+    to /dev/null unless given."""
+    import subprocess
+    path = getattr(stderr, "name", None) if stderr not in (None, subprocess.STDOUT) else None
+    if stderr is None:
+        _started[0] += 1
+        path = os.path.join(log_dir, f"{os.path.basename(argv[0])}-{_started[0]}.stderr")
+        stderr = open(path, "w")
+    if stderr is subprocess.STDOUT and hasattr(stdout, "name"):
+        path = stdout.name
+    p = subprocess.Popen(argv, stdout=subprocess.DEVNULL if stdout is None else stdout, stderr=stderr, **kw)
+    p.stderr_path = path
+    return p
+
+
+def sanitizer_lines(text):
+    """The lines a sanitizer or UBSan wrote ("ERROR: AddressSanitizer",
+    "runtime error:", "SUMMARY: ...Sanitizer"), as one string ("" if none)."""
+    return "\n".join(line for line in text.splitlines() if "Sanitizer" in line or "runtime error:" in line)
+
+
+def check_child(p, terminated, output=None):
+    """The end of a child (issue 36): no sanitizer line in the stderr that
+    start() kept; our own `rtukit` binary, when `terminated` (SIGTERM sent
+    here), ended by itself with 0 or 128 + SIGTERM (a command cut short says
+    so); a child that ended by a signal of its own (a crash) fails too.
+    Foreign peers (socat, Python, Mosquitto) may die by SIGTERM. `output`:
+    what the child wrote when the caller collected it itself. Returns the
+    problems (also added to child_problems and printed as FAIL lines)."""
+    import signal
+    problems = []
+    name = os.path.basename(str(p.args[0] if isinstance(p.args, (list, tuple)) else p.args))
+    path = getattr(p, "stderr_path", None)
+    if path or output is not None:
+        lines = sanitizer_lines(output or "")
+        try:
+            if path:
+                with open(path, errors="replace") as f:
+                    lines = sanitizer_lines(f.read())
+        except OSError:
+            pass
+        if lines:
+            problems.append(f"{name} (pid {p.pid}) reported: {lines}")
+    code = p.returncode
+    ours = name == "rtukit" and not getattr(p, "killed_on_purpose", False)  # a power cut a test makes
+    if ours and code is not None and code < 0:
+        if code == -signal.SIGKILL and getattr(p, "killed_here", False):
+            problems.append(f"{name} (pid {p.pid}) did not end within its deadline after SIGTERM (killed)")
+        else:
+            problems.append(f"{name} (pid {p.pid}) ended by signal {-code}")
+    elif ours and terminated and code not in (0, 128 + signal.SIGTERM):
+        problems.append(f"{name} (pid {p.pid}) ended unclean after SIGTERM: exit {code}")
+    for problem in problems:
+        print(f"FAIL child process: {problem}", flush=True)
+    child_problems.extend(problems)
+    return problems
+
+
+def stop_processes(procs, timeout=10.0, wait=None):
     """Stops what a test or bench started, last started first: SIGTERM (a
     server ends cleanly: pty link removed, state saved), then SIGKILL for one
-    that has not ended within `timeout`."""
+    that has not ended within `timeout`; then checks each one's end
+    (check_child). `wait(seconds, until)`: how to wait when something in this
+    process must go on meanwhile (the mock BlueZ's loop, which answers the
+    daemon's goodbye to BlueZ: MockBluez.pump)."""
     import signal
-    import subprocess
     for p in reversed(procs):
+        terminated = False
         if p.poll() is None:
             p.send_signal(signal.SIGTERM)
-            try:
-                p.wait(timeout)
-            except subprocess.TimeoutExpired:
+            terminated = True
+            if wait:
+                wait(timeout, lambda: p.poll() is not None)
+            else:
+                wait_for(lambda: p.poll() is not None, timeout, 0.01)
+            if p.poll() is None:
                 p.kill()
-                p.wait()
+                p.killed_here = True
+            p.wait()
+        check_child(p, terminated)
 
 
 _temp_dirs = []

@@ -126,6 +126,11 @@ struct PostureCase {
   uint16_t status_value;
 };
 
+// Listed by name (ctest -N, a failure's header), not as the object's bytes.
+void PrintTo(const PostureCase& c, std::ostream* os) {
+  *os << c.name;
+}
+
 class RehandPosture : public ::testing::TestWithParam<PostureCase> {};
 
 TEST_P(RehandPosture, MovesTheDocumentedActuatorsAndStopsAtTheLimit) {
@@ -272,6 +277,22 @@ TEST(RehandDrive, JoystickSpeedFromLevelAndMode) {
   rig.run_for(3000);
   EXPECT_EQ(rig.at(reg::kMotion), 1);
   EXPECT_EQ(rig.at(reg::kSpeed), 0);
+}
+
+// The joystick's dead band: a deflection of 10 is a demand, 9 is not, in
+// each direction (a mutant that moved the edge survived: scripts/mutate.py).
+TEST(RehandDrive, JoystickDeadBandEndsAt10) {
+  const struct {
+    int x, y;
+    uint16_t motion;  // 1 static, 2 forward, 3 backward, 4 spin left, 5 spin right
+  } cases[] = {{0, 9, 1},  {0, 10, 2},  {0, -9, 1}, {0, -10, 3},
+               {-9, 0, 1}, {-10, 0, 4}, {9, 0, 1},  {10, 0, 5}};
+  for (const auto& c : cases) {
+    Rig rig;
+    rig.chair.set_joystick(c.x, c.y);
+    rig.run_for(1000);
+    EXPECT_EQ(rig.at(reg::kMotion), c.motion) << "joystick " << c.x << " " << c.y;
+  }
 }
 
 TEST(RehandDrive, NoDrivingWhileChargingOrInPush) {

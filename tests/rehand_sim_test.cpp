@@ -76,6 +76,18 @@ class RehandSim : public ::testing::Test {
     // Wait for the reply so the next step sees the effect.
     ASSERT_TRUE(eventually([&] { return sim_->output().size() > before; })) << line;
   }
+  /// The console's answer to `line`, read up to `last` (its last line's start).
+  std::string ask(const std::string& line, const std::string& last) {
+    const size_t before = sim_->output().size();
+    if (!sim_->send(line + "\n")) return "console closed";
+    std::string answer;
+    eventually([&] {
+      answer = sim_->output().substr(before);
+      const size_t at = answer.find(last);
+      return at != std::string::npos && answer.find('\n', at) != std::string::npos;
+    });
+    return answer;
+  }
   RunResult cli(std::vector<std::string> args, bool with_port = true) {
     return run_cli(kRtukit, std::move(args), with_port ? tty_ : std::string());
   }
@@ -271,6 +283,10 @@ TEST_F(RehandSim, Cli_StatusHoldPulseSetWatch) {
   EXPECT_GT(risen, 0);  // it rose (by how much depends on when the machine ran the press)
   const json later = json::parse(cli({"rehand6600", "status", "--json"}).output)["values"];
   EXPECT_EQ(later["actuator1_position"]["raw"].get<int>(), risen);  // and stays where it stopped
+  // The release stopped it, not the controller's 500-ms watchdog (what a
+  // hold that ended without its 0 would look like here): no trip.
+  const std::string status = ask("status", "held commands:");
+  EXPECT_NE(status.find(", 0 trip(s)"), std::string::npos) << status;
   r = cli({"rehand6600", "pulse", "light"});
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("main light on"), std::string::npos) << r.output;

@@ -13,6 +13,7 @@
 
 #include <atomic>
 #include <condition_variable>
+#include <filesystem>
 #include <fstream>
 #include <future>
 #include <mutex>
@@ -278,6 +279,16 @@ double cpu_seconds(pid_t pid) {
   return (std::stod(fields[13]) + std::stod(fields[14])) / static_cast<double>(::sysconf(_SC_CLK_TCK));
 }
 
+/// How many descriptors process `pid` has open (its /proc/PID/fd entries).
+size_t open_descriptors(pid_t pid) {
+  std::error_code ec;
+  size_t n = 0;
+  for (auto it = std::filesystem::directory_iterator("/proc/" + std::to_string(pid) + "/fd", ec);
+       !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
+    ++n;
+  return n;
+}
+
 }  // namespace
 
 TEST(ServerProtection, AClientThatNeverReadsStallsNobody) {
@@ -409,6 +420,82 @@ TEST(ServerProtection, SlowlorisIsClosedAtTheRequestDeadline) {
   for (int fd : slow) ::close(fd);
 }
 
+// Issue 39: one address trickling requests on 100 connections (a header a
+// byte at a time: each connection stays "receiving", never idle) took every
+// slot; a fresh, well-behaved client from another address lost 3 of its 6
+// requests. Now an address holds at most its share (max_per_source, 16 by
+// default): the rest of its connections are refused at once, and the client
+// is served every time, with nothing evicted.
+TEST(ServerProtection, OneAddressCannotTakeEveryConnection) {
+  Server server("tcp://127.0.0.1:0", ServerOptions{});
+  const uint16_t port = server.listener->tcp_port();
+  std::vector<int> attacker;
+  unsigned admitted = 0;
+  for (int i = 0; i < 100; ++i) {
+    const int fd = connect_to(port, 0, "127.0.0.2");
+    ASSERT_GE(fd, 0);
+    attacker.push_back(fd);
+    admitted += send_partial_request(fd, {0}) ? 1 : 0;  // refused ones are closed: no answer
+  }
+  EXPECT_EQ(admitted, ServerOptions{}.max_per_source);
+  EXPECT_EQ(server.stats().connections_refused, 100u - ServerOptions{}.max_per_source);
+  for (int request = 0; request < 6; ++request)
+    EXPECT_TRUE(read_ok(server.listener->where())) << "request " << request;  // from 127.0.0.1
+  EXPECT_EQ(server.stats().share_evicted, 0u);
+  EXPECT_EQ(server.stats().idle_evicted, 0u);
+  for (int fd : attacker) ::close(fd);
+}
+
+// With a few addresses the attacker can fill the table within each share;
+// then a newcomer from an address with fewer connections takes the place of
+// the least active connection of the address holding the most. An address
+// never evicts one holding as many as it would, so the attacker's addresses
+// cannot take each other's places beyond an even share.
+TEST(ServerProtection, AFewAddressesCannotStarveAnother) {
+  ServerOptions o;
+  o.max_connections = 8;
+  o.max_per_source = 4;
+  Server server("tcp://127.0.0.1:0", o);
+  const uint16_t port = server.listener->tcp_port();
+  const char* sources[] = {"127.0.0.2", "127.0.0.3", "127.0.0.4", "127.0.0.5"};
+  std::vector<int> attacker;
+  for (int round = 0; round < 2; ++round)
+    for (const char* source : sources) {
+      attacker.push_back(connect_to(port, 0, source));
+      ASSERT_TRUE(send_partial_request(attacker.back(), {0, 1})) << source;
+    }
+  ASSERT_EQ(server.connections(), 8u);
+  // The newcomer (127.0.0.1, holding none): served, in place of the first
+  // connection of an address holding two (the least active).
+  EXPECT_TRUE(read_ok(server.listener->where()));
+  EXPECT_EQ(server.stats().share_evicted, 1u);
+  EXPECT_TRUE(closed_by_peer(attacker[0], 2000ms));
+  ASSERT_TRUE(eventually([&] { return server.connections() == 7u; }, 5000ms));  // the newcomer has gone
+  // A free place goes to whoever asks within its share: 127.0.0.3 now holds
+  // three (127.0.0.2 one, the others two). Full again, nothing idle:
+  const int more = connect_to(port, 0, "127.0.0.3");
+  ASSERT_TRUE(send_partial_request(more, {0, 1}));
+  const auto refused = [&](const char* source) {
+    const int fd = connect_to(port, 0, source);
+    const bool closed = closed_by_peer(fd, 2000ms);
+    ::close(fd);
+    return closed;
+  };
+  EXPECT_TRUE(refused("127.0.0.4")) << "it would hold three, as many as the largest";
+  EXPECT_TRUE(refused("127.0.0.3")) << "an address never evicts itself";
+  EXPECT_EQ(server.stats().share_evicted, 1u);
+  // 127.0.0.2 (one) takes the place of 127.0.0.3's least active connection.
+  const int back = connect_to(port, 0, "127.0.0.2");
+  EXPECT_TRUE(send_partial_request(back, {0, 1}));
+  EXPECT_EQ(server.stats().share_evicted, 2u);
+  EXPECT_TRUE(closed_by_peer(attacker[1], 2000ms));
+  for (size_t i = 2; i < attacker.size(); ++i) EXPECT_TRUE(still_open(attacker[i])) << i;
+  EXPECT_TRUE(still_open(more));
+  ::close(back);
+  for (int fd : attacker) ::close(fd);
+  ::close(more);
+}
+
 // Issue 28, item 1 (c): a connection whose request is on the bus (a gateway
 // in front of a device that has not answered yet) is never the one closed
 // to make room, even though it is the oldest; and when every connection has
@@ -511,12 +598,15 @@ TEST(ServerProtection, OutOfFileDescriptors_NoSpin_ThenServesAgain) {
   // accept() fails with EMFILE while 60 connections wait.
   const uint16_t port = test::free_tcp_port();
   const std::string where = "tcp://127.0.0.1:" + std::to_string(port);
-  Process slave(
-      {"prlimit", "--nofile=32:32", kRtukit, "slave", "--listen", where, "--max-connections", "1000"});
+  Process slave({"prlimit", "--nofile=32:32", kRtukit, "slave", "--listen", where, "--max-connections",
+                 "1000", "--max-per-source", "0"});  // all 60 from one address
   ASSERT_TRUE(slave.wait_for_output("listening on")) << slave.output();
   std::vector<int> fds;
   for (int i = 0; i < 60; ++i) fds.push_back(connect_to(port));
-  std::this_thread::sleep_for(200ms);  // let it run into EMFILE
+  // The event, not a sleep: every one of its 32 descriptors in use, so the
+  // next accept() fails with EMFILE (and keeps failing while 60 wait).
+  ASSERT_TRUE(eventually([&] { return open_descriptors(slave.pid()) >= 32; }, 10000ms))
+      << open_descriptors(slave.pid()) << " descriptors open";
   const double before = cpu_seconds(slave.pid());
   std::this_thread::sleep_for(1000ms);
   const double used = cpu_seconds(slave.pid()) - before;

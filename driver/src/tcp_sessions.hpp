@@ -9,8 +9,14 @@
 //    that trickles a frame, slowloris, is closed);
 //  - at most max_connections at once. A new connection past the limit closes
 //    the one idle longest (nothing being received, executed or answered:
-//    the Modbus TCP implementation guide's rule) and takes its place; when
-//    every connection is busy it is closed at once;
+//    the Modbus TCP implementation guide's rule) and takes its place;
+//  - at most max_per_source from one client address. An address at its share
+//    may only replace its own idle connection. When the table is full and
+//    nothing is idle, a newcomer from an address with fewer connections
+//    replaces the least active connection of the address holding the most
+//    (one that trickles a request counts; one answering never): an attacker
+//    with a few addresses cannot fill the table against everybody else;
+//  - otherwise the newcomer is closed at once;
 //  - a connection that ends (the client's end of stream, a stream out of
 //    step) first answers every request it took: an executed write is always
 //    confirmed;
@@ -23,6 +29,7 @@
 #include <cstring>
 #include <functional>
 #include <list>
+#include <map>
 #include <memory>
 #include <span>
 #include <string>
@@ -41,9 +48,10 @@ class TcpSession;
 struct TcpShared {
   ServerOptions options;
   ServerStats stats;
-  unsigned live = 0;                ///< connections open (a slot each)
-  std::list<TcpSession*> sessions;  ///< the open ones, to pick one to close for a newcomer
-  uint64_t activity = 0;            ///< a counter, not a clock: orders the sessions' last activity
+  unsigned live = 0;                                 ///< connections open (a slot each)
+  std::list<TcpSession*> sessions;                   ///< the open ones, to pick one to close for a newcomer
+  std::map<asio::ip::address, unsigned> per_source;  ///< open connections of each client address
+  uint64_t activity = 0;  ///< a counter, not a clock: orders the sessions' last activity
 };
 
 class TcpSession : public std::enable_shared_from_this<TcpSession> {
@@ -52,10 +60,24 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
       : socket_(std::move(socket)),
         idle_(socket_.get_executor()),
         deadline_(socket_.get_executor()),
-        shared_(std::move(shared)) {
+        shared_(std::move(shared)),
+        source_(source_of(socket_)) {
     ++shared_->live;
+    ++shared_->per_source[source_];
     entry_ = shared_->sessions.insert(shared_->sessions.end(), this);
     touch();
+  }
+
+  /// The client's address, an IPv4-mapped IPv6 one as its IPv4 address
+  /// (the same client on a dual-stack listener). Unspecified when unknown.
+  static asio::ip::address source_of(const asio::ip::tcp::socket& socket) {
+    boost::system::error_code ec;
+    const auto endpoint = socket.remote_endpoint(ec);
+    if (ec) return {};
+    const asio::ip::address a = endpoint.address();
+    if (a.is_v6() && a.to_v6().is_v4_mapped())
+      return asio::ip::make_address_v4(asio::ip::v4_mapped, a.to_v6());
+    return a;
   }
   // A session is normally closed (on the io thread) long before it is
   // destroyed; one never closed (its loop stopped) gives its slot back here.
@@ -76,11 +98,26 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     if (lingering_) return true;
     return !finishing_ && !busy() && !writing_ && pending_.empty();
   }
+  /// Answering a request: one taken and not yet answered (executed, or on
+  /// the bus), an answer being written, or the answers of an ending
+  /// connection. Such a connection is never closed to admit another: an
+  /// executed write is always confirmed.
+  bool answering() const {
+    if (closed_) return false;
+    return owed_ > 0 || writing_ || !pending_.empty() || (finishing_ && !lingering_) || answer_coming();
+  }
   /// Orders sessions by their last activity (connect, bytes in, an answer out).
   uint64_t last_activity() const { return last_activity_; }
+  const asio::ip::address& source() const { return source_; }
   /// Closes an idle session to admit a new one (the acceptor, io thread).
   void evict() {
     ++shared_->stats.idle_evicted;
+    close();
+  }
+  /// Closes a session of an address over its fair share to admit a
+  /// connection from an address with fewer (the acceptor, io thread).
+  void evict_for_share() {
+    ++shared_->stats.share_evicted;
     close();
   }
 
@@ -281,6 +318,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     if (!counted_) return;
     counted_ = false;
     --shared_->live;
+    if (--shared_->per_source[source_] == 0) shared_->per_source.erase(source_);
     shared_->sessions.erase(entry_);
   }
 
@@ -316,6 +354,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   asio::steady_timer idle_;
   asio::steady_timer deadline_;
   std::shared_ptr<TcpShared> shared_;
+  asio::ip::address source_;
   std::list<TcpSession*>::iterator entry_;
   bool counted_ = true;  // holds a slot (live, sessions)
   uint64_t last_activity_ = 0;
@@ -391,8 +430,7 @@ class TcpAcceptor {
         return;
       }
       boost::system::error_code ignored;
-      if (shared_->live >= shared_->options.max_connections) make_room();
-      if (shared_->live >= shared_->options.max_connections) {
+      if (!make_room(TcpSession::source_of(socket))) {
         ++shared_->stats.connections_refused;  // a clean close: the client sees at once it was refused
         socket.close(ignored);
       } else {
@@ -403,13 +441,45 @@ class TcpAcceptor {
     });
   }
 
-  // Full: close the connection idle longest, if any is idle (never one whose
-  // request is being received, executed or answered).
-  void make_room() {
-    TcpSession* oldest = nullptr;
+  // Room for a connection from `source`, made if need be; false: none.
+  bool make_room(const asio::ip::address& source) {
+    const ServerOptions& o = shared_->options;
+    const auto held = [&](const asio::ip::address& a) {
+      const auto it = shared_->per_source.find(a);
+      return it == shared_->per_source.end() ? 0u : it->second;
+    };
+    // At its share: only in place of its own connection idle longest.
+    if (o.max_per_source > 0 && held(source) >= o.max_per_source) {
+      if (TcpSession* own = least_active([&](TcpSession* s) { return s->source() == source && s->idle(); }))
+        own->evict();
+      return held(source) < o.max_per_source;
+    }
+    if (shared_->live < o.max_connections) return true;
+    // Full: the connection idle longest, whoever holds it (never one whose
+    // request is being received, executed or answered).
+    if (TcpSession* idle = least_active([](TcpSession* s) { return s->idle(); })) {
+      idle->evict();
+      return shared_->live < o.max_connections;
+    }
+    // Nothing idle: the address holding the most gives up its least active
+    // connection that is not answering, if it holds more than the newcomer's
+    // address would (so no address can evict one with as many or fewer).
+    const asio::ip::address* largest = nullptr;
+    for (const auto& [address, n] : shared_->per_source)
+      if (!largest || n > held(*largest)) largest = &address;
+    if (!largest || held(*largest) <= held(source) + 1) return false;
+    const asio::ip::address donor = *largest;
+    if (TcpSession* s = least_active([&](TcpSession* x) { return x->source() == donor && !x->answering(); }))
+      s->evict_for_share();
+    return shared_->live < o.max_connections;
+  }
+
+  template <class Pred>
+  TcpSession* least_active(Pred pred) const {
+    TcpSession* found = nullptr;
     for (TcpSession* s : shared_->sessions)
-      if (s->idle() && (!oldest || s->last_activity() < oldest->last_activity())) oldest = s;
-    if (oldest) oldest->evict();
+      if (pred(s) && (!found || s->last_activity() < found->last_activity())) found = s;
+    return found;
   }
 
   asio::ip::tcp::acceptor acceptor_;

@@ -75,6 +75,19 @@ def device_path(address):
     return f"{ADAPTER}/dev_{address.replace(':', '_').upper()}"
 
 
+def client_flags(server_flags):
+    """The Flags a central's BlueZ shows for a characteristic a peripheral
+    declared with `server_flags`: the ATT properties only ("read", "write",
+    "notify"...); the security part of "encrypt-authenticated-read" or
+    "encrypt-authenticated-notify" is the peripheral's, enforced there."""
+    shown = []
+    for f in map(str, server_flags):
+        base = f.split("-")[-1] if f.startswith(("encrypt-", "secure-")) else f
+        if base not in shown:
+            shown.append(base)
+    return dbus.Array(shown, signature="s")
+
+
 class MockBluez:
     def __init__(self, work):
         config = os.path.join(work, "system-bus.conf")
@@ -193,7 +206,7 @@ class MockBluez:
                 options = lambda o: dbus.Dictionary(dict(o, device=laptop, link="LE"), signature="sv")  # noqa: E731
                 self.root.AddObject(copy, CHAR, {
                     "UUID": interfaces[CHAR]["UUID"], "Service": dbus.ObjectPath(service),
-                    "Flags": interfaces[CHAR]["Flags"], "Value": dbus.Array([], signature="y"),
+                    "Flags": client_flags(interfaces[CHAR]["Flags"]), "Value": dbus.Array([], signature="y"),
                     "Notifying": dbus.Boolean(False)}, [
                     ("ReadValue", "a{sv}", "ay", lambda _c, o, f=forward: f("ReadValue", options(o))),
                     ("WriteValue", "aya{sv}", "", lambda _c, v, o, f=forward: f("WriteValue", v, options(o))),

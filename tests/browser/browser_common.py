@@ -8,7 +8,7 @@ import sys
 import socket
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import connect_unix, free_port, stop_processes, temp_dir, wait_for  # noqa: E402,F401 (the browser tests take them from here)
+from pyhelpers import connect_unix, free_port, start, stop_processes, temp_dir, wait_for  # noqa: E402,F401 (the browser tests take them from here)
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
@@ -134,5 +134,9 @@ def layout(d, name, out, scrolls=False):
 
 
 def summary():
-    print("PASS" if not failures else f"FAILED: {', '.join(failures)}")
-    return 0 if not failures else 1
+    """The verdict: every failed check, and every child that ended badly
+    (pyhelpers.child_problems: a sanitizer report, a crash, an unclean end)."""
+    import pyhelpers
+    bad = failures + [f"child process: {p}" for p in pyhelpers.child_problems]
+    print("PASS" if not bad else f"FAILED: {', '.join(bad)}")
+    return 0 if not bad else 1

@@ -35,7 +35,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from browser_common import (Console, browser, check, free_port, layout, stop_processes, summary,  # noqa: E402
                             temp_dir, wait_for)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from pyhelpers import START_DEADLINE, WebSocket  # noqa: E402
+from pyhelpers import START_DEADLINE, WebSocket, start  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
 DEADLINE = 20  # s, for what the page, the panel or the simulator shows after an action
@@ -156,8 +156,8 @@ def main():
     url = f"https://127.0.0.1:{port}"
     procs, drivers = [], []
     try:
-        sim = subprocess.Popen([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console",
-                                "--console", f"unix:{con_path}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        sim = start([RTUKIT, "sim", "inverjet", "--listen", f"pty:{pty}", "--no-state", "--no-console",
+                     "--console", f"unix:{con_path}"], work)
         procs.append(sim)
         wait_for(lambda: os.path.exists(pty), START_DEADLINE)
         con = Console(con_path)  # retried until the simulator accepts
@@ -168,9 +168,9 @@ def main():
                         "-keyout", key, "-out", cert, "-days", "2", "-subj", "/CN=127.0.0.1", "-addext",
                         "subjectAltName=IP:127.0.0.1"], check=True, capture_output=True)
         err = open(os.path.join(work, "panel.err"), "w")
-        panel = subprocess.Popen([RTUKIT, "inverjet", "panel", "--port", pty, "--http", f"127.0.0.1:{port}",
-                                  "--password-file", pw, "--tls-cert", cert, "--tls-key", key],
-                                 stdout=subprocess.PIPE, stderr=err, text=True)
+        panel = start([RTUKIT, "inverjet", "panel", "--port", pty, "--http", f"127.0.0.1:{port}",
+                       "--password-file", pw, "--tls-cert", cert, "--tls-key", key], work,
+                      stdout=subprocess.PIPE, stderr=err, text=True)
         procs.append(panel)
         check("panel prints its https URL", url in panel.stdout.readline())
 

@@ -22,7 +22,10 @@ import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-CLI_BUDGET = 3500
+# 3,500 at issue 27's end; `rtukit relay` (a new command: option wiring and
+# printing, its logic in driver/fault_relay.hpp) added about 100. Issue 38
+# replaces this count with the checks it stands for.
+CLI_BUDGET = 3650
 RULES = [
     ("a unit range (use the device's unit_range() or kMaxSerialUnit)", re.compile(r"\b(?:247|254)\b")),
     ("a raw register address (use the row's Handle)", re.compile(r"\[\s*0x[0-9A-Fa-f]+\s*\]")),

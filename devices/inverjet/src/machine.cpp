@@ -122,6 +122,14 @@ Error Machine::apply_write(Space space, uint16_t address, std::span<const uint16
   }
   image().write(space, address, values);
   if (has_control) apply_control(c);
+  // B-17: the running plan rewritten takes effect at once (its segment and
+  // speed now, its end if the time is already past it), never a second
+  // later with a segment the plan no longer has (found by the simulation).
+  if (!has_control && family_ == Family::training && mode_ >= 1 && mode_ <= kPlanCount) {
+    const size_t first = address, end = first + values.size();
+    const size_t plan_first = reg::plan_base(mode_), plan_end = plan_first + 2 * size_t{kSegmentsPerPlan};
+    if (first < plan_end && end > plan_first) update_plan_speed();
+  }
   return Errc::ok;
 }
 

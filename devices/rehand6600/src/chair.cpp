@@ -5,6 +5,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "rtukit/devices/rehand6600/motion.hpp"
+
 namespace rtukit::rehand6600 {
 namespace {
 
@@ -14,18 +16,8 @@ constexpr uint16_t kWatchdogHolds[] = {reg::kStandSit,  reg::kSeatLift,     reg:
                                        reg::kPlateTilt, reg::kPhoneForward, reg::kPhoneReverse,
                                        reg::kPhoneLeft, reg::kPhoneRight,   reg::kPhoneHorn};
 
-// Motion codes of table 1.
-enum : uint16_t {
-  kStatic = 1,
-  kForward,
-  kReverse,
-  kSpinLeft,
-  kSpinRight,
-  kFwdLeft,
-  kFwdRight,
-  kRevLeft,
-  kRevRight
-};
+// The combined motion codes of table 1 (the single ones are in motion.hpp).
+constexpr uint16_t kFwdLeft = 6, kFwdRight = 7, kRevLeft = 8, kRevRight = 9;
 
 uint16_t motion_of(int x, int y) {  // x, y in {-1, 0, 1}
   if (y > 0) return x < 0 ? kFwdLeft : x > 0 ? kFwdRight : kForward;
@@ -312,70 +304,29 @@ void Chair::move_actuators(double dt) noexcept {
       active[i].value = 0;
       continue;
     }
-    switch (active[i].command) {
-      case reg::kStandSit:
-        dir[0] = dir[1] = dir[3] = d;
-        break;
-      case reg::kSeatLift:
-        dir[0] = d;
-        break;
-      case reg::kBackrest:
-        dir[1] = d;
-        break;
-      case reg::kSeatTilt:
-        dir[2] = d;
-        break;
-      case reg::kLegRotate:
-        dir[3] = dir[4] = d;
-        break;
-      case reg::kLegExtend:
-        dir[4] = d;
-        break;
-      case reg::kPlateTilt:
-        dir[5] = d;
-        break;
-      default:
-        break;
-    }
+    for (uint8_t a : find_posture(active[i].command)->driven()) dir[a - 1] = d;
   }
   const double rate = 1000.0 / model_.full_stroke_s;
   std::array<bool, kActuators> moved{};
   for (unsigned a = 0; a < kActuators; ++a) {
     if (overcurrent_[a]) {
-      actuator_state_[a] = 4;
+      actuator_state_[a] = kOverCurrent;
       continue;
     }
     if (dir[a] == 0) continue;
     const double before = position_[a];
     position_[a] = std::clamp(position_[a] + dir[a] * rate * dt, 0.0, 1000.0);
     moved[a] = position_[a] != before;
-    actuator_state_[a] = moved[a] ? 1 : dir[a] > 0 ? 2 : 3;  // pushed against a limit: that limit
+    // Pushed against a limit: that limit.
+    actuator_state_[a] = moved[a] ? kActuatorMoving : dir[a] > 0 ? kUpperLimit : kLowerLimit;
   }
   // Posture status registers: what is moving, by the command that moves it.
   for (size_t i = 0; i < n && !blocked; ++i) {
-    const uint16_t v = active[i].value;
-    switch (active[i].command) {
-      case reg::kStandSit:
-        if (moved[0] || moved[1] || moved[3]) posture_status_[2] = v;
-        break;
-      case reg::kSeatLift:
-        if (moved[0]) posture_status_[0] = v;
-        break;
-      case reg::kBackrest:
-        if (moved[1]) posture_status_[1] = v;
-        break;
-      case reg::kSeatTilt:
-        if (moved[2]) posture_status_[3] = v;
-        break;
-      case reg::kLegRotate:
-        if (moved[3]) posture_status_[4] = v;
-        break;
-      case reg::kLegExtend:
-        if (moved[4]) posture_status_[4] = 3;
-        break;
-      default:
-        break;
-    }
+    const Posture& p = *find_posture(active[i].command);
+    if (p.status == 0) continue;  // the seat-plate tilt shows only in its actuator's state
+    bool any = false;
+    for (uint8_t a : p.driven()) any = any || moved[a - 1];
+    if (any) posture_status_[p.status - reg::kSeatLiftStatus] = p.moving_status(active[i].value);
   }
 }
 

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/motion.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
 
@@ -28,10 +29,9 @@ Host::Host(std::unique_ptr<io::Link> link, HostOptions options)
                                              .quirks = kProfile.quirks,
                                              .clock = &clock_,
                                              .trace = options.trace}),
-      logic_(options),
-      session_(SessionOptions{.lease = options.lease}),
+      core_(options),
       worker_([this](HostLogic::TimePoint) { return step(); }, BusWorker::Options{.clock = &clock_}) {
-  session_.join(kLocalClient, ClientKind::tool);
+  core_.session().join(kLocalClient, ClientKind::tool);
 }
 
 Host::~Host() {
@@ -57,28 +57,32 @@ void Host::notify() {
 
 void Host::stop() {
   if (!worker_.running()) return;
-  // Safety: nothing stays held when the host goes away. The worker is told
-  // to stop first, so the zeros below are the last writes.
+  // The worker is told to stop first, so the stops below are the last writes.
   {
     std::lock_guard lock(mutex_);
     stopping_ = true;
   }
   cv_.notify_all();
   worker_.stop();
-  std::vector<uint16_t> held;
   {
     std::lock_guard lock(mutex_);
-    session_.stop_all(clock_.now());
-    for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-      const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
-      // Not only what is held now: a release the worker had not sent yet
-      // (stop() right after release()) is written here, or the controller
-      // would go on moving until its watchdog.
-      if (logic_.may_hold(command)) held.push_back(command);
-    }
+    core_.begin_shutdown(clock_.now());
   }
-  // Best effort: the controller's watchdog is the backstop.
-  for (uint16_t command : held) (void)write_command(command, 0);
+  // Every stop still owed, each tried a few times (a lost answer is normal
+  // on RS-485): a release asked for just before stop() whose 0 was not sent
+  // yet, a 0 whose answer was lost, a phone's loss of control (0x006A = 1,
+  // left held). The controller's watchdog is the backstop.
+  for (;;) {
+    std::optional<HostLogic::Request> request;
+    {
+      std::lock_guard lock(mutex_);
+      request = core_.next(clock_.now());
+    }
+    if (!request) break;
+    const Error e = write_command(request->address, request->value);
+    std::lock_guard lock(mutex_);
+    core_.on_result(clock_.now(), e);
+  }
 }
 
 void Host::emit(const Event& e) {
@@ -87,44 +91,153 @@ void Host::emit(const Event& e) {
 
 // ---------------------------------------------------------------- HostLogic
 
+namespace {
+
+// The hold-type commands the host writes for presses and stops: the
+// postures, anti-pinch, phone drive and horn (what a tool may press). Not
+// host-ready (the handshake's), not SOS (reserved, never written).
+bool is_held_command(uint16_t command) {
+  return may_press(ClientKind::tool, command);
+}
+
+std::string key_of(uint16_t command) {
+  const Register* r = find_register(command);
+  return r ? std::string(r->key) : fmt::format("0x{:04X}", command);
+}
+
+// "No answer" proves nothing about the controller; an exception is an answer.
+bool unanswered(Error e) {
+  return e && !e.is_exception();
+}
+
+}  // namespace
+
+HostLogic::HostLogic(const HostOptions& options) : options_(options) {
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i)
+    commands_[i].maybe = is_held_command(static_cast<uint16_t>(reg::kCommandFirst + i));
+}
+
+std::optional<uint16_t> HostLogic::stop_owed(uint16_t command) const {
+  const Command& c = commands_[index(command)];
+  if (command == reg::kAntiPinch) {
+    if (c.want != 0) return c.known && c.confirmed != 0 ? std::nullopt : std::optional<uint16_t>(c.want);
+    // Released only when the chair is still (two polls after the 1).
+    return c.maybe && stop_settled() ? std::optional<uint16_t>(0) : std::nullopt;
+  }
+  return c.want == 0 && c.maybe ? std::optional<uint16_t>(0) : std::nullopt;
+}
+
+bool HostLogic::stop_settled() const noexcept {
+  const Command& c = commands_[index(reg::kAntiPinch)];
+  if (c.want != 0 && !(c.known && c.confirmed != 0)) return false;  // the 1 is not on the controller yet
+  return still_polls_ >= 2;
+}
+
+bool HostLogic::stops_owed() const {
+  for (uint16_t command = reg::kCommandFirst; command < reg::kCommandFirst + reg::kCommandCount; ++command)
+    if (is_held_command(command) && stop_owed(command)) return true;
+  return false;
+}
+
+std::optional<HostLogic::Request> HostLogic::next_stop() {
+  const auto sendable = [&](const Command& c) {
+    if (shutting_down_) return c.attempts < kShutdownAttempts;
+    return !connected_ || !c.after_poll;
+  };
+  const auto take = [&](uint16_t command, uint16_t value) {
+    Command& c = commands_[index(command)];
+    if (shutting_down_) ++c.attempts;
+    return Request{Request::Kind::write, command, value, 0, true};
+  };
+  // The stop command first: it stops every actuator and the wheels at once.
+  if (const auto v = stop_owed(reg::kAntiPinch); v && *v != 0 && sendable(commands_[index(reg::kAntiPinch)]))
+    return take(reg::kAntiPinch, *v);
+  // Then the zeros, each in turn (one that keeps failing does not starve the others).
+  for (size_t k = 0; k < reg::kCommandCount; ++k) {
+    const size_t i = (stop_cursor_ + k) % reg::kCommandCount;
+    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (!is_held_command(command)) continue;
+    const auto v = stop_owed(command);
+    if (!v || !sendable(commands_[i])) continue;
+    stop_cursor_ = i + 1;
+    return take(command, *v);
+  }
+  return std::nullopt;
+}
+
+std::optional<HostLogic::Request> HostLogic::next_press() {
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+    Command& c = commands_[i];
+    if (command == reg::kAntiPinch || !is_held_command(command)) continue;
+    if (c.want == 0 || c.serial == c.written) continue;
+    // Once per press: from here the controller may hold it, whatever the answer.
+    c.written = c.serial;
+    c.maybe = true;
+    c.watch = Watch::none;
+    return Request{Request::Kind::write, command, c.want, 0, true};
+  }
+  return std::nullopt;
+}
+
 std::optional<HostLogic::Request> HostLogic::next(TimePoint now) {
   if (in_flight_) return std::nullopt;
-  // What the session changed goes first: a press or a release waits for no poll.
-  if (connected_ && !urgent_.empty()) {
-    in_flight_ = urgent_.front();
-    urgent_.pop_front();
+  if (shutting_down_) {
+    // A dead link is not tried for ever: as many unanswered requests as make a 1010.
+    if (!identified_ || failures_ >= options_.failures_to_error) return std::nullopt;
+    in_flight_ = next_stop();
     return in_flight_;
   }
-  while (phase_ == Phase::holds) {
-    if (queue_.empty()) {
-      phase_ = Phase::poll;
-      next_at_ = cycle_start_ + period();
-      return std::nullopt;
+  // Stops first, whenever the controller is known: while connected at once,
+  // while the link is down at the poll rate, in place of the handshake (a 0
+  // is idempotent, and the sooner it lands after the link is back, the
+  // shorter the motion nobody holds; its answer is the sign the link is back).
+  if (identified_ && (connected_ || phase_ == Phase::write_ready || now >= stop_retry_)) {
+    if ((in_flight_ = next_stop())) return in_flight_;
+  }
+  if (identified_ && !connected_ && phase_ == Phase::read_id && stops_owed()) return std::nullopt;
+  if (connected_) {
+    if ((in_flight_ = next_press())) return in_flight_;
+    if (!oneshots_.empty()) {
+      in_flight_ = oneshots_.front();
+      oneshots_.pop_front();
+      return in_flight_;
     }
-    Request r = queue_.front();
-    queue_.erase(queue_.begin());
-    // The rewrite says what the target is now, not at the poll: a release
-    // that came meanwhile was written at once, and an old 1 written after
-    // it would hold the command again with no finger down.
-    if (r.value != 0) {
-      r.value = targets_[r.address - reg::kCommandFirst].value;
-      if (r.value == 0) continue;
-    }
-    in_flight_ = r;
-    return in_flight_;
   }
   if (phase_ == Phase::write_ready) {
     in_flight_ = Request{Request::Kind::write, reg::kHostReady, 1};
     return in_flight_;
   }
   if (now < next_at_) return std::nullopt;
-  cycle_start_ = now;
+  sent_at_ = now;
   in_flight_ = Request{phase_ == Phase::poll ? Request::Kind::poll : Request::Kind::read_device_id};
   return in_flight_;
 }
 
 HostLogic::TimePoint HostLogic::wake_at() const noexcept {
-  if (!in_flight_ && connected_ && !urgent_.empty()) return TimePoint::min();
+  if (in_flight_) return next_at_;
+  if (shutting_down_) return TimePoint::min();
+  bool stop = false, deferred_only = true;
+  for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (!is_held_command(command) || !stop_owed(command)) continue;
+    stop = true;
+    deferred_only = deferred_only && commands_[i].after_poll;
+  }
+  if (identified_ && stop) {
+    if (!connected_ && phase_ != Phase::write_ready) return stop_retry_;
+    if (!deferred_only) return TimePoint::min();
+  }
+  if (connected_) {
+    if (!oneshots_.empty()) return TimePoint::min();
+    for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
+      const Command& c = commands_[i];
+      const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+      if (command != reg::kAntiPinch && is_held_command(command) && c.want != 0 && c.serial != c.written)
+        return TimePoint::min();
+    }
+  }
+  if (phase_ == Phase::write_ready) return TimePoint::min();
   return next_at_;
 }
 
@@ -135,41 +248,28 @@ HostLogic::TimePoint::duration HostLogic::period() const noexcept {
 
 void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> words) {
   const std::optional<Request> done = std::exchange(in_flight_, std::nullopt);
-  if (done && done->kind == Request::Kind::write && done->address != reg::kHostReady) {
-    if (done->ticket) results_.emplace_back(done->ticket, e);
-    if (!done->ticket && done->address >= reg::kCommandFirst &&
-        done->address < reg::kCommandFirst + reg::kCommandCount) {
-      // What the controller may hold now: a lost answer may follow an
-      // executed write, so a failed 0 leaves the word before it standing.
-      uint16_t& sent = targets_[done->address - reg::kCommandFirst].sent;
-      if (!e || done->value != 0) sent = done->value;
-    }
-    if (e && done->target && done->value != 0) {
-      // The controller may or may not hold it: the session ends the press,
-      // and 0 follows after the next poll.
-      targets_[done->address - reg::kCommandFirst].zero_pending = true;
-      events_.push_back(Event{Event::Type::write_failed, done->address, 0, done->value, 0, failure_text(e)});
-    }
-    return;  // a write says nothing about the link's phase: the next poll does
-  }
+  if (!done) return;
+  if (done->kind == Request::Kind::write && done->address != reg::kHostReady) return on_write(now, *done, e);
   switch (phase_) {
     case Phase::read_id:
       if (e) {
         raise_comm_error(e, "handshake: " + failure_text(e));
       } else if (words.empty() || words[0] != kDeviceId) {
+        identified_ = false;  // another device: nothing is written to it
         raise_comm_error(Error::refused("not a Rehand 6600 controller"),
                          "handshake: " + device_id_mismatch(words.empty() ? 0 : words[0]));
       } else {
+        identified_ = true;
         phase_ = Phase::write_ready;
         return;
       }
-      next_at_ = cycle_start_ + options_.handshake_retry;
+      next_at_ = sent_at_ + options_.handshake_retry;
       return;
     case Phase::write_ready:
       if (e) {
         raise_comm_error(e, "handshake: boot-complete write: " + failure_text(e));
         phase_ = Phase::read_id;
-        next_at_ = cycle_start_ + options_.handshake_retry;
+        next_at_ = sent_at_ + options_.handshake_retry;
         return;
       }
       connected_ = true;
@@ -179,25 +279,83 @@ void HostLogic::on_result(TimePoint now, Error e, std::span<const uint16_t> word
         events_.push_back(Event{Event::Type::error_cleared, 0, 0, 0, kMasterCommunicationError, {}});
       events_.push_back(Event{Event::Type::connected});
       phase_ = Phase::poll;
-      next_at_ = cycle_start_ + period();
+      next_at_ = now;  // the state at once: nothing is allowed before the first poll
       return;
     case Phase::poll:
       on_poll(now, e, words);
       return;
-    case Phase::holds:
-      return;  // a held command's rewrite: the next poll shows what the controller holds
   }
 }
 
+void HostLogic::on_write(TimePoint now, const Request& done, Error e) {
+  const bool was_down = !connected_ && phase_ == Phase::read_id;  // a stop tried while the link is down
+  if (done.ticket) results_.emplace_back(done.ticket, e);
+  if (done.target) {
+    Command& c = commands_[index(done.address)];
+    if (!e) {
+      c.known = true;
+      c.confirmed = done.value;
+      c.maybe = done.value != 0;
+      c.after_poll = false;
+      if (done.address == reg::kAntiPinch && done.value != 0) still_polls_ = 0;  // the stop's polls start now
+      // A press's word: what the polls from now on show of it.
+      if (done.value != 0 && done.address != reg::kAntiPinch && c.serial == c.written &&
+          c.want == done.value && effect_of(done.address, done.value, snapshot_) != Effect::unknown) {
+        c.watch = Watch::starting;
+        c.deadline = now + options_.start_timeout;
+      }
+    } else {
+      // The controller may have executed it before the answer was lost, or
+      // may still hold the word before it.
+      c.known = false;
+      if (done.value != 0) c.maybe = true;
+      if (e.is_exception()) c.after_poll = true;  // refused: again after a poll, not in a loop
+      if (done.value != 0 && done.address != reg::kAntiPinch) {
+        // A press's word is not written again: the session ends the press,
+        // and its 0 is owed until confirmed.
+        c.watch = Watch::none;
+        events_.push_back(Event{Event::Type::write_failed, done.address, 0, done.value, 0, failure_text(e)});
+      }
+    }
+  }
+  if (unanswered(e)) {
+    count_failure(e, fmt::format("write of {} = {}", key_of(done.address), done.value));
+  } else {
+    failures_ = 0;
+  }
+  if (was_down) {
+    if (!unanswered(e))
+      next_at_ = now;  // the controller answers again: the handshake at once
+    else
+      stop_retry_ = now + period();
+  }
+}
+
+void HostLogic::count_failure(Error e, const std::string& what) {
+  last_failure_ = rtukit::Status(e, fmt::format("{}: {}", what, failure_text(e)));
+  if (shutting_down_) {
+    ++failures_;  // next() gives up on a dead link
+    return;
+  }
+  if (connected_ && ++failures_ >= options_.failures_to_error)
+    raise_comm_error(e, fmt::format("{} consecutive requests failed (last: {}, {})",
+                                    options_.failures_to_error, what, failure_text(e)));
+  else if (!connected_)
+    ++failures_;
+}
+
 void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words) {
-  (void)now;
-  next_at_ = cycle_start_ + period();
+  next_at_ = sent_at_ + period();
   if (e || words.size() != reg::kStatusCount) {
     if (!e) e = Errc::unexpected_response;
-    last_failure_ = rtukit::Status(e, failure_text(e));
-    if (++failures_ >= options_.failures_to_error)
-      raise_comm_error(
-          e, fmt::format("{} consecutive polls failed ({})", options_.failures_to_error, failure_text(e)));
+    if (e.is_exception()) failures_ = 0;  // an answer, though not the one wanted
+    last_failure_ = rtukit::Status(e, "poll: " + failure_text(e));
+    if (!connected_) return;
+    if (unanswered(e) || e.code() == Errc::unexpected_response) {
+      if (++failures_ >= options_.failures_to_error)
+        raise_comm_error(
+            e, fmt::format("{} consecutive polls failed ({})", options_.failures_to_error, failure_text(e)));
+    }
     return;
   }
   failures_ = 0;
@@ -212,38 +370,47 @@ void HostLogic::on_poll(TimePoint now, Error e, std::span<const uint16_t> words)
   if (rising(reg::kHornButton)) events_.push_back({Event::Type::horn, reg::kHornButton, 0, 1});
   if (rising(reg::kViewButton)) events_.push_back({Event::Type::view, reg::kViewButton, 0, 1});
   const uint16_t before = prev.valid ? prev.error_code() : 0;
-  bool raised = false;
   if (before != next.error_code()) {
     if (before) events_.push_back({Event::Type::error_cleared, reg::kErrorCode, 0, 0, before, {}});
-    if (next.error_code()) {
+    if (next.error_code())
       events_.push_back({Event::Type::error_raised, reg::kErrorCode, 0, 0, next.error_code(),
                          error_text(next.error_code())});
-      raised = true;
-    }
   }
   next.valid = true;
   next.sequence = prev.sequence + 1;
   snapshot_ = next;
-  if (raised) {
-    // D-8: the controller stopped; nothing it held is written again. The
-    // session ends every press when it hears of the error.
-    for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-      Target& t = targets_[i];
-      if (t.value != 0) t = {.value = 0, .zero_pending = true, .sent = t.sent};
-    }
-    urgent_.erase(std::remove_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return r.target; }),
-                  urgent_.end());
-  }
-  // Live targets are written again, so the controller holds exactly what
-  // the session wants even after its watchdog fired.
+  still_polls_ = snapshot_.still() ? still_polls_ + 1 : 0;
+  for (Command& c : commands_) c.after_poll = false;
+  watch_presses(now);
+}
+
+// Nothing is written again after a poll (D-8): when table 1 shows that the
+// controller is not doing what a press asked, the press ends here instead.
+void HostLogic::watch_presses(TimePoint now) {
+  if (snapshot_.error_code() != 0) return;  // the error ends every press, with its own reason
   for (uint16_t i = 0; i < reg::kCommandCount; ++i) {
-    Target& t = targets_[i];
-    const auto address = static_cast<uint16_t>(reg::kCommandFirst + i);
-    if (std::exchange(t.zero_pending, false) && t.value == 0)
-      queue_.push_back(Request{Request::Kind::write, address, 0});
-    if (t.value != 0) queue_.push_back(Request{Request::Kind::write, address, t.value});
+    Command& c = commands_[i];
+    const auto command = static_cast<uint16_t>(reg::kCommandFirst + i);
+    if (c.watch == Watch::none || c.want == 0 || c.written != c.serial) continue;
+    const Effect effect = effect_of(command, c.want, snapshot_);
+    if (effect == Effect::moving || effect == Effect::at_end) {
+      c.watch = Watch::running;
+      continue;
+    }
+    if (effect != Effect::none) continue;
+    if (c.watch == Watch::running) {
+      c.watch = Watch::none;
+      events_.push_back(
+          Event{Event::Type::chair_stopped, command, 0, c.want, 0,
+                fmt::format("the chair stopped {} by itself (an obstacle, the joystick, a button, "
+                            "a limit of its own or its watchdog): press again",
+                            key_of(command))});
+    } else if (now >= c.deadline) {
+      c.watch = Watch::none;
+      events_.push_back(Event{Event::Type::chair_stopped, command, 0, c.want, 0,
+                              fmt::format("the chair did not start {}: press again", key_of(command))});
+    }
   }
-  phase_ = Phase::holds;
 }
 
 void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
@@ -251,10 +418,15 @@ void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
   connected_ = false;
   failures_ = 0;
   phase_ = Phase::read_id;
-  queue_.clear();
-  // Nothing to write to: the controller's watchdog stops what it held, and
-  // the session ends every press when it hears of 1010 (D-8).
-  for (Target& t : targets_) t = {.sent = t.sent};  // stop() still tries to write 0
+  // What the controller holds is unknown from now on; what it may hold is
+  // still owed its 0 (and a held stop its 1): tried while the link is down,
+  // and first after the handshake. The session ends every press (D-8).
+  for (Command& c : commands_) {
+    c.known = false;
+    c.watch = Watch::none;
+    c.after_poll = false;
+  }
+  stop_retry_ = {};  // an owed stop is tried at once, then at the poll rate
   fail_queued(cause);
   if (!comm_error_) {
     comm_error_ = true;
@@ -263,33 +435,31 @@ void HostLogic::raise_comm_error(Error cause, const std::string& reason) {
 }
 
 void HostLogic::fail_queued(Error e) {
-  for (const Request& r : urgent_)
+  for (const Request& r : oneshots_)
     if (r.ticket) results_.emplace_back(r.ticket, e);
-  urgent_.clear();
+  oneshots_.clear();
 }
 
-void HostLogic::set_target(uint16_t command, uint16_t value) {
-  Target& t = targets_[command - reg::kCommandFirst];
-  if (t.value == value) return;
-  t.value = value;
-  if (!connected_) return;  // the first poll after the handshake writes it
-  // The newest word wins: an unsent change of the same command is replaced.
-  urgent_.erase(std::remove_if(urgent_.begin(), urgent_.end(),
-                               [&](const Request& r) { return r.target && r.address == command; }),
-                urgent_.end());
-  // Target changes go before one-shots: a release waits for no pulse.
-  const auto first_oneshot =
-      std::find_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; });
-  urgent_.insert(first_oneshot, Request{Request::Kind::write, command, value, 0, true});
+void HostLogic::set_target(uint16_t command, uint16_t value, uint64_t serial) {
+  Command& c = commands_[index(command)];
+  if (value == 0) serial = 0;
+  if (c.want == value && c.serial == serial) return;
+  c.want = value;
+  c.serial = serial;
+  if (c.serial != c.written) c.watch = Watch::none;
 }
 
 bool HostLogic::enqueue(uint16_t address, uint16_t value, uint64_t ticket) {
-  if (!connected_) return false;
-  const size_t oneshots = static_cast<size_t>(
-      std::count_if(urgent_.begin(), urgent_.end(), [](const Request& r) { return !r.target; }));
-  if (oneshots >= kQueueLimit) return false;
-  urgent_.push_back(Request{Request::Kind::write, address, value, ticket, false});
+  if (!connected_ || shutting_down_ || oneshots_.size() >= kQueueLimit) return false;
+  oneshots_.push_back(Request{Request::Kind::write, address, value, ticket, false});
   return true;
+}
+
+void HostLogic::begin_shutdown() {
+  shutting_down_ = true;
+  failures_ = 0;
+  for (Command& c : commands_) c.attempts = 0;
+  fail_queued(Errc::not_connected);
 }
 
 uint16_t HostLogic::active_error() const noexcept {
@@ -299,19 +469,44 @@ uint16_t HostLogic::active_error() const noexcept {
 
 // ---------------------------------------------------------------- Host: the logic on a thread
 
-void Host::sync(HostLogic::TimePoint now) {
+// ---------------------------------------------------------------- HostCore: the logic and the rules joined
+
+void HostCore::sync(TimePoint now) {
   session_.tick(now);
-  // The stop command first: when a phone is lost, the controller brakes
-  // hard before anything else is written.
-  logic_.set_target(reg::kAntiPinch, session_.wanted(reg::kAntiPinch));
-  for (const Register& r : registers()) {
-    if (r.role != Role::hold || r.address == reg::kHostReady || r.address == reg::kAntiPinch) continue;
-    logic_.set_target(r.address, session_.wanted(r.address));
+  for (uint16_t command = reg::kCommandFirst; command < reg::kCommandFirst + reg::kCommandCount; ++command) {
+    if (!may_press(ClientKind::tool, command)) continue;
+    const Session::Hold h = session_.hold(command);
+    logic_.set_target(command, h.value, h.serial);
   }
 }
 
-std::vector<Event> Host::collect() {
-  std::vector<Event> out = logic_.take_events();
+std::optional<HostLogic::Request> HostCore::next(TimePoint now) {
+  sync(now);
+  return logic_.next(now);
+}
+
+void HostCore::on_result(TimePoint now, Error e, std::span<const uint16_t> words) {
+  logic_.on_result(now, e, words);
+  // An error's own reason first (it ends every press), then what the write
+  // and the polls said of single presses.
+  session_.on_status(logic_.snapshot(), logic_.active_error(), now, logic_.stop_settled());
+  for (Event& ev : logic_.take_events()) {
+    if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
+    if (ev.type == Event::Type::chair_stopped) session_.on_controller_stop(ev.address, ev.reason, now);
+    events_.push_back(std::move(ev));
+  }
+  sync(now);
+}
+
+HostCore::TimePoint HostCore::wake_at() const {
+  TimePoint wake = logic_.wake_at();
+  if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
+  return wake;
+}
+
+std::vector<Event> HostCore::take_events() {
+  std::vector<Event> out = std::exchange(events_, {});
+  for (Event& e : logic_.take_events()) out.push_back(std::move(e));
   for (const Session::Event& s : session_.take_events()) {
     using T = Session::Event::Type;
     Event e(s.type == T::press_ended         ? Event::Type::released
@@ -324,7 +519,20 @@ std::vector<Event> Host::collect() {
     e.emergency = s.emergency;
     out.push_back(std::move(e));
   }
-  for (const auto& [ticket, error] : logic_.take_results()) {
+  return out;
+}
+
+void HostCore::begin_shutdown(TimePoint now) {
+  session_.shutdown(now);
+  sync(now);
+  logic_.begin_shutdown();
+}
+
+// ---------------------------------------------------------------- Host: the core on a thread
+
+std::vector<Event> Host::collect() {
+  std::vector<Event> out = core_.take_events();
+  for (const auto& [ticket, error] : core_.logic().take_results()) {
     finished_.emplace_back(ticket, error);
     if (finished_.size() > 64) finished_.pop_front();
   }
@@ -336,14 +544,9 @@ HostLogic::TimePoint Host::step() {
   std::vector<Event> events;
   {
     std::lock_guard lock(mutex_);
-    sync(clock_.now());
-    request = logic_.next(clock_.now());
+    request = core_.next(clock_.now());
     events = collect();
-    if (!request && events.empty()) {
-      auto wake = logic_.wake_at();
-      if (const auto lapse = session_.wake_at(); lapse && *lapse < wake) wake = *lapse;
-      return wake;
-    }
+    if (!request && events.empty()) return core_.wake_at();
   }
   cv_.notify_all();
   for (const Event& ev : events) emit(ev);
@@ -366,14 +569,8 @@ HostLogic::TimePoint Host::step() {
   }
   {
     std::lock_guard lock(mutex_);
-    const auto now = clock_.now();
-    logic_.on_result(now, e, std::span<const uint16_t>(words.data(), e ? 0 : n));
-    events = logic_.take_events();
-    for (const Event& ev : events)
-      if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
-    session_.on_status(logic_.snapshot(), logic_.active_error(), now);
-    sync(now);
-    for (Event& ev : collect()) events.push_back(std::move(ev));
+    core_.on_result(clock_.now(), e, std::span<const uint16_t>(words.data(), e ? 0 : n));
+    events = collect();
   }
   cv_.notify_all();
   for (const Event& ev : events) emit(ev);
@@ -382,46 +579,47 @@ HostLogic::TimePoint Host::step() {
 
 Snapshot Host::snapshot() const {
   std::lock_guard lock(mutex_);
-  return logic_.snapshot();
+  return core_.logic().snapshot();
 }
 
 bool Host::connected() const {
   std::lock_guard lock(mutex_);
-  return logic_.connected();
+  return core_.logic().connected();
 }
 
 uint16_t Host::active_error() const {
   std::lock_guard lock(mutex_);
-  return logic_.active_error();
+  return core_.logic().active_error();
 }
 
 rtukit::Status Host::last_failure() const {
   std::lock_guard lock(mutex_);
-  return logic_.last_failure();
+  return core_.logic().last_failure();
 }
 
 bool Host::wait_connected(std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
-  return cv_.wait_for(lock, timeout, [this] { return logic_.connected() && logic_.snapshot().valid; });
+  return cv_.wait_for(lock, timeout,
+                      [this] { return core_.logic().connected() && core_.logic().snapshot().valid; });
 }
 
 bool Host::wait_poll(std::chrono::milliseconds timeout) const {
   std::unique_lock lock(mutex_);
-  const uint64_t seen = logic_.snapshot().sequence;
-  return cv_.wait_for(lock, timeout, [&] { return logic_.snapshot().sequence > seen; });
+  const uint64_t seen = core_.logic().snapshot().sequence;
+  return cv_.wait_for(lock, timeout, [&] { return core_.logic().snapshot().sequence > seen; });
 }
 
 // ---------------------------------------------------------------- the session, from any thread
 
 void Host::join(ClientId client, ClientKind kind) {
   std::lock_guard lock(mutex_);
-  session_.join(client, kind);
+  core_.session().join(client, kind);
 }
 
 void Host::leave(ClientId client) {
   {
     std::lock_guard lock(mutex_);
-    session_.leave(client, clock_.now());
+    core_.session().leave(client, clock_.now());
   }
   notify();
 }
@@ -430,7 +628,7 @@ rtukit::Status Host::press(ClientId client, uint16_t command, uint16_t value, Pr
   rtukit::Status e;
   {
     std::lock_guard lock(mutex_);
-    e = session_.press(client, command, value, id, clock_.now());
+    e = core_.session().press(client, command, value, id, clock_.now());
   }
   notify();
   return e;
@@ -440,7 +638,7 @@ rtukit::Status Host::renew(ClientId client, PressId id) {
   rtukit::Status e;
   {
     std::lock_guard lock(mutex_);
-    e = session_.renew(client, id, clock_.now());
+    e = core_.session().renew(client, id, clock_.now());
   }
   notify();
   return e;
@@ -449,7 +647,7 @@ rtukit::Status Host::renew(ClientId client, PressId id) {
 void Host::release_press(ClientId client, PressId id) {
   {
     std::lock_guard lock(mutex_);
-    session_.release(client, id, clock_.now());
+    core_.session().release(client, id, clock_.now());
   }
   notify();
 }
@@ -457,25 +655,40 @@ void Host::release_press(ClientId client, PressId id) {
 void Host::stop_all() {
   {
     std::lock_guard lock(mutex_);
-    session_.stop_all(clock_.now());
+    core_.session().stop_all(clock_.now());
+    core_.sync(clock_.now());  // the stop command is the next request on the wire
   }
   notify();
+}
+
+void Host::lift_stop() {
+  {
+    std::lock_guard lock(mutex_);
+    core_.session().lift_stop();
+  }
+  notify();
+}
+
+bool Host::stop_latched() const {
+  std::lock_guard lock(mutex_);
+  return core_.session().stop_latched();
 }
 
 rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket) {
   {
     std::lock_guard lock(mutex_);
-    if (rtukit::Status e = session_.check_command(client, command, value)) return e;
+    if (rtukit::Status e = core_.session().check_command(client, command, value)) return e;
     const Register& r = *find_register(command);
     const uint64_t t = next_ticket_++;
     const bool pulse = r.role == Role::pulse;
     // A pulse is two writes with one ticket: its outcome is the last one's.
-    if (pulse && logic_.enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0)) {
-      if (!logic_.enqueue(command, 0, t))
+    if (pulse && core_.logic().enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0)) {
+      if (!core_.logic().enqueue(command, 0, t))
         return rtukit::Status(Errc::refused, "the controller's queue is full");
-    } else if (pulse || !logic_.enqueue(command, value, t)) {
-      return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
-                                                              : "no communication with the controller");
+    } else if (pulse || !core_.logic().enqueue(command, value, t)) {
+      return rtukit::Status(Errc::refused, core_.logic().connected()
+                                               ? "the controller's queue is full: try again"
+                                               : "no communication with the controller");
     }
     if (ticket) *ticket = t;
   }
@@ -505,27 +718,27 @@ rtukit::Status Host::wait_ticket(uint64_t ticket) {
 
 Disabled Host::disabled() const {
   std::lock_guard lock(mutex_);
-  return session_.disabled();
+  return core_.session().disabled();
 }
 
 std::vector<Session::Press> Host::presses() const {
   std::lock_guard lock(mutex_);
-  return session_.presses();
+  return core_.session().presses();
 }
 
 std::optional<Host::ClientId> Host::driver() const {
   std::lock_guard lock(mutex_);
-  return session_.driver();
+  return core_.session().driver();
 }
 
 bool Host::emergency() const {
   std::lock_guard lock(mutex_);
-  return session_.emergency();
+  return core_.session().emergency();
 }
 
 bool Host::near_obstacle() const {
   std::lock_guard lock(mutex_);
-  return session_.near_obstacle();
+  return core_.session().near_obstacle();
 }
 
 // ---------------------------------------------------------------- blocking helpers (the CLI)
@@ -541,12 +754,12 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
     PressId& mine = local_press_[command - reg::kCommandFirst];
     const auto now = clock_.now();
     const bool live =
-        mine != 0 &&
-        std::any_of(session_.presses().begin(), session_.presses().end(), [&](const Session::Press& p) {
-          return p.client == kLocalClient && p.id == mine && p.value == value;
-        });
+        mine != 0 && std::any_of(core_.session().presses().begin(), core_.session().presses().end(),
+                                 [&](const Session::Press& p) {
+                                   return p.client == kLocalClient && p.id == mine && p.value == value;
+                                 });
     if (live) {
-      e = session_.renew(kLocalClient, mine, now);
+      e = core_.session().renew(kLocalClient, mine, now);
     } else if (mine != 0) {
       // Ended by the session (a lapse, an error, D-8): refused until the
       // caller releases, so nothing presses again by itself.
@@ -555,7 +768,7 @@ rtukit::Status Host::hold(uint16_t command, uint16_t value) {
           fmt::format("{} was stopped (the lease ran out, or an error: D-8): release and press again",
                       r->key));
     } else {
-      e = session_.press(kLocalClient, command, value, ++local_last_, now);
+      e = core_.session().press(kLocalClient, command, value, ++local_last_, now);
       if (!e) mine = local_last_;
     }
   }
@@ -569,7 +782,7 @@ Error Host::release(uint16_t command) {
   {
     std::lock_guard lock(mutex_);
     PressId& mine = local_press_[command - reg::kCommandFirst];
-    if (mine) session_.release(kLocalClient, mine, clock_.now());
+    if (mine) core_.session().release(kLocalClient, mine, clock_.now());
     mine = 0;
   }
   notify();

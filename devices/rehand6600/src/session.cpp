@@ -72,7 +72,8 @@ void Session::leave(ClientId client, TimePoint now) {
             "the phone's connection was lost", phone, now);
   end_where([&](const Press& p) { return p.client == client; },
             phone ? "the phone's connection was lost" : "the client left", false, now);
-  clients_.erase(std::find_if(clients_.begin(), clients_.end(), [&](const Client& x) { return x.id == client; }));
+  clients_.erase(
+      std::find_if(clients_.begin(), clients_.end(), [&](const Client& x) { return x.id == client; }));
   if (driver_ == client) {
     driver_.reset();
     events_.push_back(Event{.type = Event::Type::driver_changed});
@@ -85,18 +86,28 @@ Disabled Session::disabled() const {
     d.all = active_error_ == kMasterCommunicationError
                 ? fmt::format("{}: no communication with the controller", error_text(active_error_))
                 : fmt::format("{} is active", error_text(active_error_));
+  else if (stop_latched_)
+    d.all = "STOP is on: lift it on the display to use the chair again";
   else if (emergency_)
-    d.all = "stopping after a lost phone: wait until the chair is still";
+    d.all = "stopping: wait until the chair is still";
+  else if (!fresh())
+    d.all = "waiting for the controller's state";
   const Snapshot& s = snapshot_;
   d.drive = d.all;
-  if (d.drive.empty() && s.charging()) d.drive = "no driving while charging";
-  if (d.drive.empty() && !s.clutch_drive()) d.drive = "no driving with the clutch in push (free-wheel) mode";
-  if (d.drive.empty() && !s.seated()) d.drive = "no phone driving while the chair is not fully seated";
-  if (d.drive.empty() && !s.joystick_neutral()) d.drive = "the joystick on the chair is in use";
+  if (d.drive.empty()) d.drive = drive_block();
   if (d.drive.empty() && !s.is_static() && !driver_) d.drive = "phone drive only while the chair is static";
   d.raise = d.all;
   if (d.raise.empty() && s.charging()) d.raise = "no standing up or raising the seat while charging";
   return d;
+}
+
+std::string Session::drive_block() const {
+  const Snapshot& s = snapshot_;
+  if (s.charging()) return "no driving while charging";
+  if (!s.clutch_drive()) return "no driving with the clutch in push (free-wheel) mode";
+  if (!s.seated()) return "no phone driving while the chair is not fully seated";
+  if (!s.joystick_neutral()) return "the joystick on the chair is in use";
+  return {};
 }
 
 // The rules every new press and one-shot command passes, with the reason
@@ -124,11 +135,13 @@ rtukit::Status Session::press(ClientId client, uint16_t command, uint16_t value,
   if (value == 0 || check_value(*r, value) != Errc::ok)
     return bad(fmt::format("{}: value {} is not one of its values", r->key, value));
   if (id <= c->last_press)
-    return bad(fmt::format("press {} is not new: a press needs a new id (the last was {})", id, c->last_press));
+    return bad(
+        fmt::format("press {} is not new: a press needs a new id (the last was {})", id, c->last_press));
   c->last_press = id;
   if (rtukit::Status e = check_rules(*c, command, value)) return e;
   for (const Press& p : presses_)
-    if (p.command == command && p.client != client) return refuse(fmt::format("{} is held by another client", r->key));
+    if (p.command == command && p.client != client)
+      return refuse(fmt::format("{} is held by another client", r->key));
   // A client holds one press per command, and a phone one direction: a new
   // press replaces the old one (the finger moved).
   end_where(
@@ -137,7 +150,7 @@ rtukit::Status Session::press(ClientId client, uint16_t command, uint16_t value,
                (p.command == command || (is_phone_drive(command) && is_phone_drive(p.command)));
       },
       "replaced by a new press", false, now);
-  presses_.push_back(Press{client, id, command, value, now + options_.lease});
+  presses_.push_back(Press{client, id, command, value, now + options_.lease, next_serial_++});
   if (is_phone_drive(command) && driver_ != client) {
     driver_ = client;
     events_.push_back(Event{.type = Event::Type::driver_changed, .client = client});
@@ -149,6 +162,11 @@ rtukit::Status Session::renew(ClientId client, PressId id, TimePoint now) {
   tick(now);  // a renewal that comes after the lease finds the press ended
   for (Press& p : presses_) {
     if (p.client != client || p.id != id) continue;
+    // What forbids a phone to drive forbids it to go on driving.
+    if (const std::string block = is_phone_drive(p.command) ? drive_block() : std::string(); !block.empty()) {
+      end_where([&](const Press& q) { return q.client == client && q.id == id; }, block, false, now);
+      return refuse(block);
+    }
     p.until = now + options_.lease;
     return {};
   }
@@ -162,7 +180,23 @@ void Session::release(ClientId client, PressId id, TimePoint now) {
 }
 
 void Session::stop_all(TimePoint now) {
-  end_where([](const Press&) { return true; }, "the Stop button", false, now);
+  stop_latched_ = true;
+  start_emergency(now, "the display's STOP");
+}
+
+void Session::lift_stop() {
+  stop_latched_ = false;
+}
+
+void Session::shutdown(TimePoint now) {
+  // A phone that was driving loses control when the host goes away.
+  end_where(
+      [&](const Press& p) {
+        const Client* c = find(p.client);
+        return is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
+      },
+      "the host is stopping", true, now);
+  end_where([](const Press&) { return true; }, "the host is stopping", false, now);
 }
 
 rtukit::Status Session::check_command(ClientId client, uint16_t command, uint16_t value) const {
@@ -188,8 +222,8 @@ void Session::tick(TimePoint now) {
   end_where([&](const Press& p) { return now >= p.until; }, "no renewal within the lease", false, now);
   if (driver_) {
     const Client* c = find(*driver_);
-    const bool holding = std::any_of(presses_.begin(), presses_.end(),
-                                     [&](const Press& p) { return p.client == *driver_; });
+    const bool holding =
+        std::any_of(presses_.begin(), presses_.end(), [&](const Press& p) { return p.client == *driver_; });
     if (!c || (!holding && now - c->idle_since >= options_.driver_idle)) {
       driver_.reset();
       events_.push_back(Event{.type = Event::Type::driver_changed});
@@ -197,33 +231,49 @@ void Session::tick(TimePoint now) {
   }
 }
 
-void Session::on_status(const Snapshot& snapshot, uint16_t active_error, TimePoint now) {
+void Session::on_status(const Snapshot& snapshot, uint16_t active_error, TimePoint now, bool stop_settled) {
   if (snapshot.valid) snapshot_ = snapshot;
+  // A link loss makes what was read before it history: the rules wait for
+  // the first poll after the link is back.
+  if (active_error == kMasterCommunicationError) fresh_from_ = snapshot_.sequence + 1;
   const bool raised = active_error != 0 && active_error != active_error_;
   active_error_ = active_error;
   if (raised) {
     // D-8: an error stops everything; nothing comes back when it clears.
-    end_where([](const Press&) { return true; }, fmt::format("stopped by {}", error_text(active_error)), false,
-              now);
+    end_where([](const Press&) { return true; }, fmt::format("stopped by {}", error_text(active_error)),
+              false, now);
   }
-  if (emergency_ && snapshot.valid && !active_error) {
-    if (++emergency_polls_ >= options_.emergency_min_polls && snapshot.is_static()) {
-      emergency_ = false;
-      events_.push_back(Event{.type = Event::Type::emergency_ended});
+  if (fresh()) {
+    // What forbids a phone to drive ends its drive (D-10, charging, push, the joystick taking over).
+    if (const std::string block = drive_block(); !block.empty()) {
+      end_where(
+          [&](const Press& p) {
+            const Client* c = find(p.client);
+            return is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
+          },
+          block, false, now);
     }
+  }
+  if (emergency_ && !stop_latched_ && stop_settled && fresh() && !active_error) {
+    emergency_ = false;
+    events_.push_back(Event{.type = Event::Type::emergency_ended});
   }
 }
 
 void Session::on_write_failed(uint16_t command, TimePoint now) {
-  end_where([&](const Press& p) { return p.command == command; }, "the controller did not confirm the command",
-            false, now);
+  end_where([&](const Press& p) { return p.command == command; },
+            "the controller did not confirm the command", false, now);
 }
 
-uint16_t Session::wanted(uint16_t command) const noexcept {
-  if (emergency_ && command == reg::kAntiPinch) return 1;
+void Session::on_controller_stop(uint16_t command, const std::string& why, TimePoint now) {
+  end_where([&](const Press& p) { return p.command == command; }, why, false, now);
+}
+
+Session::Hold Session::hold(uint16_t command) const noexcept {
+  if (emergency_ && command == reg::kAntiPinch) return {1, emergency_serial_};
   for (const Press& p : presses_)
-    if (p.command == command) return emergency_ && is_phone_drive(command) ? 0 : p.value;
-  return 0;
+    if (p.command == command) return emergency_ && is_phone_drive(command) ? Hold{} : Hold{p.value, p.serial};
+  return {};
 }
 
 std::optional<Session::TimePoint> Session::wake_at() const noexcept {
@@ -267,13 +317,18 @@ void Session::end_where(const std::function<bool(const Press&)>& which, const st
                             .emergency = emergency,
                             .reason = reason});
   }
-  if (!emergency) return;
-  // A loss of control: 0x006A stops every actuator too, and the controller
-  // clears its holds (D-8), so every other press ends here as well: writing
-  // one again after the stop would be a new rising edge, a restart by itself.
-  emergency_polls_ = 0;
-  if (!std::exchange(emergency_, true)) events_.push_back(Event{.type = Event::Type::emergency_started});
-  end_where([](const Press&) { return true; }, "stopped: a phone lost control", false, now);
+  if (emergency) start_emergency(now, "stopped: a phone lost control");
+}
+
+void Session::start_emergency(TimePoint now, const std::string& reason) {
+  // 0x006A stops every actuator too, and the controller clears its holds
+  // (D-8), so every other press ends here as well: writing one again after
+  // the stop would be a new rising edge, a restart by itself.
+  if (!std::exchange(emergency_, true)) {
+    emergency_serial_ = next_serial_++;
+    events_.push_back(Event{.type = Event::Type::emergency_started, .reason = reason});
+  }
+  end_where([](const Press&) { return true; }, reason, false, now);
 }
 
 }  // namespace rtukit::rehand6600

@@ -290,11 +290,11 @@ struct BlePeripheral::Impl {
     service->registerProperty("Primary").onInterface(kServiceIface).withGetter([] { return true; });
     service->finishRegistration();
     add_characteristic(state, std::string(kService) + "/state", gatt::kStateUuid,
-                       {"encrypt-authenticated-read", "notify"}, &state_value, &state_notifying);
+                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &state_value, &state_notifying);
     add_characteristic(command, std::string(kService) + "/command", gatt::kCommandUuid,
                        {"encrypt-authenticated-write"}, nullptr, nullptr);
     add_characteristic(result, std::string(kService) + "/result", gatt::kResultUuid,
-                       {"encrypt-authenticated-read", "notify"}, &result_value, &result_notifying);
+                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &result_value, &result_notifying);
 
     advert = sdbus::createObject(*bus, kAdvert);
     advert->registerProperty("Type").onInterface(kAdvertIface).withGetter([] {

@@ -316,7 +316,13 @@ struct HostDaemon::Impl {
         return {};
       case Kind::stop:
         host.stop_all();
-        log("the display's Stop button: every command released");
+        log("the display's STOP: every command released, the stop command (0x006A) held until lifted");
+        broadcast_state();
+        return {};
+      case Kind::lift_stop:
+        host.lift_stop();
+        log("the display lifted STOP: 0x006A is released once the chair is still");
+        broadcast_state();
         return {};
       case Kind::pulse:
         return host.send(me, k.address, 1);
@@ -632,6 +638,7 @@ struct HostDaemon::Impl {
               {"right", s[rh::reg::kDistanceFront + 3]}}},
             {"near_obstacle", host.near_obstacle()},
             {"emergency", host.emergency()},
+            {"stop", host.stop_latched()},
             {"presses", presses},
             {"disabled", {{"all", d.all}, {"drive", d.drive}, {"raise", d.raise}}},
             {"driver", driver}};
@@ -745,15 +752,18 @@ struct HostDaemon::Impl {
       }
       case T::emergency_started:
       case T::emergency_ended:
-        log(e.type == T::emergency_started ? "a phone lost control: emergency stop (0x006A)"
+        log(e.type == T::emergency_started ? fmt::format("emergency stop (0x006A): {}", e.reason)
                                            : "the chair is still: emergency stop released");
-        broadcast(
-            {{"type", "event"}, {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"}});
+        broadcast({{"type", "event"},
+                   {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"},
+                   {"reason", e.reason}});
         broadcast_state();
         break;
       case T::driver_changed:
         broadcast_state();
         break;
+      case T::chair_stopped:
+        break;  // the session ended the press: its owner hears why in a `released` event
       case T::write_failed:
         broadcast({{"type", "event"},
                    {"event", "write_failed"},

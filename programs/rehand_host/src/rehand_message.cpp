@@ -103,6 +103,7 @@ rtukit::Outcome<HostCommand> press_command(const std::string& op, const Json& m,
 rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& m) {
   if (op == "press" || op == "renew" || op == "release") return press_command(op, m, HostRole::display);
   if (op == "stop") return command(Kind::stop);
+  if (op == "lift_stop") return command(Kind::lift_stop);
   if (op == "pulse") {
     auto row = command_row(m, HostRole::display, rh::Role::pulse);
     if (!row) return row.error();

@@ -128,6 +128,8 @@ function renderValues(s, lost) {
   $('#motion').textContent = motionText(s);
   $('#lights').textContent = `${v.main_light ? 'On' : 'Off'}${v.left_signal ? ' ◀' : ''}${v.right_signal ? ' ▶' : ''}`;
   $('#charging-banner').classList.toggle('hidden', !v.charging);
+  // STOP latches (the controller's stop command held): it stays on until lifted here.
+  $('#stop-latched').classList.toggle('hidden', s.stop !== true);
   $('#clutch-banner').classList.toggle('hidden', v.clutch !== 0);
   for (const b of $$('#modes button')) b.classList.toggle('on', b.dataset.mode === s.drive_mode);
   for (const b of $$('#levels button')) b.classList.toggle('on', Number(b.dataset.level) === s.speed_level);
@@ -407,15 +409,17 @@ function closeView() {
 
 // ---------------------------------------------------------------- controls
 
-// Stop: releases every press of every client at once (the daemon), and every
-// press of this page at once (here). Pointer-down, not click: it must act the
-// moment it is touched. A click without a pointer-down (keyboard) counts too.
+// Stop: an emergency stop (the controller's stop command, 0x006A) that ends
+// every press of every client at once (the daemon), and every press of this
+// page at once (here); it stays on, refusing every press, until Lift STOP.
+// Pointer-down, not click: it must act the moment it is touched. A click
+// without a pointer-down (keyboard) counts too.
 let stopPointerAt = 0;
 function stopEverything() {
   const answer = link.send('stop', {}, { timeoutMs: 2000 });
   endAllPresses('stopped with the Stop button');
   answer.then((r) => {
-    if (r.ok) notice('Stopped: every command released');
+    if (r.ok) notice('Stopped: every command released. Lift STOP to use the chair again');
     else if (r.type === 'result') notice(`Stop refused (${r.error}): use the joystick's own stop`, true);
     else if (r.unanswered) notice('Stop not confirmed: use the joystick\'s own stop', true);
     else notice('Stop not sent (no connection): use the joystick\'s own stop', true);
@@ -428,6 +432,7 @@ $('#stop').addEventListener('pointerdown', (event) => {
 });
 $('#stop').addEventListener('click', () => { if (Date.now() - stopPointerAt > 1000) stopEverything(); });
 $('#stop').addEventListener('contextmenu', (event) => event.preventDefault());
+$('#lift-stop').addEventListener('click', () => command('lift_stop'));
 
 for (const b of $$('#postures button')) {
   holdButton(b, link, {

@@ -45,6 +45,15 @@ struct ServerOptions {
   /// closes the one idle longest (no request being received, executed or
   /// answered) and takes its place; when none is idle it is closed at once.
   unsigned max_connections = 64;
+  /// TCP: connections one client address may hold at once (its share). A
+  /// newcomer from an address at its share may only take the place of that
+  /// address's own idle connection. When the table is full and nothing is
+  /// idle, a newcomer from an address holding fewer connections takes the
+  /// place of the least active connection of the address holding the most
+  /// (never one answering a request): no address can fill the table, evict
+  /// or starve another. IPv4-mapped IPv6 addresses count as their IPv4 one.
+  /// 0: no share (one address may take every connection).
+  unsigned max_per_source = 16;
   /// TCP: a connection that sends no request for this long is closed (0: never).
   std::chrono::milliseconds idle_timeout{60000};
   /// TCP: a request must be whole this long after its first byte, or the
@@ -63,8 +72,9 @@ struct ServerOptions {
 
 /// Counters of what a server refused or dropped (to check the protections).
 struct ServerStats {
-  uint64_t connections_refused = 0;  ///< over max_connections, none idle
+  uint64_t connections_refused = 0;  ///< over max_connections or max_per_source, no place to take
   uint64_t idle_evicted = 0;         ///< closed to admit a new connection: the one idle longest
+  uint64_t share_evicted = 0;        ///< closed to admit an address with fewer connections (max_per_source)
   uint64_t request_timeouts = 0;     ///< closed: a request not whole within request_timeout
   uint64_t idle_closed = 0;          ///< closed by idle_timeout
   uint64_t slow_closed = 0;          ///< closed: a client that does not read its answers

@@ -30,7 +30,8 @@ struct HostCommand {
     press,        ///< start press `press` of hold command `address` at `value` (non-zero)
     renew,        ///< keep press `press` alive
     release,      ///< end press `press` (the finger lifted)
-    stop,         ///< display: end every press of every client (the Stop button)
+    stop,         ///< display: STOP, an emergency stop (0x006A) latched until lift_stop
+    lift_stop,    ///< display: lift STOP (0x006A released once the chair is still)
     pulse,        ///< pulse `address` (display: the light; phone: light, turn signals)
     set,          ///< display: `value` into `address` (drive_mode or speed_level)
     pair_start,   ///< display: show a pairing code

@@ -116,6 +116,12 @@ class Model : public RegisterBank {
   /// `storage` holds map.image_size() words and outlives the model; it is
   /// reset to the rows' defaults.
   Model(const Profile& profile, std::span<uint16_t> storage) noexcept;
+  /// Not copied, not assigned: the image views the storage of the object
+  /// that made it, so a copy would read and write another model's words
+  /// (found by the Rehand simulation: a chair assigned over another after a
+  /// simulated power cycle read freed memory).
+  Model(const Model&) = delete;
+  Model& operator=(const Model&) = delete;
 
   /// Puts live values into the image before a read of `space`.
   virtual void refresh(Space /*space*/) noexcept {}

@@ -10,10 +10,25 @@
 //  - Commands: every client (the HMI, a phone, the CLI) speaks through the
 //    Session (session.hpp), the one place of the rules: presses under a
 //    300-ms lease, loss of a phone = emergency stop, the UI rules, D-8. The
-//    host writes what the session wants: a change at once, every held value
-//    again after each poll (so the controller's watchdog, D-5, never sees a
-//    stale hold). Pulses write 1 then 0; settings: drive mode, speed level,
-//    host fault.
+//    host writes what the session wants by the write rules below (D-8,
+//    D-12; docs/rehand6600.md, "How the host writes"). Pulses write 1 then
+//    0; settings: drive mode, speed level, host fault.
+//  - The write rules. The command registers are write-only: a normal answer
+//    is the only confirmation the controller gives.
+//     * A stop is written until it is confirmed: 0 to every hold-type
+//       command the controller may hold (a press ended, a write whose answer
+//       was lost, anything a link loss or an earlier run may have left), and
+//       0x006A = 1 while a stop is held. Stops go before everything else,
+//       polls included, survive 1010 (tried at the poll rate while the link
+//       is down, and first after every handshake), and a newer word of the
+//       same command replaces an older one, so no old word overtakes a new one.
+//     * A press's word is written once. Nothing is written again after a
+//       poll: when the controller stops by itself (its watchdog, an
+//       obstacle, the joystick, a button, a fault), table 1 shows it, the
+//       press ends, and only a new press moves the chair.
+//     * 0x006A goes back to 0 only after two polls, sent after its 1 was
+//       confirmed, read the chair still; never in the middle of a stop,
+//       not even by stop().
 //  - The web thread never waits for the bus: press(), send() and the rest
 //    check with the session under a short lock and return; the bus worker
 //    writes. One-shot writes wait in a bounded queue (a full one refuses).
@@ -57,10 +72,16 @@ namespace rtukit::rehand6600 {
 struct HostOptions {
   UnitId unit{kDefaultAddress};
   double poll_hz = 20;
+  /// Consecutive requests without an answer that make a communication error (1010).
   unsigned failures_to_error = 3;
   std::chrono::milliseconds lease{300};
   std::chrono::milliseconds handshake_retry{1000};
   std::chrono::milliseconds response_timeout{100};
+  /// How long after its word was confirmed a press must show in table 1
+  /// (moving, or at its end) before the host ends it as not started: long
+  /// enough for the chair to brake to a stop before it changes direction
+  /// (1.8 s from 7.2 km/h at 4 km/h/s).
+  std::chrono::milliseconds start_timeout{2500};
   /// Each frame on the wire (MasterOptions::trace); empty: none.
   std::function<void(const TraceEvent&)> trace;
   /// The clock of the poll schedule, the leases and the master's deadlines;
@@ -80,7 +101,8 @@ struct Event {
     emergency_started,  ///< a phone lost control: the controller's stop command (0x006A) is held
     emergency_ended,    ///< the chair is still: 0x006A released
     driver_changed,     ///< `client` drives now (0: nobody)
-    write_failed,       ///< a one-shot write (pulse, setting) to `address` failed (`reason`)
+    write_failed,       ///< a write to `address` failed (`reason`): a one-shot, or a press's word
+    chair_stopped,      ///< table 1 shows the press on `address` is not (or no longer) done (`reason`)
   };
   Event(Type t, uint16_t address_ = 0, uint16_t before_ = 0, uint16_t value_ = 0, uint16_t code_ = 0,
         std::string reason_ = {})
@@ -97,30 +119,35 @@ struct Event {
 };
 
 /// The host controller's bus decisions, sans-IO: when to send which request
-/// and what each result means. What the controller must hold comes from the
-/// Session (set_target); this type writes it. Not thread-safe (Host locks it).
+/// and what each result means, by the write rules above. What the controller
+/// must hold comes from the Session (set_target); this type writes it. Not
+/// thread-safe (Host locks it).
 class HostLogic {
  public:
   using TimePoint = std::chrono::steady_clock::time_point;
   /// One-shot writes waiting at most; more are refused (the web thread
   /// never waits for the bus).
   static constexpr size_t kQueueLimit = 16;
+  /// After begin_shutdown(), how often each stop is tried at most.
+  static constexpr unsigned kShutdownAttempts = 3;
 
   /// A request the logic wants sent.
   struct Request {
     enum class Kind : uint8_t {
       read_device_id,  ///< FC03 0x0000 x1
       poll,            ///< FC03 0x0000 x48 (table 1)
-      write,           ///< FC06 `address` = `value` (boot complete, held commands, one-shots)
+      write,           ///< FC06 `address` = `value` (boot complete, commands, one-shots)
     };
     Kind kind;
     uint16_t address = 0;
     uint16_t value = 0;
     uint64_t ticket = 0;  ///< a one-shot write's ticket (0: not one)
-    bool target = false;  ///< a change of a target, written at once
+    bool target = false;  ///< a hold-type command's word (a stop, or a press's word)
   };
 
-  explicit HostLogic(const HostOptions& options) : options_(options) {}
+  /// Every hold-type command starts as "may hold": a host that starts does
+  /// not know what an earlier run (or another host) left on the controller.
+  explicit HostLogic(const HostOptions& options);
 
   /// The request to send at `now`, or nullopt: nothing to do before wake_at().
   std::optional<Request> next(TimePoint now);
@@ -133,30 +160,39 @@ class HostLogic {
   std::vector<Event> take_events() { return std::exchange(events_, {}); }
 
   // ---- what the controller holds ----
-  /// The value the controller must hold at hold-type `command` (the
-  /// Session's wanted()). A change is written at once, before the next poll;
-  /// every non-zero target is written again after each poll, so the
-  /// controller holds exactly what the session wants even after its
-  /// watchdog fired. A target write that fails raises write_failed (the
-  /// session ends that press) and 0 is written after the next poll: a lost
-  /// answer may follow an executed write, and any doubt about motion: stop.
-  void set_target(uint16_t command, uint16_t value);
-  uint16_t target(uint16_t command) const { return targets_[command - reg::kCommandFirst].value; }
-  /// True while the controller may hold hold-type `command`: its target is
-  /// not 0, or the last target word it was sent was not 0 (a release not yet
-  /// written, or one whose write failed). Whoever stops the host writes 0
-  /// to each of these: a release queued but never sent must not be lost.
+  /// What the controller must hold at hold-type `command`: `value` for the
+  /// press (or stop) `serial` (Session::hold). A press's word is written
+  /// once per serial; a stop (0, or 0x006A = 1) until it is confirmed.
+  void set_target(uint16_t command, uint16_t value, uint64_t serial);
+  uint16_t target(uint16_t command) const { return commands_[index(command)].want; }
+  /// True while the controller may hold hold-type `command` at a word that
+  /// is not 0: its target is not 0, or no 0 has been confirmed since the
+  /// last word that was (or, unanswered, may have been) executed.
   bool may_hold(uint16_t command) const {
-    const Target& t = targets_[command - reg::kCommandFirst];
-    return t.value != 0 || t.sent != 0;
+    const Command& c = commands_[index(command)];
+    return c.want != 0 || c.maybe;
   }
+  /// True when the controller is known to hold `value` at `command`: its
+  /// last write there was answered normally, with no link loss since.
+  bool confirmed(uint16_t command, uint16_t value) const {
+    const Command& c = commands_[index(command)];
+    return c.known && c.confirmed == value;
+  }
+  /// True once the stop command's 1 was confirmed (or since the start) and
+  /// the two polls since read the chair still: the Session may end a stop,
+  /// and only then is 0x006A = 0 written.
+  bool stop_settled() const noexcept;
   /// Queues a one-shot write (a pulse's edge, a setting), sent after the
-  /// pending target changes. False: kQueueLimit writes wait already, or the
-  /// link is down (nothing would be written). Its outcome comes back from
-  /// take_results().
+  /// stops and the presses' words. False: kQueueLimit writes wait already,
+  /// or the link is down (nothing would be written). Its outcome comes back
+  /// from take_results().
   bool enqueue(uint16_t address, uint16_t value, uint64_t ticket);
   /// Finished one-shot writes: (ticket, error) in order.
   std::vector<std::pair<uint64_t, Error>> take_results() { return std::exchange(results_, {}); }
+  /// The host is stopping: from now on next() returns only stops (each
+  /// tried kShutdownAttempts times at most), never a poll, a press's word
+  /// or a one-shot; nullopt when none is left to try.
+  void begin_shutdown();
 
   // ---- what the controller looks like ----
   const Snapshot& snapshot() const noexcept { return snapshot_; }
@@ -166,32 +202,97 @@ class HostLogic {
   const rtukit::Status& last_failure() const noexcept { return last_failure_; }
 
  private:
-  enum class Phase : uint8_t { read_id, write_ready, poll, holds };
+  enum class Phase : uint8_t { read_id, write_ready, poll };
+  /// A press's word and what the polls since show of it.
+  enum class Watch : uint8_t { none, starting, running };
+  struct Command {
+    uint16_t want = 0;        ///< the session's value now
+    uint64_t serial = 0;      ///< the press (or stop) it belongs to
+    uint64_t written = 0;     ///< the serial whose word has been sent (once)
+    bool maybe = false;       ///< the controller may hold a word that is not 0
+    bool known = false;       ///< `confirmed` is what the controller holds
+    uint16_t confirmed = 0;   ///< the last word answered normally
+    unsigned attempts = 0;    ///< tries of the stop owed now (for shutdown)
+    bool after_poll = false;  ///< the stop was answered with an exception: tried again after a poll
+    Watch watch = Watch::none;
+    TimePoint deadline{};  ///< Watch::starting: the press must show by then
+  };
+  static size_t index(uint16_t command) { return command - reg::kCommandFirst; }
+  /// The stop owed at `command` (0, or 1 at 0x006A), or nullopt.
+  std::optional<uint16_t> stop_owed(uint16_t command) const;
+  bool stops_owed() const;
+  std::optional<Request> next_stop();
+  std::optional<Request> next_press();
   TimePoint::duration period() const noexcept;
-  void raise_comm_error(Error cause, const std::string& reason);
+  void on_write(TimePoint now, const Request& done, Error e);
   void on_poll(TimePoint now, Error e, std::span<const uint16_t> words);
+  void watch_presses(TimePoint now);
+  /// A request went unanswered (or was answered wrongly): 1010 after `failures_to_error` in a row.
+  void count_failure(Error e, const std::string& what);
+  void raise_comm_error(Error cause, const std::string& reason);
   void fail_queued(Error e);
 
   HostOptions options_;
   Phase phase_ = Phase::read_id;
-  TimePoint next_at_{};
-  TimePoint cycle_start_{};
+  TimePoint next_at_{};     ///< when the next poll (or handshake) is due
+  TimePoint sent_at_{};     ///< when the last poll (or device-ID read) was sent
+  TimePoint stop_retry_{};  ///< while the link is down: the next try of a stop
   std::optional<Request> in_flight_;
-  std::vector<Request> queue_;  ///< the held commands of this cycle, to write again
-  std::deque<Request> urgent_;  ///< target changes, then one-shots: before the next poll
+  std::deque<Request> oneshots_;
   std::vector<std::pair<uint64_t, Error>> results_;
   std::vector<Event> events_;
   bool connected_ = false;
+  bool identified_ = false;  ///< the last device-ID read found a Rehand 6600: stops may be written
   bool comm_error_ = false;
+  bool shutting_down_ = false;
   unsigned failures_ = 0;
+  unsigned still_polls_ = 0;  ///< polls in a row reading the chair still since 0x006A's 1 was confirmed
+  size_t stop_cursor_ = 0;    ///< where the search for the next stop starts (each gets its turn)
   rtukit::Status last_failure_;
   Snapshot snapshot_{};
-  struct Target {
-    uint16_t value = 0;
-    bool zero_pending = false;  ///< a target write failed: 0 is written after the next poll
-    uint16_t sent = 0;          ///< the last word written (a failed write of 0 keeps the one before)
-  };
-  std::array<Target, reg::kCommandCount> targets_{};
+  std::array<Command, reg::kCommandCount> commands_{};
+};
+
+/// The host's decisions and rules together, sans-IO and single-threaded:
+/// HostLogic (what goes on the wire) and the Session (who may do what),
+/// joined exactly as the Host joins them on its bus thread. The Host adds a
+/// thread, a lock and a Master; the deterministic simulation
+/// (tests/simulation/) drives this object with the chair model on a
+/// ManualClock. Not thread-safe.
+class HostCore {
+ public:
+  using TimePoint = HostLogic::TimePoint;
+
+  explicit HostCore(const HostOptions& options)
+      : logic_(options), session_(SessionOptions{.lease = options.lease}) {}
+
+  HostLogic& logic() noexcept { return logic_; }
+  const HostLogic& logic() const noexcept { return logic_; }
+  Session& session() noexcept { return session_; }
+  const Session& session() const noexcept { return session_; }
+
+  /// Time passes to `now` (leases lapse) and what the session wants becomes
+  /// the logic's targets. Call after any session call from outside (a
+  /// press, STOP) so its write is the next request.
+  void sync(TimePoint now);
+  /// sync(now), then the request to send now, or nullopt.
+  std::optional<HostLogic::Request> next(TimePoint now);
+  /// The outcome of the request next() returned last (HostLogic::on_result),
+  /// told to the session: the controller's state and errors, a press whose
+  /// write failed, a press the controller stopped by itself.
+  void on_result(TimePoint now, Error e, std::span<const uint16_t> words = {});
+  /// When next() has something to do: the logic's wake-up or a lease's end.
+  TimePoint wake_at() const;
+  /// Events since the last call: the logic's, then the session's, in order.
+  std::vector<Event> take_events();
+  /// The host is stopping: every press ends (a driving phone loses control),
+  /// and from now on next() returns only the stops still owed.
+  void begin_shutdown(TimePoint now);
+
+ private:
+  HostLogic logic_;
+  Session session_;
+  std::vector<Event> events_;  ///< the logic's events already told to the session
 };
 
 /// The host controller: HostLogic and the Session on one bus worker thread.
@@ -207,14 +308,17 @@ class Host {
 
   /// Takes the link (opened by the host's thread).
   explicit Host(std::unique_ptr<io::Link> link, HostOptions options = {});
-  ~Host();  ///< stops the thread (releasing every hold first)
+  ~Host();  ///< stop()
   Host(const Host&) = delete;
   Host& operator=(const Host&) = delete;
 
   /// Called on the host's thread for every event. Set before start().
   void on_event(std::function<void(const Event&)> handler);
   void start();
-  /// Releases every hold, then stops the thread. Idempotent.
+  /// Stops the thread, then writes the stops still owed (each at most
+  /// HostLogic::kShutdownAttempts times): 0 to every command the controller
+  /// may hold; a phone that was driving loses control (0x006A = 1, left
+  /// held: never released in the middle of a stop). Idempotent.
   void stop();
 
   Snapshot snapshot() const;
@@ -236,8 +340,12 @@ class Host {
   rtukit::Status press(ClientId client, uint16_t command, uint16_t value, PressId id);
   rtukit::Status renew(ClientId client, PressId id);
   void release_press(ClientId client, PressId id);
-  /// Every press of every client ends (the display's Stop button).
+  /// The display's STOP: an emergency stop (0x006A), latched; every press
+  /// of every client ends and nothing is pressed again until lift_stop().
   void stop_all();
+  /// The display lifts its STOP (0x006A is released once the chair is still).
+  void lift_stop();
+  bool stop_latched() const;
   /// A pulse (1 then 0; 2 for 0x0075 as the seed does) or a setting from
   /// `client`, checked by the session and queued for the bus worker.
   /// Errors: the session's (invalid_argument, refused), busy (the queue is
@@ -273,8 +381,8 @@ class Host {
   /// Something changed (a press, a command): waiters and the worker look again.
   void notify();
   void emit(const Event& e);
-  void sync(HostLogic::TimePoint now);  ///< under the lock: the session's wanted values become targets
-  std::vector<Event> collect();         ///< under the lock: the logic's and the session's events
+  std::vector<Event>
+  collect();  ///< under the lock: the core's events; one-shot outcomes kept for wait_ticket
   rtukit::Status queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket);
   rtukit::Status wait_ticket(uint64_t ticket);
   rtukit::Status set_setting(uint16_t address, uint16_t value);
@@ -288,8 +396,7 @@ class Host {
   mutable std::mutex mutex_;  ///< guards everything below
   mutable std::condition_variable cv_;
   bool stopping_ = false;
-  HostLogic logic_;
-  Session session_;
+  HostCore core_;
   uint64_t next_ticket_ = 1;
   std::deque<std::pair<uint64_t, Error>> finished_;        ///< the last one-shot outcomes, for wait_ticket
   std::array<PressId, reg::kCommandCount> local_press_{};  ///< kLocalClient's press per command (0: none)

@@ -23,6 +23,13 @@ struct Snapshot {
   bool clutch_drive() const noexcept { return regs[reg::kClutch] == 1; }
   uint16_t motion() const noexcept { return regs[reg::kMotion]; }
   bool is_static() const noexcept { return regs[reg::kMotion] == 1 && regs[reg::kSpeed] == 0; }
+  /// Still: static and at 0 km/h, and no actuator moving (state 1). What an
+  /// emergency stop waits for before 0x006A is released.
+  bool still() const noexcept {
+    for (uint16_t a = reg::kActuatorState; a < reg::kActuatorState + 6; ++a)
+      if (regs[a] == 1) return false;
+    return is_static();
+  }
   uint16_t error_code() const noexcept { return regs[reg::kErrorCode]; }
   /// D-10: seat lift (actuator 1) and whole-seat tilt (actuator 3) at their seated end.
   bool seated() const noexcept {

@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <string_view>
 
-#include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/profile/verb.hpp"
+#include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/status.hpp"
 
