@@ -89,12 +89,24 @@ def browser(width, height, extra=()):
               f"--user-data-dir={udd}"]:
         o.add_argument(a)
     o.binary_location = "/usr/bin/chromium"
+    # The page's console (a WebSocket that failed to open says so there): read
+    # by console_tail() into a failed check's detail.
+    o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
     d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
     d.set_window_size(width, height)
     vw, vh = d.execute_script("return [innerWidth, innerHeight]")
     d.set_window_size(width + (width - vw), height + (height - vh))
     d.user_data_dir = udd
     return d
+
+
+def console_tail(d, lines=8):
+    """The last `lines` messages of the page's console, one string (for a
+    failed check's detail)."""
+    try:
+        return " | ".join(e.get("message", "") for e in d.get_log("browser")[-lines:])
+    except Exception as e:  # a browser that is gone: say so rather than hide the check's own failure
+        return f"(no console: {e})"
 
 
 LAYOUT_JS = """

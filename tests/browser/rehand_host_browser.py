@@ -25,7 +25,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, free_port, layout, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
+from browser_common import Console, browser, check, console_tail, free_port, layout, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
 from pyhelpers import STOP_BOUND_S, host_polls_later  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
@@ -324,7 +324,8 @@ setTimeout(() => done('still open'), 10000);
         phone.find_element(By.ID, "pair-code").send_keys("123456")
         phone.find_element(By.ID, "pair-go").click()
         check("no code shown: refused with the reason",
-              wait_for(lambda: "code" in text(phone, "#pair-reason"), DEADLINE), text(phone, "#pair-reason"))
+              wait_for(lambda: "code" in text(phone, "#pair-reason"), DEADLINE),
+              f"{text(phone, '#pair-reason')!r}; console: {console_tail(phone)}")
 
         hmi.find_element(By.ID, "pair").click()
         code = wait_for(lambda: re.fullmatch(r"\d{6}", text(hmi, "#code")) and text(hmi, "#code"))

@@ -10,6 +10,7 @@ import { buildChairView, showDistances } from '/rehand/distances.js';
 const TOKEN_KEY = 'rtukit-rehand6600-token';
 const REPLACED_REASON = 'replaced by a new connection';  // the daemon's close reason
 const NOTICE_MS = 4000;  // how long a refusal stays shown over the standing reason
+const PAIR_RETRY_MS = 1000;  // before a pairing whose socket did not open tries a new one
 
 let token = localStorage.getItem(TOKEN_KEY) || '';
 let me = { phone: '', name: '' };  // this phone, as the daemon names it
@@ -86,6 +87,18 @@ function sendPair() {
 function onClose(event) {
   authenticated = false;
   stateIsFresh = false;
+  // A pairing asked for on a socket that never opened (the daemon busy, the
+  // Wi-Fi gone): once more on a new socket, then a reason; never silence.
+  if (pendingPair) {
+    if (!pendingPair.retried) {
+      pendingPair = { ...pendingPair, retried: true };
+      setTimeout(() => link.reopen(), PAIR_RETRY_MS);
+    } else {
+      pendingPair = null;
+      $('#pair-go').disabled = false;
+      $('#pair-reason').textContent = 'Could not reach the chair\'s display: check the Wi-Fi and tap Pair again.';
+    }
+  }
   if (event.reason === REPLACED_REASON) becomeReplaced();
   else if (token && /not paired|unknown token|forgotten/i.test(event.reason || '')) {
     forgetToken(`This phone is no longer paired (${event.reason}). Pair it again with a new code from the display.`);
@@ -202,7 +215,11 @@ $('#pair-go').addEventListener('click', () => {
   }
   pendingPair = { code, name: $('#pair-name').value.trim() || 'Phone', retried: false };
   if (link.isOpen() && !authenticated) sendPair();
-  else link.reopen();  // onOpen sends it as the socket's first message
+  else {
+    $('#pair-go').disabled = true;
+    $('#pair-reason').textContent = 'Pairing…';
+    link.reopen();  // onOpen sends it as the socket's first message
+  }
 });
 
 $('#reconnect').addEventListener('click', () => {
