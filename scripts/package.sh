@@ -46,7 +46,8 @@ check() {  # check PACKAGE PATTERN...   (extended regex, anchored at the end of 
   done
 }
 check "$tool" ./usr/bin/rtukit ./usr/share/man/man1/rtukit.1 ./usr/share/bash-completion/completions/rtukit \
-  ./usr/share/zsh/vendor-completions/_rtukit
+  ./usr/share/zsh/vendor-completions/_rtukit ./usr/share/rtukit/rehand6600-phone-app/app.html \
+  ./usr/share/rtukit/rehand6600-phone-app/gatt.js ./usr/share/rtukit/rehand6600-phone-app/chair-text.js
 check "$dev" ./usr/include/rtukit/core/slave.hpp ./usr/include/rtukit/driver/master.hpp \
   ./usr/include/rtukit/devices/profile/schema.hpp './usr/lib/([a-z0-9_-]+/)?librtukit_core\.a' \
   './usr/lib/([a-z0-9_-]+/)?cmake/rtukit/rtukitConfig\.cmake' './usr/lib/([a-z0-9_-]+/)?pkgconfig/rtukit\.pc'

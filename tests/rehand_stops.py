@@ -41,8 +41,10 @@ class Chair:
 
     def __init__(self, rtukit, work, bluez=None):
         """`bluez`: a MockBluez (tests/ble/bluez_mock.py): the daemon runs
-        with --ble on its bus, and every wait here runs its main loop (the
-        mock answers the daemon's calls only while it runs)."""
+        with --ble on its bus (on the mock's chair adapter), and every wait
+        here runs its main loop (the mock answers the daemon's calls only
+        while it runs) until the mock runs its loop in a thread of its own
+        (MockBluez.run_in_thread)."""
         self.work = work
         self.bluez = bluez
         chair, host = os.path.join(work, "chair"), os.path.join(work, "host")
@@ -63,7 +65,7 @@ class Chair:
         self.relay = Console(relay_sock)
         self.procs.append(self._start([rtukit, "rehand6600", "host", "--port", host, "--http",
                                        f"127.0.0.1:{self.http}", "--phone", f"127.0.0.1:{self.phone_port}",
-                                       "--pairing-file", pairing] + (["--ble"] if bluez else []), "host",
+                                       "--pairing-file", pairing] + ([f"--ble={bluez.adapter_name}"] if bluez else []), "host",
                                       env=bluez.env if bluez else None))
         if bluez and not self.wait(lambda: bluez.app is not None and bluez.advertisement is not None, 20):
             raise RuntimeError("the daemon did not register its Bluetooth LE application")
@@ -74,7 +76,7 @@ class Chair:
     def wait(self, until, timeout=10.0, step=0.005):
         """until()'s first true value within `timeout` s (None when it never
         came), the mock BlueZ's loop run meanwhile when there is one."""
-        if self.bluez is None:
+        if self.bluez is None or getattr(self.bluez, "loop", None):
             return wait_for(until, timeout, step)
         seen = []
         self.bluez.pump(timeout, lambda: bool(seen.append(until()) or seen[-1]))
@@ -90,7 +92,8 @@ class Chair:
         return p
 
     def stop(self):
-        stop_processes(self.procs, wait=self.bluez.pump if self.bluez else None)
+        pump = self.bluez and not getattr(self.bluez, "loop", None)
+        stop_processes(self.procs, wait=self.bluez.pump if pump else None)
 
     # ---- what the controller and the daemon say
 

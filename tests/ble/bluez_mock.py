@@ -33,7 +33,10 @@ Use: bus = MockBluez(work_dir); env = bus.env (DBUS_SYSTEM_BUS_ADDRESS for
 the program under test); ...; bus.stop(). Everything it starts it stops by PID.
 """
 import os
+import queue
+import random
 import subprocess
+import threading
 import time
 
 import dbus
@@ -43,11 +46,15 @@ import dbus.service
 import dbusmock.mockobject as mockobject
 from gi.repository import GLib
 
-ADAPTER = "/org/bluez/hci0"
 DEVICE = "org.bluez.Device1"
 CHAR = "org.bluez.GattCharacteristic1"
 SERVICE = "org.bluez.GattService1"
 PROPS = "org.freedesktop.DBus.Properties"
+DESCRIPTOR = "org.bluez.GattDescriptor1"
+ADAPTER_IFACE = "org.bluez.Adapter1"
+OBJECT_MANAGER = "org.freedesktop.DBus.ObjectManager"
+CCCD = "00002902-0000-1000-8000-00805f9b34fb"  # Client Characteristic Configuration
+BROWSER_ADAPTER = "hci0"  # the adapter Chromium's Web Bluetooth takes: the first by path
 
 BUS_CONFIG = """<!DOCTYPE busconfig PUBLIC "-//freedesktop//DTD D-BUS Bus Configuration 1.0//EN"
  "http://www.freedesktop.org/standards/dbus/1.0/busconfig.dtd">
@@ -71,8 +78,8 @@ BUS_CONFIG = """<!DOCTYPE busconfig PUBLIC "-//freedesktop//DTD D-BUS Bus Config
 """
 
 
-def device_path(address):
-    return f"{ADAPTER}/dev_{address.replace(':', '_').upper()}"
+def device_path(address, adapter="hci0"):
+    return f"/org/bluez/{adapter}/dev_{address.replace(':', '_').upper()}"
 
 
 def client_flags(server_flags):
@@ -89,7 +96,10 @@ def client_flags(server_flags):
 
 
 class MockBluez:
-    def __init__(self, work):
+    def __init__(self, work, adapter="hci0"):
+        """`adapter`: the chair's adapter (the daemon's --ble=NAME). A phone
+        browser's BlueZ (add_browser_phone) takes hci0, the adapter Chromium
+        uses: the chair is then hci1."""
         config = os.path.join(work, "system-bus.conf")
         with open(config, "w") as f:
             f.write(BUS_CONFIG.format(dir=work))
@@ -106,8 +116,9 @@ class MockBluez:
         mockobject.objects["/"] = self.root
         self.root.AddTemplate("bluez5", {})
         self.template = mockobject.load_module("bluez5")
-        self.template.AddAdapter(self.root, "hci0", "rehand-test")
-        self.adapter = mockobject.objects[ADAPTER]
+        self.adapter_name = adapter
+        self.template.AddAdapter(self.root, adapter, "rehand-test")
+        self.adapter = mockobject.objects[f"/org/bluez/{adapter}"]
         # Who called: dbusmock's methods do not see the sender, a message filter does.
         self.last_sender = {}
         self.bus.add_message_filter(self._note_sender)
@@ -191,7 +202,7 @@ class MockBluez:
         if not self.app:
             raise dbus.exceptions.DBusException("the chair does not answer", name="org.bluez.Error.Failed")
         self.connect(self.central[1])  # the chair sees the laptop connect
-        laptop = dbus.ObjectPath(device_path(self.central[1]))
+        laptop = dbus.ObjectPath(self.device_path(self.central[1]))
         service = f"{path}/service0010"
         if service not in mockobject.objects:
             svc = [p for p, i in self.app[2].items() if SERVICE in i][0]
@@ -227,6 +238,278 @@ class MockBluez:
         mockobject.objects[path].UpdateProperties(DEVICE, {"Connected": dbus.Boolean(False),
                                                            "ServicesResolved": dbus.Boolean(False)})
 
+    # ------------------------------------------------------------ a phone's browser (Chromium, a central on hci0)
+
+    def add_browser_phone(self, phone, chair="E4:5F:01:66:00:01"):
+        """hci0 becomes the phone's adapter, the one Chromium's Web Bluetooth
+        takes (the first by path: the chair must be on another adapter,
+        MockBluez(work, adapter="hci1")). While the phone's browser discovers,
+        the chair appears (address `chair`) if the daemon advertises; once
+        connected, its GATT objects forward every call to the daemon's
+        application as coming from `phone` (a device of the chair's adapter),
+        and mirror its notifications.
+
+        What BlueZ does and Chromium relies on (each was a failure first,
+        ../shared design note "web-bluetooth-on-a-mock"): Device1 with BlueZ's
+        property types; the device appears during discovery; a CCCD
+        descriptor under each notifying characteristic; ReadValue also
+        changes Value.
+
+        Security as the two stacks do it: every characteristic of the chair
+        needs an encrypted, authenticated link. The first access of a phone
+        that has not bonded pairs, as the phone's OS does: if the chair's
+        adapter is not pairable the access fails (NotAuthorized); otherwise
+        the chair's agent is asked to show a passkey (DisplayPasskey), and
+        the access waits (the mock's loop blocked, as the OS dialog blocks)
+        until the test types a passkey (type_passkey): the right one bonds
+        both sides and the access goes on; a wrong one, or none within 20 s,
+        fails it (AuthenticationFailed) after 20 s."""
+        assert self.adapter_name != BROWSER_ADAPTER, "the chair must not be on the browser's adapter"
+        self.template.AddAdapter(self.root, BROWSER_ADAPTER, "phone")
+        adapter = mockobject.objects[f"/org/bluez/{BROWSER_ADAPTER}"]
+        adapter.AddMethods(ADAPTER_IFACE, [
+            ("StartDiscovery", "", "", lambda a: self._browser_discovering(a, True)),
+            ("StopDiscovery", "", "", lambda a: self._browser_discovering(a, False)),
+        ])
+        self.browser = {"phone": phone, "chair": chair, "path": device_path(chair, BROWSER_ADAPTER),
+                        "bonded": False, "connected": False}
+        self.browser_forwarded = []          # (method, UUID) that reached the daemon
+        # Forget on the display removes the bond (RemoveDevice): the phone's
+        # link drops and its side forgets the bond too.
+        self.adapter.AddMethods(ADAPTER_IFACE, [
+            ("RemoveDevice", "o", "", lambda a, path: self._remove_device(a, path))])
+        self.passkey_asked = queue.Queue()   # the passkeys the chair showed, for the test
+        self.passkey_typed = queue.Queue()   # what the test typed into the "OS dialog"
+        self.browser_calls = []              # (method, characteristic UUID or "") Chromium made, in order
+        return self.browser["path"]
+
+    def _browser_discovering(self, adapter, on):
+        adapter.UpdateProperties(ADAPTER_IFACE, {"Discovering": dbus.Boolean(on, variant_level=1)})
+        if on:
+            GLib.timeout_add(300, self._browser_advertisement)
+
+    def _browser_advertisement(self):
+        """While the phone discovers: the chair appears, or its RSSI changes
+        (Chromium lists only what is added or changes during discovery)."""
+        adapter = mockobject.objects[f"/org/bluez/{BROWSER_ADAPTER}"]
+        if not adapter.props[ADAPTER_IFACE]["Discovering"]:
+            return False
+        if not self.advertisement:
+            return True  # the chair does not advertise: nothing to see
+        path = self.browser["path"]
+        if path not in mockobject.objects:
+            props = self.advertisement[2]
+            uuids = dbus.Array([str(u) for u in props.get("ServiceUUIDs", [])], signature="s", variant_level=1)
+            name = str(props.get("LocalName", "Rehand 6600"))
+            v = lambda x: x  # noqa: E731 (the values below carry their D-Bus types, as BlueZ's)
+            properties = {
+                "Address": dbus.String(self.browser["chair"], variant_level=1),
+                "AddressType": dbus.String("public", variant_level=1),
+                "Name": dbus.String(name, variant_level=1), "Alias": dbus.String(name, variant_level=1),
+                "Paired": dbus.Boolean(self.browser["bonded"], variant_level=1),
+                "Bonded": dbus.Boolean(self.browser["bonded"], variant_level=1),
+                "Trusted": dbus.Boolean(False, variant_level=1), "Blocked": dbus.Boolean(False, variant_level=1),
+                "Connected": dbus.Boolean(False, variant_level=1),
+                "LegacyPairing": dbus.Boolean(False, variant_level=1),
+                "ServicesResolved": dbus.Boolean(False, variant_level=1),
+                "UUIDs": v(uuids),
+                "Adapter": dbus.ObjectPath(f"/org/bluez/{BROWSER_ADAPTER}", variant_level=1),
+                "RSSI": dbus.Int16(-60, variant_level=1),
+            }
+            self.root.AddObject(path, DEVICE, properties, [
+                ("Connect", "", "", lambda _d: self._browser_connect()),
+                ("Disconnect", "", "", lambda _d: self._browser_disconnect()),
+                ("Pair", "", "", lambda _d: self._browser_secure("Pair", None, "")),
+                ("CancelPairing", "", "", ""),
+            ])
+            self._added(path)
+        else:
+            mockobject.objects[path].UpdateProperties(DEVICE, {"RSSI": dbus.Int16(random.randint(-70, -50),
+                                                                                   variant_level=1)})
+        return True
+
+    def _added(self, path):
+        obj = mockobject.objects[path]
+        self.root.EmitSignal(OBJECT_MANAGER, "InterfacesAdded", "oa{sa{sv}}",
+                             [dbus.ObjectPath(path), dbus.Dictionary(obj.props, signature="sa{sv}")])
+
+    def _browser_connect(self):
+        self.browser_calls.append(("Connect", ""))
+        if not self.app or not self.advertisement:
+            raise dbus.exceptions.DBusException("the chair does not answer", name="org.bluez.Error.Failed")
+        phone = self.browser["phone"]
+        if not self.known(phone):
+            self.add_phone(phone, "Phone")  # the chair's BlueZ meets the phone
+        self.connect(phone)
+        device = self.browser["path"]
+        service = f"{device}/service0010"
+        if service not in mockobject.objects:
+            svc = [p for p, i in self.app[2].items() if SERVICE in i][0]
+            self.root.AddObject(service, SERVICE, {
+                "UUID": dbus.String(self.app[2][svc][SERVICE]["UUID"], variant_level=1),
+                "Primary": dbus.Boolean(True, variant_level=1),
+                "Device": dbus.ObjectPath(device, variant_level=1),
+                "Includes": dbus.Array([], signature="o", variant_level=1)}, [])
+            self._added(service)
+            handle = 0x11
+            for app_path, interfaces in sorted((p, i) for p, i in self.app[2].items() if CHAR in i):
+                copy = f"{service}/char{handle:04x}"
+                target, uuid = str(app_path), str(interfaces[CHAR]["UUID"])
+                flags = client_flags(interfaces[CHAR]["Flags"])
+                self.root.AddObject(copy, CHAR, {
+                    "UUID": dbus.String(uuid, variant_level=1), "Service": dbus.ObjectPath(service, variant_level=1),
+                    "Flags": dbus.Array(flags, signature="s", variant_level=1),
+                    "Value": dbus.Array([], signature="y", variant_level=1),
+                    "Notifying": dbus.Boolean(False, variant_level=1)}, [
+                    ("ReadValue", "a{sv}", "ay", lambda _c, o, t=target, c=copy, u=uuid: self._browser_read(t, c, u)),
+                    ("WriteValue", "aya{sv}", "", lambda _c, val, o, t=target, u=uuid: self._browser_write(t, u, val, o)),
+                    ("StartNotify", "", "", lambda _c, t=target, c=copy, u=uuid: self._browser_notify(t, c, u, True)),
+                    ("StopNotify", "", "", lambda _c, t=target, c=copy, u=uuid: self._browser_notify(t, c, u, False)),
+                ])
+                self._added(copy)
+                if "notify" in flags:
+                    # Chromium's startNotifications needs the CCCD (NotSupportedError without it).
+                    desc = f"{copy}/desc{handle + 2:04x}"
+                    self.root.AddObject(desc, DESCRIPTOR, {
+                        "UUID": dbus.String(CCCD, variant_level=1),
+                        "Characteristic": dbus.ObjectPath(copy, variant_level=1),
+                        "Value": dbus.Array([], signature="y", variant_level=1),
+                        "Flags": dbus.Array(["read", "write"], signature="s", variant_level=1)}, [
+                        ("ReadValue", "a{sv}", "ay", lambda _d, o: dbus.Array([0, 0], signature="y")),
+                        ("WriteValue", "aya{sv}", "", lambda _d, val, o: None),
+                    ])
+                    self._added(desc)
+                handle += 3
+        self.browser["connected"] = True
+        mockobject.objects[device].UpdateProperties(DEVICE, {"Connected": dbus.Boolean(True, variant_level=1)})
+        mockobject.objects[device].UpdateProperties(DEVICE, {"ServicesResolved": dbus.Boolean(True,
+                                                                                              variant_level=1)})
+
+    def _browser_options(self, options=None):
+        o = dict(options or {})
+        o.update(device=dbus.ObjectPath(self.device_path(self.browser["phone"])), link="LE", mtu=dbus.UInt16(23))
+        return dbus.Dictionary(o, signature="sv")
+
+    def _browser_read(self, target, copy, uuid):
+        self.browser_calls.append(("ReadValue", uuid))
+        self._browser_secure("ReadValue", target, "read")
+        self.browser_forwarded.append(("ReadValue", uuid))
+        value = self._call(target, "ReadValue", self._browser_options())
+        # As BlueZ: a read also changes Value (Chromium swallows one change per read in flight).
+        mockobject.objects[copy].UpdateProperties(CHAR, {"Value": dbus.Array(value, signature="y", variant_level=1)})
+        return dbus.Array(value, signature="y")
+
+    def _browser_write(self, target, uuid, value, options):
+        self.browser_calls.append(("WriteValue", uuid))
+        self._browser_secure("WriteValue", target, "write")
+        self.browser_forwarded.append(("WriteValue", uuid))
+        self._call(target, "WriteValue", dbus.Array(value, signature="y"), self._browser_options(options))
+
+    def _browser_notify(self, target, copy, uuid, on):
+        self.browser_calls.append(("StartNotify" if on else "StopNotify", uuid))
+        if on:
+            self._browser_secure("StartNotify", target, "notify")
+            self.browser_forwarded.append(("StartNotify", uuid))
+            self._call(target, "StartNotify")
+            self.mirrors[target] = copy
+        else:
+            self.mirrors.pop(target, None)
+            try:
+                self._call(target, "StopNotify")
+            except dbus.exceptions.DBusException:
+                pass  # the daemon had already let go
+        mockobject.objects[copy].UpdateProperties(CHAR, {"Notifying": dbus.Boolean(on, variant_level=1)})
+
+    def _browser_secure(self, why, target, access):
+        """Enforces the characteristic's flags as the chair's BlueZ does: an
+        access its flags say needs an encrypted, authenticated link
+        ("encrypt-authenticated-read" for a read...) pairs first, as the
+        phone's OS does (see add_browser_phone); one they do not protect goes
+        through unpaired (a plain "notify" lets anyone subscribe)."""
+        if self.browser["bonded"]:
+            return
+        if target is not None:
+            flags = [str(f) for f in self.app[2][dbus.ObjectPath(target)][CHAR]["Flags"]]
+            if not any(f.startswith(("encrypt-", "secure-")) and f.endswith("-" + access) for f in flags):
+                return
+        phone = self.browser["phone"]
+        if not self.adapter.props[ADAPTER_IFACE]["Pairable"]:
+            raise dbus.exceptions.DBusException(f"{why}: insufficient authentication, the chair does not pair now",
+                                                name="org.bluez.Error.NotAuthorized")
+        passkey = random.randint(0, 999999)
+        error = self.display_passkey(phone, passkey)
+        if error:
+            raise dbus.exceptions.DBusException(f"{why}: the chair refused to pair ({error})",
+                                                name="org.bluez.Error.AuthenticationRejected")
+        self.passkey_asked.put(passkey)
+        try:
+            typed = self.passkey_typed.get(timeout=20)
+        except queue.Empty:
+            typed = None
+        if typed != passkey:
+            raise dbus.exceptions.DBusException(f"{why}: pairing failed (wrong passkey)",
+                                                name="org.bluez.Error.AuthenticationFailed")
+        self.bond(phone)
+        self.browser["bonded"] = True
+        mockobject.objects[self.browser["path"]].UpdateProperties(DEVICE, {
+            "Paired": dbus.Boolean(True, variant_level=1), "Bonded": dbus.Boolean(True, variant_level=1)})
+
+    def _remove_device(self, adapter, path):
+        if str(path) == self.device_path(self.browser["phone"]):
+            self.browser_link_lost()  # BlueZ disconnects a device before it removes it
+            self.browser["bonded"] = False
+            if self.browser["path"] in mockobject.objects:
+                mockobject.objects[self.browser["path"]].UpdateProperties(DEVICE, {
+                    "Paired": dbus.Boolean(False, variant_level=1), "Bonded": dbus.Boolean(False, variant_level=1)})
+        self.template.RemoveDevice(adapter, path)
+
+    def _browser_disconnect(self):
+        self.browser_calls.append(("Disconnect", ""))
+        self.browser_link_lost()
+
+    def browser_link_lost(self):
+        """The link between the phone and the chair ends (Chromium's
+        Disconnect, or the radio): both sides see it."""
+        if not self.browser["connected"]:
+            return
+        self.browser["connected"] = False
+        for target in [t for t, c in self.mirrors.items() if c.startswith(self.browser["path"])]:
+            self.mirrors.pop(target)
+        self.disconnect(self.browser["phone"])
+        mockobject.objects[self.browser["path"]].UpdateProperties(DEVICE, {
+            "ServicesResolved": dbus.Boolean(False, variant_level=1),
+            "Connected": dbus.Boolean(False, variant_level=1)})
+
+    def type_passkey(self, passkey):
+        """The person types `passkey` into the phone's pairing dialog (from the test's thread)."""
+        self.passkey_typed.put(passkey)
+
+    # ------------------------------------------------------------ a loop of its own
+
+    def run_in_thread(self):
+        """Runs the mock's main loop in a thread of its own, for a test whose
+        own thread blocks (a browser driven by Selenium). From then on only
+        that thread touches the bus: call(fn) runs fn there and returns its
+        result."""
+        self.loop = GLib.MainLoop()
+        self.thread = threading.Thread(target=self.loop.run, daemon=True)
+        self.thread.start()
+
+    def call(self, fn, timeout=30):
+        done = queue.Queue()
+
+        def run():
+            try:
+                done.put((True, fn()))
+            except Exception as e:  # noqa: BLE001 (handed to the caller's thread)
+                done.put((False, e))
+            return False
+        GLib.idle_add(run)
+        ok, value = done.get(timeout=timeout)
+        if not ok:
+            raise value
+        return value
+
     # ------------------------------------------------------------ the test's side
 
     def pump(self, seconds=0.0, until=None):
@@ -258,15 +541,19 @@ class MockBluez:
         obj = self.bus.get_object(self.app[0], path, introspect=False)
         return getattr(obj, method)(*args, dbus_interface=interface, timeout=5)
 
+    def device_path(self, address):
+        """A device's path on the chair's adapter."""
+        return device_path(address, self.adapter_name)
+
     def add_phone(self, address, name):
-        self.template.AddDevice(self.root, "hci0", address, name)
-        return device_path(address)
+        self.template.AddDevice(self.root, self.adapter_name, address, name)
+        return self.device_path(address)
 
     def connect(self, address):
-        self.template.ConnectDevice(self.root, "hci0", address)
+        self.template.ConnectDevice(self.root, self.adapter_name, address)
 
     def disconnect(self, address):
-        self.template.DisconnectDevice(self.root, "hci0", address)
+        self.template.DisconnectDevice(self.root, self.adapter_name, address)
 
     def agent(self):
         manager = mockobject.objects["/org/bluez"]
@@ -277,14 +564,14 @@ class MockBluez:
         sender, path, _ = self.agent()
         agent = self.bus.get_object(sender, path, introspect=False)
         try:
-            agent.DisplayPasskey(dbus.ObjectPath(device_path(address)), dbus.UInt32(passkey), dbus.UInt16(0),
+            agent.DisplayPasskey(dbus.ObjectPath(self.device_path(address)), dbus.UInt32(passkey), dbus.UInt16(0),
                                  dbus_interface="org.bluez.Agent1", timeout=5)
             return ""
         except dbus.exceptions.DBusException as e:
             return e.get_dbus_name()
 
     def bond(self, address):
-        self.template.PairDevice(self.root, "hci0", address, 5898764)
+        self.template.PairDevice(self.root, self.adapter_name, address, 5898764)
 
     def start_notify(self, uuid):
         self._call(self.characteristic(uuid), "StartNotify")
@@ -296,7 +583,7 @@ class MockBluez:
         """WriteValue as BlueZ passes a phone's write on. Returns the D-Bus error name, or ''."""
         try:
             self._call(self.characteristic(uuid), "WriteValue", dbus.Array(value, signature="y"),
-                       dbus.Dictionary({"device": dbus.ObjectPath(device_path(address)), "link": "LE",
+                       dbus.Dictionary({"device": dbus.ObjectPath(self.device_path(address)), "link": "LE",
                                         "mtu": dbus.UInt16(23)}, signature="sv"))
             return ""
         except dbus.exceptions.DBusException as e:
@@ -306,7 +593,7 @@ class MockBluez:
         """(bytes, '') or (None, the D-Bus error name)."""
         try:
             v = self._call(self.characteristic(uuid), "ReadValue",
-                           dbus.Dictionary({"device": dbus.ObjectPath(device_path(address)), "link": "LE"},
+                           dbus.Dictionary({"device": dbus.ObjectPath(self.device_path(address)), "link": "LE"},
                                            signature="sv"))
             return bytes(v), ""
         except dbus.exceptions.DBusException as e:
@@ -316,9 +603,12 @@ class MockBluez:
         return self.adapter.props["org.bluez.Adapter1"][name]
 
     def known(self, address):
-        return device_path(address) in mockobject.objects
+        return self.device_path(address) in mockobject.objects
 
     def stop(self):
+        if getattr(self, "loop", None):
+            self.loop.quit()
+            self.thread.join(5)
         try:
             self.bus.close()
         except Exception:  # noqa: BLE001 (closing a bus that went away)

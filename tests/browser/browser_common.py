@@ -76,10 +76,11 @@ class Console:
         return m.group(1).strip() if m else "?"
 
 
-def browser(width, height, extra=()):
+def browser(width, height, extra=(), env=None):
     """A headless Chromium with a viewport of width x height; `extra`: more
     command-line flags (e.g. a pinned certificate's
-    --ignore-certificate-errors-spki-list)."""
+    --ignore-certificate-errors-spki-list); `env`: its environment (a
+    private system bus for Web Bluetooth: DBUS_SYSTEM_BUS_ADDRESS)."""
     o = webdriver.ChromeOptions()
     # Removed when the test ends, also by SIGTERM (after it quit the browser): no profile left in the temp folder.
     udd = temp_dir('rtukit-chromium-')
@@ -92,7 +93,7 @@ def browser(width, height, extra=()):
     # The page's console (a WebSocket that failed to open says so there): read
     # by console_tail() into a failed check's detail.
     o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-    d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
+    d = webdriver.Chrome(service=Service("/usr/bin/chromedriver", env=env), options=o)
     d.set_window_size(width, height)
     vw, vh = d.execute_script("return [innerWidth, innerHeight]")
     d.set_window_size(width + (width - vw), height + (height - vh))

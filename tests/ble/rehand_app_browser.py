@@ -1,0 +1,283 @@
+#!/usr/bin/python3
+"""The phone app over Web Bluetooth (web/assets/rehand/app.html), end to end:
+Debian's Chromium (headless) is the phone's browser and the central; the mock
+BlueZ (tests/ble/bluez_mock.py) is both Bluetooth stacks and the radio
+between them (the phone's adapter hci0, the chair's hci1); the host daemon's
+GATT application is the peripheral; the simulated controller is on a pty.
+
+What it proves, each read where it happens (the controller's registers, the
+daemon's state, the page):
+  - a stranger's page (no bond, the display's window closed) reads and
+    subscribes to nothing, and says why;
+  - pairing: the passkey shows on the display (screenshot), the person types
+    it into the phone's pairing dialog (the mock's, as the OS's), the page
+    connects and shows the chair;
+  - a held button drives (the controller's register), the release writes 0
+    with no emergency stop;
+  - a frozen page (its timers stopped) and a closed tab each stop the chair
+    through the emergency stop (0x006A) within the bound of every stop path;
+  - Forget on the display ends the app's access.
+Screenshots of the app at 390x844 (at rest, driving, lost link) in OUT.
+
+The app is served as the package installs it, static files from any origin
+(here Python's http.server on loopback, a secure context, over
+web/assets/rehand/): nothing of it depends on the daemon's web server.
+
+Usage: rehand_app_browser.py RTUKIT OUT
+Prints "ok NAME" / "FAIL NAME" per check and PASS/FAIL; exit 1 on a failure.
+"""
+import json
+import os
+import re
+import sys
+import time
+import urllib.request
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+sys.path.insert(0, os.path.join(HERE, ".."))
+sys.path.insert(0, os.path.join(HERE, "..", "browser"))
+from pyhelpers import STOP_BOUND_S, WebSocket, free_port, start, stop_processes, temp_dir  # noqa: E402
+from browser_common import browser, check, console_tail, summary  # noqa: E402
+from rehand_stops import STOP_COMMAND, Chair, now_ms  # noqa: E402
+from bluez_mock import MockBluez  # noqa: E402
+from cdp import DeviceChooser, page_session  # noqa: E402
+from selenium.webdriver.common.action_chains import ActionChains  # noqa: E402
+from selenium.webdriver.common.by import By  # noqa: E402
+
+RTUKIT, OUT = sys.argv[1], sys.argv[2]
+APP_DIR = os.path.join(HERE, "..", "..", "web", "assets", "rehand")
+PHONE = "A4:C1:38:00:66:01"
+DEADLINE = 30
+FORWARD_0 = "01 06 00 6E 00 00"  # the controller's phone_forward released, as the relay prints the request
+
+
+def state(port):
+    with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/state", timeout=10) as r:
+        return json.load(r)
+
+
+def display_request(port, message):
+    ws = WebSocket(port, "/ws?role=display")
+    try:
+        return ws.request(message)
+    finally:
+        ws.close()
+
+
+def register(con, key):
+    m = re.search(r"\((\d+)\)", con.ask(f"get {key}"))
+    return int(m.group(1)) if m else -1
+
+
+def wait_for(fn, deadline=DEADLINE, step=0.02):
+    end = time.monotonic() + deadline
+    while True:
+        value = fn()
+        if value or time.monotonic() > end:
+            return value
+        time.sleep(step)
+
+
+def text(d, selector):
+    return d.find_element(By.CSS_SELECTOR, selector).text
+
+
+def app_browser(bluez, work, name):
+    """Chromium as the phone's browser: Web Bluetooth on, BlueZ = the mock's bus."""
+    config = os.path.join(work, f"xdg-{name}")
+    os.makedirs(config, exist_ok=True)
+    return browser(390, 844, ["--enable-features=WebBluetooth"],
+                   env=dict(bluez.env, XDG_CONFIG_HOME=config))
+
+
+def stop_took(chair, t0, *writes):
+    """Seconds from t0 (now_ms) until the first of `writes` reached the
+    controller (the relay's record), or None."""
+    found = [at for at in (chair.passed(w, t0, timeout=10) for w in writes) if at]
+    return (min(found) - t0) / 1000.0 if found else None
+
+
+def main():
+    os.makedirs(OUT, exist_ok=True)
+    work = temp_dir("rtukit-app-")
+    app_port = free_port()
+    procs, drivers, chooser, chair = [], [], None, None
+    bluez = MockBluez(work, adapter="hci1")
+    bluez.add_browser_phone(PHONE)
+    try:
+        procs.append(start(["/usr/bin/python3", "-m", "http.server", "--bind", "127.0.0.1", "--directory", APP_DIR,
+                            str(app_port)], work))
+        # The simulator, the relay that records every frame, the daemon on hci1.
+        chair = Chair(RTUKIT, work, bluez)
+        con, port = chair.con, chair.http
+        check("the daemon registers its GATT application on hci1", bluez.app is not None)
+        bluez.run_in_thread()  # from here the mock answers Chromium while Selenium blocks this thread
+
+        app = app_browser(bluez, work, "phone")
+        drivers.append(app)
+        app.get(f"http://127.0.0.1:{app_port}/app.html")
+        check("the app opens on its connect screen", wait_for(lambda: app.find_element(By.ID, "connect-go")
+                                                             .is_displayed()))
+        check("Web Bluetooth is there", app.execute_script("return !!navigator.bluetooth"))
+        app.save_screenshot(os.path.join(OUT, "app-connect-390x844.png"))
+        worker = app.execute_async_script(
+            "const done = arguments[0]; navigator.serviceWorker.ready.then((r) => done(r.active ? r.active.state : ''));"
+            " setTimeout(() => done('none'), 10000);")
+        check("installable and usable offline: its service worker is active", worker in ("activating", "activated"),
+              str(worker))
+        chooser = DeviceChooser(app, "Rehand 6600")
+
+        # ---- a stranger: no bond, the display's pairing window closed
+        app.find_element(By.ID, "connect-go").click()
+        refused = wait_for(lambda: "refused" in text(app, "#connect-reason"))
+        check("a phone without a bond is refused, saying to pair on the display", refused,
+              f"{text(app, '#connect-reason')!r}; chooser {chooser.seen}; console: {console_tail(app)}")
+        forwarded = bluez.call(lambda: list(bluez.browser_forwarded))
+        check("...it read nothing and subscribed to nothing", not forwarded, f"{forwarded}")
+        check("...and shows no state", text(app, "#battery") in ("", "--"))
+
+        # ---- pairing: the display's window, the passkey on the display, typed on the phone
+        r = display_request(port, {"op": "pair_start"})
+        check("the display opens \"Pair a phone\"", bool(r and r.get("ok")), f"{r}")
+        wait_for(lambda: bluez.call(lambda: bool(bluez.adapter_property("Pairable"))))
+        app.find_element(By.ID, "connect-go").click()
+        try:
+            passkey = bluez.passkey_asked.get(timeout=DEADLINE)
+        except Exception:  # noqa: BLE001 (said as a failed check, with what the page and the mock saw)
+            check("the phone's pairing asks for a passkey", False,
+                  f"{text(app, '#connect-reason')!r}; calls {bluez.call(lambda: list(bluez.browser_calls))}; "
+                  f"console: {console_tail(app)}")
+            return summary()
+        shown = wait_for(lambda: state(port).get("ble_passkey"))
+        check("the display shows the passkey the phone's pairing asks for", shown == f"{passkey:06d}",
+              f"{shown} vs {passkey:06d}")
+        bluez.type_passkey(int(shown))  # the person types what the display shows
+        live = wait_for(lambda: app.find_element(By.ID, "remote").is_displayed() and
+                        text(app, "#battery").endswith("%"))
+        check("paired: the app shows the chair's battery", live,
+              f"{text(app, '#connect-reason')!r}; console: {console_tail(app)}")
+        if not live:
+            return summary()
+        check("the display lists the Bluetooth phone",
+              wait_for(lambda: f"ble:{PHONE}" in [p["phone"] for p in state(port)["phones"]]))
+        check("the app is not shown as lost", "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        display_request(port, {"op": "pair_cancel"})  # the window closes: no one else pairs from here on
+        app.save_screenshot(os.path.join(OUT, "app-rest-390x844.png"))
+
+        # ---- drive with a held button, release
+        fwd = app.find_element(By.ID, "fwd")
+        ActionChains(app).click_and_hold(fwd).perform()
+        driving = wait_for(lambda: register(con, "phone_forward") == 1)
+        check("holding Forward drives (the controller's phone_forward)", driving, console_tail(app))
+        app.save_screenshot(os.path.join(OUT, "app-driving-390x844.png"))
+        t0 = now_ms()
+        ActionChains(app).release(fwd).perform()
+        took = stop_took(chair, t0, FORWARD_0)
+        check("the release writes 0 within the bound", took is not None and took <= STOP_BOUND_S,
+              f"{took} s (bound {STOP_BOUND_S} s)")
+        check("...a release, no emergency stop", register(con, "anti_pinch") == 0)
+
+        # ---- a frozen page: its renewals stop; the lease ends the drive with 0x006A
+        wait_for(lambda: state(port)["values"]["speed"] == 0 and "lost" not in
+                 app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        ActionChains(app).click_and_hold(fwd).perform()
+        check("held again: drives", wait_for(lambda: register(con, "phone_forward") == 1))
+        devtools = page_session(app)
+        try:
+            devtools.send("Debugger.enable")
+            frozen_at = now_ms()
+            devtools.send("Debugger.pause")  # the page's script stops: a hung page, its renewals with it
+            took = stop_took(chair, frozen_at, STOP_COMMAND)
+            check("a frozen page stops the chair with the emergency stop within the bound",
+                  took is not None and took <= STOP_BOUND_S,
+                  f"{took} s (bound {STOP_BOUND_S} s); forward={register(con, 'phone_forward')} "
+                  f"anti_pinch={register(con, 'anti_pinch')}")
+            devtools.send("Debugger.resume")
+            devtools.send("Debugger.disable")
+        finally:
+            devtools.close()
+        ActionChains(app).release(fwd).perform()
+        check("thawed, nothing restarts (the press ended)", wait_for(lambda: register(con, "phone_forward") == 0, 2)
+              and register(con, "phone_forward") == 0)
+
+        # ---- a crashed tab while driving: no goodbye from the page; the link
+        # ends with the tab (Chromium lets go of its GATT connection) and the
+        # chair stops with 0x006A
+        wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
+        wait_for(lambda: "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        ActionChains(app).click_and_hold(fwd).perform()
+        check("held once more: drives", wait_for(lambda: register(con, "phone_forward") == 1),
+              f"{text(app, '#reason')!r} anti_pinch={register(con, 'anti_pinch')}")
+        devtools = page_session(app)
+        crashed_at = now_ms()
+        try:
+            devtools.send("Page.crash", timeout=5)
+        except (RuntimeError, TimeoutError, ConnectionError):
+            pass  # the tab is gone before it answers
+        devtools.close()
+        took = stop_took(chair, crashed_at, STOP_COMMAND)
+        check("a crashed tab stops the chair with the emergency stop within the bound",
+              took is not None and took <= STOP_BOUND_S,
+              f"{took} s (bound {STOP_BOUND_S} s); forward={register(con, 'phone_forward')} "
+              f"anti_pinch={register(con, 'anti_pinch')}; mock calls {bluez.call(lambda: bluez.browser_calls[-4:])}")
+        chooser.close()
+        chooser = None
+        app.quit()
+        drivers.remove(app)
+
+        # ---- a closed tab while driving: the page lets go (pagehide) before it goes
+        app = app_browser(bluez, work, "phone")
+        drivers.append(app)
+        app.get(f"http://127.0.0.1:{app_port}/app.html")
+        chooser = DeviceChooser(app, "Rehand 6600")
+        wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
+        app.find_element(By.ID, "connect-go").click()
+        check("the bonded phone connects again without pairing",
+              wait_for(lambda: text(app, "#battery").endswith("%")), text(app, "#connect-reason"))
+        fwd = app.find_element(By.ID, "fwd")
+        wait_for(lambda: "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        ActionChains(app).click_and_hold(fwd).perform()
+        check("held: drives", wait_for(lambda: register(con, "phone_forward") == 1))
+        closed_at = now_ms()
+        chooser.close()
+        chooser = None
+        app.close()  # the tab (its browser goes with it: the only tab)
+        took = stop_took(chair, closed_at, FORWARD_0, STOP_COMMAND)
+        drivers.remove(app)
+        app.quit()
+        check("a closed tab stops the chair within the bound (its release, or the stop command)",
+              took is not None and took <= STOP_BOUND_S, f"{took} s (bound {STOP_BOUND_S} s)")
+
+        # ---- forget on the display ends the app's access
+        app = app_browser(bluez, work, "phone")
+        drivers.append(app)
+        app.get(f"http://127.0.0.1:{app_port}/app.html")
+        chooser = DeviceChooser(app, "Rehand 6600")
+        wait_for(lambda: register(con, "anti_pinch") == 0)
+        app.find_element(By.ID, "connect-go").click()
+        check("connected again", wait_for(lambda: text(app, "#battery").endswith("%")), text(app, "#connect-reason"))
+        r = display_request(port, {"op": "forget", "phone": f"ble:{PHONE}"})
+        check("the display forgets the phone", bool(r and r.get("ok")), f"{r}")
+        lost = wait_for(lambda: app.find_element(By.ID, "lost").is_displayed())
+        check("...the app shows the link lost (the red panel over every control)", lost,
+              f"{text(app, '#connect-reason')!r}; mock {bluez.call(lambda: (dict(bluez.browser), bluez.known(PHONE)))}")
+        check("...every control disabled", not any(b.is_enabled() for b in app.find_elements(
+            By.CSS_SELECTOR, "#pad button, #horn, #light, #left-signal, #right-signal")))
+        app.save_screenshot(os.path.join(OUT, "app-lost-390x844.png"))
+        app.find_element(By.ID, "reconnect").click()
+        check("...and cannot connect again without pairing",
+              wait_for(lambda: "refused" in text(app, "#connect-reason")), text(app, "#connect-reason"))
+    finally:
+        if chooser:
+            chooser.close()
+        for d in drivers:
+            d.quit()
+        if chair:
+            chair.stop()
+        stop_processes(procs)
+        bluez.stop()
+    return summary()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
