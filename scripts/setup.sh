@@ -79,6 +79,22 @@ register_binfmt() {
   echo "setup: aarch64 binaries run under $(sed -n 's/^interpreter //p' "$misc/qemu-aarch64")"
 }
 
+# Test tooling from the npm registry, never shipped (all, aarch64): axe-core,
+# which the browser tests run in every page (WCAG 2.2 A and AA), at the
+# version tests/browser/package-lock.json pins. Installed once.
+install_test_tooling() {
+  [ "$target" != "programs" ] || return 0
+  local dir
+  dir="$(cd "$(dirname "$0")/.." && pwd)/tests/browser"
+  [ -f "$dir/node_modules/axe-core/axe.min.js" ] && return 0
+  if ! command -v npm >/dev/null 2>&1; then
+    echo "setup: npm is needed for the browser tests' test tooling (axe-core): install Node.js and npm" >&2
+    exit 1
+  fi
+  npm ci --prefix "$dir" --no-audit --no-fund >/dev/null
+  echo "setup: test tooling installed in tests/browser/node_modules (axe-core)"
+}
+
 missing=()
 for p in "${PACKAGES[@]}"; do
   if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
@@ -89,6 +105,7 @@ done
 if [ ${#missing[@]} -eq 0 ]; then
   echo "setup: all ${#PACKAGES[@]} packages present"
   register_binfmt
+  install_test_tooling
   exit 0
 fi
 
@@ -97,4 +114,5 @@ export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
 register_binfmt
+install_test_tooling
 echo "setup: done"

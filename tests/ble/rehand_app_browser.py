@@ -37,7 +37,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
 from pyhelpers import STOP_BOUND_S, WebSocket, free_port, start, stop_processes, temp_dir  # noqa: E402
-from browser_common import browser, check, console_tail, summary  # noqa: E402
+from browser_common import accessibility_violations, browser, check, console_tail, summary  # noqa: E402
 from rehand_stops import STOP_COMMAND, Chair, now_ms  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
 from cdp import DeviceChooser, page_session  # noqa: E402
@@ -97,6 +97,13 @@ def stop_took(chair, t0, *writes):
     return (min(found) - t0) / 1000.0 if found else None
 
 
+def writes_before(chair, t0, seconds=3.0):
+    """The controller's writes in the `seconds` before t0, as the relay
+    recorded them (ms before t0, frame): what a failed stop check shows."""
+    return [(round(t0 - ms), hx) for ms, way, kind, hx in chair.records()
+            if way == "request" and t0 - seconds * 1000 <= ms < t0 and hx[3:5] in ("06", "10")]
+
+
 def main():
     os.makedirs(OUT, exist_ok=True)
     work = temp_dir("rtukit-app-")
@@ -120,6 +127,8 @@ def main():
                                                              .is_displayed()))
         check("Web Bluetooth is there", app.execute_script("return !!navigator.bluetooth"))
         app.save_screenshot(os.path.join(OUT, "app-connect-390x844.png"))
+        v = accessibility_violations(app)
+        check("the app's connect screen: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
         worker = app.execute_async_script(
             "const done = arguments[0]; navigator.serviceWorker.ready.then((r) => done(r.active ? r.active.state : ''));"
             " setTimeout(() => done('none'), 10000);")
@@ -163,6 +172,8 @@ def main():
         check("the app is not shown as lost", "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
         display_request(port, {"op": "pair_cancel"})  # the window closes: no one else pairs from here on
         app.save_screenshot(os.path.join(OUT, "app-rest-390x844.png"))
+        v = accessibility_violations(app)
+        check("the app's remote: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
 
         # ---- drive with a held button, release
         fwd = app.find_element(By.ID, "fwd")
@@ -182,6 +193,8 @@ def main():
                  app.find_element(By.TAG_NAME, "body").get_attribute("class"))
         ActionChains(app).click_and_hold(fwd).perform()
         check("held again: drives", wait_for(lambda: register(con, "phone_forward") == 1))
+        # Moving (a lost phone's press is stopped with 0x006A while the chair moves)
+        check("...and the chair moves", wait_for(lambda: state(port)["values"]["speed"] > 0))
         devtools = page_session(app)
         try:
             devtools.send("Debugger.enable")
@@ -191,7 +204,7 @@ def main():
             check("a frozen page stops the chair with the emergency stop within the bound",
                   took is not None and took <= STOP_BOUND_S,
                   f"{took} s (bound {STOP_BOUND_S} s); forward={register(con, 'phone_forward')} "
-                  f"anti_pinch={register(con, 'anti_pinch')}")
+                  f"anti_pinch={register(con, 'anti_pinch')}; writes before: {writes_before(chair, frozen_at)}")
             devtools.send("Debugger.resume")
             devtools.send("Debugger.disable")
         finally:
@@ -208,6 +221,7 @@ def main():
         ActionChains(app).click_and_hold(fwd).perform()
         check("held once more: drives", wait_for(lambda: register(con, "phone_forward") == 1),
               f"{text(app, '#reason')!r} anti_pinch={register(con, 'anti_pinch')}")
+        check("...and the chair moves", wait_for(lambda: state(port)["values"]["speed"] > 0))
         devtools = page_session(app)
         crashed_at = now_ms()
         try:

@@ -101,6 +101,28 @@ def browser(width, height, extra=(), env=None):
     return d
 
 
+AXE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "node_modules", "axe-core", "axe.min.js")
+WCAG_22_A_AA = ["wcag2a", "wcag2aa", "wcag21a", "wcag21aa", "wcag22aa"]
+
+
+def accessibility_violations(d):
+    """axe-core's violations of WCAG 2.2 A and AA in the page as it is now,
+    one string each ("rule (impact): N element(s) first-target"). axe-core
+    (npm, test tooling only) is installed by scripts/setup.sh; without it
+    this raises, so the check fails rather than passing unchecked."""
+    if not os.path.exists(AXE):
+        raise RuntimeError(f"{AXE} missing: scripts/setup.sh installs it (npm ci in tests/browser)")
+    with open(AXE) as f:
+        d.execute_script(f.read())
+    d.set_script_timeout(60)
+    found = d.execute_async_script(
+        "const done = arguments[arguments.length - 1];"
+        "axe.run(document, {runOnly: {type: 'tag', values: arguments[0]}})"
+        ".then((r) => done(r.violations.map((v) => `${v.id} (${v.impact}): ${v.nodes.length} element(s) `"
+        " + v.nodes[0].target.join(' '))), (e) => done([`axe failed: ${e}`]));", WCAG_22_A_AA)
+    return found
+
+
 def console_tail(d, lines=8):
     """The last `lines` messages of the page's console, one string (for a
     failed check's detail)."""

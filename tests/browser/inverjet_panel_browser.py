@@ -32,7 +32,7 @@ from selenium.webdriver.common.by import By
 from selenium.webdriver.support.ui import Select
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import (Console, browser, check, free_port, layout, stop_processes, summary,  # noqa: E402
+from browser_common import (Console, accessibility_violations, browser, check, free_port, layout, stop_processes, summary,  # noqa: E402
                             temp_dir, wait_for)
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from pyhelpers import START_DEADLINE, WebSocket, start  # noqa: E402
@@ -295,6 +295,8 @@ def main():
         readable(t, "tablet 1280x800")
         targets(t, "tablet 1280x800")
         layout(t, "panel-tablet-1280x800", OUT, scrolls=True)
+        v = accessibility_violations(t)
+        check("the pool panel: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
 
         # The machine stops answering: nothing looks live, controls off, what to do.
         sim.send_signal(signal.SIGSTOP)

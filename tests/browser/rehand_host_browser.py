@@ -25,7 +25,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, browser, check, console_tail, free_port, layout, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
+from browser_common import Console, accessibility_violations, browser, check, console_tail, free_port, layout, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
 from pyhelpers import STOP_BOUND_S, host_polls_later  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
@@ -126,6 +126,8 @@ def main():
                 "const z = document.querySelector('#distances [data-side=left]');"
                 "return z && z.classList.contains('danger');"), DEADLINE))
         layout(hmi, "hmi-1280x800", OUT)
+        v = accessibility_violations(hmi)
+        check("the display: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
         con.cmd("distance left 2000")
 
         # press and hold a posture: moves while held, shows its state, stops on release
@@ -355,6 +357,8 @@ setTimeout(() => done('still open'), 10000);
                                        and re.fullmatch(r"\d+ %", text(phone, "#battery")), DEADLINE))
         check("the display lists the phone", wait_for(lambda: "Test phone" in text(hmi, "#phone-list")))
         layout(phone, "phone-remote-390x844", OUT, scrolls=True)
+        v = accessibility_violations(phone)
+        check("the Wi-Fi phone page: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
 
         # D-10: the seat is still raised from the posture checks
         check("raised: the phone shows why it cannot drive",
