@@ -98,11 +98,15 @@ def connect_unix(path, timeout=START_DEADLINE):
     return connect_retrying(lambda: socket.socket(socket.AF_UNIX), path, timeout)
 
 
-def connect_tcp(port, host="127.0.0.1", timeout=START_DEADLINE, io_timeout=None):
-    """A TCP connection to host:port, retried while it is refused."""
+def connect_tcp(port, host="127.0.0.1", timeout=START_DEADLINE, io_timeout=None, source=None):
+    """A TCP connection to host:port, retried while it is refused; `source`:
+    the local address to connect from (another loopback address, 127.0.0.N:
+    a client from another machine, as the server counts them)."""
     def make():
         s = socket.socket(socket.AF_INET6 if ":" in host else socket.AF_INET)
         s.settimeout(io_timeout if io_timeout is not None else timeout)
+        if source:
+            s.bind((source, 0))
         return s
     return connect_retrying(make, (host, port), timeout)
 
@@ -138,13 +142,15 @@ class WebSocket:
     only, masked as a client must, pings answered. Not a library: enough to
     drive a page's API from a test or a bench without a browser."""
 
-    def __init__(self, port, path, host="127.0.0.1", timeout=5.0, tls=False, headers=None, host_header=None):
+    def __init__(self, port, path, host="127.0.0.1", timeout=5.0, tls=False, headers=None, host_header=None,
+                 source=None):
         """`tls`: wss (the certificate is not checked: the tests pin it
         elsewhere); `headers`: more header fields ({"Origin": ...});
-        `host_header`: the Host field to send (default host:port).
+        `host_header`: the Host field to send (default host:port);
+        `source`: the local address to connect from (connect_tcp).
         Raises OSError("handshake refused: HTTP/1.1 403 ...") on a refusal."""
         import base64
-        self.s = connect_tcp(port, host, io_timeout=timeout)
+        self.s = connect_tcp(port, host, io_timeout=timeout, source=source)
         if tls:
             import ssl
             ctx = ssl.SSLContext(ssl.PROTOCOL_TLS_CLIENT)

@@ -396,6 +396,46 @@ def main():
               json.dumps(right))
         guesser.close()
 
+        # ---- guessing from many addresses: the window is one, with one cap.
+        # Each address stays under its own limit (one wrong code each); the
+        # replacements after 3 wrong codes do not extend the window, and 10
+        # wrong codes in all close it (before: a fresh 2 minutes per
+        # replacement, 600 guesses from 60 addresses in 3 s, none limited).
+        display_request(display_port, {"op": "pair_start"})
+        code = wait_for(lambda: state(display_port)["pairing_code"], 10)
+        # Two seconds into the window, so that a fresh 2 minutes would show.
+        opened_with = state(display_port)["pairing_seconds"]
+        wait_for(lambda: state(display_port)["pairing_seconds"] <= opened_with - 2, 10, 0.1)
+        seconds_at_start = state(display_port)["pairing_seconds"]
+        shown_codes, wrong_sent, closed_after, longest = [], 0, None, 0
+        for n in range(2, 2 + 12):
+            st = state(display_port)
+            if not st["pairing_code"]:
+                closed_after = wrong_sent
+                break
+            shown_codes.append(st["pairing_code"])
+            longest = max(longest, st["pairing_seconds"])
+            g = WebSocket(phone_port, "/ws", tls=True, source=f"127.0.0.{n}")
+            try:
+                g.request({"op": "pair", "code": str((int(st["pairing_code"]) + 1) % 1000000).zfill(6), "name": "x"})
+            finally:
+                g.close()
+            wrong_sent += 1
+        if closed_after is None and not state(display_port)["pairing_code"]:
+            closed_after = wrong_sent
+        check("replaced codes keep the window's end (never a fresh 2 minutes)",
+              len(set(shown_codes)) >= 3 and longest <= seconds_at_start,
+              f"{len(set(shown_codes))} codes shown, at most {longest} s left, {seconds_at_start} s at the start")
+        check("wrong codes from many addresses close the window after 10 in all",
+              closed_after == 10 and state(display_port)["pairing_code"] == "", f"closed after {closed_after}")
+        late = WebSocket(phone_port, "/ws", tls=True, source="127.0.0.40")
+        try:
+            r = late.request({"op": "pair", "code": shown_codes[-1], "name": "x"})
+        finally:
+            late.close()
+        check("...then no code pairs, not even the last one shown", r is not None and not r.get("ok"), json.dumps(r))
+        check("...and the daemon says why", "pairing closed: 10 wrong codes" in open(log_path).read())
+
         # ---- the controller's link lost (the simulator stopped) and back, then shutdown
         logged_before = len(open(log_path).read())
         os.kill(sim.pid, signal.SIGSTOP)

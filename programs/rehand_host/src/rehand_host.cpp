@@ -40,8 +40,12 @@ using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 using Role = HostRole;
 
-constexpr auto kCodeLifetime = std::chrono::minutes(2);
-constexpr int kCodeGuesses = 3;                         ///< wrong codes before the code is replaced
+constexpr auto kCodeLifetime = std::chrono::minutes(2);  ///< "Pair a phone": one window, never extended
+constexpr int kCodeGuesses = 3;                          ///< wrong codes before the code is replaced
+/// Wrong codes in one window, from all addresses together, before the window
+/// closes: a guesser with many addresses gets 10 tries at 1 in a million each,
+/// then the display must open it again (the person at the chair sees it close).
+constexpr int kWindowGuesses = 10;
 constexpr int kWrongPerAddress = 10;                    ///< wrong codes or tokens per source address...
 constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
 
@@ -335,7 +339,7 @@ struct HostDaemon::Impl {
       case Kind::pair_start: {
         std::string fresh = random_code();
         if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
-        code = {std::move(fresh), clock.now() + kCodeLifetime, 0};
+        code = {std::move(fresh), clock.now() + kCodeLifetime, 0, 0};
         if (ble) ble->set_pairing(true);
         log("pairing code shown on the display");
         broadcast_state();
@@ -394,9 +398,18 @@ struct HostDaemon::Impl {
         if (code.code.empty() || clock.now() > code.until || k.code.size() != code.code.size() ||
             CRYPTO_memcmp(k.code.data(), code.code.data(), code.code.size()) != 0) {
           count_wrong(from);
-          if (!code.code.empty() && ++code.guesses >= kCodeGuesses) {
-            // Guessed at: a new code replaces it, so the owner can still pair.
-            code = {random_code(), clock.now() + kCodeLifetime, 0};
+          if (!code.code.empty() && ++code.window_guesses >= kWindowGuesses) {
+            // Guessed at from everywhere: the window closes; only the display reopens it.
+            log(fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
+                            "phone\" again on the display",
+                            kWindowGuesses, from));
+            close_pairing();
+            broadcast_state();
+          } else if (!code.code.empty() && ++code.guesses >= kCodeGuesses) {
+            // Guessed at: a new code replaces it, so the owner can still pair,
+            // in the same window (its end does not move).
+            code.code = random_code();
+            code.guesses = 0;
             log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
             broadcast_state();
           }
@@ -787,8 +800,9 @@ struct HostDaemon::Impl {
   uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
   struct Code {
     std::string code;
-    Clock::time_point until{};
-    int guesses = 0;
+    Clock::time_point until{};  ///< the window's end: 2 minutes after "Pair a phone"
+    int guesses = 0;            ///< wrong guesses at this code
+    int window_guesses = 0;     ///< wrong guesses in this window, every code and address together
   } code;
   struct Wrong {
     Clock::time_point since{};
