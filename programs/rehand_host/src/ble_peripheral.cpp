@@ -9,6 +9,8 @@
 // posted to the thread through an eventfd.
 #include "ble_peripheral.hpp"
 
+#include "rtukit/programs/rehand_message.hpp"
+
 #include <fmt/core.h>
 #include <poll.h>
 #include <sdbus-c++/sdbus-c++.h>
@@ -176,8 +178,9 @@ struct BlePeripheral::Impl {
     const bool was_connected = d.connected;
     d.path = path;
     d.address = value_or<std::string>(props, "Address", d.address);
-    d.name = value_or<std::string>(props, "Alias", value_or<std::string>(props, "Name", d.name));
-    if (d.name.empty()) d.name = d.address;
+    // A name anyone in radio range chose: cleaned before the display or the log sees it.
+    d.name = phone_name(value_or<std::string>(props, "Alias", value_or<std::string>(props, "Name", d.name)),
+                        d.address);
     d.bonded = value_or<bool>(props, "Paired", d.bonded) || value_or<bool>(props, "Bonded", false);
     d.connected = value_or<bool>(props, "Connected", d.connected);
     return was_connected && !d.connected;

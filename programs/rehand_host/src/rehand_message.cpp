@@ -149,7 +149,7 @@ rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m,
     if (!name || name->size() > 200) return bad("\"name\" must be text");
     HostCommand c = command(Kind::pair);
     c.code = *code;
-    c.name = *name;
+    c.name = phone_name(*name);
     return c;
   }
   if (!authenticated)
@@ -164,6 +164,68 @@ rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m,
 }
 
 }  // namespace
+
+std::string phone_name(std::string_view raw, std::string_view fallback) {
+  constexpr size_t kMaxChars = 40;
+  std::string out;
+  size_t chars = 0;
+  bool space = false;
+  auto put = [&](uint32_t cp) {
+    if (cp == ' ' || cp == '\t' || cp == 0xA0) {
+      space = !out.empty();  // leading spaces dropped, a run becomes one
+      return;
+    }
+    const bool control = cp < 0x20 || (cp >= 0x7F && cp <= 0x9F);
+    const bool bidi = cp == 0x061C || cp == 0x200E || cp == 0x200F || (cp >= 0x202A && cp <= 0x202E) ||
+                      (cp >= 0x2066 && cp <= 0x2069);
+    const bool invisible = cp == 0x200B || cp == 0xFEFF || cp == 0x2028 || cp == 0x2029;
+    if (control || bidi || invisible || chars >= kMaxChars) return;
+    if (space && chars + 1 < kMaxChars) {
+      out += ' ';
+      ++chars;
+    }
+    space = false;
+    // UTF-8 encoding of cp (a valid scalar value here)
+    if (cp < 0x80) {
+      out += static_cast<char>(cp);
+    } else if (cp < 0x800) {
+      out += static_cast<char>(0xC0 | (cp >> 6));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else if (cp < 0x10000) {
+      out += static_cast<char>(0xE0 | (cp >> 12));
+      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    } else {
+      out += static_cast<char>(0xF0 | (cp >> 18));
+      out += static_cast<char>(0x80 | ((cp >> 12) & 0x3F));
+      out += static_cast<char>(0x80 | ((cp >> 6) & 0x3F));
+      out += static_cast<char>(0x80 | (cp & 0x3F));
+    }
+    ++chars;
+  };
+  for (size_t i = 0; i < raw.size();) {
+    const auto b = static_cast<unsigned char>(raw[i]);
+    const size_t len = b < 0x80 ? 1 : (b >> 5) == 0x6 ? 2 : (b >> 4) == 0xE ? 3 : (b >> 3) == 0x1E ? 4 : 0;
+    uint32_t cp = len == 1 ? b : len == 2 ? b & 0x1F : len == 3 ? b & 0x0F : b & 0x07;
+    bool valid = len != 0 && i + len <= raw.size();
+    for (size_t k = 1; valid && k < len; ++k) {
+      const auto c = static_cast<unsigned char>(raw[i + k]);
+      valid = (c & 0xC0) == 0x80;
+      cp = (cp << 6) | (c & 0x3F);
+    }
+    // Overlong forms, surrogates and values past U+10FFFF are not UTF-8 either.
+    valid = valid && !(len == 2 && cp < 0x80) && !(len == 3 && cp < 0x800) && !(len == 4 && cp < 0x10000) &&
+            !(cp >= 0xD800 && cp <= 0xDFFF) && cp <= 0x10FFFF;
+    if (!valid) {
+      put(0xFFFD);
+      i += 1;  // resynchronise at the next byte
+      continue;
+    }
+    put(cp);
+    i += len;
+  }
+  return out.empty() ? std::string(fallback) : out;
+}
 
 HostMessage parse_host_message(std::string_view text, HostRole role, bool authenticated) {
   HostMessage out;

@@ -48,6 +48,16 @@ struct HostCommand {
   std::string code, name, token, phone;
 };
 
+/// A phone's name as the display shows it and the log writes it, from what a
+/// phone chose (a web pairing's "name", a Bluetooth device's Alias: anyone in
+/// radio range picks those bytes). Invalid UTF-8 becomes U+FFFD; control
+/// characters (C0, DEL, C1), bidirectional controls (U+061C, U+200E/F,
+/// U+202A..U+202E, U+2066..U+2069), zero-width spaces and line separators
+/// are dropped, so a name can neither forge a log line nor reorder the text
+/// around it; runs of spaces become one; at most 40 characters; an empty
+/// result is `fallback`. Never throws.
+std::string phone_name(std::string_view raw, std::string_view fallback = "Phone");
+
 /// A message as a client sent it.
 struct HostMessage {
   /// A JSON object with a string "op". False: answered {"type": "error"}, nothing else.
