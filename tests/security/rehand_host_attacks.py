@@ -134,6 +134,21 @@ def main():
               r.returncode == 2 and "tls" in r.stderr.lower() and len(r.stderr.strip().splitlines()) == 1,
               f"exit {r.returncode}: {r.stderr.strip()}")
 
+        # ---- a phone listener on every address starts, with a warning (docs/rehand6600.md)
+        pty_any = os.path.join(work, "chair-any")
+        any_sim = start([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty_any}", "--no-state", "--no-console"],
+                        work)
+        any_log = os.path.join(work, "any.log")
+        wait_for(lambda: os.path.exists(pty_any), START_DEADLINE)
+        any_host = start([RTUKIT, "rehand6600", "host", "--port", pty_any, "--http", "127.0.0.1:0",
+                          "--phone", "0.0.0.0:0", "--pairing-file", os.path.join(work, "p-any.json")], work,
+                         stderr=open(any_log, "w"))
+        warned = wait_for(lambda: "started:" in open(any_log).read(), START_DEADLINE) and \
+            [line for line in open(any_log).read().splitlines() if "warning: --phone 0.0.0.0:0" in line]
+        stop_processes([any_sim, any_host])
+        check("--phone 0.0.0.0 warns at start that it listens on every network, naming the hotspot's address",
+              bool(warned) and "192.168.4.1" in warned[0], open(any_log).read()[-300:])
+
         sim = start([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
                      "--console", f"unix:{console_path}"], work)
         procs.append(sim)

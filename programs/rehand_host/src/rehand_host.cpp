@@ -923,6 +923,14 @@ rtukit::Status HostDaemon::start() {
   d.started = true;
   d.log(fmt::format("started: display {}, {} phone listener(s), {} paired phone(s)", o.http, o.phone.size(),
                     paired));
+  for (const std::string& p : o.phone) {
+    // Every address: the phones' hotspot, and every other network the board
+    // joins (Ethernet, LTE), where strangers can reach the pairing page.
+    if (p.starts_with("0.0.0.0:") || p.starts_with("[::]:"))
+      d.log(fmt::format("warning: --phone {} listens on every network this board joins (Ethernet, LTE, the "
+                        "hotspot); give the hotspot's own address instead, e.g. 192.168.4.1{}",
+                        p, p.substr(p.rfind(':'))));
+  }
   return {};
 }
 
