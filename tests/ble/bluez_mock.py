@@ -339,7 +339,7 @@ class MockBluez:
             raise dbus.exceptions.DBusException("the chair does not answer", name="org.bluez.Error.Failed")
         phone = self.browser["phone"]
         if not self.known(phone):
-            self.add_phone(phone, "Phone")  # the chair's BlueZ meets the phone
+            self.add_phone(phone, "Pixel 8")  # the chair's BlueZ meets the phone (its name)
         self.connect(phone)
         device = self.browser["path"]
         service = f"{device}/service0010"
@@ -479,6 +479,10 @@ class MockBluez:
         mockobject.objects[self.browser["path"]].UpdateProperties(DEVICE, {
             "ServicesResolved": dbus.Boolean(False, variant_level=1),
             "Connected": dbus.Boolean(False, variant_level=1)})
+
+    def pairable_timeout(self):
+        """BlueZ ends the chair adapter's Pairable by itself (PairableTimeout)."""
+        self.adapter.UpdateProperties(ADAPTER_IFACE, {"Pairable": dbus.Boolean(False, variant_level=1)})
 
     def type_passkey(self, passkey):
         """The person types `passkey` into the phone's pairing dialog (from the test's thread)."""

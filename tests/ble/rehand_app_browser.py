@@ -160,6 +160,8 @@ def main():
         shown = wait_for(lambda: state(port).get("ble_passkey"))
         check("the display shows the passkey the phone's pairing asks for", shown == f"{passkey:06d}",
               f"{shown} vs {passkey:06d}")
+        check("...and whose it is (the phone's name)", state(port).get("ble_passkey_for") == "Pixel 8",
+              f"{state(port).get('ble_passkey_for')!r}")
         bluez.type_passkey(int(shown))  # the person types what the display shows
         live = wait_for(lambda: app.find_element(By.ID, "remote").is_displayed() and
                         text(app, "#battery").endswith("%"))
@@ -281,6 +283,24 @@ def main():
         app.find_element(By.ID, "reconnect").click()
         check("...and cannot connect again without pairing",
               wait_for(lambda: "refused" in text(app, "#connect-reason")), text(app, "#connect-reason"))
+
+        # ---- the pairing window's bookkeeping, Bluetooth and Wi-Fi together
+        def pairable():
+            return bool(bluez.call(lambda: bluez.adapter_property("Pairable")))
+        display_request(port, {"op": "pair_start"})
+        check("\"Pair a phone\" opens the Bluetooth window", bool(wait_for(pairable)))
+        bluez.call(bluez.pairable_timeout)
+        display_request(port, {"op": "pair_start"})
+        check("...a second tap reopens it after BlueZ ended it (PairableTimeout)", bool(wait_for(pairable)))
+        code = wait_for(lambda: state(port)["pairing_code"])
+        web = WebSocket(chair.phone_port, "/ws", tls=True)
+        try:
+            r = web.request({"op": "pair", "code": code, "name": "web phone"})
+        finally:
+            web.close()
+        check("a Wi-Fi phone pairs with the display's code", bool(r and r.get("ok")), f"{r}")
+        check("...which closes the Bluetooth window too (one \"Pair a phone\", one phone)",
+              bool(wait_for(lambda: not pairable())))
     finally:
         if chooser:
             chooser.close()

@@ -551,7 +551,11 @@ void BlePeripheral::publish_result(std::vector<uint8_t> value) {
 
 void BlePeripheral::set_pairing(bool open) {
   Impl& d = *impl_;
-  if (d.pairing_open.exchange(open) == open) return;
+  // Always applied, also when it seems unchanged: BlueZ ends Pairable by
+  // itself after PairableTimeout, and the next "Pair a phone" must reopen it.
+  // The window is the adapter's Pairable: BlueZ ignores an agent that
+  // refuses DisplayPasskey, so the agent's refusal is not the gate.
+  d.pairing_open = open;
   d.post([&d, open] { d.set_discoverable(open); });
 }
 

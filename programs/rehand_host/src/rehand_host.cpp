@@ -416,7 +416,9 @@ struct HostDaemon::Impl {
           return refuse("wrong or expired code: enter the code the display shows now");
         }
         const std::string used = code.code;
-        code = {};
+        // One "Pair a phone", one phone: the window closes for both links
+        // (before, a web pairing left the Bluetooth window open).
+        close_pairing();
         Outcome<PairingStore::Added> added = pairing.add(k.name, used, unix_now());
         if (!added) return added.error();
         admit_phone(c, added->id);
@@ -489,6 +491,7 @@ struct HostDaemon::Impl {
   void close_pairing() {
     code = {};
     ble_passkey.clear();
+    ble_passkey_for.clear();
     if (ble) ble->set_pairing(false);
   }
 
@@ -545,9 +548,20 @@ struct HostDaemon::Impl {
 
   void ble_show_passkey(const std::string& device, uint32_t passkey) {
     ble_passkey = device.empty() ? std::string() : fmt::format("{:06d}", passkey);
+    // Whose passkey it is: the person at the display checks it is their phone.
+    ble_passkey_for = device.empty() ? std::string() : ble_device_name(device);
     if (!device.empty())
-      log(fmt::format("Bluetooth pairing: passkey shown on the display for {}", ble_id(device)));
+      log(fmt::format("Bluetooth pairing: passkey shown on the display for '{}' ({})", ble_passkey_for,
+                      ble_id(device)));
     broadcast_state();
+  }
+
+  // A Bluetooth device's name as BlueZ knows it (cleaned: phone_name), else its address.
+  std::string ble_device_name(const std::string& path) const {
+    if (ble)
+      for (const BleDevice& b : ble->devices())
+        if (b.path == path) return b.name;
+    return ble_id(path);
   }
 
   rtukit::Status ble_forget(const std::string& phone) {
@@ -688,6 +702,7 @@ struct HostDaemon::Impl {
               ble_contact.contains(b.path) ? local_time(ble_contact.at(b.path), "%Y-%m-%d %H:%M:%S") : ""}});
       }
       st["ble_passkey"] = ble_passkey.empty() ? "" : ble_passkey;
+      st["ble_passkey_for"] = ble_passkey.empty() ? "" : ble_passkey_for;
     }
     st["phones"] = phones;
     return st;
@@ -817,6 +832,7 @@ struct HostDaemon::Impl {
   std::map<std::string, int64_t> ble_contact;     ///< a BLE phone's device path -> its last command (unix s)
   uint64_t next_ble_client = uint64_t{1} << 62;   ///< apart from the web sockets' ids
   std::string ble_passkey;                        ///< shown on the display while a phone pairs
+  std::string ble_passkey_for;                    ///< the name of the phone that passkey is for
   std::string phone_url, fingerprint, cert_path;  ///< set by start(), read on the server thread after
   bool started = false;
 };

@@ -293,6 +293,7 @@ function renderPhones(s) {
   const passkey = s.ble_passkey || '';
   $('#ble-passkey-box').classList.toggle('hidden', !passkey);
   $('#ble-passkey').textContent = passkey;
+  $('#ble-passkey-for').textContent = passkey && s.ble_passkey_for ? `for “${s.ble_passkey_for}”: is it your phone?` : '';
 
   const phones = s.phones || [];
   const drawn = JSON.stringify(phones);
