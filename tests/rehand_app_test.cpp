@@ -24,8 +24,8 @@ TEST(RehandApp, ThePhoneAppOverWebBluetoothInChromium) {
   EXPECT_EQ(r.code, 0);
   EXPECT_NE(r.output.find("\nPASS"), std::string::npos);
   EXPECT_EQ(r.output.find("FAIL "), std::string::npos);
-  for (const char* shot : {"app-connect-390x844.png", "app-rest-390x844.png", "app-driving-390x844.png",
-                           "app-lost-390x844.png"})
+  for (const char* shot :
+       {"app-connect-390x844.png", "app-rest-390x844.png", "app-driving-390x844.png", "app-lost-390x844.png"})
     EXPECT_TRUE(std::filesystem::exists(out + "/" + shot)) << shot;
 }
 

@@ -84,18 +84,21 @@ namespace {
 // Alias): it must not forge a log line, reorder the display's text, or run on.
 TEST(PhoneName, ControlAndBidiCharactersNeverReachTheLogOrTheDisplay) {
   EXPECT_EQ(phone_name("Anna's phone"), "Anna's phone");
-  EXPECT_EQ(phone_name("Zoë  \t  Pixel"), "Zoë Pixel");                       // one space
-  EXPECT_EQ(phone_name("x\n2026-11-28 rehand6600 host: STOP lifted"), "x2026-11-28 rehand6600 host: STOP lifted");
-  EXPECT_EQ(phone_name("\x1b[31mred\x1b[0m"), "[31mred[0m");                 // no escape sequence
-  EXPECT_EQ(phone_name("evil\u202Eenohp"), "evilenohp");                      // right-to-left override
-  EXPECT_EQ(phone_name("\u2066a\u2069\u200Fb\u061Cc"), "abc");                // isolates, marks
-  EXPECT_EQ(phone_name("a\u200Bb\uFEFFc\u2028d"), "abcd");                    // invisible, separators
-  EXPECT_EQ(phone_name("a\xC2\x85" "b"), "ab");                               // C1 (NEL)
-  EXPECT_EQ(phone_name("bad \xFF\xC3 utf"), "bad \uFFFD\uFFFD utf");           // invalid bytes
-  EXPECT_EQ(phone_name("\xC0\xAF"), "\uFFFD\uFFFD");                          // overlong '/'
-  EXPECT_EQ(phone_name("\xED\xA0\x80"), "\uFFFD\uFFFD\uFFFD");                // a surrogate
-  EXPECT_EQ(phone_name("😀 phone"), "😀 phone");                              // 4-byte characters stay
-  EXPECT_EQ(phone_name(std::string(100, 'a')), std::string(40, 'a'));        // 40 characters
+  EXPECT_EQ(phone_name("Zoë  \t  Pixel"), "Zoë Pixel");  // one space
+  EXPECT_EQ(phone_name("x\n2026-11-28 rehand6600 host: STOP lifted"),
+            "x2026-11-28 rehand6600 host: STOP lifted");
+  EXPECT_EQ(phone_name("\x1b[31mred\x1b[0m"), "[31mred[0m");    // no escape sequence
+  EXPECT_EQ(phone_name("evil\u202Eenohp"), "evilenohp");        // right-to-left override
+  EXPECT_EQ(phone_name("\u2066a\u2069\u200Fb\u061Cc"), "abc");  // isolates, marks
+  EXPECT_EQ(phone_name("a\u200Bb\uFEFFc\u2028d"), "abcd");      // invisible, separators
+  EXPECT_EQ(phone_name("a\xC2\x85"
+                       "b"),
+            "ab");                                                     // C1 (NEL)
+  EXPECT_EQ(phone_name("bad \xFF\xC3 utf"), "bad \uFFFD\uFFFD utf");   // invalid bytes
+  EXPECT_EQ(phone_name("\xC0\xAF"), "\uFFFD\uFFFD");                   // overlong '/'
+  EXPECT_EQ(phone_name("\xED\xA0\x80"), "\uFFFD\uFFFD\uFFFD");         // a surrogate
+  EXPECT_EQ(phone_name("😀 phone"), "😀 phone");                         // 4-byte characters stay
+  EXPECT_EQ(phone_name(std::string(100, 'a')), std::string(40, 'a'));  // 40 characters
   EXPECT_EQ(phone_name(std::string(60, 'e') + "\u00e9"), std::string(40, 'e'));
   EXPECT_EQ(phone_name(""), "Phone");
   EXPECT_EQ(phone_name("\n\t \u202E"), "Phone");
@@ -103,8 +106,8 @@ TEST(PhoneName, ControlAndBidiCharactersNeverReachTheLogOrTheDisplay) {
 }
 
 TEST(PhoneName, APairMessagesNameIsCleaned) {
-  const HostMessage m = parse_host_message(R"({"op":"pair","code":"123456","name":"a\u202Eb\nc"})",
-                                           HostRole::phone, false);
+  const HostMessage m =
+      parse_host_message(R"({"op":"pair","code":"123456","name":"a\u202Eb\nc"})", HostRole::phone, false);
   ASSERT_TRUE(m.command) << m.command.error().reason();
   EXPECT_EQ(m.command->name, "abc");
 }

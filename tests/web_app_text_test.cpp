@@ -31,7 +31,8 @@ std::string read_file(const std::string& path) {
 // What chair-text.js must hold, from the device layer.
 std::string chair_text_js() {
   nlohmann::ordered_json motions = nlohmann::ordered_json::object();
-  for (const auto& m : rh::find_register("motion")->names) motions[std::to_string(m.value)] = std::string(m.name);
+  for (const auto& m : rh::find_register("motion")->names)
+    motions[std::to_string(m.value)] = std::string(m.name);
   nlohmann::ordered_json errors = nlohmann::ordered_json::object();
   for (uint16_t code : rh::error_codes()) {
     const nlohmann::ordered_json e = rh::error_json(code);
@@ -55,8 +56,8 @@ TEST(WebAppText, ChairTextIsTheDeviceLayers) {
 TEST(WebAppText, GattJsSpeaksBleGattHpp) {
   const std::string js = read_file(std::string(WEB_ASSETS_DIR) + "/rehand/gatt.js");
   ASSERT_FALSE(js.empty());
-  for (std::string_view uuid : {rh::ble::kServiceUuid, rh::ble::kStateUuid, rh::ble::kCommandUuid,
-                                rh::ble::kResultUuid})
+  for (std::string_view uuid :
+       {rh::ble::kServiceUuid, rh::ble::kStateUuid, rh::ble::kCommandUuid, rh::ble::kResultUuid})
     EXPECT_NE(js.find("'" + std::string(uuid) + "'"), std::string::npos) << uuid;
   // Each function as the register key the page sends and the number the chair reads.
   for (uint8_t n = 1; n <= 8; ++n) {

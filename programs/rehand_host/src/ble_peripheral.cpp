@@ -9,8 +9,6 @@
 // posted to the thread through an eventfd.
 #include "ble_peripheral.hpp"
 
-#include "rtukit/programs/rehand_message.hpp"
-
 #include <fmt/core.h>
 #include <poll.h>
 #include <sdbus-c++/sdbus-c++.h>
@@ -27,6 +25,7 @@
 
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/io/clock.hpp"
+#include "rtukit/programs/rehand_message.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -293,11 +292,13 @@ struct BlePeripheral::Impl {
     service->registerProperty("Primary").onInterface(kServiceIface).withGetter([] { return true; });
     service->finishRegistration();
     add_characteristic(state, std::string(kService) + "/state", gatt::kStateUuid,
-                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &state_value, &state_notifying);
+                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &state_value,
+                       &state_notifying);
     add_characteristic(command, std::string(kService) + "/command", gatt::kCommandUuid,
                        {"encrypt-authenticated-write"}, nullptr, nullptr);
     add_characteristic(result, std::string(kService) + "/result", gatt::kResultUuid,
-                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &result_value, &result_notifying);
+                       {"encrypt-authenticated-read", "encrypt-authenticated-notify"}, &result_value,
+                       &result_notifying);
 
     advert = sdbus::createObject(*bus, kAdvert);
     advert->registerProperty("Type").onInterface(kAdvertIface).withGetter([] {

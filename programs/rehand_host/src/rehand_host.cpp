@@ -400,7 +400,8 @@ struct HostDaemon::Impl {
           count_wrong(from);
           if (!code.code.empty() && ++code.window_guesses >= kWindowGuesses) {
             // Guessed at from everywhere: the window closes; only the display reopens it.
-            log(fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
+            log(
+                fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
                             "phone\" again on the display",
                             kWindowGuesses, from));
             close_pairing();
@@ -943,9 +944,10 @@ rtukit::Status HostDaemon::start() {
     // Every address: the phones' hotspot, and every other network the board
     // joins (Ethernet, LTE), where strangers can reach the pairing page.
     if (p.starts_with("0.0.0.0:") || p.starts_with("[::]:"))
-      d.log(fmt::format("warning: --phone {} listens on every network this board joins (Ethernet, LTE, the "
-                        "hotspot); give the hotspot's own address instead, e.g. 192.168.4.1{}",
-                        p, p.substr(p.rfind(':'))));
+      d.log(
+          fmt::format("warning: --phone {} listens on every network this board joins (Ethernet, LTE, the "
+                      "hotspot); give the hotspot's own address instead, e.g. 192.168.4.1{}",
+                      p, p.substr(p.rfind(':'))));
   }
   return {};
 }
