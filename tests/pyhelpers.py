@@ -245,6 +245,16 @@ class WebSocket:
         self.s.close()
 
 
+def display_request(port, message):
+    """One request on a new display connection of the Rehand host daemon
+    (its loopback listener at `port`): the result, or None."""
+    ws = WebSocket(port, "/ws?role=display")
+    try:
+        return ws.request(message)
+    finally:
+        ws.close()
+
+
 # What stop_processes found wrong with a child (a sanitizer report, a crash,
 # our binary ending unclean after SIGTERM): each a line; the tests' verdict
 # (browser_common.summary) fails on any.

@@ -2,7 +2,7 @@
 // Chromium, the central, against the host daemon's GATT application, the
 // peripheral, over the mock BlueZ (tests/ble/rehand_app_browser.py): a
 // stranger refused, pairing with the display's passkey, a held button that
-// drives, a release, a frozen page and a closed tab stopped with 0x006A
+// drives, a release, a frozen page and a crashed tab stopped with 0x006A
 // within the stop paths' bound, Forget on the display ending the access.
 #include <gtest/gtest.h>
 

@@ -475,6 +475,11 @@ class MockBluez:
         self.browser["connected"] = False
         for target in [t for t, c in self.mirrors.items() if c.startswith(self.browser["path"])]:
             self.mirrors.pop(target)
+        # As BlueZ: a link that ends ends its subscriptions (Chromium does not
+        # subscribe again to a characteristic it sees notifying).
+        for path, obj in list(mockobject.objects.items()):
+            if path.startswith(self.browser["path"] + "/") and CHAR in obj.props and obj.props[CHAR].get("Notifying"):
+                obj.UpdateProperties(CHAR, {"Notifying": dbus.Boolean(False, variant_level=1)})
         self.disconnect(self.browser["phone"])
         mockobject.objects[self.browser["path"]].UpdateProperties(DEVICE, {
             "ServicesResolved": dbus.Boolean(False, variant_level=1),

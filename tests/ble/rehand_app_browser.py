@@ -14,9 +14,10 @@ daemon's state, the page):
     connects and shows the chair;
   - a held button drives (the controller's register), the release writes 0
     with no emergency stop;
-  - a frozen page (its timers stopped) and a closed tab each stop the chair
+  - a frozen page (its script paused) and a crashed tab each stop the chair
     through the emergency stop (0x006A) within the bound of every stop path;
-  - Forget on the display ends the app's access.
+  - Forget on the display ends the app's access; pairing again works;
+  - the pairing window's bookkeeping across Bluetooth and Wi-Fi.
 Screenshots of the app at 390x844 (at rest, driving, lost link) in OUT.
 
 The app is served as the package installs it, static files from any origin
@@ -36,7 +37,7 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
-from pyhelpers import STOP_BOUND_S, WebSocket, free_port, start, stop_processes, temp_dir  # noqa: E402
+from pyhelpers import display_request, STOP_BOUND_S, WebSocket, free_port, start, stop_processes, temp_dir  # noqa: E402
 from browser_common import accessibility_violations, browser, check, console_tail, summary  # noqa: E402
 from rehand_stops import STOP_COMMAND, Chair, now_ms  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
@@ -54,14 +55,6 @@ FORWARD_0 = "01 06 00 6E 00 00"  # the controller's phone_forward released, as t
 def state(port):
     with urllib.request.urlopen(f"http://127.0.0.1:{port}/api/state", timeout=10) as r:
         return json.load(r)
-
-
-def display_request(port, message):
-    ws = WebSocket(port, "/ws?role=display")
-    try:
-        return ws.request(message)
-    finally:
-        ws.close()
 
 
 def register(con, key):
@@ -88,6 +81,31 @@ def app_browser(bluez, work, name):
     os.makedirs(config, exist_ok=True)
     return browser(390, 844, ["--enable-features=WebBluetooth"],
                    env=dict(bluez.env, XDG_CONFIG_HOME=config))
+
+
+def tap(app, button_id):
+    """Taps a button whose handler may call requestDevice, which needs the
+    user's activation when it runs. A Selenium click is a real input event;
+    on a saturated machine (two busy loops beside an ASan daemon) the page
+    has been seen to handle it after the activation lapsed ("Must be handling
+    a user gesture"). Then it taps once more, as a person would, and says so;
+    every other answer counts as it is."""
+    app.find_element(By.ID, button_id).click()
+    if wait_for(lambda: "user gesture" in text(app, "#connect-reason"), 2, 0.05):
+        print(f"note: tapped #{button_id} twice: the first tap's activation lapsed ({text(app, '#connect-reason')})")
+        app.find_element(By.ID, button_id).click()
+
+
+def why_not_driving(app, chair, button):
+    """What a failed "drives" check shows: the page's reason, the button, the
+    daemon's view and the controller's last writes."""
+    s = chair.state()
+    lost_why = app.execute_script("return document.querySelector('#lost-why').textContent")
+    return (f"body {app.find_element(By.TAG_NAME, 'body').get_attribute('class')!r} lost-why {lost_why!r}, "
+            f"reason {text(app, '#reason')!r}, button {button.get_attribute('class')!r} "
+            f"disabled={not button.is_enabled()}, daemon: speed {s.get('values', {}).get('speed')} emergency "
+            f"{s.get('emergency')} disabled {s.get('disabled')}, writes {writes_before(chair, now_ms(), 30)[-5:]}; "
+            f"console: {console_tail(app)}")
 
 
 def stop_took(chair, t0, *writes):
@@ -137,7 +155,7 @@ def main():
         chooser = DeviceChooser(app, "Rehand 6600")
 
         # ---- a stranger: no bond, the display's pairing window closed
-        app.find_element(By.ID, "connect-go").click()
+        tap(app, "connect-go")
         refused = wait_for(lambda: "refused" in text(app, "#connect-reason"))
         check("a phone without a bond is refused, saying to pair on the display", refused,
               f"{text(app, '#connect-reason')!r}; chooser {chooser.seen}; console: {console_tail(app)}")
@@ -149,7 +167,7 @@ def main():
         r = display_request(port, {"op": "pair_start"})
         check("the display opens \"Pair a phone\"", bool(r and r.get("ok")), f"{r}")
         wait_for(lambda: bluez.call(lambda: bool(bluez.adapter_property("Pairable"))))
-        app.find_element(By.ID, "connect-go").click()
+        tap(app, "connect-go")
         try:
             passkey = bluez.passkey_asked.get(timeout=DEADLINE)
         except Exception:  # noqa: BLE001 (said as a failed check, with what the page and the mock saw)
@@ -181,7 +199,7 @@ def main():
         fwd = app.find_element(By.ID, "fwd")
         ActionChains(app).click_and_hold(fwd).perform()
         driving = wait_for(lambda: register(con, "phone_forward") == 1)
-        check("holding Forward drives (the controller's phone_forward)", driving, console_tail(app))
+        check("holding Forward drives (the controller's phone_forward)", driving, why_not_driving(app, chair, fwd))
         app.save_screenshot(os.path.join(OUT, "app-driving-390x844.png"))
         t0 = now_ms()
         ActionChains(app).release(fwd).perform()
@@ -193,13 +211,16 @@ def main():
         # ---- a frozen page: its renewals stop; the lease ends the drive with 0x006A
         wait_for(lambda: state(port)["values"]["speed"] == 0 and "lost" not in
                  app.find_element(By.TAG_NAME, "body").get_attribute("class"))
-        ActionChains(app).click_and_hold(fwd).perform()
-        check("held again: drives", wait_for(lambda: register(con, "phone_forward") == 1))
-        # Moving (a lost phone's press is stopped with 0x006A while the chair moves)
-        check("...and the chair moves", wait_for(lambda: state(port)["values"]["speed"] > 0))
+        # The debugger attached before the press: attaching stalls the page
+        # for a moment, which would let the press lapse before the freeze.
         devtools = page_session(app)
         try:
             devtools.send("Debugger.enable")
+            ActionChains(app).click_and_hold(fwd).perform()
+            check("held again: drives", wait_for(lambda: register(con, "phone_forward") == 1),
+                  why_not_driving(app, chair, fwd))
+            # Moving (a lost phone's press is stopped with 0x006A while the chair moves)
+            check("...and the chair moves", wait_for(lambda: state(port)["values"]["speed"] > 0))
             frozen_at = now_ms()
             devtools.send("Debugger.pause")  # the page's script stops: a hung page, its renewals with it
             took = stop_took(chair, frozen_at, STOP_COMMAND)
@@ -215,16 +236,47 @@ def main():
         check("thawed, nothing restarts (the press ended)", wait_for(lambda: register(con, "phone_forward") == 0, 2)
               and register(con, "phone_forward") == 0)
 
+        # ---- forget on the display ends the app's access (the same page)
+        wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
+        r = display_request(port, {"op": "forget", "phone": f"ble:{PHONE}"})
+        check("the display forgets the phone", bool(r and r.get("ok")), f"{r}")
+        lost = wait_for(lambda: app.find_element(By.ID, "lost").is_displayed())
+        check("...the app shows the link lost (the red panel over every control)", lost,
+              f"{text(app, '#connect-reason')!r}; mock {bluez.call(lambda: (dict(bluez.browser), bluez.known(PHONE)))}")
+        check("...every control disabled", not any(b.is_enabled() for b in app.find_elements(
+            By.CSS_SELECTOR, "#pad button, #horn, #light, #left-signal, #right-signal")))
+        app.save_screenshot(os.path.join(OUT, "app-lost-390x844.png"))
+        tap(app, "reconnect")
+        check("...and cannot connect again without pairing",
+              wait_for(lambda: "refused" in text(app, "#connect-reason")), text(app, "#connect-reason"))
+
+        # ---- paired again, with a new passkey
+        display_request(port, {"op": "pair_start"})
+        wait_for(lambda: bluez.call(lambda: bool(bluez.adapter_property("Pairable"))))
+        tap(app, "connect-go")
+        try:
+            passkey = bluez.passkey_asked.get(timeout=DEADLINE)
+        except Exception:  # noqa: BLE001 (said as a failed check)
+            passkey = None
+        shown = wait_for(lambda: state(port).get("ble_passkey"))
+        check("pairing again asks for the display's new passkey", passkey is not None and shown == f"{passkey:06d}",
+              f"{shown} vs {passkey}")
+        bluez.type_passkey(int(shown or 0))
+        check("...and the app is back", wait_for(lambda: app.find_element(By.ID, "remote").is_displayed() and
+                                                 "lost" not in app.find_element(By.TAG_NAME, "body")
+                                                 .get_attribute("class")), why_not_driving(app, chair, fwd))
+        display_request(port, {"op": "pair_cancel"})
+
         # ---- a crashed tab while driving: no goodbye from the page; the link
         # ends with the tab (Chromium lets go of its GATT connection) and the
         # chair stops with 0x006A
         wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
         wait_for(lambda: "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        devtools = page_session(app)  # before the press, as above
         ActionChains(app).click_and_hold(fwd).perform()
         check("held once more: drives", wait_for(lambda: register(con, "phone_forward") == 1),
-              f"{text(app, '#reason')!r} anti_pinch={register(con, 'anti_pinch')}")
+              why_not_driving(app, chair, fwd))
         check("...and the chair moves", wait_for(lambda: state(port)["values"]["speed"] > 0))
-        devtools = page_session(app)
         crashed_at = now_ms()
         try:
             devtools.send("Page.crash", timeout=5)
@@ -240,49 +292,9 @@ def main():
         chooser = None
         app.quit()
         drivers.remove(app)
+        check("...and the display no longer shows the phone driving",
+              bool(wait_for(lambda: not state(port).get("driver"))))
 
-        # ---- a closed tab while driving: the page lets go (pagehide) before it goes
-        app = app_browser(bluez, work, "phone")
-        drivers.append(app)
-        app.get(f"http://127.0.0.1:{app_port}/app.html")
-        chooser = DeviceChooser(app, "Rehand 6600")
-        wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
-        app.find_element(By.ID, "connect-go").click()
-        check("the bonded phone connects again without pairing",
-              wait_for(lambda: text(app, "#battery").endswith("%")), text(app, "#connect-reason"))
-        fwd = app.find_element(By.ID, "fwd")
-        wait_for(lambda: "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
-        ActionChains(app).click_and_hold(fwd).perform()
-        check("held: drives", wait_for(lambda: register(con, "phone_forward") == 1))
-        closed_at = now_ms()
-        chooser.close()
-        chooser = None
-        app.close()  # the tab (its browser goes with it: the only tab)
-        took = stop_took(chair, closed_at, FORWARD_0, STOP_COMMAND)
-        drivers.remove(app)
-        app.quit()
-        check("a closed tab stops the chair within the bound (its release, or the stop command)",
-              took is not None and took <= STOP_BOUND_S, f"{took} s (bound {STOP_BOUND_S} s)")
-
-        # ---- forget on the display ends the app's access
-        app = app_browser(bluez, work, "phone")
-        drivers.append(app)
-        app.get(f"http://127.0.0.1:{app_port}/app.html")
-        chooser = DeviceChooser(app, "Rehand 6600")
-        wait_for(lambda: register(con, "anti_pinch") == 0)
-        app.find_element(By.ID, "connect-go").click()
-        check("connected again", wait_for(lambda: text(app, "#battery").endswith("%")), text(app, "#connect-reason"))
-        r = display_request(port, {"op": "forget", "phone": f"ble:{PHONE}"})
-        check("the display forgets the phone", bool(r and r.get("ok")), f"{r}")
-        lost = wait_for(lambda: app.find_element(By.ID, "lost").is_displayed())
-        check("...the app shows the link lost (the red panel over every control)", lost,
-              f"{text(app, '#connect-reason')!r}; mock {bluez.call(lambda: (dict(bluez.browser), bluez.known(PHONE)))}")
-        check("...every control disabled", not any(b.is_enabled() for b in app.find_elements(
-            By.CSS_SELECTOR, "#pad button, #horn, #light, #left-signal, #right-signal")))
-        app.save_screenshot(os.path.join(OUT, "app-lost-390x844.png"))
-        app.find_element(By.ID, "reconnect").click()
-        check("...and cannot connect again without pairing",
-              wait_for(lambda: "refused" in text(app, "#connect-reason")), text(app, "#connect-reason"))
 
         # ---- the pairing window's bookkeeping, Bluetooth and Wi-Fi together
         def pairable():

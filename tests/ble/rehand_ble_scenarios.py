@@ -22,7 +22,7 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
-from pyhelpers import START_DEADLINE, STOP_BOUND_S, WebSocket, check_child, connect_tcp, free_port, host_polls_later, start, stop_processes, temp_dir  # noqa: E402
+from pyhelpers import display_request, START_DEADLINE, STOP_BOUND_S, check_child, connect_tcp, free_port, host_polls_later, start, stop_processes, temp_dir  # noqa: E402
 from browser_common import Console, check, summary  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
 
@@ -56,14 +56,6 @@ def after_two_polls(bluez, port):
     contact moves at each poll): long enough for anything a command would
     have written to reach the controller. An event, not a sleep."""
     host_polls_later(lambda: state(port), 2, bluez.pump)
-
-
-def display_request(port, message):
-    ws = WebSocket(port, "/ws?role=display")
-    try:
-        return ws.request(message)
-    finally:
-        ws.close()
 
 
 def hmi_passkey(port, passkey):

@@ -1,44 +1,32 @@
 """A small client of Chromium's DevTools protocol, for what Selenium cannot
 do: answer the Web Bluetooth device chooser (the DeviceAccess domain, whose
-prompts are events). A plain WebSocket (RFC 6455) over a socket: Debian has
-no python3-websocket package, and this is all we need of one (text frames,
-masked from the client, no extensions).
+prompts are events), pause a page's script, crash a tab. Over the tests' own
+WebSocket client (tests/pyhelpers.py): Debian has no python3-websocket.
 
 Use: chooser = DeviceChooser(driver, name="Rehand 6600"); ...; chooser.close().
 The chooser answers every prompt of the page that lists a device named so.
 """
-import base64
 import json
 import os
-import socket
-import struct
+import sys
 import threading
 import urllib.request
 
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from pyhelpers import WebSocket  # noqa: E402
+
 
 class DevTools:
-    """One DevTools session on a target's WebSocket URL."""
+    """One DevTools session on a target's WebSocket URL (ws://HOST:PORT/PATH),
+    over tests/pyhelpers.py's WebSocket client; events go to `handlers`."""
 
     def __init__(self, ws_url, timeout=30):
         assert ws_url.startswith("ws://")
         hostport, _, path = ws_url[len("ws://"):].partition("/")
         host, _, port = hostport.partition(":")
-        self.sock = socket.create_connection((host, int(port)), timeout=timeout)
-        key = base64.b64encode(os.urandom(16)).decode()
-        self.sock.sendall((f"GET /{path} HTTP/1.1\r\nHost: {hostport}\r\nUpgrade: websocket\r\n"
-                           f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\n"
-                           "Sec-WebSocket-Version: 13\r\n\r\n").encode())
-        head = b""
-        while b"\r\n\r\n" not in head:
-            chunk = self.sock.recv(1)
-            if not chunk:
-                raise ConnectionError("DevTools closed during the handshake")
-            head += chunk
-        if b" 101 " not in head.split(b"\r\n")[0]:
-            raise ConnectionError(f"DevTools refused the WebSocket: {head[:80]!r}")
-        self.sock.settimeout(None)
+        self.ws = WebSocket(int(port), "/" + path, host=host, timeout=timeout)
         self.next_id = 1
-        self.lock = threading.Lock()
+        self.send_lock = threading.Lock()   # frames from several threads must not interleave
         self.replies = {}
         self.cond = threading.Condition()
         self.handlers = []      # fn(method, params) for every event
@@ -46,50 +34,14 @@ class DevTools:
         self.reader = threading.Thread(target=self._read_loop, daemon=True)
         self.reader.start()
 
-    def _send_frame(self, text):
-        data = text.encode()
-        header = bytes([0x81])
-        if len(data) < 126:
-            header += bytes([0x80 | len(data)])
-        elif len(data) < 65536:
-            header += bytes([0x80 | 126]) + struct.pack(">H", len(data))
-        else:
-            header += bytes([0x80 | 127]) + struct.pack(">Q", len(data))
-        mask = os.urandom(4)
-        masked = bytes(b ^ mask[i % 4] for i, b in enumerate(data))
-        with self.lock:
-            self.sock.sendall(header + mask + masked)
-
-    def _recv_exact(self, n):
-        out = b""
-        while len(out) < n:
-            chunk = self.sock.recv(n - len(out))
-            if not chunk:
-                raise ConnectionError("DevTools closed")
-            out += chunk
-        return out
-
     def _read_loop(self):
-        message = b""
         try:
             while True:
-                b0, b1 = self._recv_exact(2)
-                n = b1 & 0x7F
-                if n == 126:
-                    n = struct.unpack(">H", self._recv_exact(2))[0]
-                elif n == 127:
-                    n = struct.unpack(">Q", self._recv_exact(8))[0]
-                payload = self._recv_exact(n)  # a server's frames are not masked
-                opcode = b0 & 0x0F
-                if opcode == 8:
-                    break
-                if opcode in (0, 1):
-                    message += payload
-                    if b0 & 0x80:
-                        self._dispatch(json.loads(message))
-                        message = b""
-        except (ConnectionError, OSError):
-            pass
+                text = self.ws.recv(None)
+                if text is not None:
+                    self._dispatch(json.loads(text))
+        except (OSError, ValueError):
+            pass  # closed (by us, or the browser went away)
         with self.cond:
             self.closed = True
             self.cond.notify_all()
@@ -108,7 +60,8 @@ class DevTools:
         with self.cond:
             mid = self.next_id
             self.next_id += 1
-        self._send_frame(json.dumps({"id": mid, "method": method, "params": params or {}}))
+        with self.send_lock:
+            self.ws.send(json.dumps({"id": mid, "method": method, "params": params or {}}))
         with self.cond:
             if not self.cond.wait_for(lambda: mid in self.replies or self.closed, timeout):
                 raise TimeoutError(f"DevTools: no reply to {method}")
@@ -121,7 +74,7 @@ class DevTools:
 
     def close(self):
         try:
-            self.sock.close()
+            self.ws.s.close()
         except OSError:
             pass
 

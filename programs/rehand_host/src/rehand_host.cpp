@@ -462,6 +462,7 @@ struct HostDaemon::Impl {
     if (host.connected() && s.valid && s.sequence != last_sequence) {
       last_sequence = s.sequence;
       last_contact = clock.wall();
+      publish_ble_state();  // a new reading: the counter moved (published only when the bytes differ)
     }
     const bool near = host.near_obstacle();
     if (near && !near_obstacle) broadcast({{"type", "event"}, {"event", "near_obstacle"}});
@@ -709,18 +710,23 @@ struct HostDaemon::Impl {
     return st;
   }
 
+  // The Bluetooth state: its counter (byte 17) moves with every reading, so
+  // it is notified at every poll even when nothing else changed, and a phone
+  // whose notifications stop knows its link is stale (docs/rehand6600-ble.md).
+  void publish_ble_state() {
+    if (!ble) return;
+    const auto b = rh::ble::encode_state({.snapshot = host.snapshot(),
+                                          .active_error = host.active_error(),
+                                          .disabled = host.disabled(),
+                                          .phone_driving = host.driver().has_value(),
+                                          .emergency = host.emergency()});
+    ble->publish_state(std::vector<uint8_t>(b.begin(), b.end()));
+  }
+
   // The state goes to every display and authenticated phone; the pairing
   // code, the fingerprint and the phone list to displays only.
   void broadcast_state() {
-    if (ble)
-      ble->publish_state([&] {
-        const auto b = rh::ble::encode_state({.snapshot = host.snapshot(),
-                                              .active_error = host.active_error(),
-                                              .disabled = host.disabled(),
-                                              .phone_driving = host.driver().has_value(),
-                                              .emergency = host.emergency()});
-        return std::vector<uint8_t>(b.begin(), b.end());
-      }());
+    publish_ble_state();
     const std::string for_phones = state_json(false).dump();
     const std::string for_displays = state_json(true).dump();
     for (auto& [id, c] : clients) {
