@@ -14,9 +14,11 @@ a short budget) are run, and the mutant is:
   stillborn   it did not compile (not counted).
 The file is restored after each mutant, and on any exit (Ctrl-C included).
 
-Usage: scripts/mutate.py [--preset default] [--max N] [--seed S] [--list] [--only M]... [FILE...]
+Usage: scripts/mutate.py [--preset default] [--max N] [--seed S] [--from-line L] [--list] [--only M]... [FILE...]
   FILE    a rule file (default: all four below); --list prints the mutants only
   --max   at most N mutants per file, spread evenly over the file (default: all)
+  --from-line  only the mutants at line L or later (a run stopped part-way goes on
+          where it stopped: each line printed names its mutant's line)
   --only  just the mutants named so (as a survivor line names one: "FILE:LINE: WHAT",
           e.g. "devices/rehand6600/src/session.cpp:43: '==' -> '!='"): a new test re-run
           against the mutant it was written to kill
@@ -121,6 +123,7 @@ def main():
     ap.add_argument("--list", action="store_true")
     ap.add_argument("--sim-seconds", default="10")
     ap.add_argument("--only", action="append", default=[])
+    ap.add_argument("--from-line", type=int, default=1)
     a = ap.parse_args()
     files = a.files or sorted({o.split(":")[0] for o in a.only}) or list(RULES)
     build = os.path.join(ROOT, "build", a.preset)
@@ -134,6 +137,7 @@ def main():
             found = [m for m in found if any(f"{rel}:{m[0] + 1}: {m[1]}".startswith(o) for o in a.only)]
             if not found:
                 continue
+        found = [m for m in found if m[0] + 1 >= a.from_line]
         if a.max and len(found) > a.max:
             rng = random.Random(a.seed)
             found = sorted(rng.sample(found, a.max), key=lambda m: m[0])
