@@ -14,7 +14,7 @@ a short budget) are run, and the mutant is:
   stillborn   it did not compile (not counted).
 The file is restored after each mutant, and on any exit (Ctrl-C included).
 
-Usage: scripts/mutate.py [--preset default] [--max N] [--seed S] [--from-line L] [--list] [--only M]... [FILE...]
+Usage: scripts/mutate.py [--preset default] [--max N] [--seed S] [--from-line L] [--timeout S] [--list] [--only M]... [FILE...]
   FILE    a rule file (default: all four below); --list prints the mutants only
   --max   at most N mutants per file, spread evenly over the file (default: all)
   --from-line  only the mutants at line L or later (a run stopped part-way goes on
@@ -108,10 +108,10 @@ def run(cmd, timeout, env=None):
         return "timeout"
 
 
-def tests_pass(build, targets, env):
+def tests_pass(build, targets, env, timeout):
     """Runs each test program in turn; False at the first that fails."""
-    # 120 s each: a mutant that loops forever is killed by the time-out (it counts as killed).
-    return all(run([os.path.join(build, "tests", t)], 120, env) == 0 for t in targets)
+    # A mutant that loops forever is killed by the time-out (it counts as killed).
+    return all(run([os.path.join(build, "tests", t)], timeout, env) == 0 for t in targets)
 
 
 def main():
@@ -124,6 +124,11 @@ def main():
     ap.add_argument("--sim-seconds", default="10")
     ap.add_argument("--only", action="append", default=[])
     ap.add_argument("--from-line", type=int, default=1)
+    # Seconds a test program may run before its mutant counts as killed (a
+    # loop that never ends). The programs take under 5 s unmutated (the
+    # simulation its --sim-seconds); a mutant that hangs one would otherwise
+    # cost minutes each.
+    ap.add_argument("--timeout", type=int, default=30)
     a = ap.parse_args()
     files = a.files or sorted({o.split(":")[0] for o in a.only}) or list(RULES)
     build = os.path.join(ROOT, "build", a.preset)
@@ -157,7 +162,7 @@ def main():
         survivors = []
         try:
             # The unmutated file must pass, or every mutant would look killed.
-            if run(["cmake", "--build", build, "--target", *targets], 1200) != 0 or not tests_pass(build, targets, env):
+            if run(["cmake", "--build", build, "--target", *targets], 1200) != 0 or not tests_pass(build, targets, env, a.timeout):
                 print(f"{rel}: the tests fail without any mutation: nothing to measure")
                 continue
             for n, what, new in found:
@@ -170,7 +175,7 @@ def main():
                     stillborn += 1
                     verdict = "stillborn"
                 else:
-                    if tests_pass(build, targets, env):
+                    if tests_pass(build, targets, env, a.timeout):
                         survived += 1
                         verdict = "SURVIVED"
                         survivors.append(f"{rel}:{n + 1}: {what}: {new.strip()}")
