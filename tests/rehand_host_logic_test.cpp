@@ -26,6 +26,11 @@ constexpr uint16_t kHeld[] = {reg::kStandSit,     reg::kSeatLift,  reg::kBackres
                               reg::kLegRotate,    reg::kLegExtend, reg::kPlateTilt,  reg::kPhoneForward,
                               reg::kPhoneReverse, reg::kPhoneLeft, reg::kPhoneRight, reg::kPhoneHorn};
 
+// A bound on every loop that waits for the logic to settle: a defect that
+// never settles fails its test at once instead of hanging it (the mutation
+// check, scripts/mutate.py, counted such a hang only at its time-out).
+constexpr int kMaxSteps = 1000;
+
 struct Rig {
   HostLogic logic{HostOptions{}};
   HostLogic::TimePoint t{std::chrono::hours(1)};
@@ -53,7 +58,8 @@ struct Rig {
   // The handshake, the first start's zeros and the boot-complete write, all answered.
   void connect() {
     answer(due());  // device ID
-    for (;;) {
+    for (int n = 0;; ++n) {
+      ASSERT_LT(n, kMaxSteps) << "the handshake never ends";
       const auto w = due();
       ASSERT_EQ(w.kind, Kind::write);
       answer(w);
@@ -74,6 +80,10 @@ struct Rig {
     auto poll = due();
     std::vector<Request> writes;
     while (poll.kind == Kind::write) {  // stops owed before the poll
+      if (writes.size() > kMaxSteps) {
+        ADD_FAILURE() << "writes without end before the poll";
+        return writes;
+      }
       writes.push_back(poll);
       answer(poll);
       poll = due();
@@ -86,7 +96,11 @@ struct Rig {
   // The writes due now, answered normally.
   std::vector<Request> flush() {
     std::vector<Request> writes;
-    while (auto w = logic.next(t)) {
+    for (int n = 0; auto w = logic.next(t); ++n) {
+      if (n > kMaxSteps) {
+        ADD_FAILURE() << "requests without end at one instant";
+        break;
+      }
       if (w->kind != Kind::write) {
         answer(*w);
         continue;
@@ -149,7 +163,8 @@ TEST(RehandHostLogic, AtTheFirstHandshakeEveryHoldCommandIsZeroed_BeforeBootComp
   Rig rig;
   rig.answer(rig.due());  // device ID
   std::vector<uint16_t> zeroed;
-  for (;;) {
+  for (int n = 0;; ++n) {
+    ASSERT_LT(n, kMaxSteps) << "the handshake never ends";
     const auto w = rig.due();
     ASSERT_EQ(w.kind, Kind::write);
     rig.answer(w);
@@ -412,6 +427,7 @@ TEST(RehandHostLogic, AfterALinkLossTheZeroGoesBeforeBootCompleteAndThePoll) {
   rig.t = std::max(rig.t, rig.logic.wake_at());
   std::vector<Request> order;
   while (!rig.logic.connected() || order.empty() || order.back().kind != Kind::poll) {
+    ASSERT_LT(order.size(), size_t{kMaxSteps}) << "never connected again";
     rig.t = std::max(rig.t, rig.logic.wake_at());
     const auto r = rig.due();
     order.push_back(r);
@@ -607,6 +623,7 @@ TEST(RehandHostLogic, ShutdownWritesOnlyStops_KeepsTheStopCommand_GivesUpOnADead
   rig.logic.begin_shutdown();
   std::vector<Request> writes;
   while (auto w = rig.logic.next(rig.t)) {
+    ASSERT_LT(writes.size(), size_t{kMaxSteps}) << "a shutdown that never ends";
     writes.push_back(*w);
     rig.answer(*w, writes.size() == 2 ? Error(Errc::timeout) : Error());
   }
@@ -631,6 +648,7 @@ TEST(RehandHostLogic, ShutdownWritesOnlyStops_KeepsTheStopCommand_GivesUpOnADead
   dead.logic.begin_shutdown();
   int tries = 0;
   while (auto w = dead.logic.next(dead.t)) {
+    ASSERT_LT(tries, kMaxSteps) << "a shutdown that never ends";
     ++tries;
     dead.answer(*w, Errc::timeout);
   }
