@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include "rtukit/devices/rehand6600/host.hpp"
@@ -720,6 +722,139 @@ TEST(RehandHostLogic, OneShotsWaitBehindStopsAndPresses_TheQueueIsBounded_LinkLo
   down.ready();
   for (int i = 0; i < 3; ++i) down.cycle(Errc::timeout);
   EXPECT_FALSE(down.logic.enqueue(reg::kLight, 1, 6)) << "nothing is queued for a link that is down";
+}
+
+// ---------------------------------------------------------------- D-14: a phone drives at speed level 1
+// HostCore, the logic and the session joined, on virtual time: what goes on
+// the wire when a phone takes and gives up the driver's seat.
+
+struct CoreRig {
+  HostCore core{HostOptions{}};
+  HostLogic::TimePoint t{std::chrono::hours(1)};
+  std::array<uint16_t, reg::kStatusCount> table1 = Rig{}.table1;
+  std::vector<Request> writes;  ///< every write sent, in order
+  /// The controller's answer to a write (an exception, a timeout), or none.
+  std::function<Error(const Request&)> answer_write = [](const Request&) { return Error(); };
+  bool dead = false;  ///< nothing answers
+
+  CoreRig() {
+    run_for(200ms);
+    EXPECT_TRUE(core.logic().connected());
+    core.session().join(kDisplay, ClientKind::display);
+    core.session().join(kPhone, ClientKind::phone);
+    writes.clear();
+  }
+  // Every request due until `t + d`, answered (each takes 5 ms on the wire).
+  void run_for(HostLogic::TimePoint::duration d) {
+    const auto end = t + d;
+    for (int n = 0; n < 100 * kMaxSteps; ++n) {
+      const auto r = core.next(t);
+      if (!r) {
+        const auto at = core.wake_at();
+        if (at >= end || t >= end) {
+          t = end;
+          return;
+        }
+        t = std::max(t + 1ms, at);
+        continue;
+      }
+      if (r->kind == Kind::write) writes.push_back(*r);
+      t += dead ? 100ms : 5ms;  // a dead link: each request waits out its response timeout
+      const Error e = dead ? Error(Errc::timeout) : r->kind == Kind::write ? answer_write(*r) : Error();
+      if (e || r->kind == Kind::write) {
+        core.on_result(t, e);
+      } else {
+        core.on_result(
+            t, e, r->kind == Kind::poll ? std::span<const uint16_t>(table1) : std::span(table1.data(), 1));
+      }
+    }
+    ADD_FAILURE() << "requests without end";
+  }
+  // Where `address` = `value` was first written, or -1.
+  int written_at(uint16_t address, uint16_t value) const {
+    for (size_t i = 0; i < writes.size(); ++i)
+      if (writes[i].address == address && writes[i].value == value) return static_cast<int>(i);
+    return -1;
+  }
+  static constexpr Session::ClientId kDisplay = 1, kPhone = 2;
+};
+
+TEST(RehandHostCore, APhoneDrivesAtSpeedLevelOne_TheDisplaysLevelComesBackWhenTheSeatIsFree) {
+  CoreRig rig;
+  ASSERT_FALSE(rig.core.queue(CoreRig::kDisplay, reg::kSpeedLevel, 3, 100));
+  rig.run_for(100ms);
+  EXPECT_GE(rig.written_at(reg::kSpeedLevel, 3), 0);
+  EXPECT_EQ(rig.core.speed_level(), 3);
+
+  rig.writes.clear();
+  ASSERT_FALSE(rig.core.session().press(CoreRig::kPhone, reg::kPhoneForward, 1, 1, rig.t));
+  EXPECT_EQ(rig.core.speed_level(), 1) << "level 1 from the moment the phone holds the seat";
+  // The display's level while the phone drives: refused, and said why.
+  const rtukit::Status refused = rig.core.queue(CoreRig::kDisplay, reg::kSpeedLevel, 4, 101);
+  EXPECT_EQ(refused.code(), Errc::refused);
+  EXPECT_NE(std::string(refused.reason()).find("D-14"), std::string::npos) << refused.reason();
+  // Within the press's first poll period (the still table 1 of this rig
+  // would then stop the press: the controller is not moving).
+  rig.run_for(20ms);
+  const int slow = rig.written_at(reg::kSpeedLevel, 1);
+  const int drive = rig.written_at(reg::kPhoneForward, 1);
+  ASSERT_GE(slow, 0) << "the controller is set to level 1";
+  ASSERT_GE(drive, 0) << "then the phone drives";
+  EXPECT_LT(slow, drive) << "level 1 is confirmed before the first drive word";
+
+  // The phone lets go; 2 s later the seat is free and level 3 is back.
+  rig.core.session().release(CoreRig::kPhone, 1, rig.t);
+  rig.writes.clear();
+  rig.run_for(1900ms);
+  EXPECT_EQ(rig.written_at(reg::kSpeedLevel, 3), -1) << "not while the phone still holds the seat";
+  rig.run_for(300ms);
+  EXPECT_FALSE(rig.core.session().driver());
+  EXPECT_GE(rig.written_at(reg::kSpeedLevel, 3), 0) << "the display's level put back";
+  EXPECT_EQ(rig.core.speed_level(), 3);
+}
+
+TEST(RehandHostCore, LevelOneNotConfirmed_NoDriveWordAndThePressEndsSayingWhy) {
+  CoreRig rig;
+  rig.answer_write = [](const Request& r) {
+    return r.address == reg::kSpeedLevel ? Error::exception(0x04) : Error();  // the controller refuses it
+  };
+  ASSERT_FALSE(rig.core.session().press(CoreRig::kPhone, reg::kPhoneForward, 1, 1, rig.t));
+  rig.run_for(100ms);
+  EXPECT_GE(rig.written_at(reg::kSpeedLevel, 1), 0);
+  EXPECT_EQ(rig.written_at(reg::kPhoneForward, 1), -1) << "never driven at the display's level";
+  bool told = false;
+  for (const Event& e : rig.core.take_events())
+    told = told || (e.type == Event::Type::released && e.address == reg::kPhoneForward &&
+                    e.reason.find("speed level 1") != std::string::npos);
+  EXPECT_TRUE(told) << "the phone's press ends, saying why";
+  EXPECT_TRUE(rig.core.session().presses().empty());
+  // Tried again at the next press, not at bus speed in between.
+  const size_t tries = rig.writes.size();
+  rig.run_for(400ms);
+  EXPECT_EQ(rig.writes.size(), tries) << "no new try without a press";
+}
+
+TEST(RehandHostCore, AfterAReconnectLevelOneIsWrittenAgainBeforeThePhoneDrivesAgain) {
+  CoreRig rig;
+  ASSERT_FALSE(rig.core.queue(CoreRig::kDisplay, reg::kSpeedLevel, 5, 100));
+  ASSERT_FALSE(rig.core.session().press(CoreRig::kPhone, reg::kPhoneForward, 1, 1, rig.t));
+  rig.run_for(20ms);
+  ASSERT_GE(rig.written_at(reg::kPhoneForward, 1), 0);
+  // The link drops (the controller may come back at any level) and returns.
+  rig.dead = true;
+  rig.run_for(1s);
+  ASSERT_FALSE(rig.core.logic().connected());
+  rig.dead = false;
+  rig.run_for(2s);
+  ASSERT_TRUE(rig.core.logic().connected());
+  rig.writes.clear();
+  ASSERT_FALSE(rig.core.session().press(CoreRig::kPhone, reg::kPhoneForward, 1, 2, rig.t));
+  rig.run_for(20ms);
+  const int slow = rig.written_at(reg::kSpeedLevel, 1);
+  const int drive = rig.written_at(reg::kPhoneForward, 1);
+  ASSERT_GE(drive, 0);
+  EXPECT_GE(slow, 0) << "level 1 written again after the handshake";
+  EXPECT_LT(slow, drive);
 }
 
 }  // namespace

@@ -640,6 +640,29 @@ TEST(RehandSession, WakesAtTheEarliestLeaseEnd) {
   EXPECT_EQ(*at, r.t - 100ms + SessionOptions{}.lease);
 }
 
+// While the driving phone holds a press, the next wake-up is that press's
+// lease end, not the driver's idle time counted from a press that ended
+// long ago: a wake-up in the past made the host's thread spin for as long
+// as a phone drove (found by RehandHostCore's rig, whose time loop hung).
+TEST(RehandSession, WhileThePhoneDrivesTheWakeUpIsItsLeaseNotAnOldIdleTime) {
+  Rig r;
+  ASSERT_FALSE(r.session.press(kPhone, reg::kPhoneForward, 1, 1, r.t));
+  r.session.release(kPhone, 1, r.t);
+  r.t += 1s;
+  ASSERT_FALSE(r.session.press(kPhone, reg::kPhoneForward, 1, 2, r.t));
+  for (int i = 0; i < 50; ++i) {  // 5 s, renewed all along
+    r.t += 100ms;
+    ASSERT_FALSE(r.session.renew(kPhone, 2, r.t));
+  }
+  const auto at = r.session.wake_at();
+  ASSERT_TRUE(at.has_value());
+  EXPECT_EQ(*at, r.t + SessionOptions{}.lease);
+  // Released: the seat frees 2 s later, and that is the wake-up.
+  r.session.release(kPhone, 2, r.t);
+  ASSERT_TRUE(r.session.wake_at().has_value());
+  EXPECT_EQ(*r.session.wake_at(), r.t + SessionOptions{}.driver_idle);
+}
+
 // "Closer than 500 mm": 500 is not near, 499 is.
 TEST(RehandSession, NearObstacleIsStrictlyCloserThanTheLimit) {
   Rig r;

@@ -353,16 +353,9 @@ class World {
     return {};
   }
 
-  // Host::queue: a pulse is two writes, a setting one.
+  // As Host::queue: the core checks and queues (a pulse is two writes, a setting one).
   Status one_shot(Client& c, uint16_t command, uint16_t value) {
-    if (Status e = core_.session().check_command(c.id, command, value)) return e;
-    if (find_register(command)->role == Role::pulse) {
-      if (!core_.logic().enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0))
-        return Status(Errc::refused, "queue");
-      (void)core_.logic().enqueue(command, 0, ++ticket_);
-      return {};
-    }
-    return core_.logic().enqueue(command, value, ++ticket_) ? Status() : Status(Errc::refused, "queue");
+    return core_.queue(c.id, command, value, ++ticket_);
   }
 
   Status press(Client& c, uint16_t command, uint16_t value) {
@@ -648,12 +641,19 @@ class World {
     const Snapshot& snap = core_.logic().snapshot();
     if (is_phone_drive(c) && (!snap.seated() || snap.charging() || !snap.clutch_drive()))
       fail(fmt::format("{} sent while the host's reading forbids phone driving (D-10, R-2)", key(c)));
+    // D-14: the controller itself (the model, not the host's belief) is at
+    // speed level 1 when a remote drive word reaches it.
+    if (is_phone_drive(c) && chair_->command(reg::kSpeedLevel) != 1)
+      fail(fmt::format(
+          "{} = {} sent while the controller is at speed level {} (D-14: a phone drives at level 1)", key(c),
+          r.value, chair_->command(reg::kSpeedLevel)));
   }
 
   // The events of what just happened. An emergency stop is due on the wire
   // from the moment its cause happened: a lease's end (the last renewal the
   // session took, plus the lease), else now (STOP, a phone gone).
   void drain_events() {
+    (void)core_.take_results();  // nobody waits for a ticket here: dropped, so they do not pile up
     TimePoint cause = now_;
     const char* why = "the display's STOP or a phone gone";
     for (const Event& e : core_.take_events()) {

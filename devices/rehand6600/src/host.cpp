@@ -471,13 +471,88 @@ uint16_t HostLogic::active_error() const noexcept {
 
 // ---------------------------------------------------------------- HostCore: the logic and the rules joined
 
+namespace {
+
+bool is_remote_drive(uint16_t command) {
+  return command >= reg::kPhoneForward && command <= reg::kPhoneRight;
+}
+
+}  // namespace
+
 void HostCore::sync(TimePoint now) {
+  now_ = now;
   session_.tick(now);
+  absorb_results(now);
+  // D-14: a remote driver drives at speed level 1, and the display's level
+  // comes back when the seat is free. The write of level 1 goes first; the
+  // drive words wait for its confirmation (a one-shot is written before the
+  // polls, so the wait is one request).
+  const bool remote = session_.driver().has_value();
+  if (!remote && slow_ == Slow::yes) {
+    slow_ = Slow::no;
+    if (chosen_speed_ != 1) (void)logic_.enqueue(reg::kSpeedLevel, chosen_speed_, kRestoreTicket);
+  }
+  if (remote && slow_ == Slow::no && now >= slow_retry_at_ &&
+      logic_.enqueue(reg::kSpeedLevel, 1, kSlowTicket))
+    slow_ = Slow::asked;
   for (uint16_t command = reg::kCommandFirst; command < reg::kCommandFirst + reg::kCommandCount; ++command) {
     if (!may_press(ClientKind::tool, command)) continue;
-    const Session::Hold h = session_.hold(command);
+    Session::Hold h = session_.hold(command);
+    if (is_remote_drive(command) && slow_ != Slow::yes) h = {};
     logic_.set_target(command, h.value, h.serial);
   }
+}
+
+void HostCore::absorb_results(TimePoint now) {
+  for (auto& [ticket, error] : logic_.take_results()) {
+    if (ticket == kSlowTicket) {
+      if (error) {
+        // Any doubt: the drive presses waiting for it end (nothing of them
+        // was written), and the write is tried again at the next press after
+        // a pause (a controller that refuses it is not asked at bus speed).
+        slow_ = Slow::no;
+        slow_retry_at_ = now + std::chrono::milliseconds(500);
+        for (uint16_t c = reg::kPhoneForward; c <= reg::kPhoneRight; ++c)
+          session_.on_controller_stop(
+              c, "the chair could not be set to speed level 1, as a phone drives (D-14): press again", now);
+      } else if (session_.driver()) {
+        slow_ = Slow::yes;
+      } else {
+        // The seat was given up while the write was on its way.
+        slow_ = Slow::no;
+        if (chosen_speed_ != 1) (void)logic_.enqueue(reg::kSpeedLevel, chosen_speed_, kRestoreTicket);
+      }
+    } else if (ticket != kRestoreTicket) {  // a restore that failed leaves the chair slow: the safe side
+      results_.emplace_back(ticket, error);
+    }
+  }
+}
+
+std::vector<std::pair<uint64_t, Error>> HostCore::take_results() {
+  absorb_results(now_);
+  return std::exchange(results_, {});
+}
+
+rtukit::Status HostCore::queue(Session::ClientId client, uint16_t command, uint16_t value, uint64_t ticket) {
+  if (rtukit::Status e = session_.check_command(client, command, value)) return e;
+  if (command == reg::kSpeedLevel && session_.driver())
+    return rtukit::Status(
+        Errc::refused,
+        "a phone is driving: the chair stays at speed level 1 until it gives up the seat (D-14)");
+  const Register& r = *find_register(command);
+  // A pulse is two writes with one ticket: its outcome is the last one's.
+  if (r.role == Role::pulse) {
+    if (!logic_.enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0) ||
+        !logic_.enqueue(command, 0, ticket))
+      return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
+                                                              : "no communication with the controller");
+    return {};
+  }
+  if (!logic_.enqueue(command, value, ticket))
+    return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
+                                                            : "no communication with the controller");
+  if (command == reg::kSpeedLevel) chosen_speed_ = value;
+  return {};
 }
 
 std::optional<HostLogic::Request> HostCore::next(TimePoint now) {
@@ -486,11 +561,16 @@ std::optional<HostLogic::Request> HostCore::next(TimePoint now) {
 }
 
 void HostCore::on_result(TimePoint now, Error e, std::span<const uint16_t> words) {
+  now_ = now;
   logic_.on_result(now, e, words);
   // An error's own reason first (it ends every press), then what the write
   // and the polls said of single presses.
   session_.on_status(logic_.snapshot(), logic_.active_error(), now, logic_.stop_settled());
+  absorb_results(now);
   for (Event& ev : logic_.take_events()) {
+    // A handshake: the controller may have restarted at its power-on level,
+    // or kept any; a remote driver's level 1 is written again before it drives.
+    if (ev.type == Event::Type::connected && slow_ == Slow::yes) slow_ = Slow::no;
     if (ev.type == Event::Type::write_failed) session_.on_write_failed(ev.address, now);
     if (ev.type == Event::Type::chair_stopped) session_.on_controller_stop(ev.address, ev.reason, now);
     events_.push_back(std::move(ev));
@@ -532,7 +612,7 @@ void HostCore::begin_shutdown(TimePoint now) {
 
 std::vector<Event> Host::collect() {
   std::vector<Event> out = core_.take_events();
-  for (const auto& [ticket, error] : core_.logic().take_results()) {
+  for (const auto& [ticket, error] : core_.take_results()) {
     finished_.emplace_back(ticket, error);
     if (finished_.size() > 64) finished_.pop_front();
   }
@@ -677,19 +757,8 @@ bool Host::stop_latched() const {
 rtukit::Status Host::queue(ClientId client, uint16_t command, uint16_t value, uint64_t* ticket) {
   {
     std::lock_guard lock(mutex_);
-    if (rtukit::Status e = core_.session().check_command(client, command, value)) return e;
-    const Register& r = *find_register(command);
     const uint64_t t = next_ticket_++;
-    const bool pulse = r.role == Role::pulse;
-    // A pulse is two writes with one ticket: its outcome is the last one's.
-    if (pulse && core_.logic().enqueue(command, command == reg::kPhoneLight ? 2 : 1, 0)) {
-      if (!core_.logic().enqueue(command, 0, t))
-        return rtukit::Status(Errc::refused, "the controller's queue is full");
-    } else if (pulse || !core_.logic().enqueue(command, value, t)) {
-      return rtukit::Status(Errc::refused, core_.logic().connected()
-                                               ? "the controller's queue is full: try again"
-                                               : "no communication with the controller");
-    }
+    if (rtukit::Status e = core_.queue(client, command, value, t)) return e;
     if (ticket) *ticket = t;
   }
   notify();
@@ -729,6 +798,11 @@ std::vector<Session::Press> Host::presses() const {
 std::optional<Host::ClientId> Host::driver() const {
   std::lock_guard lock(mutex_);
   return core_.session().driver();
+}
+
+uint16_t Host::speed_level() const {
+  std::lock_guard lock(mutex_);
+  return core_.speed_level();
 }
 
 bool Host::emergency() const {

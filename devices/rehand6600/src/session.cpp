@@ -280,8 +280,15 @@ std::optional<Session::TimePoint> Session::wake_at() const noexcept {
   std::optional<TimePoint> at;
   for (const Press& p : presses_)
     if (!at || p.until < *at) at = p.until;
+  // The seat frees at the end of the driver's idle time, counted from its
+  // last press's end: only while it holds nothing (while it holds a press,
+  // that press's end is the next thing to look at; its idle start may be
+  // long past, and a wake-up in the past made the host's thread spin).
   if (driver_) {
-    if (const Client* c = find(*driver_)) {
+    const Client* c = find(*driver_);
+    const bool holding =
+        std::any_of(presses_.begin(), presses_.end(), [&](const Press& p) { return p.client == *driver_; });
+    if (c && !holding) {
       const TimePoint free = c->idle_since + options_.driver_idle;
       if (!at || free < *at) at = free;
     }

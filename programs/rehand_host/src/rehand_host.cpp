@@ -657,7 +657,7 @@ struct HostDaemon::Impl {
             {"values", values},
             {"text", text},
             {"drive_mode", choice(rh::reg::kDriveMode, drive_mode)},
-            {"speed_level", speed_level},
+            {"speed_level", host.speed_level()},  // 1 while a phone drives (D-14)
             {"postures", postures},
             {"stand_progress", std::min(100, stand_progress)},
             {"distances",

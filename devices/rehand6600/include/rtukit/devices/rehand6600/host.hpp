@@ -289,10 +289,37 @@ class HostCore {
   /// and from now on next() returns only the stops still owed.
   void begin_shutdown(TimePoint now);
 
+  /// A one-shot command of `client` (a pulse: two writes, 1 then 0; a
+  /// setting: one write), checked by the session and queued; `ticket` names
+  /// its outcome in take_results() (a pulse's is its last write's).
+  /// Errors: the session's (Session::check_command); refused: the speed
+  /// level while a phone drives (D-14), the controller's queue is full, no
+  /// communication with the controller.
+  rtukit::Status queue(Session::ClientId client, uint16_t command, uint16_t value, uint64_t ticket);
+  /// The outcomes of queued writes since the last call, (ticket, error).
+  std::vector<std::pair<uint64_t, Error>> take_results();
+  /// The speed level the controller is held at: 1 while a phone holds the
+  /// driver's seat (D-14), else the level the display (or a tool) chose
+  /// last (1 until one does: the controller's power-on level, D-7).
+  uint16_t speed_level() const noexcept { return session_.driver() ? 1 : chosen_speed_; }
+
  private:
+  // D-14: while someone holds the driver's seat the controller is set to
+  // speed level 1 first; no drive word is written until it confirmed that
+  // write. `asked`: the write is queued or on the wire.
+  enum class Slow : uint8_t { no, asked, yes };
+  static constexpr uint64_t kSlowTicket = ~uint64_t{0} - 1;     ///< the write of level 1
+  static constexpr uint64_t kRestoreTicket = ~uint64_t{0} - 2;  ///< the display's level put back
+  void absorb_results(TimePoint now);
+
   HostLogic logic_;
   Session session_;
-  std::vector<Event> events_;  ///< the logic's events already told to the session
+  std::vector<Event> events_;                        ///< the logic's events already told to the session
+  std::vector<std::pair<uint64_t, Error>> results_;  ///< the queued writes' outcomes not yet taken
+  uint16_t chosen_speed_ = 1;                        ///< the display's (or a tool's) last speed level
+  Slow slow_ = Slow::no;
+  TimePoint slow_retry_at_{};  ///< after a failed write of level 1: not tried again before
+  TimePoint now_{};            ///< the time of the last sync() or on_result()
 };
 
 /// The host controller: HostLogic and the Session on one bus worker thread.
@@ -370,7 +397,9 @@ class Host {
   rtukit::Status pulse(uint16_t command);
   rtukit::Status set_drive_mode(uint16_t mode);    ///< 1 normal, 2 indoor, 3 outdoor; waits for the write
   rtukit::Status set_speed_level(uint16_t level);  ///< 1..5; waits for the write
-  Error set_host_fault(uint16_t code);             ///< 0 = none; allowed during an overlay; waits
+  /// HostCore::speed_level(): 1 while a phone drives (D-14), else the display's level.
+  uint16_t speed_level() const;
+  Error set_host_fault(uint16_t code);  ///< 0 = none; allowed during an overlay; waits
 
   const HostOptions& options() const noexcept { return options_; }
   std::string describe() const { return master_.describe(); }
