@@ -48,6 +48,7 @@ constexpr int kCodeGuesses = 3;                          ///< wrong codes before
 constexpr int kWindowGuesses = 10;
 constexpr int kWrongPerAddress = 10;                    ///< wrong codes or tokens per source address...
 constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
+constexpr size_t kWrongSources = 4096;                  ///< sources the table keeps at most (about 200 KiB)
 
 struct Client {
   web::SocketPtr socket;
@@ -263,13 +264,10 @@ struct HostDaemon::Impl {
     return rtukit::Status(Errc::refused, std::move(reason));
   }
 
-  // Wrong codes and tokens from one address, per minute: guessing is slow.
-  bool too_many_wrong(const std::string& address) {
-    auto& w = wrong[address];
-    if (clock.now() - w.since > kWrongWindow) w = {clock.now(), 0};
-    return w.count >= kWrongPerAddress;
-  }
-  void count_wrong(const std::string& address) { ++wrong[address].count; }
+  // Wrong codes and tokens per source (an IPv4 address, an IPv6 /64), per
+  // minute: guessing is slow (GuessLimit, rehand_message.hpp).
+  bool too_many_wrong(const std::string& peer) { return wrong.refused(peer, clock.now()); }
+  void count_wrong(const std::string& peer) { wrong.count(peer, clock.now()); }
 
   std::string name_of(const std::string& phone) const {
     const PairedPhone* p = pairing.phone(phone);
@@ -373,7 +371,9 @@ struct HostDaemon::Impl {
       case Kind::auth: {
         const std::string& from = c.socket->peer_address();
         if (too_many_wrong(from))
-          return refuse("too many wrong tokens or codes from this address: wait a minute");
+          return refuse(
+              "too many wrong tokens or codes from this address (or too many addresses guessing): wait a "
+              "minute");
         const std::optional<std::string> phone = pairing.find(k.token);
         if (!phone) {
           count_wrong(from);
@@ -392,7 +392,9 @@ struct HostDaemon::Impl {
       case Kind::pair: {
         const std::string& from = c.socket->peer_address();
         if (too_many_wrong(from))
-          return refuse("too many wrong tokens or codes from this address: wait a minute");
+          return refuse(
+              "too many wrong tokens or codes from this address (or too many addresses guessing): wait a "
+              "minute");
         // One answer for "no code shown", "expired" and "wrong": nothing a
         // stranger can probe tells whether a code is showing.
         if (code.code.empty() || clock.now() > code.until || k.code.size() != code.code.size() ||
@@ -826,11 +828,7 @@ struct HostDaemon::Impl {
     int guesses = 0;            ///< wrong guesses at this code
     int window_guesses = 0;     ///< wrong guesses in this window, every code and address together
   } code;
-  struct Wrong {
-    Clock::time_point since{};
-    int count = 0;
-  };
-  std::map<std::string, Wrong> wrong;  ///< per source address
+  GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
   std::optional<std::chrono::system_clock::time_point> last_contact;
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
