@@ -48,6 +48,8 @@ if [ "$target" != "programs" ]; then PACKAGES+=(
   tshark
   # the web pages tested in a real browser (and the pairing QR code read back)
   chromium chromium-driver python3-selenium zbar-tools
+  # the board's systemd units checked by systemd-analyze (verify, security); the kiosk unit starts cage
+  systemd cage
   # the Inverjet MQTT bridge's tests: a real broker and its clients
   mosquitto mosquitto-clients
   # the Bluetooth LE tests: a private bus with a mock BlueZ (python3-dbusmock's bluez5 template)
