@@ -70,5 +70,50 @@ TEST_F(PairingExpiry, AShorterAgeForgetsSooner) {
   EXPECT_EQ(store.expire(clock.unix_seconds(), 86'400).size(), 1u);
 }
 
+// A board without a real-time clock boots in 1970. A phone that connects
+// then is recorded at the file's time (and on), not in 1970: before, its
+// last contact went back to 1970 and the moment the clock was set (NTP, the
+// phone's own time) it was 56 years unused and forgotten.
+TEST_F(PairingExpiry, WithoutAClockAContactIsNeverRecordedBeforeTheFilesTime) {
+  std::string id;
+  {
+    PairingStore store(path_);
+    ASSERT_FALSE(store.load(clock.unix_seconds()));
+    const auto added = store.add("Anna's phone", "123456", clock.unix_seconds());
+    ASSERT_TRUE(added);
+    id = added->id;
+  }
+  const int64_t paired = clock.unix_seconds();
+  PairingStore store(path_);  // the board restarts, its calendar at 1970
+  ASSERT_FALSE(store.load(0));
+  const int64_t at_boot = store.time(0, 5);
+  EXPECT_GE(at_boot, paired) << "never before what the file recorded";
+  ASSERT_FALSE(store.touch(id, store.time(0, 65)));
+  EXPECT_EQ(store.phone(id)->last_contact, at_boot + 60) << "the monotonic minute since";
+  // The clock is set, a day after the pairing: the phone was used a minute ago.
+  clock.advance(std::chrono::hours(24));
+  EXPECT_TRUE(store.expire(store.time(clock.unix_seconds(), 125), max_age).empty());
+  // Never set: 30 days of the board's own running time forget it all the same.
+  PairingStore alone(path_);
+  ASSERT_FALSE(alone.load(0));
+  (void)alone.time(0, 1000);  // its monotonic origin: the daemon's start
+  EXPECT_TRUE(alone.expire(alone.time(0, 1000 + max_age - 100), max_age).empty());
+  EXPECT_EQ(alone.expire(alone.time(0, 1000 + max_age + 61), max_age).size(), 1U);
+}
+
+// A contact stored while the calendar was ahead (set wrong, then corrected
+// back) does not keep a phone paired for years: it counts as now.
+TEST_F(PairingExpiry, AContactFromACalendarThatWasAheadCountsAsNow) {
+  PairingStore store(path_);
+  ASSERT_FALSE(store.load(clock.unix_seconds()));
+  const auto added = store.add("phone", "111111", clock.unix_seconds());
+  ASSERT_TRUE(added);
+  const int64_t today = clock.unix_seconds();
+  ASSERT_FALSE(store.touch(added->id, today + 10LL * 365 * 86'400));  // the calendar said 10 years on
+  EXPECT_TRUE(store.expire(today, max_age).empty());
+  EXPECT_EQ(store.phone(added->id)->last_contact, today);
+  EXPECT_EQ(store.expire(today + max_age + 1, max_age).size(), 1U) << "30 days after, not 10 years";
+}
+
 }  // namespace
 }  // namespace rtukit

@@ -7,6 +7,7 @@
 #include <fmt/core.h>
 #include <openssl/crypto.h>
 #include <openssl/evp.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -100,8 +101,13 @@ rtukit::Status PairingStore::load(int64_t now) {
     if (phone.name.empty()) phone.name = "phone";
     phone.paired_at = text_of("paired_at");
     phone.code = text_of("code");
+    floor_ = std::max(floor_, phone.last_contact);
     phones_.push_back(std::move(phone));
   }
+  // The file's own last write counts too (the kernel stamped it with the
+  // calendar of that moment: right, when the board had the time then).
+  struct stat st {};
+  if (::stat(path_.c_str(), &st) == 0) floor_ = std::max<int64_t>(floor_, st.st_mtime);
   if (v1) return save();  // the clear tokens leave the disk now
   return {};
 }
@@ -196,10 +202,18 @@ rtukit::Status PairingStore::remove_all() {
   return {};
 }
 
+int64_t PairingStore::time(int64_t calendar_s, int64_t monotonic_s) {
+  if (!monotonic_origin_) monotonic_origin_ = monotonic_s;
+  return std::max(calendar_s, floor_ + (monotonic_s - *monotonic_origin_));
+}
+
 std::vector<PairedPhone> PairingStore::expire(int64_t now, int64_t max_age_s) {
   std::vector<PairedPhone> gone;
   std::vector<PairedPhone> kept;
-  for (PairedPhone& p : phones_) (now - p.last_contact > max_age_s ? gone : kept).push_back(std::move(p));
+  for (PairedPhone& p : phones_) {
+    p.last_contact = std::min(p.last_contact, now);  // the calendar was ahead when it was stored
+    (now - p.last_contact > max_age_s ? gone : kept).push_back(std::move(p));
+  }
   phones_ = std::move(kept);
   if (!gone.empty() && save()) {
     // Not saved: keep them, the file still has them.

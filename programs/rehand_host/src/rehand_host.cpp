@@ -162,6 +162,12 @@ struct HostDaemon::Impl {
     return o;
   }
   int64_t unix_now() const { return clock.unix_seconds(); }
+  // The pairing store's time: the calendar, never before what its file
+  // recorded (a board without a real-time clock boots in 1970).
+  int64_t pairing_now() {
+    return pairing.time(
+        unix_now(), std::chrono::duration_cast<std::chrono::seconds>(clock.now().time_since_epoch()).count());
+  }
 
   void log(const std::string& line) const { options.log(line); }
 
@@ -237,7 +243,7 @@ struct HostDaemon::Impl {
     const Client c = it->second;
     clients.erase(it);
     if (c.role == Role::phone && c.authenticated) {
-      (void)pairing.touch(c.phone, unix_now());
+      (void)pairing.touch(c.phone, pairing_now());
       log(fmt::format("phone '{}' ({}) disconnected from {}", name_of(c.phone), c.phone, s->peer_address()));
       broadcast_state();
     }
@@ -289,7 +295,7 @@ struct HostDaemon::Impl {
     c.authenticated = true;
     c.phone = phone;
     host.join(c.socket->id(), rh::ClientKind::phone);
-    (void)pairing.touch(phone, unix_now());
+    (void)pairing.touch(phone, pairing_now());
   }
 
   // Closes every connection of `phone` (forgotten): its presses end now.
@@ -422,7 +428,7 @@ struct HostDaemon::Impl {
         // One "Pair a phone", one phone: the window closes for both links
         // (before, a web pairing left the Bluetooth window open).
         close_pairing();
-        Outcome<PairingStore::Added> added = pairing.add(k.name, used, unix_now());
+        Outcome<PairingStore::Added> added = pairing.add(k.name, used, pairing_now());
         if (!added) return added.error();
         admit_phone(c, added->id);
         result["token"] = added->token;
@@ -454,7 +460,7 @@ struct HostDaemon::Impl {
     }
     if (now - last_expiry_check > std::chrono::minutes(1)) {
       last_expiry_check = now;
-      for (const PairedPhone& p : pairing.expire(unix_now(), options.pairing_max_age.count())) {
+      for (const PairedPhone& p : pairing.expire(pairing_now(), options.pairing_max_age.count())) {
         drop_phone(p.id, "this pairing expired");
         log(fmt::format("phone '{}' ({}) forgotten: unused for more than {} days", p.name, p.id,
                         options.pairing_max_age.count() / 86400));

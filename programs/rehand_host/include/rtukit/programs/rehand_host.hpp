@@ -73,8 +73,20 @@ class PairingStore {
   /// Forgets a phone. Errors: invalid_argument (no such phone), the save's.
   rtukit::Status remove(std::string_view id);
   rtukit::Status remove_all();
-  /// Forgets the phones not seen for more than `max_age_s`; returns them.
+  /// Forgets the phones not seen for more than `max_age_s`; returns them. A
+  /// last contact after `now` (stored while the calendar was ahead) counts
+  /// as `now`.
   std::vector<PairedPhone> expire(int64_t now, int64_t max_age_s);
+  /// The store's time, for add(), touch() and expire(): the calendar
+  /// (`calendar_s`, Unix seconds), but never before the newest time the file
+  /// recorded at load (a last contact, the file's own last write) plus the
+  /// monotonic time since the first call (`monotonic_s`, any origin). A board
+  /// without a real-time clock boots in 1970, or at an old saved time: a
+  /// contact then is recorded at the file's time and after, never in 1970
+  /// (which would forget the phone the moment the clock is set). While the
+  /// calendar is wrong, time the board spent switched off is not counted: a
+  /// phone is kept longer, never forgotten sooner.
+  int64_t time(int64_t calendar_s, int64_t monotonic_s);
   const std::vector<PairedPhone>& phones() const noexcept { return phones_; }
   size_t size() const noexcept { return phones_.size(); }
   const std::string& path() const noexcept { return path_; }
@@ -84,6 +96,8 @@ class PairingStore {
   std::string path_;
   std::vector<PairedPhone> phones_;
   bool writable_ = true;
+  int64_t floor_ = 0;                        ///< the newest time the file recorded, at load (Unix s)
+  std::optional<int64_t> monotonic_origin_;  ///< time()'s first monotonic reading
 };
 
 /// Where the pairing store is kept when `rtukit rehand6600 host` is given no
