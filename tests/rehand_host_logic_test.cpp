@@ -724,6 +724,59 @@ TEST(RehandHostLogic, OneShotsWaitBehindStopsAndPresses_TheQueueIsBounded_LinkLo
   EXPECT_FALSE(down.logic.enqueue(reg::kLight, 1, 6)) << "nothing is queued for a link that is down";
 }
 
+// A poll answered with an exception is an answer: the link is up, and the
+// count of unanswered requests starts again (mutation host.cpp:351 survived:
+// a count left at 1 made the next two timeouts a 1010).
+TEST(RehandHostLogic, APollAnsweredWithAnExceptionIsAnAnswer_TheCountStartsAgain) {
+  Rig rig;
+  rig.ready();
+  rig.cycle(Errc::timeout);
+  rig.cycle(Errc::timeout);
+  rig.cycle(Error::exception(0x04));
+  rig.cycle(Errc::timeout);
+  rig.cycle(Errc::timeout);
+  EXPECT_TRUE(rig.logic.connected());
+  EXPECT_NE(rig.logic.active_error(), kMasterCommunicationError) << "two unanswered polls are not three";
+  rig.cycle(Errc::timeout);
+  EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError) << "the third is";
+}
+
+// After the link came back, the count of unanswered requests starts at 0
+// (mutation host.cpp:276 survived: a count of 1 at the handshake made two
+// timeouts a 1010).
+TEST(RehandHostLogic, AfterTheLinkIsBackThreeUnansweredPollsMakeA1010_NotTwo) {
+  Rig rig;
+  rig.ready();
+  rig.lose_link();
+  for (int n = 0; !rig.logic.connected(); ++n) {
+    ASSERT_LT(n, kMaxSteps) << "never connected again";
+    rig.t = std::max(rig.t, rig.logic.wake_at());
+    rig.answer(rig.due());
+  }
+  // The first two polls after the handshake go unanswered (an answered one
+  // would start the count again by itself).
+  rig.cycle(Errc::timeout);
+  rig.cycle(Errc::timeout);
+  EXPECT_NE(rig.logic.active_error(), kMasterCommunicationError)
+      << "two unanswered polls after the link came back";
+  rig.cycle(Errc::timeout);
+  EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError) << "three";
+}
+
+// Each reading is a newer snapshot (the session acts only on readings taken
+// after the last outage, by their sequence: mutation host.cpp:380, a
+// sequence that did not move, survived).
+TEST(RehandHostLogic, EachReadingHasANewerSequence) {
+  Rig rig;
+  rig.ready();
+  const uint64_t first = rig.logic.snapshot().sequence;
+  rig.cycle();
+  const uint64_t second = rig.logic.snapshot().sequence;
+  rig.cycle();
+  EXPECT_GT(second, first);
+  EXPECT_GT(rig.logic.snapshot().sequence, second);
+}
+
 // ---------------------------------------------------------------- D-14: a phone drives at speed level 1
 // HostCore, the logic and the session joined, on virtual time: what goes on
 // the wire when a phone takes and gives up the driver's seat.
