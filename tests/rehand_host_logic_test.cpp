@@ -763,6 +763,38 @@ TEST(RehandHostLogic, AfterTheLinkIsBackThreeUnansweredPollsMakeA1010_NotTwo) {
   EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError) << "three";
 }
 
+// A one-shot (a light, a setting) queued when the link drops fails with its
+// ticket and is never written after the link is back: the person pressed it
+// for then, not for whenever the link returns (mutants host.cpp:430 and :440,
+// the failing and the clearing dropped, survived the full run).
+TEST(RehandHostLogic, AOneShotQueuedWhenTheLinkDropsFails_NeverWrittenAfterwards) {
+  Rig rig;
+  rig.ready();
+  rig.cycle(Errc::timeout);
+  rig.cycle(Errc::timeout);
+  rig.t = std::max(rig.t, rig.logic.wake_at());
+  const Request poll = rig.due();
+  ASSERT_EQ(poll.kind, Kind::poll);
+  ASSERT_TRUE(rig.logic.enqueue(reg::kLight, 1, 7));  // while the third poll is on the wire
+  rig.answer(poll, Errc::timeout);
+  ASSERT_EQ(rig.logic.active_error(), kMasterCommunicationError);
+  const auto results = rig.logic.take_results();
+  ASSERT_EQ(results.size(), 1U) << "the ticket is answered";
+  EXPECT_EQ(results[0].first, 7U);
+  EXPECT_TRUE(results[0].second) << "with an error";
+  std::vector<Request> sent;
+  for (int n = 0; !rig.logic.connected(); ++n) {
+    ASSERT_LT(n, kMaxSteps) << "never connected again";
+    rig.t = std::max(rig.t, rig.logic.wake_at());
+    sent.push_back(rig.due());
+    rig.answer(sent.back());
+  }
+  for (const Request& w : rig.cycle()) sent.push_back(w);
+  for (const Request& w : rig.cycle()) sent.push_back(w);
+  for (const Request& r : sent)
+    EXPECT_NE(r.address, reg::kLight) << "the light written after the link came back";
+}
+
 // Each reading is a newer snapshot (the session acts only on readings taken
 // after the last outage, by their sequence: mutation host.cpp:380, a
 // sequence that did not move, survived).
