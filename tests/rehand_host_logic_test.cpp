@@ -795,6 +795,28 @@ TEST(RehandHostLogic, AOneShotQueuedWhenTheLinkDropsFails_NeverWrittenAfterwards
     EXPECT_NE(r.address, reg::kLight) << "the light written after the link came back";
 }
 
+// The stop (0x006A = 1) counts as settled only after two still polls from
+// its own confirmation, whatever was still before, and another write
+// meanwhile does not start the count again (the four mutants of
+// host.cpp:300 survived the full run: the stop tests checked "released while
+// still", not "not before the second still poll").
+TEST(RehandHostLogic, AStopSettlesOnTheSecondStillPollAfterItsConfirmation) {
+  Rig rig;
+  rig.ready();  // three still polls already
+  rig.logic.set_target(reg::kAntiPinch, 1, ++rig.serial);
+  const auto stop = rig.flush();
+  ASSERT_EQ(stop.size(), 1U);
+  EXPECT_EQ(stop.front().address, reg::kAntiPinch);
+  rig.cycle();
+  EXPECT_FALSE(rig.logic.stop_settled()) << "one still poll since the stop";
+  rig.press(reg::kSeatLift, 1);  // another word written before the next poll
+  const auto between = rig.flush();
+  ASSERT_EQ(between.size(), 1U);
+  EXPECT_EQ(between.front().address, reg::kSeatLift);
+  rig.cycle();
+  EXPECT_TRUE(rig.logic.stop_settled()) << "the second, another write between";
+}
+
 // Each reading is a newer snapshot (the session acts only on readings taken
 // after the last outage, by their sequence: mutation host.cpp:380, a
 // sequence that did not move, survived).
