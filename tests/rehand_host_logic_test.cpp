@@ -817,6 +817,21 @@ TEST(RehandHostLogic, AStopSettlesOnTheSecondStillPollAfterItsConfirmation) {
   EXPECT_TRUE(rig.logic.stop_settled()) << "the second, another write between";
 }
 
+// At shutdown a queued one-shot is not written (only stops are) and its
+// ticket is answered at once, not left to the caller's time-out (mutant
+// host.cpp:462, the failing dropped, survived the full run).
+TEST(RehandHostLogic, AtShutdownAQueuedOneShotFailsAtOnce) {
+  Rig rig;
+  rig.ready();
+  ASSERT_TRUE(rig.logic.enqueue(reg::kLight, 1, 5));
+  rig.logic.begin_shutdown();
+  const auto results = rig.logic.take_results();
+  ASSERT_EQ(results.size(), 1U);
+  EXPECT_EQ(results[0].first, 5U);
+  EXPECT_EQ(results[0].second.code(), Errc::not_connected);
+  EXPECT_FALSE(rig.logic.next(rig.t).has_value()) << "nothing owed, nothing written";
+}
+
 // Each reading is a newer snapshot (the session acts only on readings taken
 // after the last outage, by their sequence: mutation host.cpp:380, a
 // sequence that did not move, survived).
