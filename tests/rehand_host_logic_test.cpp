@@ -832,6 +832,58 @@ TEST(RehandHostLogic, AtShutdownAQueuedOneShotFailsAtOnce) {
   EXPECT_FALSE(rig.logic.next(rig.t).has_value()) << "nothing owed, nothing written";
 }
 
+// A new press of the same value is a new word on the wire even when the host
+// never saw the old press end in between (a release and a new press between
+// two of its looks): D-8, only a new press moves the chair again, and it
+// must be able to (mutants host.cpp:446, `set_target`'s early return on the
+// value alone, survived the full run).
+TEST(RehandHostLogic, ANewPressOfTheSameValueIsWrittenAgain) {
+  Rig rig;
+  rig.ready();
+  rig.press(reg::kSeatLift, 1);
+  const auto first = rig.flush();
+  ASSERT_EQ(first.size(), 1U);
+  rig.press(reg::kSeatLift, 1);  // a new serial, the same value
+  const auto second = rig.flush();
+  ASSERT_EQ(second.size(), 1U) << "the new press's word";
+  EXPECT_EQ(second.front().address, reg::kSeatLift);
+  EXPECT_EQ(second.front().value, 1);
+}
+
+// The first reading after the start tells of no error that went away: there
+// was none before it (mutant host.cpp:372, an error "1" assumed before the
+// first reading, survived the full run: the display would have logged a
+// cleared error at every start).
+TEST(RehandHostLogic, TheFirstReadingClearsNoError) {
+  Rig rig;
+  rig.connect();
+  (void)rig.logic.take_events();
+  rig.cycle();
+  EXPECT_FALSE(rig.has(Event::Type::error_cleared)) << "nothing was raised";
+}
+
+// A boot-complete write that fails is a communication error the display is
+// told of (1010, with the reason), not a silent retry (mutant host.cpp:270,
+// the error dropped, survived the full run).
+TEST(RehandHostLogic, AFailedBootCompleteWriteRaisesTheCommunicationError) {
+  Rig rig;
+  rig.answer(rig.due());  // device ID
+  for (int n = 0;; ++n) {
+    ASSERT_LT(n, kMaxSteps) << "the handshake never ends";
+    const Request w = rig.due();
+    ASSERT_EQ(w.kind, Kind::write);
+    if (w.address == reg::kHostReady) {
+      rig.answer(w, Errc::timeout);
+      break;
+    }
+    rig.answer(w);
+  }
+  EXPECT_FALSE(rig.logic.connected());
+  EXPECT_TRUE(rig.has(Event::Type::error_raised, kMasterCommunicationError));
+  EXPECT_NE(std::string(rig.logic.last_failure().reason()).find("boot-complete"), std::string::npos)
+      << rig.logic.last_failure().reason();
+}
+
 // Each reading is a newer snapshot (the session acts only on readings taken
 // after the last outage, by their sequence: mutation host.cpp:380, a
 // sequence that did not move, survived).
