@@ -987,6 +987,27 @@ TEST(RehandHostCore, APhoneDrivesAtSpeedLevelOne_TheDisplaysLevelComesBackWhenTh
   EXPECT_EQ(rig.core.speed_level(), 3);
 }
 
+// A pulse is two writes, the phone's light 2 then 0 (D-4: the seed prints
+// 2 for on) and a signal 1 then 0, under one ticket whose outcome reaches
+// the caller (the HostCore mutants of host.cpp:526 and :545, the result
+// kept back and the pulse's values, survived the mutation run).
+TEST(RehandHostCore, APulseIsTwoWritesUnderOneTicket_ItsOutcomeIsPassedOn) {
+  CoreRig rig;
+  ASSERT_FALSE(rig.core.queue(CoreRig::kPhone, reg::kPhoneLight, 1, 41));
+  ASSERT_FALSE(rig.core.queue(CoreRig::kPhone, reg::kPhoneLeftSignal, 1, 42));
+  rig.run_for(30ms);
+  std::vector<std::pair<uint16_t, uint16_t>> writes;
+  for (const Request& w : rig.writes) writes.emplace_back(w.address, w.value);
+  const std::vector<std::pair<uint16_t, uint16_t>> expected = {
+      {reg::kPhoneLight, 2}, {reg::kPhoneLight, 0}, {reg::kPhoneLeftSignal, 1}, {reg::kPhoneLeftSignal, 0}};
+  EXPECT_EQ(writes, expected);
+  const auto results = rig.core.take_results();
+  ASSERT_EQ(results.size(), 2U) << "one outcome per pulse";
+  EXPECT_EQ(results[0].first, 41U);
+  EXPECT_FALSE(results[0].second);
+  EXPECT_EQ(results[1].first, 42U);
+}
+
 TEST(RehandHostCore, LevelOneNotConfirmed_NoDriveWordAndThePressEndsSayingWhy) {
   CoreRig rig;
   rig.answer_write = [](const Request& r) {
