@@ -482,7 +482,6 @@ bool is_remote_drive(uint16_t command) {
 void HostCore::sync(TimePoint now) {
   now_ = now;
   session_.tick(now);
-  absorb_results(now);
   // D-14: a remote driver drives at speed level 1, and the display's level
   // comes back when the seat is free. The write of level 1 goes first; the
   // drive words wait for its confirmation (a one-shot is written before the
@@ -503,6 +502,9 @@ void HostCore::sync(TimePoint now) {
   }
 }
 
+// The logic's results appear only in its on_result() and begin_shutdown():
+// absorbed right after the first (on_result) and before any are handed on
+// (take_results), so sync() needs no look of its own.
 void HostCore::absorb_results(TimePoint now) {
   for (auto& [ticket, error] : logic_.take_results()) {
     if (ticket == kSlowTicket) {
