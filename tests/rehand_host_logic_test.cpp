@@ -899,6 +899,89 @@ TEST(RehandHostLogic, EachReadingHasANewerSequence) {
   EXPECT_GT(rig.logic.snapshot().sequence, second);
 }
 
+// A stop's 1 whose answer was lost may be on the controller: once the stop
+// is no longer wanted, its 0 is written (host.cpp:311, a failed 1 that does
+// not mark the command as possibly held, survived: 0x006A would stay 1 on
+// the controller, the chair stopped for good while the host thinks it free).
+TEST(RehandHostLogic, AStopWhoseAnswerWasLostIsReleasedWithAZero) {
+  Rig rig;
+  rig.ready();
+  rig.press(reg::kAntiPinch, 1);
+  const auto w = rig.due();  // a stop goes at once
+  ASSERT_EQ(w.address, reg::kAntiPinch);
+  ASSERT_EQ(w.value, 1);
+  rig.answer(w, Errc::timeout);
+  rig.release(reg::kAntiPinch);
+  bool zero = false;
+  for (const Request& x : rig.flush()) zero = zero || (x.address == reg::kAntiPinch && x.value == 0);
+  for (int i = 0; i < 4 && !zero; ++i)
+    for (const Request& x : rig.cycle()) zero = zero || (x.address == reg::kAntiPinch && x.value == 0);
+  EXPECT_TRUE(zero);
+}
+
+// Only a press's word that fails is a press's failure (write_failed: the
+// session ends the press); a 0 that fails is tried again, silently
+// (host.cpp:313, `||` for `&&`, survived).
+TEST(RehandHostLogic, AFailedZeroIsNoPressFailure_ItIsTriedAgain) {
+  Rig rig;
+  rig.ready();
+  rig.press(reg::kStandSit, 1);
+  rig.answer(rig.due());
+  rig.release(reg::kStandSit);
+  const auto zero = rig.due();
+  ASSERT_EQ(zero.address, reg::kStandSit);
+  ASSERT_EQ(zero.value, 0);
+  rig.answer(zero, Errc::timeout);
+  EXPECT_FALSE(rig.has(Event::Type::write_failed));
+  bool again = false;
+  for (const Request& x : rig.flush()) again = again || (x.address == reg::kStandSit && x.value == 0);
+  EXPECT_TRUE(again);
+  // A press's word that fails is told.
+  rig.press(reg::kSeatLift, 1);
+  const auto word = rig.due();
+  ASSERT_EQ(word.address, reg::kSeatLift);
+  rig.answer(word, Errc::timeout);
+  EXPECT_TRUE(rig.has(Event::Type::write_failed, reg::kSeatLift));
+}
+
+// A poll answered with the wrong number of registers is a failed poll: no
+// reading, and three make a 1010 as three unanswered ones do (host.cpp:349
+// and :354, such an answer taken as a reading or not counted, survived).
+TEST(RehandHostLogic, APollOfTheWrongSizeIsAFailure_ThreeMakeA1010) {
+  Rig rig;
+  rig.ready();
+  const uint64_t sequence = rig.logic.snapshot().sequence;
+  for (int i = 0; i < 3; ++i) {
+    rig.t = std::max(rig.t, rig.logic.wake_at());
+    const auto p = rig.due();
+    ASSERT_EQ(p.kind, Kind::poll);
+    rig.logic.on_result(rig.t, {}, std::span(rig.table1.data(), 10));
+    EXPECT_EQ(rig.logic.connected(), i < 2) << "poll " << i + 1;
+  }
+  EXPECT_EQ(rig.logic.snapshot().sequence, sequence) << "no reading taken from them";
+  EXPECT_EQ(rig.logic.active_error(), kMasterCommunicationError);
+  EXPECT_EQ(rig.logic.last_failure().code(), Errc::unexpected_response);
+}
+
+// A press the chair does not start ends at the poll that falls on its start
+// timeout, not one poll later (host.cpp:408, the deadline's `>=` as `>`,
+// survived).
+TEST(RehandHostLogic, APressTheChairDoesNotStartEndsAtThePollOnItsDeadline) {
+  Rig rig;
+  rig.ready();
+  rig.t = rig.logic.wake_at();  // at the next poll's time
+  rig.press(reg::kStandSit, 1);
+  const auto writes = rig.cycle();  // the word goes before this poll, at rig.t
+  ASSERT_FALSE(writes.empty());
+  ASSERT_EQ(writes.front().address, reg::kStandSit);
+  const auto written = rig.t;
+  for (int n = 0; !rig.has(Event::Type::chair_stopped, reg::kStandSit); ++n) {
+    ASSERT_LT(n, 100) << "the press never ends";
+    rig.cycle();
+  }
+  EXPECT_EQ(rig.t - written, HostOptions{}.start_timeout);
+}
+
 // ---------------------------------------------------------------- D-14: a phone drives at speed level 1
 // HostCore, the logic and the session joined, on virtual time: what goes on
 // the wire when a phone takes and gives up the driver's seat.
