@@ -1377,5 +1377,19 @@ TEST(RehandHostCore, AtShutdownEveryPressEnds_ItsZeroIsWritten_ThenNothingIsDue)
   EXPECT_GE(rig.written_at(reg::kStandSit, 0), 0);
 }
 
+// A one-shot still queued when the host stops fails at once, and its outcome
+// is handed on (take_results() looks at the logic itself: after
+// begin_shutdown() no answer comes to pass it on; the mutant without that
+// look survived, leaving the caller to its time-out).
+TEST(RehandHostCore, AtShutdownAQueuedOneShotFails_ItsOutcomeIsHandedOn) {
+  CoreRig rig;
+  ASSERT_FALSE(rig.core.queue(CoreRig::kDisplay, reg::kSpeedLevel, 3, 77));
+  rig.core.begin_shutdown(rig.t);
+  const auto results = rig.core.take_results();
+  ASSERT_EQ(results.size(), 1U);
+  EXPECT_EQ(results[0].first, 77U);
+  EXPECT_TRUE(results[0].second) << "failed, not done";
+}
+
 }  // namespace
 }  // namespace rtukit::rehand6600
