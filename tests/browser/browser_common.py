@@ -156,6 +156,35 @@ return problems;
 """
 
 
+SMALL_TEXT_JS = """
+const least = arguments[0], found = [];
+const walker = document.createTreeWalker(document.body, NodeFilter.SHOW_TEXT);
+for (let n = walker.nextNode(); n; n = walker.nextNode()) {
+  const e = n.parentElement;
+  if (!n.textContent.trim() || !e || ['SCRIPT', 'STYLE', 'TEMPLATE', 'NOSCRIPT'].includes(e.tagName)) continue;
+  let px = parseFloat(getComputedStyle(e).fontSize);
+  if (e instanceof SVGElement) {  // in the drawing's units: as large as it is drawn
+    const m = e.getScreenCTM();
+    if (!m) continue;  // not drawn now: its size on screen is not known
+    px *= Math.hypot(m.a, m.b);
+  }
+  if (px < least - 0.01) {
+    const cls = e.getAttribute('class');
+    found.push(`${e.id ? '#' + e.id : e.tagName.toLowerCase() + (cls ? '.' + cls.split(' ')[0] : '')} ${px.toFixed(1)} px`);
+  }
+}
+return [...new Set(found)];
+"""
+
+
+def small_text(d, least=16):
+    """Every element whose own text is set smaller than `least` px, shown or
+    not (a panel that opens later is checked too: its size is computed the
+    same; a drawing's text as large as it is drawn, when it is), one string
+    each ("#fingerprint 10.0 px")."""
+    return d.execute_script(SMALL_TEXT_JS, least)
+
+
 def layout(d, name, out, scrolls=False):
     """`scrolls`: the page may scroll down (a phone panel), so only its width
     must fit the screen; a kiosk display must fit whole."""

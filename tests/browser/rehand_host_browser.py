@@ -25,7 +25,7 @@ from selenium.webdriver.common.action_chains import ActionChains
 from selenium.webdriver.common.by import By
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from browser_common import Console, accessibility_violations, browser, check, console_tail, free_port, layout, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
+from browser_common import Console, accessibility_violations, browser, check, console_tail, free_port, layout, small_text, start, stop_processes, summary, temp_dir, wait_for  # noqa: E402
 from pyhelpers import STOP_BOUND_S, host_polls_later  # noqa: E402
 
 RTUKIT, OUT = sys.argv[1], sys.argv[2]
@@ -312,6 +312,9 @@ setTimeout(() => done('still open'), 10000);
                 ".map((b) => b.textContent.trim() + ' ' + Math.round(b.getBoundingClientRect().width) + 'x'"
                 " + Math.round(b.getBoundingClientRect().height));")
             check(f"touch targets at least 48 px at {w}x{h}", not small, "; ".join(small[:6]))
+            # Read at arm's length from the chair (issue 37): no text under 16 px.
+            tiny = small_text(d, 16)
+            check(f"no text under 16 px at {w}x{h}", not tiny, "; ".join(tiny))
 
         # ---- the phone, over TLS, its certificate pinned as a user checks its fingerprint
         cert = os.path.join(work, "rehand6600-phone.crt")

@@ -13,11 +13,12 @@ export const CAUTION_MM = 800;
 // viewBox 0 0 260 320, front up. The zones frame the chair's outline
 // (x 84..176, y 88..232) and leave a gap at the corners so four colours
 // never run together.
+// x, y: where the number is written, its unit under it.
 const ZONES = [
-  { side: 'front', points: '22,8 238,8 176,84 84,84', x: 130, y: 46 },
-  { side: 'rear', points: '84,236 176,236 238,312 22,312', x: 130, y: 274 },
-  { side: 'left', points: '8,22 80,92 80,228 8,298', x: 44, y: 160 },
-  { side: 'right', points: '252,22 180,92 180,228 252,298', x: 216, y: 160 },
+  { side: 'front', points: '22,8 238,8 176,84 84,84', x: 130, y: 38 },
+  { side: 'rear', points: '84,236 176,236 238,312 22,312', x: 130, y: 266 },
+  { side: 'left', points: '8,22 80,92 80,228 8,298', x: 44, y: 148 },
+  { side: 'right', points: '252,22 180,92 180,228 252,298', x: 216, y: 148 },
 ];
 
 function svgElement(name, attributes = {}, parent = null) {
@@ -38,8 +39,8 @@ export function buildChairView(svg) {
     svgElement('polygon', { points: zone.points }, group);
     const value = svgElement('text', { x: zone.x, y: zone.y, class: 'zone-value' }, group);
     value.textContent = '--';
-    const unit = svgElement('text', { x: zone.x, y: zone.y + 20, class: 'zone-unit' }, group);
-    unit.textContent = 'mm';
+    const unit = svgElement('text', { x: zone.x, y: zone.y + 27, class: 'zone-unit' }, group);
+    unit.textContent = 'cm';
   }
   // The chair: seat, backrest (rear), drive wheels, footplate (front).
   const chair = svgElement('g', { class: 'chair' }, svg);
@@ -58,8 +59,8 @@ export function distanceLevel(mm) {
   return 'clear';
 }
 
-// Shows distances {front, rear, left, right} (mm). `live` false greys every
-// zone: a stale distance must not look like a safe one.
+// Shows distances {front, rear, left, right} (mm, written in cm). `live`
+// false greys every zone: a stale distance must not look like a safe one.
 export function showDistances(svg, distances, live) {
   svg.classList.toggle('stale', !live);
   for (const group of svg.querySelectorAll('.zone')) {
@@ -68,8 +69,8 @@ export function showDistances(svg, distances, live) {
     group.setAttribute('class', `zone ${level}`);
     group.dataset.mm = level === 'unknown' ? '' : String(mm);
     const [value] = group.getElementsByClassName('zone-value');
-    value.textContent = level === 'unknown' ? '--' : String(mm);
-    // Five digits do not fit a side zone at the normal size.
-    value.classList.toggle('long', level !== 'unknown' && String(mm).length > 4);
+    // In cm: at most four digits (65535 mm), which fit a side zone at a size
+    // read at arm's length (16 px on the board's 1024x600 panel, issue 37).
+    value.textContent = level === 'unknown' ? '--' : String(Math.round(mm / 10));
   }
 }
