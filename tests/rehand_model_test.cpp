@@ -285,13 +285,77 @@ TEST(RehandDrive, JoystickDeadBandEndsAt10) {
   const struct {
     int x, y;
     uint16_t motion;  // 1 static, 2 forward, 3 backward, 4 spin left, 5 spin right
-  } cases[] = {{0, 9, 1},  {0, 10, 2},  {0, -9, 1}, {0, -10, 3},
-               {-9, 0, 1}, {-10, 0, 4}, {9, 0, 1},  {10, 0, 5}};
+  } cases[] = {{0, 9, 1}, {0, 10, 2}, {0, -9, 1}, {0, -10, 3}, {-9, 0, 1}, {-10, 0, 4},
+               {9, 0, 1}, {10, 0, 5}, {10, 9, 5}, {-10, -9, 4}};  // 9 beside 10: still no demand
   for (const auto& c : cases) {
     Rig rig;
     rig.chair.set_joystick(c.x, c.y);
     rig.run_for(1000);
     EXPECT_EQ(rig.at(reg::kMotion), c.motion) << "joystick " << c.x << " " << c.y;
+  }
+}
+
+// Turning is a third of the forward speed, reverse a half (level 5,
+// normal: 6, 3 and 2 km/h; chair.cpp:235's `>` as `>=`, a turn at the
+// forward speed, survived the mutation run).
+TEST(RehandDrive, ReverseAtHalfAndTurningAtAThirdOfTheForwardSpeed) {
+  const struct {
+    int x, y;
+    uint16_t motion, kmh;
+  } cases[] = {{0, 100, 2, 6}, {0, -100, 3, 3}, {-100, 0, 4, 2}, {100, 0, 5, 2}};
+  for (const auto& c : cases) {
+    Rig rig;
+    ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
+    rig.chair.set_joystick(c.x, c.y);
+    rig.run_for(5000);
+    EXPECT_EQ(rig.at(reg::kMotion), c.motion) << c.x << " " << c.y;
+    EXPECT_EQ(rig.at(reg::kSpeed), c.kmh) << c.x << " " << c.y;
+  }
+}
+
+// Each of the phone's four drive commands drives its way; two that
+// contradict each other stand still (chair.cpp:222 and :224, the
+// contradiction rule as `&&` and reverse driving nowhere, survived).
+TEST(RehandDrive, EachPhoneCommandDrivesItsWay_ContradictingOnesStandStill) {
+  const struct {
+    std::vector<uint16_t> commands;
+    uint16_t motion;
+  } cases[] = {{{reg::kPhoneForward}, 2},
+               {{reg::kPhoneReverse}, 3},
+               {{reg::kPhoneLeft}, 4},
+               {{reg::kPhoneRight}, 5},
+               {{reg::kPhoneForward, reg::kPhoneReverse}, 1},
+               {{reg::kPhoneLeft, reg::kPhoneRight}, 1}};
+  for (const auto& c : cases) {
+    Rig rig;
+    for (const uint16_t command : c.commands) ASSERT_EQ(rig.write(command, {1}), Errc::ok);
+    rig.run_for(2000);
+    EXPECT_EQ(rig.at(reg::kMotion), c.motion)
+        << c.commands.size() << " commands, the first " << c.commands[0];
+  }
+}
+
+// A write of any of the four drive commands is refused while charging (the
+// range of the phone's drive commands ended one short in a mutant of
+// chair.cpp:104, which survived).
+TEST(RehandDrive, EachPhoneDriveCommandIsRefusedWhileCharging) {
+  for (const uint16_t command : {reg::kPhoneForward, reg::kPhoneReverse, reg::kPhoneLeft, reg::kPhoneRight}) {
+    Rig rig;
+    rig.chair.set_charging(true);
+    EXPECT_EQ(rig.write(command, {1}), Errc::server_device_failure) << command;
+    EXPECT_EQ(rig.chair.command(command), 0) << command;
+  }
+}
+
+// An obstacle stops motion towards it when it is closer than the stop
+// distance: at exactly that distance the chair still drives (chair.cpp:230).
+TEST(RehandDrive, AnObstacleAtExactlyTheStopDistanceDoesNotStopTheChair) {
+  for (const uint16_t mm : {uint16_t{300}, uint16_t{299}}) {
+    Rig rig;
+    rig.chair.set_distance(0, mm);
+    rig.chair.set_joystick(0, 100);
+    rig.run_for(2000);
+    EXPECT_EQ(rig.at(reg::kMotion), mm == 300 ? 2 : 1) << mm << " mm";
   }
 }
 
