@@ -348,14 +348,23 @@ TEST(RehandDrive, EachPhoneDriveCommandIsRefusedWhileCharging) {
 }
 
 // An obstacle stops motion towards it when it is closer than the stop
-// distance: at exactly that distance the chair still drives (chair.cpp:230).
+// distance: at exactly that distance the chair still drives, and one behind
+// does not stop a turn on the spot (chair.cpp:230).
 TEST(RehandDrive, AnObstacleAtExactlyTheStopDistanceDoesNotStopTheChair) {
-  for (const uint16_t mm : {uint16_t{300}, uint16_t{299}}) {
+  const struct {
+    unsigned side;  // 0 front, 1 rear
+    uint16_t mm;
+    int x, y;
+    uint16_t motion;
+  } cases[] = {{0, 300, 0, 100, 2},  {0, 299, 0, 100, 1},  {1, 300, 0, -100, 3},
+               {1, 299, 0, -100, 1}, {1, 100, -100, 0, 4}, {0, 100, 100, 0, 5}};
+  for (const auto& c : cases) {
     Rig rig;
-    rig.chair.set_distance(0, mm);
-    rig.chair.set_joystick(0, 100);
+    rig.chair.set_distance(c.side, c.mm);
+    rig.chair.set_joystick(c.x, c.y);
     rig.run_for(2000);
-    EXPECT_EQ(rig.at(reg::kMotion), mm == 300 ? 2 : 1) << mm << " mm";
+    EXPECT_EQ(rig.at(reg::kMotion), c.motion)
+        << "side " << c.side << ", " << c.mm << " mm, " << c.x << " " << c.y;
   }
 }
 
