@@ -403,6 +403,117 @@ TEST(InverjetFault, MainsBrownoutSetsVoltageBit) {
   EXPECT_EQ(rig.input(reg::kFaults), 0);
 }
 
+// ------------------------------------------------------------ the second mutation sample's survivors
+// Each test below failed against the mutant of devices/inverjet/src/machine.cpp
+// named beside it (scripts/mutate.py --max 60 --seed 2; docs/reliability.md).
+
+// Reading the machine does not age it: a read at the same instant moves no
+// time (machine.cpp:343, the time loop's `<` as `<=`, one more millisecond
+// at every call).
+TEST(InverjetTime, ReadsAtOneInstantMoveNoTime) {
+  Rig rig;
+  rig.write(reg::kWorkMode, {0, 1});  // free, initial: 3 s before it starts
+  rig.at(2998);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(rig.holding(reg::kState), 1) << "read " << i + 1;
+  rig.at(3000);
+  EXPECT_EQ(rig.holding(reg::kState), 2);
+}
+
+// A timer set to 1 s while it counts ends a second later, not at once
+// (machine.cpp:220, "ended at time 0" as "at time 1").
+TEST(InverjetTime, ATimerSetToOneSecondEndsASecondLater) {
+  Rig rig;
+  rig.write(reg::kWorkMode, {0, 8, 50, 720});  // timer running, 12:00
+  rig.at(5000);
+  ASSERT_EQ(rig.write(reg::kRunTime, {1}), Errc::ok);
+  EXPECT_NE(rig.holding(reg::kState), 10);
+  rig.at(6000);
+  EXPECT_EQ(rig.holding(reg::kState), 10);
+  EXPECT_EQ(rig.holding(reg::kRunTime), 0);
+}
+
+// A resume that carries a speed takes it (machine.cpp:250, resume without
+// its adjust(), survived).
+TEST(InverjetStateRules, AResumeWithASpeedTakesIt) {
+  Rig rig;
+  rig.write(reg::kWorkMode, {0, 8, 50, 60});
+  rig.at(10000);
+  rig.write(reg::kState, {9});  // pause
+  ASSERT_EQ(rig.holding(reg::kState), 9);
+  ASSERT_EQ(rig.write(reg::kWorkMode, {0, 8, 70}), Errc::ok);  // resume at 70 %
+  EXPECT_EQ(rig.holding(reg::kState), 7);
+  EXPECT_EQ(rig.holding(reg::kSpeed), 70);
+}
+
+// A plan starts at its first segment's speed at once, not a second later
+// (machine.cpp:284, the start without update_plan_speed(), survived).
+TEST(InverjetStateRules, APlanStartsAtItsFirstSegmentsSpeedAtOnce) {
+  Rig rig({{1, {{40, 60}, {70, 120}}}});
+  ASSERT_EQ(rig.write(reg::kWorkMode, {1, 13}), Errc::ok);
+  EXPECT_EQ(rig.holding(reg::kSpeed), 40);
+}
+
+// The MOSFET fault trips at 90.0 degC and clears below 80.0, each edge
+// included as written (machine.cpp:411 and :412, the ties, survived).
+TEST(InverjetFault, MosfetTripsAtNinetyAndClearsOnlyBelowEighty) {
+  Rig rig;
+  rig.machine.set_mosfet_temperature(89.9);
+  EXPECT_EQ(rig.input(reg::kFaults), 0);
+  rig.machine.set_mosfet_temperature(90.0);
+  EXPECT_EQ(rig.input(reg::kFaults), kFaultMosfetTemperature);
+  rig.machine.set_mosfet_temperature(80.0);
+  EXPECT_EQ(rig.input(reg::kFaults), kFaultMosfetTemperature) << "80.0 is not below 80";
+  rig.machine.set_mosfet_temperature(79.9);
+  EXPECT_EQ(rig.input(reg::kFaults), 0);
+}
+
+// An injected fault shows at once, before any time passes (machine.cpp:439,
+// the injection without update_faults(), survived).
+TEST(InverjetFault, AnInjectedFaultShowsAtOnce) {
+  Rig rig;
+  rig.write(reg::kWorkMode, {0, 3, 60});
+  rig.at(5000);
+  rig.machine.set_injected_faults(kFaultMosfetTemperature);
+  std::array<uint16_t, 1> state{};
+  ASSERT_EQ(rig.machine.read_holding(reg::kState, state), Errc::ok);  // no advance_to: the same instant
+  EXPECT_EQ(state[0], 17);
+}
+
+// Temperatures lag behind the current (tau 60 s for the MOSFET, 300 s for
+// the water-cooled motor): 15 s after a start at full speed both are still
+// far below their equilibrium of 79 and 43 degC (machine.cpp:385 and :387,
+// a lag factor that jumps to equilibrium in one step, survived).
+TEST(InverjetMotor, TemperaturesLagBehindTheCurrent) {
+  Rig rig;
+  rig.write(reg::kWorkMode, {0, 3, 100});
+  rig.at(15000);
+  EXPECT_LT(rig.input(reg::kMosfetTemperature), 450);  // 0.1 degC: at most 25 + 54 x (1 - e^-0.25) = 37
+  EXPECT_LT(rig.input(reg::kMotorTemperature), 300);   // at most 25 + 18 x (1 - e^-0.05) = 26
+  EXPECT_GT(rig.input(reg::kMosfetTemperature), 250);  // but rising
+}
+
+// The version registers and the device identification objects (FC 2B/0E)
+// read what the machine was built with, numbers of several digits included
+// (machine.cpp:73, :460, :461, :463 and :474 survived: every test used V1.x).
+TEST(InverjetRegisters, VersionsReadAsBuilt_ManyDigitsIncluded) {
+  Versions v;
+  v.display_software = (12U << 16) | 345U;
+  v.display_hardware = (7U << 16) | 10U;
+  v.driver_software = (3U << 16) | 1009U;
+  v.driver_hardware = (65535U << 16) | 0U;
+  Machine m(0, MotorModel{}, v);
+  RegisterBank& bank = m;  // as the slave engine asks (FC 2B/0E)
+  EXPECT_EQ(bank.device_object(2), "V12.345");
+  EXPECT_EQ(bank.device_object(0x80), "V12.345");
+  EXPECT_EQ(bank.device_object(0x81), "V7.10");
+  EXPECT_EQ(bank.device_object(0x82), "V3.1009");
+  EXPECT_EQ(bank.device_object(0x83), "V65535.0");
+  std::array<uint16_t, 2> words{};
+  ASSERT_EQ(m.read_input(reg::at(reg::driver_software), words), Errc::ok);
+  EXPECT_EQ(words[0], 3);
+  EXPECT_EQ(words[1], 1009);
+}
+
 // ------------------------------------------------------------ registers and exceptions
 
 TEST(InverjetRegisters, ReservedAddressesAnswer02) {
