@@ -218,6 +218,9 @@ TEST(RehandPostureRules, PhysicalButtonOutranksTheUi) {
   rig.run_for(3000);
   EXPECT_EQ(rig.at(reg::kActuatorPosition), 300);
   rig.chair.press_button(reg::kSeatLift, 2);  // down, held on the chair
+  // The UI's hold ends as the button is pressed, not as it is let go
+  // (chair.cpp:164, the condition negated, survived the mutation run).
+  EXPECT_EQ(rig.chair.command(reg::kSeatLift), 0);
   rig.run_for(1000);
   EXPECT_EQ(rig.at(reg::kActuatorPosition), 200);
   EXPECT_EQ(rig.at(reg::kSeatLiftStatus), 2);
@@ -366,6 +369,36 @@ TEST(RehandDrive, AnObstacleAtExactlyTheStopDistanceDoesNotStopTheChair) {
     EXPECT_EQ(rig.at(reg::kMotion), c.motion)
         << "side " << c.side << ", " << c.mm << " mm, " << c.x << " " << c.y;
   }
+}
+
+// The joystick's registers read its deflection clamped to -100..100
+// (chair.cpp:150 and :151, the clamp's bounds off by one, survived).
+TEST(RehandDrive, JoystickRegistersReadTheDeflectionClampedTo100) {
+  Rig rig;
+  rig.chair.set_joystick(150, -150);
+  EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickX)), 100);
+  EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickY)), -100);
+  rig.chair.set_joystick(-100, 100);
+  EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickX)), -100);
+  EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickY)), 100);
+}
+
+// The joystick let go at speed: the chair coasts to a stop showing the
+// motion it still has, and the phone may not drive until it is still (the
+// local user had the chair; chair.cpp:252 and :261 survived).
+TEST(RehandDrive, AfterTheJoystickIsLetGoTheChairCoastsAndThePhoneWaits) {
+  Rig rig;
+  ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
+  rig.chair.set_joystick(0, 100);
+  rig.run_for(5000);
+  ASSERT_EQ(rig.at(reg::kSpeed), 6);
+  rig.chair.set_joystick(0, 0);
+  rig.run_for(500);  // 6 km/h at 4 km/h/s: 4 km/h left
+  EXPECT_EQ(rig.at(reg::kMotion), 2) << "still moving forward";
+  EXPECT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::server_device_failure);
+  rig.run_for(2000);
+  EXPECT_EQ(rig.at(reg::kMotion), 1);
+  EXPECT_EQ(rig.write(reg::kPhoneForward, {1}), Errc::ok) << "still now: the phone may drive";
 }
 
 TEST(RehandDrive, NoDrivingWhileChargingOrInPush) {
