@@ -378,7 +378,7 @@ TEST(RehandDrive, JoystickRegistersReadTheDeflectionClampedTo100) {
   rig.chair.set_joystick(150, -150);
   EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickX)), 100);
   EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickY)), -100);
-  rig.chair.set_joystick(-100, 100);
+  rig.chair.set_joystick(-150, 150);
   EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickX)), -100);
   EXPECT_EQ(static_cast<int16_t>(rig.at(reg::kJoystickY)), 100);
 }
