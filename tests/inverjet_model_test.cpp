@@ -395,6 +395,21 @@ TEST(InverjetFault, HotMosfetTripsThenCoolsAndClears) {
   EXPECT_EQ(rig.holding(reg::kState), 0);
 }
 
+// The bus's limits are inclusive: 260.0 and 360.0 V are inside, anything
+// beyond sets the voltage bit (machine.cpp:414, `>` as `>=`, survived; at
+// rest the bus is the mains, no sag).
+TEST(InverjetFault, TheBusLimitsAreInside_BeyondThemIsAFault) {
+  Rig rig;
+  const struct {
+    double volts;
+    uint16_t faults;
+  } cases[] = {{260.0, 0}, {259.9, kFaultVoltage}, {360.0, 0}, {360.1, kFaultVoltage}};
+  for (const auto& c : cases) {
+    rig.machine.set_mains_voltage(c.volts);
+    EXPECT_EQ(rig.input(reg::kFaults), c.faults) << c.volts << " V";
+  }
+}
+
 TEST(InverjetFault, MainsBrownoutSetsVoltageBit) {
   Rig rig;
   rig.machine.set_mains_voltage(230.0);
