@@ -181,7 +181,9 @@ TEST(InverjetStateFile, SaveNeverWritesThroughAPlantedSymlink) {
 }
 
 // A child saves A, B, A, B... as fast as it can; we kill it (SIGKILL) at a
-// random moment, 40 times. The file must always load, and be exactly A or B.
+// random moment after its first save (the child says so on a pipe: on a busy
+// machine a kill on a timer alone could land before the child ever saved,
+// and then no kill landed mid-save in 40 rounds), 40 times. The file must always load, and be exactly A or B.
 // A kill between creating the temporary file and the rename leaves that file
 // behind; the next save removes it (its process is gone), so kills never
 // pile files up.
@@ -200,12 +202,21 @@ TEST(InverjetStateFile, KilledDuringSaveLoop_NeverAMix) {
   std::mt19937 rng(12345);
   unsigned killed_mid_save = 0;
   for (int round = 0; round < 40; ++round) {
+    int saved[2];
+    ASSERT_EQ(::pipe(saved), 0);
     const pid_t child = ::fork();
     ASSERT_GE(child, 0);
     if (child == 0) {
+      ::close(saved[0]);
+      (void)save_settings(path, b);
+      (void)!::write(saved[1], "s", 1);
       for (unsigned i = 0;; ++i) (void)save_settings(path, i % 2 ? a : b);
     }
-    ::usleep(std::uniform_int_distribution<unsigned>(500, 20000)(rng));
+    ::close(saved[1]);
+    char c = 0;
+    ASSERT_EQ(::read(saved[0], &c, 1), 1) << "the child's first save";
+    ::close(saved[0]);
+    ::usleep(std::uniform_int_distribution<unsigned>(0, 3000)(rng));
     ::kill(child, SIGKILL);
     int status = 0;
     ::waitpid(child, &status, 0);
