@@ -38,7 +38,7 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
 from pyhelpers import display_request, STOP_BOUND_S, WebSocket, free_port, start, stop_processes, temp_dir  # noqa: E402
-from browser_common import accessibility_violations, browser, check, console_tail, summary  # noqa: E402
+from browser_common import accessibility_violations, browser, check, console_tail, layout, small_text, summary  # noqa: E402
 from rehand_stops import STOP_COMMAND, Chair, now_ms  # noqa: E402
 from bluez_mock import MockBluez  # noqa: E402
 from cdp import DeviceChooser, page_session  # noqa: E402
@@ -201,6 +201,22 @@ def main():
         driving = wait_for(lambda: register(con, "phone_forward") == 1)
         check("holding Forward drives (the controller's phone_forward)", driving, why_not_driving(app, chair, fwd))
         app.save_screenshot(os.path.join(OUT, "app-driving-390x844.png"))
+        # The display while the phone drives, on the board's panel: the phone's
+        # row says it drives, at level 1 (D-14), every text at least 16 px.
+        hmi = browser(1024, 600)
+        drivers.append(hmi)
+        hmi.get(f"http://127.0.0.1:{port}/")
+        row = wait_for(lambda: hmi.execute_script(
+            "const r = document.querySelector('.phone.driving'); return r ? r.textContent : null;"))
+        check("the display shows the Bluetooth phone driving", bool(row and "Pixel 8" in row and "driving" in row),
+              f"{row!r}")
+        check("...at speed level 1 (D-14)", state(port).get("speed_level") == 1, f"{state(port).get('speed_level')}")
+        layout(hmi, "hmi-phone-drives-1024x600", OUT)  # its screenshot too
+        tiny = small_text(hmi, 16)
+        check("...no text under 16 px on it", not tiny, "; ".join(tiny))
+        check("...still driving meanwhile", register(con, "phone_forward") == 1)
+        hmi.quit()
+        drivers.remove(hmi)
         t0 = now_ms()
         ActionChains(app).release(fwd).perform()
         took = stop_took(chair, t0, FORWARD_0)
