@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cerrno>
 #include <cstring>
+#include <memory>
 
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
@@ -44,18 +45,26 @@ struct VirtualBus::Impl {
         std::chrono::duration_cast<std::chrono::microseconds>(clock.now() - t0).count());
   }
 
+  // Every completion handler first asks whether the bus still exists: one
+  // that Asio had already queued (its operation done, with success) when a
+  // handler on the same context destroyed the bus still runs, and a cancel
+  // in the destructor cannot reach it any more.
+  std::shared_ptr<char> alive = std::make_shared<char>();
+
   void read(size_t i) {
     Port& p = *ports[i];
-    p.stream.async_read_some(asio::buffer(p.rx), [this, i](const boost::system::error_code& ec, size_t n) {
-      if (ec == asio::error::operation_aborted) return;
+    p.stream.async_read_some(asio::buffer(p.rx), [this, i, life = std::weak_ptr<char>(alive)](
+                                                     const boost::system::error_code& ec, size_t n) {
+      if (life.expired() || ec == asio::error::operation_aborted) return;
       Port& port = *ports[i];
       if (ec) {
         // EIO: nobody has the port open. Look again a little later.
         hung_up(i);
         port.retry.expires_after(std::chrono::milliseconds(20));
-        port.retry.async_wait([this, i](const boost::system::error_code& e) {
-          if (!e) read(i);
-        });
+        port.retry.async_wait(
+            [this, i, life = std::weak_ptr<char>(alive)](const boost::system::error_code& e) {
+              if (!life.expired() && !e) read(i);
+            });
         return;
       }
       line.write(static_cast<unsigned>(i), std::span<const uint8_t>(port.rx.data(), n), now());
@@ -71,8 +80,8 @@ struct VirtualBus::Impl {
     const auto at = t0 + std::chrono::microseconds(*due);
     const auto from = clock.now();
     timer.expires_after(at > from ? at - from : io::Clock::duration::zero());
-    timer.async_wait([this](const boost::system::error_code& ec) {
-      if (!ec) pump();
+    timer.async_wait([this, life = std::weak_ptr<char>(alive)](const boost::system::error_code& ec) {
+      if (!life.expired() && !ec) pump();
     });
   }
 
@@ -106,15 +115,16 @@ struct VirtualBus::Impl {
     p.unread = true;
     p.in_flight.swap(p.pending);
     p.pending.clear();
-    asio::async_write(p.stream, asio::buffer(p.in_flight),
-                      [this, i](const boost::system::error_code& ec, size_t) {
-                        if (ec == asio::error::operation_aborted) return;
-                        Port& port = *ports[i];
-                        port.writing = false;
-                        port.in_flight.clear();
-                        if (!port.pty.slave_open()) hung_up(i);  // closed while we wrote
-                        flush(i);
-                      });
+    asio::async_write(
+        p.stream, asio::buffer(p.in_flight),
+        [this, i, life = std::weak_ptr<char>(alive)](const boost::system::error_code& ec, size_t) {
+          if (life.expired() || ec == asio::error::operation_aborted) return;
+          Port& port = *ports[i];
+          port.writing = false;
+          port.in_flight.clear();
+          if (!port.pty.slave_open()) hung_up(i);  // closed while we wrote
+          flush(i);
+        });
   }
 
   // The last client closed the port: what it left unread goes (the next
@@ -176,7 +186,9 @@ std::vector<std::string> VirtualBus::ports() const {
 
 void VirtualBus::set_faults(const BusConfig& faults) {
   Impl* impl = impl_.get();
-  asio::post(impl->ctx, [impl, faults] { impl->line.set_faults(faults); });
+  asio::post(impl->ctx, [impl, faults, life = std::weak_ptr<char>(impl->alive)] {
+    if (!life.expired()) impl->line.set_faults(faults);  // a bus destroyed meanwhile has no line
+  });
 }
 
 BusLineStats VirtualBus::stats() const {

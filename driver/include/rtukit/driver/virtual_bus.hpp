@@ -46,9 +46,9 @@ class VirtualBus {
 
   /// Changes the line's faults from now on (BusLine::set_faults): noise
   /// that stops, a cable pulled (drop_rate 1: nothing passes) and put back.
-  /// Safe from any thread: the change is posted to the bus's io_context,
-  /// so the bus must not be destroyed before that context has run it
-  /// (destroy the bus on the context's thread, or after it has stopped).
+  /// Safe from any thread: the change is posted to the bus's io_context
+  /// (a bus destroyed before it runs drops it). Destroy the bus on the
+  /// context's thread, or after the context has stopped.
   void set_faults(const BusConfig& faults);
 
   /// What clients open: the link if one was given, else /dev/pts/N.
