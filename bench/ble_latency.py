@@ -49,6 +49,7 @@ def main():
         bluez.display_passkey(PHONE, 123456)
         bluez.bond(PHONE)
         display_request(port, {"op": "pair_cancel"})
+        display_request(port, {"op": "confirm", "phone": f"ble:{PHONE}"})  # allowed to drive
         bluez.pump(0.5)
         bluez.start_notify(STATE)
         state_path = bluez.characteristic(STATE)

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <fstream>
 #include <string>
 
 #include "rtukit/io/clock.hpp"
@@ -113,6 +114,46 @@ TEST_F(PairingExpiry, AContactFromACalendarThatWasAheadCountsAsNow) {
   EXPECT_TRUE(store.expire(today, max_age).empty());
   EXPECT_EQ(store.phone(added->id)->last_contact, today);
   EXPECT_EQ(store.expire(today + max_age + 1, max_age).size(), 1U) << "30 days after, not 10 years";
+}
+
+// R-18: a phone paired from now on may not drive until the display's user
+// allows it; that leave is saved (a restart keeps it), a Bluetooth phone's
+// too, and forgetting a phone takes it away. A file from before the rule
+// keeps its phones driving.
+TEST_F(PairingExpiry, ANewPhoneDrivesOnceAllowed_TheLeaveIsSaved_APhoneFromBeforeKeepsDriving) {
+  {
+    PairingStore store(path_);
+    ASSERT_FALSE(store.load(clock.unix_seconds()));
+    const auto added = store.add("Anna's phone", "123456", clock.unix_seconds());
+    ASSERT_TRUE(added);
+    EXPECT_FALSE(store.confirmed(added->id)) << "new: not yet";
+    EXPECT_FALSE(store.confirmed("ble:AA:BB:CC:DD:EE:FF"));
+    ASSERT_FALSE(store.confirm(added->id));
+    ASSERT_FALSE(store.confirm("ble:AA:BB:CC:DD:EE:FF"));
+    EXPECT_EQ(store.confirm("nobody").code(), Errc::invalid_argument);
+  }
+  PairingStore again(path_);  // a restart
+  ASSERT_FALSE(again.load(clock.unix_seconds()));
+  ASSERT_EQ(again.size(), 1U);
+  EXPECT_TRUE(again.confirmed(again.phones()[0].id));
+  EXPECT_TRUE(again.confirmed("ble:AA:BB:CC:DD:EE:FF"));
+  ASSERT_FALSE(again.remove("ble:AA:BB:CC:DD:EE:FF"));  // its bond forgotten
+  EXPECT_FALSE(again.confirmed("ble:AA:BB:CC:DD:EE:FF"));
+  PairingStore third(path_);
+  ASSERT_FALSE(third.load(clock.unix_seconds()));
+  EXPECT_FALSE(third.confirmed("ble:AA:BB:CC:DD:EE:FF")) << "saved too";
+
+  // A file written before R-18 (no "confirmed" key): its phones drove, and still do.
+  {
+    std::ofstream f(path_, std::ios::trunc);
+    f << R"({"format": "rtukit rehand6600 pairing 2", "phones": [{"id": "0123456789ab", "token_sha256": ")"
+      << std::string(64, 'a')
+      << R"(", "name": "old phone", "code": "111111", "paired_at": "", "last_contact": 1}]})";
+  }
+  PairingStore old(path_);
+  ASSERT_FALSE(old.load(clock.unix_seconds()));
+  ASSERT_EQ(old.size(), 1U);
+  EXPECT_TRUE(old.confirmed("0123456789ab"));
 }
 
 }  // namespace

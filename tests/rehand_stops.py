@@ -282,6 +282,10 @@ class BlePhone:
             if not chair.wait(lambda: f"ble:{address}" in [p["phone"] for p in chair.state().get("phones", [])]):
                 raise RuntimeError("the bonded phone is not in the display's list")
             display.request({"op": "pair_cancel"})
+            # the person at the display allows it to drive.
+            r = display.request({"op": "confirm", "phone": f"ble:{address}"})
+            if not (r and r.get("ok")):
+                raise RuntimeError(f"the display could not allow the phone to drive: {r}")
         finally:
             display.close()
 

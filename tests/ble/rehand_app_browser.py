@@ -191,6 +191,9 @@ def main():
               wait_for(lambda: f"ble:{PHONE}" in [p["phone"] for p in state(port)["phones"]]))
         check("the app is not shown as lost", "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
         display_request(port, {"op": "pair_cancel"})  # the window closes: no one else pairs from here on
+        # the person at the display, seeing the phone's name, allows it to drive.
+        r = display_request(port, {"op": "confirm", "phone": f"ble:{PHONE}"})
+        check("the display allows the phone to drive", bool(r and r.get("ok")), f"{r}")
         app.save_screenshot(os.path.join(OUT, "app-rest-390x844.png"))
         v = accessibility_violations(app)
         check("the app's remote: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
@@ -282,6 +285,8 @@ def main():
                                                  "lost" not in app.find_element(By.TAG_NAME, "body")
                                                  .get_attribute("class")), why_not_driving(app, chair, fwd))
         display_request(port, {"op": "pair_cancel"})
+        r = display_request(port, {"op": "confirm", "phone": f"ble:{PHONE}"})  # forgotten: allowed again
+        check("...and the display allows it again", bool(r and r.get("ok")), f"{r}")
 
         # ---- a crashed tab while driving: no goodbye from the page; the link
         # ends with the tab (Chromium lets go of its GATT connection) and the

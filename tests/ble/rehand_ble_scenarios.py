@@ -178,6 +178,8 @@ class Client:
 def reference_client(bluez, con, port):
     chair, laptop = "00:1A:7D:DA:71:13", "AA:BB:CC:DD:EE:03"
     bluez.add_central(chair, laptop)
+    allowed = display_request(port, {"op": "confirm", "phone": f"ble:{laptop}"})
+    check("the display allows the laptop to drive", bool(allowed and allowed.get("ok")), f"{allowed}")
     check("the chair is still before the client connects",
           bluez.pump(START_DEADLINE, lambda: not state(port)["emergency"] and register(con, "phone_forward") == 0))
     client = Client(bluez, ["--ble", chair, "--adapter", "hci1", "--key-gap", "400"])
@@ -322,6 +324,15 @@ def main():
                     return v
             return None
 
+        # bonded, but not allowed to drive until the display says so.
+        err = bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 1, 9))
+        early = bluez.pump(START_DEADLINE, lambda: result(9) is not None) and result(9)
+        check("a press before the display allows the phone is refused (R-18), with its reason",
+              err == "" and early and early[3] != 0 and bytes(early[4:]).startswith(b"not allowed"), f"{err} {early}")
+        check("...and nothing reaches the controller", register(con, "phone_forward") == 0)
+        allowed = display_request(port, {"op": "confirm", "phone": phone_id})
+        check("the display allows it", bool(allowed and allowed.get("ok")), f"{allowed}")
+
         err = bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 1, 10))
         got = bluez.pump(START_DEADLINE, lambda: result(10) is not None) and result(10)
         check("a press is accepted (result notified with its sequence)", err == "" and got and got[3] == 0,
@@ -438,10 +449,11 @@ def main():
         if OUT:
             shown, emptied = hmi_forget_all(bluez, port, ["Galaxy", "laptop"])
             check("the HMI lists them as Bluetooth phones (hmi-ble-phones-1280x800.png), the laptop "
-                  "with its last contact (it drove), the other never",
+                  "with its last contact (it drove), the other not allowed to drive yet (R-18)",
                   len(shown) == 2 and all("(Bluetooth)" in r for r in shown) and
                   any("laptop" in r and re.search(r"last contact \d{4}-\d\d-\d\d", r) for r in shown) and
-                  any("Galaxy" in r and "last contact never" in r for r in shown), f"{shown}")
+                  any("Galaxy" in r and "may not drive yet" in r and "Allow to drive" in r for r in shown),
+                  f"{shown}")
             check("\"Forget all phones\", confirmed on the HMI, empties its list", emptied)
         else:
             r = display_request(port, {"op": "forget_all"})

@@ -359,6 +359,12 @@ setTimeout(() => done('still open'), 10000);
         check("phone paired", wait_for(lambda: phone.find_element(By.ID, "remote").is_displayed()
                                        and re.fullmatch(r"\d+ %", text(phone, "#battery")), DEADLINE))
         check("the display lists the phone", wait_for(lambda: "Test phone" in text(hmi, "#phone-list")))
+        # a new phone drives once the person at the display, seeing its
+        # name, allows it; until then its drive press is refused, saying where.
+        check("...as one that may not drive yet, with \"Allow to drive\" beside its name",
+              wait_for(lambda: "may not drive yet" in text(hmi, "#phone-list")
+                       and hmi.find_elements(By.CSS_SELECTOR, "#phone-list .phone button.allow")),
+              text(hmi, "#phone-list"))
         layout(phone, "phone-remote-390x844", OUT, scrolls=True)
         v = accessibility_violations(phone)
         check("the Wi-Fi phone page: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
@@ -378,6 +384,17 @@ setTimeout(() => done('still open'), 10000);
                 break
         check("seated again: the phone may drive", wait_for(lambda: text(phone, "#reason") == "", DEADLINE),
               text(phone, "#reason"))
+        # (R-18, continued: its drive buttons are live now, the seat down)
+        fwd = phone.find_element(By.ID, "fwd")
+        ActionChains(phone).click_and_hold(fwd).perform()
+        refused = wait_for(lambda: "Allow to drive" in text(phone, "#reason"), DEADLINE)
+        check("a drive press before the display allows it is refused, saying where to allow it", bool(refused),
+              text(phone, "#reason"))
+        check("...nothing of it reached the controller", "phone_forward" not in con.held(), con.held())
+        ActionChains(phone).release(fwd).perform()
+        hmi.find_element(By.CSS_SELECTOR, "#phone-list .phone button.allow").click()
+        check("the display allows it", wait_for(lambda: "may not drive yet" not in text(hmi, "#phone-list")),
+              text(hmi, "#phone-list"))
 
         # driving is held while the finger is down, and released
         fwd = phone.find_element(By.ID, "fwd")

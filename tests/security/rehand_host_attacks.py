@@ -219,6 +219,17 @@ def main():
         store = json.load(open(os.path.join(work, "pairing.json")))
         check("the pairing file keeps no token, only its hash",
               token and token not in json.dumps(store) and len(store["phones"][0]["token_sha256"]) == 64)
+        # whoever got through the pairing window (the code seen over a
+        # shoulder) may not drive before the person at the display, seeing
+        # the phone's name, allows it.
+        early = phone.request({"op": "press", "command": "phone_forward", "value": 1, "press": 1})
+        check("a newly paired phone may not drive before the display allows it (R-18)",
+              bool(early) and not early.get("ok") and "Allow to drive" in early.get("error", ""), json.dumps(early))
+        check("...nothing reached the controller", "phone_forward" not in con.held(), con.held())
+        allowed = display_request(display_port, {"op": "confirm", "phone": (paired or {}).get("phone", "")})
+        check("the display allows it by its id", bool(allowed and allowed.get("ok")), json.dumps(allowed))
+        check("...and only the display: a phone cannot allow itself",
+              not (phone.request({"op": "confirm", "phone": (paired or {}).get("phone", "")}) or {}).get("ok"))
 
         # ---- unauthenticated sockets: 5 s, then closed
         idle = WebSocket(phone_port, "/ws", tls=True, timeout=15)

@@ -60,6 +60,7 @@ std::string random_hex(size_t bytes) {
 
 rtukit::Status PairingStore::load(int64_t now) {
   phones_.clear();
+  ble_confirmed_.clear();
   writable_ = true;
   if (::access(path_.c_str(), F_OK) != 0) return {};  // no phone paired yet
   Outcome<std::string> text = io::read_regular_file(path_, kMaxFile);
@@ -101,9 +102,16 @@ rtukit::Status PairingStore::load(int64_t now) {
     if (phone.name.empty()) phone.name = "phone";
     phone.paired_at = text_of("paired_at");
     phone.code = text_of("code");
+    // Paired before R-18 (no such key): it drove then and keeps driving.
+    phone.confirmed = !p.contains("confirmed") || !p["confirmed"].is_boolean() || p["confirmed"].get<bool>();
     floor_ = std::max(floor_, phone.last_contact);
     phones_.push_back(std::move(phone));
   }
+  if (doc.contains("bluetooth_confirmed") && doc["bluetooth_confirmed"].is_array())
+    for (const nlohmann::json& id : doc["bluetooth_confirmed"])
+      if (id.is_string() && id.get<std::string>().starts_with("ble:") && id.get<std::string>().size() <= 64 &&
+          ble_confirmed_.size() < 256)
+        ble_confirmed_.push_back(id.get<std::string>());
   // The file's own last write counts too (the kernel stamped it with the
   // calendar of that moment: right, when the board had the time then).
   struct stat st {};
@@ -125,7 +133,9 @@ rtukit::Status PairingStore::save() const {
                              {"name", p.name},
                              {"code", p.code},
                              {"paired_at", p.paired_at},
-                             {"last_contact", p.last_contact}});
+                             {"last_contact", p.last_contact},
+                             {"confirmed", p.confirmed}});
+  doc["bluetooth_confirmed"] = ble_confirmed_;
   return io::write_file_atomically(path_, doc.dump(2) + "\n", 0600);
 }
 
@@ -141,7 +151,8 @@ rtukit::Outcome<PairingStore::Added> PairingStore::add(std::string name, std::st
   const auto t = std::chrono::system_clock::time_point(std::chrono::seconds(now));
   phones_.push_back(
       {added.id, sha256_hex(added.token), name, std::move(code),
-       fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))), now});
+       fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))), now,
+       false});  // it drives once the display's user allowed it
   if (rtukit::Status e = save()) {
     phones_.pop_back();
     return e;
@@ -180,6 +191,17 @@ rtukit::Status PairingStore::touch(std::string_view id, int64_t now) {
 }
 
 rtukit::Status PairingStore::remove(std::string_view id) {
+  if (id.starts_with("ble:")) {
+    const auto at = std::find(ble_confirmed_.begin(), ble_confirmed_.end(), id);
+    if (at == ble_confirmed_.end()) return {};
+    const std::string removed = *at;
+    ble_confirmed_.erase(at);
+    if (rtukit::Status e = save()) {
+      ble_confirmed_.push_back(removed);
+      return e;
+    }
+    return {};
+  }
   const auto it =
       std::find_if(phones_.begin(), phones_.end(), [&](const PairedPhone& p) { return p.id == id; });
   if (it == phones_.end()) return rtukit::Status(Errc::invalid_argument, "no such phone");
@@ -194,12 +216,46 @@ rtukit::Status PairingStore::remove(std::string_view id) {
 
 rtukit::Status PairingStore::remove_all() {
   std::vector<PairedPhone> before = std::move(phones_);
+  std::vector<std::string> ble_before = std::move(ble_confirmed_);
   phones_.clear();
+  ble_confirmed_.clear();
   if (rtukit::Status e = save()) {
     phones_ = std::move(before);
+    ble_confirmed_ = std::move(ble_before);
     return e;
   }
   return {};
+}
+
+rtukit::Status PairingStore::confirm(std::string_view id) {
+  if (id.starts_with("ble:")) {
+    if (confirmed(id)) return {};
+    if (id.size() > 64 || ble_confirmed_.size() >= 256)
+      return rtukit::Status(Errc::invalid_argument, "not a Bluetooth phone id");
+    ble_confirmed_.emplace_back(id);
+    if (rtukit::Status e = save()) {
+      ble_confirmed_.pop_back();
+      return e;
+    }
+    return {};
+  }
+  const auto it =
+      std::find_if(phones_.begin(), phones_.end(), [&](const PairedPhone& p) { return p.id == id; });
+  if (it == phones_.end()) return rtukit::Status(Errc::invalid_argument, "no such phone");
+  if (it->confirmed) return {};
+  it->confirmed = true;
+  if (rtukit::Status e = save()) {
+    it->confirmed = false;
+    return e;
+  }
+  return {};
+}
+
+bool PairingStore::confirmed(std::string_view id) const {
+  if (id.starts_with("ble:"))
+    return std::find(ble_confirmed_.begin(), ble_confirmed_.end(), id) != ble_confirmed_.end();
+  const PairedPhone* p = phone(id);
+  return p && p->confirmed;
 }
 
 int64_t PairingStore::time(int64_t calendar_s, int64_t monotonic_s) {

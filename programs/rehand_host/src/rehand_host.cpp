@@ -316,6 +316,7 @@ struct HostDaemon::Impl {
     const uint64_t me = c.socket->id();
     switch (k.kind) {
       case Kind::press:
+        if (rtukit::Status e = may_drive(c.phone, k.address)) return e;
         return host.press(me, k.address, k.value, k.press);
       case Kind::renew:
         return host.renew(me, k.press);
@@ -359,6 +360,15 @@ struct HostDaemon::Impl {
         if (rtukit::Status e = pairing.remove(k.phone)) return e;
         drop_phone(k.phone, "this phone was forgotten by the display");
         log(fmt::format("phone '{}' ({}) forgotten by the display", name, k.phone));
+        broadcast_state();
+        return {};
+      }
+      case Kind::confirm: {
+        if (k.phone.starts_with("ble:") && !ble_bonded(k.phone))
+          return rtukit::Status(Errc::invalid_argument, fmt::format("no such phone '{}'", k.phone));
+        if (rtukit::Status e = pairing.confirm(k.phone)) return e;
+        log(fmt::format("phone '{}' ({}) allowed to drive by the display", display_name_of(k.phone),
+                        k.phone));
         broadcast_state();
         return {};
       }
@@ -530,7 +540,8 @@ struct HostDaemon::Impl {
     rtukit::Status e;
     switch (c->op) {
       case ble_gatt::Op::press:
-        e = host.press(id, address, 1, c->press);
+        e = may_drive(ble_id(device), address);
+        if (!e) e = host.press(id, address, 1, c->press);
         break;
       case ble_gatt::Op::renew:
         e = host.renew(id, c->press);
@@ -574,12 +585,41 @@ struct HostDaemon::Impl {
     return ble_id(path);
   }
 
+  // a phone drives once the display's user allowed it, seeing its
+  // name; until then its drive presses are refused, saying where to allow
+  // it (its horn, light and signals need no leave: they move nothing).
+  rtukit::Status may_drive(const std::string& phone, uint16_t command) const {
+    if (phone.empty() || command < rh::reg::kPhoneForward || command > rh::reg::kPhoneRight ||
+        pairing.confirmed(phone))
+      return {};
+    return rtukit::Status(
+        Errc::refused,
+        "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's "
+        "name (R-18)");
+  }
+
+  bool ble_bonded(const std::string& phone) const {
+    if (ble)
+      for (const BleDevice& b : ble->devices())
+        if (b.bonded && ble_id(b.path) == phone) return true;
+    return false;
+  }
+
+  std::string display_name_of(const std::string& phone) const {
+    if (!phone.starts_with("ble:")) return name_of(phone);
+    if (ble)
+      for (const BleDevice& b : ble->devices())
+        if (ble_id(b.path) == phone) return b.name;
+    return phone;
+  }
+
   rtukit::Status ble_forget(const std::string& phone) {
     if (!ble) return rtukit::Status(Errc::invalid_argument, "no Bluetooth LE link");
     for (const BleDevice& b : ble->devices()) {
       if (ble_id(b.path) != phone) continue;
       ble_gone(b.path, "forgotten by the display");
       ble_contact.erase(b.path);
+      (void)pairing.remove(phone);  // its leave to drive goes with its bond
       ble->forget(b.path);
       log(fmt::format("Bluetooth phone '{}' ({}) forgotten by the display: its bond removed", b.name, phone));
       return {};
@@ -695,6 +735,7 @@ struct HostDaemon::Impl {
                         {"paired_code", p.code},
                         {"connected", connected},
                         {"driving", !driver.empty() && driver == p.id},
+                        {"confirmed", p.confirmed},
                         {"last_contact", local_time(p.last_contact, "%Y-%m-%d %H:%M:%S")}});
     }
     // Bonded Bluetooth phones in the same list, "ble:ADDRESS" (forget removes the bond).
@@ -708,6 +749,7 @@ struct HostDaemon::Impl {
              {"link", "ble"},
              {"connected", b.connected},
              {"driving", !driver.empty() && driver == ble_id(b.path)},
+             {"confirmed", pairing.confirmed(ble_id(b.path))},
              {"last_contact",
               ble_contact.contains(b.path) ? local_time(ble_contact.at(b.path), "%Y-%m-%d %H:%M:%S") : ""}});
       }

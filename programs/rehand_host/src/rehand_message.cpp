@@ -122,10 +122,10 @@ rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& 
   }
   if (op == "pair_start") return command(Kind::pair_start);
   if (op == "pair_cancel") return command(Kind::pair_cancel);
-  if (op == "forget") {
+  if (op == "forget" || op == "confirm") {
     const std::optional<std::string> phone = text_field(m, "phone");
     if (!phone || phone->empty() || phone->size() > 64) return bad("\"phone\" must be a phone id");
-    HostCommand c = command(Kind::forget);
+    HostCommand c = command(op == "forget" ? Kind::forget : Kind::confirm);
     c.phone = *phone;
     return c;
   }

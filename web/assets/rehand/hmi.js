@@ -325,14 +325,25 @@ function phoneRow(p) {
   name.textContent = `${p.name || p.phone}${how}`;
   const status = document.createElement('span');
   status.className = 'phone-status';
-  status.textContent = p.driving ? 'driving' : p.connected ? 'connected'
-    : `last contact ${p.last_contact || 'never'}`;
+  status.textContent = p.driving ? 'driving' : p.confirmed === false ? 'may not drive yet'
+    : p.connected ? 'connected' : `last contact ${p.last_contact || 'never'}`;
   text.append(name, status);
+  row.append(text);
+  // R-18: a new phone drives once the person at the display, seeing its
+  // name, allows it.
+  if (p.confirmed === false) {
+    const allow = document.createElement('button');
+    allow.className = 'allow';
+    allow.textContent = 'Allow to drive';
+    allow.title = `Allow ${p.name || p.phone} to drive the chair`;
+    allow.addEventListener('click', () => command('confirm', { phone: p.phone }));
+    row.append(allow);
+  }
   const forget = document.createElement('button');
   forget.textContent = 'Forget';
   forget.title = `Forget ${p.name || p.phone}: it must pair again`;
   forget.addEventListener('click', () => command('forget', { phone: p.phone }));
-  row.append(text, forget);
+  row.append(forget);
   return row;
 }
 

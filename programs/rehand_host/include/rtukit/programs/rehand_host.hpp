@@ -44,6 +44,10 @@ struct PairedPhone {
   std::string code;          ///< the pairing code it paired with (the display user saw it)
   std::string paired_at;     ///< UTC, ISO 8601
   int64_t last_contact = 0;  ///< Unix seconds of its last connection
+  /// The display's user allowed it to drive, seeing its name. A phone
+  /// paired from now on starts without; one of a file from before the rule
+  /// keeps driving.
+  bool confirmed = true;
 };
 
 /// Paired phones, in a JSON file written atomically (a temporary file
@@ -71,8 +75,17 @@ class PairingStore {
   /// Records a contact (saved). Unknown ids are ignored.
   rtukit::Status touch(std::string_view id, int64_t now);
   /// Forgets a phone. Errors: invalid_argument (no such phone), the save's.
+  /// A Bluetooth phone's id ("ble:ADDRESS", its bond is BlueZ's) only loses
+  /// its confirmation: never an error but the save's.
   rtukit::Status remove(std::string_view id);
   rtukit::Status remove_all();
+  /// the display's user allows phone `id` to drive (a paired phone's
+  /// id, or "ble:ADDRESS" of a bonded Bluetooth phone; the caller checks
+  /// that one is bonded). Saved. Errors: invalid_argument (no such paired
+  /// phone), the save's (then nothing changed).
+  rtukit::Status confirm(std::string_view id);
+  /// Whether phone `id` (either kind) may drive.
+  bool confirmed(std::string_view id) const;
   /// Forgets the phones not seen for more than `max_age_s`; returns them. A
   /// last contact after `now` (stored while the calendar was ahead) counts
   /// as `now`.
@@ -95,6 +108,7 @@ class PairingStore {
   rtukit::Status save() const;
   std::string path_;
   std::vector<PairedPhone> phones_;
+  std::vector<std::string> ble_confirmed_;  ///< "ble:ADDRESS" of Bluetooth phones allowed to drive
   bool writable_ = true;
   int64_t floor_ = 0;                        ///< the newest time the file recorded, at load (Unix s)
   std::optional<int64_t> monotonic_origin_;  ///< time()'s first monotonic reading

@@ -40,6 +40,7 @@ struct HostCommand {
     pair_cancel,  ///< display: withdraw the code
     forget,       ///< display: unpair phone `phone`
     forget_all,   ///< display: unpair every phone
+    confirm,      ///< display: allow phone `phone` to drive (R-18)
     auth,         ///< phone: authenticate with `token`
     pair,         ///< phone: pair with `code`, named `name`
   };
