@@ -365,6 +365,10 @@ setTimeout(() => done('still open'), 10000);
               wait_for(lambda: "may not drive yet" in text(hmi, "#phone-list")
                        and hmi.find_elements(By.CSS_SELECTOR, "#phone-list .phone button.allow")),
               text(hmi, "#phone-list"))
+        cut = hmi.execute_script(
+            "return [...document.querySelectorAll('#phone-list .phone:has(button.allow) :is(.phone-name, .phone-status)')]"
+            ".filter((e) => e.scrollWidth > e.clientWidth + 1).map((e) => e.textContent);")
+        check("...its name and status read in full (the person allows what they read)", not cut, f"{cut}")
         layout(phone, "phone-remote-390x844", OUT, scrolls=True)
         v = accessibility_violations(phone)
         check("the Wi-Fi phone page: no WCAG 2.2 A/AA violation (axe-core)", not v, "; ".join(v))
