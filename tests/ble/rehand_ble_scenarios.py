@@ -332,6 +332,20 @@ def main():
         check("...and nothing reaches the controller", register(con, "phone_forward") == 0)
         allowed = display_request(port, {"op": "confirm", "phone": phone_id})
         check("the display allows it", bool(allowed and allowed.get("ok")), f"{allowed}")
+        # A new pairing at an allowed address (its bond removed elsewhere and
+        # made again) is a new phone to the person at the display: not allowed.
+        display_request(port, {"op": "pair_start"})
+        bluez.pump(START_DEADLINE, lambda: bool(bluez.adapter_property("Pairable")))
+
+        def allowed_now():
+            return next((p for p in state(port)["phones"] if p["phone"] == phone_id), {}).get("confirmed")
+        check("...and a new pairing at that address takes the leave back (R-18)",
+              bluez.display_passkey(PHONE, 222222) == "" and bluez.pump(START_DEADLINE, lambda: allowed_now() is False),
+              f"{allowed_now()}")
+        display_request(port, {"op": "pair_cancel"})
+        allowed = display_request(port, {"op": "confirm", "phone": phone_id})
+        check("...until the display allows it again", bool(allowed and allowed.get("ok")) and allowed_now() is True,
+              f"{allowed}")
 
         err = bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 1, 10))
         got = bluez.pump(START_DEADLINE, lambda: result(10) is not None) and result(10)

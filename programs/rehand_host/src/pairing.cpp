@@ -102,8 +102,9 @@ rtukit::Status PairingStore::load(int64_t now) {
     if (phone.name.empty()) phone.name = "phone";
     phone.paired_at = text_of("paired_at");
     phone.code = text_of("code");
-    // Paired before R-18 (no such key): it drove then and keeps driving.
-    phone.confirmed = !p.contains("confirmed") || !p["confirmed"].is_boolean() || p["confirmed"].get<bool>();
+    // Paired before R-18 (no such key): it drove then and keeps driving. A
+    // key that is there but not true is doubt: not allowed.
+    phone.confirmed = !p.contains("confirmed") || (p["confirmed"].is_boolean() && p["confirmed"].get<bool>());
     floor_ = std::max(floor_, phone.last_contact);
     phones_.push_back(std::move(phone));
   }

@@ -571,9 +571,13 @@ struct HostDaemon::Impl {
     ble_passkey = device.empty() ? std::string() : fmt::format("{:06d}", passkey);
     // Whose passkey it is: the person at the display checks it is their phone.
     ble_passkey_for = device.empty() ? std::string() : ble_device_name(device);
-    if (!device.empty())
+    if (!device.empty()) {
       log(fmt::format("Bluetooth pairing: passkey shown on the display for '{}' ({})", ble_passkey_for,
                       ble_id(device)));
+      // A new bond is a new phone to the person at the display, even
+      // at an address allowed before (a bond removed elsewhere, then made again).
+      (void)pairing.remove(ble_id(device));
+    }
     broadcast_state();
   }
 
