@@ -262,11 +262,16 @@ TEST(RehandPulse, TogglesOnTheRisingEdgeOnly) {
 
 // ------------------------------------------------------------ driving
 
-TEST(RehandDrive, JoystickSpeedFromLevelAndMode) {
-  Rig rig;
+// Level 5, normal mode, the joystick full forward for 5 s: 6 km/h reached.
+void FullSpeedForward(Rig& rig) {
   ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
   rig.chair.set_joystick(0, 100);
   rig.run_for(5000);
+}
+
+TEST(RehandDrive, JoystickSpeedFromLevelAndMode) {
+  Rig rig;
+  FullSpeedForward(rig);
   EXPECT_EQ(rig.at(reg::kMotion), 2);
   EXPECT_EQ(rig.at(reg::kSpeed), 6);  // level 5, normal
   EXPECT_EQ(rig.at(reg::kMotor1State), 1);
@@ -388,9 +393,7 @@ TEST(RehandDrive, JoystickRegistersReadTheDeflectionClampedTo100) {
 // local user had the chair; chair.cpp:252 and :261 survived).
 TEST(RehandDrive, AfterTheJoystickIsLetGoTheChairCoastsAndThePhoneWaits) {
   Rig rig;
-  ASSERT_EQ(rig.write(reg::kSpeedLevel, {5}), Errc::ok);
-  rig.chair.set_joystick(0, 100);
-  rig.run_for(5000);
+  FullSpeedForward(rig);
   ASSERT_EQ(rig.at(reg::kSpeed), 6);
   rig.chair.set_joystick(0, 0);
   rig.run_for(500);  // 6 km/h at 4 km/h/s: 4 km/h left

@@ -471,14 +471,6 @@ uint16_t HostLogic::active_error() const noexcept {
 
 // ---------------------------------------------------------------- HostCore: the logic and the rules joined
 
-namespace {
-
-bool is_remote_drive(uint16_t command) {
-  return command >= reg::kPhoneForward && command <= reg::kPhoneRight;
-}
-
-}  // namespace
-
 void HostCore::sync(TimePoint now) {
   now_ = now;
   session_.tick(now);
@@ -497,7 +489,7 @@ void HostCore::sync(TimePoint now) {
   for (uint16_t command = reg::kCommandFirst; command < reg::kCommandFirst + reg::kCommandCount; ++command) {
     if (!may_press(ClientKind::tool, command)) continue;
     Session::Hold h = session_.hold(command);
-    if (is_remote_drive(command) && slow_ != Slow::yes) h = {};
+    if (reg::is_phone_drive(command) && slow_ != Slow::yes) h = {};
     logic_.set_target(command, h.value, h.serial);
   }
 }

@@ -22,9 +22,6 @@ rtukit::Status bad(std::string reason) {
 bool is_posture(uint16_t a) {
   return a >= reg::kStandSit && a <= reg::kPlateTilt;
 }
-bool is_phone_drive(uint16_t a) {
-  return a >= reg::kPhoneForward && a <= reg::kPhoneRight;
-}
 
 std::string key_of(uint16_t command) {
   const Register* r = find_register(command);
@@ -35,7 +32,7 @@ std::string key_of(uint16_t command) {
 
 bool may_press(ClientKind kind, uint16_t command) noexcept {
   const bool local = is_posture(command) || command == reg::kAntiPinch;
-  const bool remote = is_phone_drive(command) || command == reg::kPhoneHorn;
+  const bool remote = reg::is_phone_drive(command) || command == reg::kPhoneHorn;
   return kind == ClientKind::display ? local : kind == ClientKind::phone ? remote : local || remote;
 }
 
@@ -68,7 +65,7 @@ void Session::leave(ClientId client, TimePoint now) {
   if (!c) return;
   const bool phone = c->kind == ClientKind::phone;
   // D-12: a phone lost while it drives is a loss of control.
-  end_where([&](const Press& p) { return p.client == client && is_phone_drive(p.command); },
+  end_where([&](const Press& p) { return p.client == client && reg::is_phone_drive(p.command); },
             "the phone's connection was lost", phone, now);
   end_where([&](const Press& p) { return p.client == client; },
             phone ? "the phone's connection was lost" : "the client left", false, now);
@@ -115,7 +112,7 @@ std::string Session::drive_block() const {
 rtukit::Status Session::check_rules(const Client& c, uint16_t command, uint16_t value) const {
   const Disabled d = disabled();
   if (!d.all.empty()) return refuse(d.all + (active_error_ ? "; only releasing is possible" : ""));
-  if (is_phone_drive(command)) {
+  if (reg::is_phone_drive(command)) {
     if (driver_ && *driver_ != c.id) return refuse("another phone is driving");
     // The driving phone may change direction while the chair still moves.
     if (!d.drive.empty() && !(driver_ == c.id && d.drive == "phone drive only while the chair is static"))
@@ -147,11 +144,11 @@ rtukit::Status Session::press(ClientId client, uint16_t command, uint16_t value,
   end_where(
       [&](const Press& p) {
         return p.client == client &&
-               (p.command == command || (is_phone_drive(command) && is_phone_drive(p.command)));
+               (p.command == command || (reg::is_phone_drive(command) && reg::is_phone_drive(p.command)));
       },
       "replaced by a new press", false, now);
   presses_.push_back(Press{client, id, command, value, now + options_.lease, next_serial_++});
-  if (is_phone_drive(command) && driver_ != client) {
+  if (reg::is_phone_drive(command) && driver_ != client) {
     driver_ = client;
     events_.push_back(Event{.type = Event::Type::driver_changed, .client = client});
   }
@@ -163,7 +160,8 @@ rtukit::Status Session::renew(ClientId client, PressId id, TimePoint now) {
   for (Press& p : presses_) {
     if (p.client != client || p.id != id) continue;
     // What forbids a phone to drive forbids it to go on driving.
-    if (const std::string block = is_phone_drive(p.command) ? drive_block() : std::string(); !block.empty()) {
+    if (const std::string block = reg::is_phone_drive(p.command) ? drive_block() : std::string();
+        !block.empty()) {
       end_where([&](const Press& q) { return q.client == client && q.id == id; }, block, false, now);
       return refuse(block);
     }
@@ -193,7 +191,7 @@ void Session::shutdown(TimePoint now) {
   end_where(
       [&](const Press& p) {
         const Client* c = find(p.client);
-        return is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
+        return reg::is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
       },
       "the host is stopping", true, now);
   end_where([](const Press&) { return true; }, "the host is stopping", false, now);
@@ -216,7 +214,7 @@ void Session::tick(TimePoint now) {
   end_where(
       [&](const Press& p) {
         const Client* c = find(p.client);
-        return now >= p.until && is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
+        return now >= p.until && reg::is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
       },
       "no renewal within the lease", true, now);
   end_where([&](const Press& p) { return now >= p.until; }, "no renewal within the lease", false, now);
@@ -249,7 +247,7 @@ void Session::on_status(const Snapshot& snapshot, uint16_t active_error, TimePoi
       end_where(
           [&](const Press& p) {
             const Client* c = find(p.client);
-            return is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
+            return reg::is_phone_drive(p.command) && c && c->kind == ClientKind::phone;
           },
           block, false, now);
     }
@@ -272,7 +270,8 @@ void Session::on_controller_stop(uint16_t command, const std::string& why, TimeP
 Session::Hold Session::hold(uint16_t command) const noexcept {
   if (emergency_ && command == reg::kAntiPinch) return {1, emergency_serial_};
   for (const Press& p : presses_)
-    if (p.command == command) return emergency_ && is_phone_drive(command) ? Hold{} : Hold{p.value, p.serial};
+    if (p.command == command)
+      return emergency_ && reg::is_phone_drive(command) ? Hold{} : Hold{p.value, p.serial};
   return {};
 }
 

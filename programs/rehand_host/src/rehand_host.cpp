@@ -593,9 +593,7 @@ struct HostDaemon::Impl {
   // name; until then its drive presses are refused, saying where to allow
   // it (its horn, light and signals need no leave: they move nothing).
   rtukit::Status may_drive(const std::string& phone, uint16_t command) const {
-    if (phone.empty() || command < rh::reg::kPhoneForward || command > rh::reg::kPhoneRight ||
-        pairing.confirmed(phone))
-      return {};
+    if (phone.empty() || !rh::reg::is_phone_drive(command) || pairing.confirmed(phone)) return {};
     return rtukit::Status(
         Errc::refused,
         "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's "

@@ -296,6 +296,11 @@ inline constexpr uint16_t kPhoneLeft = at("phone_left");
 inline constexpr uint16_t kPhoneRight = at("phone_right");
 inline constexpr uint16_t kPhoneLeftSignal = at("phone_left_signal");
 inline constexpr uint16_t kPhoneRightSignal = at("phone_right_signal");
+/// The phone's four drive commands (forward, reverse, left, right): what D-14,
+/// D-10 and R-18 mean by "a phone drives".
+constexpr bool is_phone_drive(uint16_t address) noexcept {
+  return address >= kPhoneForward && address <= kPhoneRight;
+}
 inline constexpr uint16_t kPhoneHorn = at("phone_horn");
 inline constexpr uint16_t kPhoneLight = at("phone_light");
 inline constexpr uint16_t kCommandFirst = 0x0060;
