@@ -24,14 +24,13 @@ import time
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests"))
-from pyhelpers import Console, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
+from pyhelpers import Console, display_request, free_port, pct, stop_processes, temp_dir, wait_for  # noqa: E402
 
 from selenium import webdriver
 from selenium.webdriver.chrome.service import Service
 
 RTUKIT = sys.argv[1]
 CYCLES = int(sys.argv[sys.argv.index("--cycles") + 1]) if "--cycles" in sys.argv else 40
-TOKEN = "0123456789abcdef0123456789abcdef"
 
 
 def now_ms():
@@ -49,9 +48,6 @@ def run(pages):
     work = temp_dir("rtukit-bench-host-")  # removed at exit, on every path
     pty, con_path = os.path.join(work, "chair"), os.path.join(work, "console.sock")
     pairing = os.path.join(work, "pairing.json")
-    with open(pairing, "w") as f:
-        json.dump({"format": "rtukit rehand6600 pairing 1",
-                   "phones": [{"token": TOKEN, "name": "bench phone", "paired_at": ""}]}, f)
     http, phone = free_port(), free_port()
     procs = [subprocess.Popen([RTUKIT, "sim", "rehand6600", "--listen", f"pty:{pty}", "--no-state", "--no-console",
                                "--console", f"unix:{con_path}"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
@@ -117,10 +113,14 @@ def run(pages):
 
         # 2. pointer-up on the phone -> phone_forward reads 0
         d.switch_to.new_window("tab")
+        # The page pairs as a user does (its key is the browser's: nothing to
+        # write into a file for it), and the display allows it to drive.
         d.get(f"https://127.0.0.1:{phone}/")
-        d.execute_script(f"localStorage.setItem('rtukit-rehand6600-token', '{TOKEN}')")
-        d.get(f"https://127.0.0.1:{phone}/")
+        display_request(http, {"op": "pair_start"})
+        d.find_element("id", "pair-code").send_keys(state()["pairing_code"])
+        d.find_element("id", "pair-go").click()
         wait_for(lambda: d.execute_script("return document.querySelector('#remote').checkVisibility()"), 5)
+        display_request(http, {"op": "confirm", "phone": state()["phones"][0]["phone"]})
         release = []
         down_js = ("const b = document.querySelector('#fwd');"
                    "b.dispatchEvent(new PointerEvent('pointerdown', {pointerId: 1, bubbles: true}));")

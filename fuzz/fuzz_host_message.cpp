@@ -23,6 +23,7 @@
 #include "fuzz_support.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/programs/rehand_message.hpp"
+#include "rtukit/web/webcrypto.hpp"
 
 namespace {
 
@@ -87,7 +88,12 @@ void check_phone(const HostCommand& c, bool authenticated) {
   if (authenticated && (c.kind == Kind::pair || c.kind == Kind::auth)) std::abort();
   switch (c.kind) {
     case Kind::pair:
+      // The key is a point on P-256 (checked by OpenSSL), the signature r||s.
+      if (c.public_key.size() != 65 || !web::valid_p256_key(c.public_key) || c.signature.size() != 64)
+        std::abort();
+      break;
     case Kind::auth:
+      if (c.phone.empty() || c.signature.size() != 64) std::abort();
       break;
     case Kind::press:
     case Kind::renew:

@@ -172,6 +172,7 @@ class WebSocket:
             raise OSError(f"handshake refused: {status.decode(errors='replace')}")
         self.buf = head.split(b"\r\n\r\n", 1)[1]
         self.close_reason = None
+        self.hello = None  # the daemon's first message, once read (its "challenge" for a phone)
 
     def _frame(self, opcode, payload):
         mask = os.urandom(4)
@@ -233,9 +234,21 @@ class WebSocket:
                     self.close_reason = payload[2:].decode(errors="replace")
                     raise OSError(f"closed by the server: {self.close_reason}")
                 elif opcode == 0x1:
+                    if self.hello is None and b'"hello"' in payload:
+                        import json
+                        self.hello = json.loads(payload)
                     return payload.decode()
         except socket.timeout:
             return None
+
+    def challenge(self, timeout=5.0):
+        """The challenge of the daemon's hello (read now if it was not yet),
+        or None."""
+        end = time.monotonic() + timeout
+        while self.hello is None and time.monotonic() < end:
+            if self.recv(max(0.01, end - time.monotonic())) is None:
+                break
+        return (self.hello or {}).get("challenge")
 
     def close(self):
         try:
@@ -243,6 +256,60 @@ class WebSocket:
         except OSError:
             pass
         self.s.close()
+
+
+class PhoneKey:
+    """A phone's key as the Rehand phone page makes it with WebCrypto
+    (web/assets/rehand/phone-key.js): ECDSA P-256, the public key as its raw
+    point and signatures as r||s, both base64url. Made with Python's
+    cryptography package (Debian's python3-cryptography), for tests that
+    speak the phone's protocol without a browser."""
+
+    PREFIX = "rtukit-rehand6600-phone:"  # the daemon's challenge_message
+
+    def __init__(self):
+        from cryptography.hazmat.primitives.asymmetric import ec
+        self._key = ec.generate_private_key(ec.SECP256R1())
+
+    @staticmethod
+    def _b64(raw):
+        import base64
+        return base64.urlsafe_b64encode(raw).rstrip(b"=").decode()
+
+    def public(self):
+        from cryptography.hazmat.primitives import serialization
+        return self._b64(self._key.public_key().public_bytes(serialization.Encoding.X962,
+                                                             serialization.PublicFormat.UncompressedPoint))
+
+    def sign(self, challenge):
+        from cryptography.hazmat.primitives import hashes
+        from cryptography.hazmat.primitives.asymmetric import ec
+        from cryptography.hazmat.primitives.asymmetric.utils import decode_dss_signature
+        r, s = decode_dss_signature(self._key.sign((self.PREFIX + challenge).encode(), ec.ECDSA(hashes.SHA256())))
+        return self._b64(r.to_bytes(32, "big") + s.to_bytes(32, "big"))
+
+    def auth(self, ws, phone):
+        """Authenticates phone `phone` on the open phone socket `ws`: the result, or None."""
+        challenge = ws.challenge()
+        if challenge is None:
+            return None
+        return ws.request({"op": "auth", "phone": phone, "signature": self.sign(challenge)})
+
+    def pair(self, ws, code, name):
+        """Pairs with the display's `code` on `ws`, with this key: the result, or None."""
+        challenge = ws.challenge()
+        if challenge is None:
+            return None
+        return ws.request({"op": "pair", "code": code, "name": name, "key": self.public(),
+                           "signature": self.sign(challenge)})
+
+    def pairing_file(self, path, phone, name, confirmed=True):
+        """Writes a pairing file (format 3) in which this key is phone `phone`."""
+        import json
+        with open(path, "w") as f:
+            json.dump({"format": "rtukit rehand6600 pairing 3",
+                       "phones": [{"id": phone, "public_key": self.public(), "name": name, "code": "",
+                                   "paired_at": "", "confirmed": confirmed}]}, f)
 
 
 def display_request(port, message):

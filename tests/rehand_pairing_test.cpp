@@ -7,8 +7,10 @@
 #include <fstream>
 #include <string>
 
+#include "phone_key.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/programs/rehand_host.hpp"
+#include "rtukit/web/webcrypto.hpp"
 
 namespace rtukit {
 namespace {
@@ -30,17 +32,19 @@ class PairingExpiry : public ::testing::Test {
   std::filesystem::path dir_;
   std::string path_;
   ManualClock clock;
+  // A phone's key (the page makes one at each pairing), as the store keeps it.
+  static std::string new_key() { return web::base64url(rtukit::testing::PhoneKey().public_raw()); }
   const int64_t max_age = std::chrono::seconds(std::chrono::hours(24 * 30)).count();
 };
 
 TEST_F(PairingExpiry, AnUnusedPhoneIsForgottenAfterItsAge_AUsedOneIsKept) {
   PairingStore store(path_);
   ASSERT_FALSE(store.load(clock.unix_seconds()));
-  const auto old = store.add("Anna's phone", "123456", clock.unix_seconds());
-  const auto used = store.add("Ben's phone", "654321", clock.unix_seconds());
+  const auto old = store.add("Anna's phone", "123456", new_key(), clock.unix_seconds());
+  const auto used = store.add("Ben's phone", "654321", new_key(), clock.unix_seconds());
   ASSERT_TRUE(old && used);
   clock.advance(std::chrono::hours(24 * 20));
-  ASSERT_FALSE(store.touch(used->id, clock.unix_seconds()));
+  ASSERT_FALSE(store.touch(*used, clock.unix_seconds()));
   // 30 days to the second: still paired.
   clock.advance(std::chrono::hours(24 * 10));
   EXPECT_TRUE(store.expire(clock.unix_seconds(), max_age).empty());
@@ -50,13 +54,13 @@ TEST_F(PairingExpiry, AnUnusedPhoneIsForgottenAfterItsAge_AUsedOneIsKept) {
   EXPECT_EQ(gone[0].name, "Anna's phone");
   ASSERT_EQ(store.size(), 1u);
   EXPECT_EQ(store.phones()[0].name, "Ben's phone");
-  EXPECT_FALSE(store.find(old->token).has_value());
-  EXPECT_TRUE(store.find(used->token).has_value());
+  EXPECT_EQ(store.phone(*old), nullptr);
+  EXPECT_NE(store.phone(*used), nullptr);
   // After a restart the forgotten phone stays forgotten.
   PairingStore again(path_);
   ASSERT_FALSE(again.load(clock.unix_seconds()));
   EXPECT_EQ(again.size(), 1u);
-  EXPECT_FALSE(again.find(old->token).has_value());
+  EXPECT_EQ(again.phone(*old), nullptr);
   // Ben's phone goes too, 30 days after its last contact.
   clock.advance(std::chrono::hours(24 * 20));
   EXPECT_EQ(again.expire(clock.unix_seconds(), max_age).size(), 1u);
@@ -66,7 +70,7 @@ TEST_F(PairingExpiry, AnUnusedPhoneIsForgottenAfterItsAge_AUsedOneIsKept) {
 TEST_F(PairingExpiry, AShorterAgeForgetsSooner) {
   PairingStore store(path_);
   ASSERT_FALSE(store.load(clock.unix_seconds()));
-  ASSERT_TRUE(store.add("phone", "111111", clock.unix_seconds()));
+  ASSERT_TRUE(store.add("phone", "111111", new_key(), clock.unix_seconds()));
   clock.advance(std::chrono::hours(24) + 1s);
   EXPECT_EQ(store.expire(clock.unix_seconds(), 86'400).size(), 1u);
 }
@@ -80,9 +84,9 @@ TEST_F(PairingExpiry, WithoutAClockAContactIsNeverRecordedBeforeTheFilesTime) {
   {
     PairingStore store(path_);
     ASSERT_FALSE(store.load(clock.unix_seconds()));
-    const auto added = store.add("Anna's phone", "123456", clock.unix_seconds());
+    const auto added = store.add("Anna's phone", "123456", new_key(), clock.unix_seconds());
     ASSERT_TRUE(added);
-    id = added->id;
+    id = *added;
   }
   const int64_t paired = clock.unix_seconds();
   PairingStore store(path_);  // the board restarts, its calendar at 1970
@@ -107,28 +111,27 @@ TEST_F(PairingExpiry, WithoutAClockAContactIsNeverRecordedBeforeTheFilesTime) {
 TEST_F(PairingExpiry, AContactFromACalendarThatWasAheadCountsAsNow) {
   PairingStore store(path_);
   ASSERT_FALSE(store.load(clock.unix_seconds()));
-  const auto added = store.add("phone", "111111", clock.unix_seconds());
+  const auto added = store.add("phone", "111111", new_key(), clock.unix_seconds());
   ASSERT_TRUE(added);
   const int64_t today = clock.unix_seconds();
-  ASSERT_FALSE(store.touch(added->id, today + 10LL * 365 * 86'400));  // the calendar said 10 years on
+  ASSERT_FALSE(store.touch(*added, today + 10LL * 365 * 86'400));  // the calendar said 10 years on
   EXPECT_TRUE(store.expire(today, max_age).empty());
-  EXPECT_EQ(store.phone(added->id)->last_contact, today);
+  EXPECT_EQ(store.phone(*added)->last_contact, today);
   EXPECT_EQ(store.expire(today + max_age + 1, max_age).size(), 1U) << "30 days after, not 10 years";
 }
 
 // R-18: a phone paired from now on may not drive until the display's user
 // allows it; that leave is saved (a restart keeps it), a Bluetooth phone's
-// too, and forgetting a phone takes it away. A file from before the rule
-// keeps its phones driving.
-TEST_F(PairingExpiry, ANewPhoneDrivesOnceAllowed_TheLeaveIsSaved_APhoneFromBeforeKeepsDriving) {
+// too, and forgetting a phone takes it away.
+TEST_F(PairingExpiry, ANewPhoneDrivesOnceAllowed_TheLeaveIsSaved) {
   {
     PairingStore store(path_);
     ASSERT_FALSE(store.load(clock.unix_seconds()));
-    const auto added = store.add("Anna's phone", "123456", clock.unix_seconds());
+    const auto added = store.add("Anna's phone", "123456", new_key(), clock.unix_seconds());
     ASSERT_TRUE(added);
-    EXPECT_FALSE(store.confirmed(added->id)) << "new: not yet";
+    EXPECT_FALSE(store.confirmed(*added)) << "new: not yet";
     EXPECT_FALSE(store.confirmed("ble:AA:BB:CC:DD:EE:FF"));
-    ASSERT_FALSE(store.confirm(added->id));
+    ASSERT_FALSE(store.confirm(*added));
     ASSERT_FALSE(store.confirm("ble:AA:BB:CC:DD:EE:FF"));
     EXPECT_EQ(store.confirm("nobody").code(), Errc::invalid_argument);
   }
@@ -143,17 +146,106 @@ TEST_F(PairingExpiry, ANewPhoneDrivesOnceAllowed_TheLeaveIsSaved_APhoneFromBefor
   ASSERT_FALSE(third.load(clock.unix_seconds()));
   EXPECT_FALSE(third.confirmed("ble:AA:BB:CC:DD:EE:FF")) << "saved too";
 
-  // A file written before R-18 (no "confirmed" key): its phones drove, and still do.
+}
+
+// A Wi-Fi phone is its public key: it proves it is paired by signing the
+// connection's challenge; the file holds nothing that drives.
+TEST_F(PairingExpiry, APhoneProvesItIsPairedBySigning_TheFileHoldsNoSecret) {
+  const rtukit::testing::PhoneKey key;
+  const rtukit::testing::PhoneKey stranger;
+  PairingStore store(path_);
+  ASSERT_FALSE(store.load(clock.unix_seconds()));
+  const auto id = store.add("Anna's phone", "123456", web::base64url(key.public_raw()), clock.unix_seconds());
+  ASSERT_TRUE(id);
+  EXPECT_TRUE(store.verify(*id, "challenge A", key.sign("challenge A")));
+  EXPECT_FALSE(store.verify(*id, "challenge B", key.sign("challenge A"))) << "a signature opens one challenge";
+  EXPECT_FALSE(store.verify(*id, "challenge A", stranger.sign("challenge A"))) << "another key";
+  EXPECT_FALSE(store.verify("nobody", "challenge A", key.sign("challenge A")));
+  PairingStore again(path_);
+  ASSERT_FALSE(again.load(clock.unix_seconds()));
+  EXPECT_TRUE(again.verify(*id, "challenge C", key.sign("challenge C"))) << "the key survives a restart";
+  std::ifstream f(path_);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find(web::base64url(key.public_raw())), std::string::npos);
+  EXPECT_EQ(text.find("token"), std::string::npos);
+}
+
+// A file of the token formats: its Wi-Fi phones held a token a phishing
+// page could take; they pair again (named, so the daemon can say which),
+// and the tokens leave the disk. Its Bluetooth leaves are kept.
+TEST_F(PairingExpiry, PhonesOfATokenFilePairAgain_TheirTokensLeaveTheDisk_BluetoothLeavesStay) {
   {
     std::ofstream f(path_, std::ios::trunc);
     f << R"({"format": "rtukit rehand6600 pairing 2", "phones": [{"id": "0123456789ab", "token_sha256": ")"
       << std::string(64, 'a')
-      << R"(", "name": "old phone", "code": "111111", "paired_at": "", "last_contact": 1}]})";
+      << R"(", "name": "old phone", "code": "111111", "paired_at": "", "last_contact": 1}],)"
+      << R"( "bluetooth_confirmed": ["ble:AA:BB:CC:DD:EE:FF", 7, "not ble"]})";
   }
   PairingStore old(path_);
   ASSERT_FALSE(old.load(clock.unix_seconds()));
-  ASSERT_EQ(old.size(), 1U);
-  EXPECT_TRUE(old.confirmed("0123456789ab"));
+  EXPECT_EQ(old.size(), 0U);
+  ASSERT_EQ(old.legacy_dropped().size(), 1U);
+  EXPECT_EQ(old.legacy_dropped()[0], "old phone");
+  EXPECT_TRUE(old.confirmed("ble:AA:BB:CC:DD:EE:FF"));
+  ASSERT_EQ(old.bluetooth().size(), 1U);
+  std::ifstream f(path_);
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  EXPECT_EQ(text.find(std::string(64, 'a')), std::string::npos) << "rewritten without the token";
+  EXPECT_NE(text.find("pairing 3"), std::string::npos);
+}
+
+// A damaged entry pairs nothing: a key that is no point, or none.
+TEST_F(PairingExpiry, AnEntryWithoutAValidKeyPairsNothing) {
+  {
+    std::ofstream f(path_, std::ios::trunc);
+    f << R"({"format": "rtukit rehand6600 pairing 3", "phones": [)"
+      << R"({"id": "a1", "public_key": "BAAA", "name": "bad", "confirmed": true},)"
+      << R"({"id": "a2", "name": "none", "confirmed": true},)"
+      << R"({"id": "a3", "public_key": ")" << new_key() << R"(", "name": "good", "confirmed": "yes"}]})";
+  }
+  PairingStore store(path_);
+  ASSERT_FALSE(store.load(clock.unix_seconds()));
+  ASSERT_EQ(store.size(), 1U);
+  EXPECT_EQ(store.phones()[0].name, "good");
+  EXPECT_FALSE(store.confirmed("a3")) << "a \"confirmed\" that is not true is no leave";
+}
+
+// A Bluetooth bond is a phone like a Wi-Fi one: its record starts at its
+// bonding, its last contact is saved (at most once a minute: it writes ten
+// times a second) and survives a restart, and 30 days unused forget it.
+TEST_F(PairingExpiry, ABluetoothPhoneUnusedFor30DaysIsForgotten_ItsLastContactSurvivesARestart) {
+  const std::string phone = "ble:AA:BB:CC:DD:EE:01";
+  const std::string other = "ble:AA:BB:CC:DD:EE:02";
+  {
+    PairingStore store(path_);
+    ASSERT_FALSE(store.load(clock.unix_seconds()));
+    ASSERT_FALSE(store.bonded(phone, clock.unix_seconds()));
+    ASSERT_FALSE(store.bonded(other, clock.unix_seconds()));
+    EXPECT_FALSE(store.confirmed(phone)) << "a new bond may not drive yet (R-18)";
+    const int64_t bonded_at = clock.unix_seconds();
+    clock.advance(30s);
+    ASSERT_FALSE(store.touch(phone, clock.unix_seconds()));
+    EXPECT_EQ(store.bluetooth_phone(phone)->last_contact, bonded_at) << "not a minute yet";
+    clock.advance(std::chrono::hours(24 * 20));
+    ASSERT_FALSE(store.touch(phone, clock.unix_seconds()));
+    EXPECT_EQ(store.bluetooth_phone(phone)->last_contact, clock.unix_seconds());
+    ASSERT_FALSE(store.bonded(phone, clock.unix_seconds() + 999));
+    EXPECT_EQ(store.bluetooth_phone(phone)->last_contact, clock.unix_seconds()) << "a known bond is not new";
+  }
+  PairingStore again(path_);  // a restart
+  ASSERT_FALSE(again.load(clock.unix_seconds()));
+  ASSERT_NE(again.bluetooth_phone(phone), nullptr);
+  EXPECT_EQ(again.bluetooth_phone(phone)->last_contact, clock.unix_seconds());
+  clock.advance(std::chrono::hours(24 * 10) + 1s);  // the other: 30 days and a second since its bonding
+  const auto gone = again.expire(clock.unix_seconds(), max_age);
+  ASSERT_EQ(gone.size(), 1U);
+  EXPECT_EQ(gone[0].id, other);
+  EXPECT_EQ(again.bluetooth_phone(other), nullptr);
+  clock.advance(std::chrono::hours(24 * 20));
+  ASSERT_EQ(again.expire(clock.unix_seconds(), max_age).size(), 1U);
+  PairingStore third(path_);
+  ASSERT_FALSE(third.load(clock.unix_seconds()));
+  EXPECT_TRUE(third.bluetooth().empty()) << "forgotten, and saved";
 }
 
 }  // namespace

@@ -18,9 +18,9 @@ import subprocess
 import time
 import urllib.request
 
-from pyhelpers import Console, WebSocket, connect_tcp, free_port, stop_processes, wait_for
+from pyhelpers import Console, PhoneKey, WebSocket, connect_tcp, free_port, stop_processes, wait_for
 
-TOKEN = "0123456789abcdef0123456789abcdef"
+PHONE = "0123456789ab"  # the paired phone's id (its key: Chair.key)
 LEASE_MS = 300
 POLL_MS = 50
 TIMEOUT_MS = 200  # the daemon's response timeout (--timeout)
@@ -51,9 +51,8 @@ class Chair:
         sim_sock, relay_sock = os.path.join(work, "sim.sock"), os.path.join(work, "relay.sock")
         self.relay_log = os.path.join(work, "relay.log")
         pairing = os.path.join(work, "pairing.json")
-        with open(pairing, "w") as f:
-            json.dump({"format": "rtukit rehand6600 pairing 1",
-                       "phones": [{"token": TOKEN, "name": "stop phone", "paired_at": ""}]}, f)
+        self.key = PhoneKey()
+        self.key.pairing_file(pairing, PHONE, "stop phone")
         self.http, self.phone_port = free_port(), free_port()
         self.procs = []
         self.logs = []
@@ -67,7 +66,7 @@ class Chair:
                                        f"127.0.0.1:{self.http}", "--phone", f"127.0.0.1:{self.phone_port}",
                                        "--pairing-file", pairing] + ([f"--ble={bluez.adapter_name}"] if bluez else []), "host",
                                       env=bluez.env if bluez else None))
-        if bluez and not self.wait(lambda: bluez.app is not None and bluez.advertisement is not None, 20):
+        if bluez and not self.wait(lambda: bluez.app is not None, 20):
             raise RuntimeError("the daemon did not register its Bluetooth LE application")
         connect_tcp(self.http).close()
         if not self.wait(lambda: self.state()["connected"]):
@@ -154,7 +153,7 @@ class Chair:
 
     def phone(self):
         ws = WebSocket(self.phone_port, "/ws", tls=True)
-        r = ws.request({"op": "auth", "token": TOKEN})
+        r = self.key.auth(ws, PHONE)
         if not (r and r.get("ok")):
             raise RuntimeError(f"the phone was not admitted: {r}")
         return ws

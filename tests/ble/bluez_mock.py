@@ -9,7 +9,8 @@ a BLE peripheral needs of BlueZ, as its documentation describes them
     checks the tree (one primary GattService1 with a UUID; each
     GattCharacteristic1 with UUID, Service and Flags) and records it;
   - LEAdvertisingManager1.RegisterAdvertisement(o, a{sv}) reads the
-    advertisement's properties (GetAll) before it returns, and records them.
+    advertisement's properties (GetAll) before it returns, and records them;
+    UnregisterAdvertisement ends it (`advertisement` is None again).
 
 Then it acts as BlueZ and as the phone on the radio: connects and pairs a
 device, calls the agent's DisplayPasskey, subscribes (StartNotify), writes a
@@ -135,7 +136,7 @@ class MockBluez:
         ])
         self.adapter.AddMethods("org.bluez.LEAdvertisingManager1", [
             ("RegisterAdvertisement", "oa{sv}", "", lambda a, path, o: self._register_advertisement(a, path, o)),
-            ("UnregisterAdvertisement", "o", "", lambda _self, path: self.unregistered.append(str(path))),
+            ("UnregisterAdvertisement", "o", "", lambda _self, path: self._unregister_advertisement(path)),
         ])
         self.bus.add_signal_receiver(self._properties_changed, signal_name="PropertiesChanged",
                                      dbus_interface=PROPS, path_keyword="path", sender_keyword="sender")
@@ -170,6 +171,12 @@ class MockBluez:
         if props.get("Type") not in ("peripheral", "broadcast"):
             raise dbus.exceptions.DBusException("bad Type", name="org.bluez.Error.InvalidArguments")
         self.advertisement = (sender, str(path), props)
+
+    def _unregister_advertisement(self, path):
+        """BlueZ stops advertising it (a phone's discovery no longer sees the chair)."""
+        self.unregistered.append(str(path))
+        if self.advertisement and self.advertisement[1] == str(path):
+            self.advertisement = None
 
     def _properties_changed(self, interface, changed, _invalidated, path=None, sender=None):
         if interface == CHAR and "Value" in changed and self.app and sender == self.app[0]:

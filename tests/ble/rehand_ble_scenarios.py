@@ -34,6 +34,7 @@ COMMAND = "7e6a6600-0003-4b1e-9c3d-52e4a8f0c6a1"
 RESULT = "7e6a6600-0004-4b1e-9c3d-52e4a8f0c6a1"
 PHONE = "AA:BB:CC:DD:EE:01"
 STRANGER = "AA:BB:CC:DD:EE:02"
+UNUSED = "AA:BB:CC:DD:EE:09"  # bonded 31 days ago, never used since
 PRESS, RENEW, RELEASE, PULSE = 1, 2, 3, 4
 FORWARD, LEFT_SIGNAL = 1, 6
 
@@ -239,6 +240,14 @@ def main():
     procs = []
     bluez = MockBluez(work)
     try:
+        # A phone bonded 31 days ago and not used since (the daemon's record
+        # of it in the pairing file, its bond in BlueZ): forgotten at start.
+        with open(os.path.join(work, "pairing.json"), "w") as f:
+            json.dump({"format": "rtukit rehand6600 pairing 3", "phones": [],
+                       "bluetooth": [{"id": f"ble:{UNUSED}", "confirmed": True,
+                                      "last_contact": int(time.time()) - 31 * 86400}]}, f)
+        bluez.add_phone(UNUSED, "Unused")
+        bluez.bond(UNUSED)
         con, host, log_path = start_chair(bluez, work, port, procs)
 
         # ---- registration: BlueZ calls back before RegisterApplication returns
@@ -250,6 +259,14 @@ def main():
         connect_tcp(port).close()
         check("the daemon connects to the controller",
               bluez.pump(START_DEADLINE, lambda: state(port)["connected"]))
+        # Bonds expire like web pairings: 30 days unused, and the bond goes from BlueZ too.
+        check("a Bluetooth bond unused for more than 30 days is forgotten: BlueZ removes it",
+              bluez.pump(START_DEADLINE, lambda: not bluez.known(UNUSED)) and
+              "unused for more than 30 days" in open(log_path).read(), open(log_path).read()[-400:])
+        # Privacy: with no bonded phone and the pairing window closed, the
+        # chair sends nothing that tells a chair is there.
+        check("with no bonded phone and the window closed the chair does not advertise",
+              bluez.pump(START_DEADLINE, lambda: bluez.advertisement is None), f"{bluez.advertisement}")
         # "notify" alone would let BlueZ accept any central's subscription (its
         # CCC descriptor writable unencrypted) and send it every notification;
         # "encrypt-authenticated-notify" makes BlueZ require the bonded link.
@@ -259,10 +276,6 @@ def main():
               f"{bluez.flags(STATE)} {bluez.flags(RESULT)}")
         check("commands are written only over an authenticated encrypted link",
               bluez.flags(COMMAND) == ["encrypt-authenticated-write"], f"{bluez.flags(COMMAND)}")
-        adv = bluez.advertisement[2]
-        check("the advertisement names the chair and its service",
-              adv.get("LocalName") == "Rehand 6600" and SERVICE in [str(u) for u in adv.get("ServiceUUIDs", [])],
-              f"{dict(adv)}")
         _, agent_path, caps = bluez.agent()
         check("the pairing agent shows a passkey (DisplayOnly)", caps.get(agent_path) == "DisplayOnly", f"{caps}")
         check("the adapter is not pairable until the display asks",
@@ -290,6 +303,12 @@ def main():
               bluez.pump(START_DEADLINE, lambda: bool(bluez.adapter_property("Pairable")) and
                          bool(bluez.adapter_property("Discoverable"))) and
               int(bluez.adapter_property("PairableTimeout")) == 120)
+        check("...and the chair advertises while the window is open",
+              bluez.pump(START_DEADLINE, lambda: bluez.advertisement is not None))
+        adv = (bluez.advertisement or (None, None, {}))[2]
+        check("the advertisement names the chair and its service",
+              adv.get("LocalName") == "Rehand 6600" and SERVICE in [str(u) for u in adv.get("ServiceUUIDs", [])],
+              f"{dict(adv)}")
         bluez.add_phone(PHONE, "Pixel")
         bluez.connect(PHONE)
         err = bluez.display_passkey(PHONE, 48213)
@@ -309,6 +328,8 @@ def main():
         check("closing the window makes the adapter unpairable and hides the passkey",
               bluez.pump(START_DEADLINE, lambda: not bluez.adapter_property("Pairable") and
                          state(port).get("ble_passkey") == ""))
+        bluez.pump(0.3)
+        check("...and the chair goes on advertising: a bonded phone may connect", bluez.advertisement is not None)
 
         # ---- the bonded phone drives under the session's rules
         bluez.start_notify(STATE)
@@ -448,6 +469,8 @@ def main():
         check("and BlueZ removed the device and its bond", bluez.pump(START_DEADLINE, lambda: not bluez.known(PHONE)))
         check("it left the display's list",
               bluez.pump(START_DEADLINE, lambda: phone_id not in [p["phone"] for p in state(port)["phones"]]))
+        check("...and with no bonded phone left the chair stops advertising",
+              bluez.pump(START_DEADLINE, lambda: bluez.advertisement is None), f"{bluez.advertisement}")
 
         # ---- the reference client (`rtukit rehand6600 remote --ble`) on the laptop's adapter
         reference_client(bluez, con, port)
@@ -479,9 +502,9 @@ def main():
         # ---- on SIGTERM the daemon unregisters from BlueZ
         host.send_signal(signal.SIGTERM)
         ended = bluez.pump(START_DEADLINE, lambda: host.poll() is not None)
-        check("SIGTERM ends the daemon, which unregisters its application and advertisement",
+        check("SIGTERM ends the daemon, which unregisters its application and advertises nothing",
               ended and host.returncode == 0 and bluez.app[1] in bluez.unregistered and
-              bluez.advertisement[1] in bluez.unregistered, f"exit {host.returncode} {bluez.unregistered}")
+              bluez.advertisement is None, f"exit {host.returncode} {bluez.unregistered}")
     finally:
         stop_processes(procs)
         bluez.stop()

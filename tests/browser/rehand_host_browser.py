@@ -359,6 +359,25 @@ setTimeout(() => done('still open'), 10000);
         check("phone paired", wait_for(lambda: phone.find_element(By.ID, "remote").is_displayed()
                                        and re.fullmatch(r"\d+ %", text(phone, "#battery")), DEADLINE))
         check("the display lists the phone", wait_for(lambda: "Test phone" in text(hmi, "#phone-list")))
+        # What the phone keeps is a WebCrypto key the page cannot read out
+        # (a phishing page at another origin cannot reach it at all; one at
+        # this origin can only ask it to sign while open): no token anywhere.
+        kept = phone.execute_async_script("""
+            const done = arguments[arguments.length - 1];
+            import('/rehand/phone-key.js').then(async (m) => {
+              const id = await m.loadIdentity();
+              let exported = 'no key';
+              if (id) {
+                try { await crypto.subtle.exportKey('pkcs8', id.keys.privateKey); exported = 'exported'; }
+                catch (e) { exported = e.name; }
+              }
+              done({ phone: id && id.phone, extractable: id && id.keys.privateKey.extractable, exported,
+                     storage: JSON.stringify(localStorage) });
+            }, (e) => done({ error: String(e) }));""")
+        check("the phone keeps a key the page cannot export, and no token",
+              kept.get("phone") and kept.get("extractable") is False and kept.get("exported") == "InvalidAccessError"
+              and "token" not in kept.get("storage", "") and kept["phone"] in open(pairing).read()
+              and "token" not in open(pairing).read(), json.dumps(kept))
         # R-18: a new phone drives once the person at the display, seeing its
         # name, allows it; until then its drive press is refused, saying where.
         check("...as one that may not drive yet, with \"Allow to drive\" beside its name",
@@ -428,9 +447,9 @@ setTimeout(() => done('still open'), 10000);
         con.cmd("charger off")
         wait_for(lambda: phone.find_element(By.ID, "fwd").is_enabled(), DEADLINE)
 
-        # The same phone opens the remote in a second tab (its token from
-        # localStorage): the new connection replaces the old one, and the
-        # display says so.
+        # The same phone opens the remote in a second tab (its key from
+        # IndexedDB signs the new connection's challenge): the new connection
+        # replaces the old one, and the display says so.
         first_tab = phone.current_window_handle
         phone.switch_to.new_window("tab")
         phone.get(f"https://127.0.0.1:{phone_port}/")

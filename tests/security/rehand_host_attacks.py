@@ -25,11 +25,14 @@ import urllib.request
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 sys.path.insert(0, os.path.join(HERE, "..", "browser"))
-from pyhelpers import START_DEADLINE, STOP_BOUND_S, WebSocket, connect_tcp, free_port, host_polls_later, start, stop_processes, temp_dir, wait_for  # noqa: E402
+from pyhelpers import START_DEADLINE, STOP_BOUND_S, PhoneKey, WebSocket, connect_tcp, free_port, host_polls_later, start, stop_processes, temp_dir, wait_for  # noqa: E402
 from browser_common import Console, check, summary  # noqa: E402
 
 RTUKIT = sys.argv[1]
 
+
+# A guesser brings a valid key (a request without one is refused before its code is looked at).
+GUESSER_KEY = PhoneKey()
 
 def http_status(port, path, headers=None, tls=False, host=None):
     """The status of a GET (403, 404, 200...), or the error's text."""
@@ -200,25 +203,45 @@ def main():
 
         # ---- pairing: nothing tells a stranger whether a code is showing
         probe = WebSocket(phone_port, "/ws", tls=True)
-        no_code = probe.request({"op": "pair", "code": "000000", "name": "x"})
+        probe_key = PhoneKey()
+        no_code = probe_key.pair(probe, "000000", "x")
         display_request(display_port, {"op": "pair_start"})
         code = wait_for(lambda: state(display_port)["pairing_code"], 10) or ""
         wrong = str((int(code) + 1) % 1000000).zfill(6) if code else "000000"
-        with_code = probe.request({"op": "pair", "code": wrong, "name": "x"})
+        with_code = probe_key.pair(probe, wrong, "x")
         check("a wrong code and no code get the same answer",
               no_code and with_code and no_code.get("error") == with_code.get("error") and not with_code.get("ok"),
               f"{no_code} / {with_code}")
         probe.close()
-        # The owner pairs with the code the display shows.
+        # A pairing must bring a key the phone holds: a key that is no point,
+        # or a signature that is not the key's, pairs nothing (and the code
+        # still pairs its owner).
+        thief = WebSocket(phone_port, "/ws", tls=True)
+        bad_key = thief.request({"op": "pair", "code": code, "name": "x", "key": "BAAA",
+                                 "signature": probe_key.sign(thief.challenge())})
+        check("a pairing with a key that is not a P-256 point is refused",
+              bad_key is not None and not bad_key.get("ok") and "key" in bad_key.get("error", ""), json.dumps(bad_key))
+        other_key = PhoneKey()
+        mismatch = thief.request({"op": "pair", "code": code, "name": "x", "key": other_key.public(),
+                                  "signature": probe_key.sign(thief.challenge())})
+        check("a pairing whose signature is not its key's is refused",
+              mismatch is not None and not mismatch.get("ok") and "signature" in mismatch.get("error", ""),
+              json.dumps(mismatch))
+        thief.close()
+        # The owner pairs with the code the display shows; the page's key
+        # (WebCrypto, not extractable) is what it is from now on.
+        key = PhoneKey()
         phone = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(phone)
-        paired = phone.request({"op": "pair", "code": code, "name": "Anna's phone"})
-        check("the owner pairs with the display's code", bool(paired and paired.get("ok") and paired.get("token")),
+        paired = key.pair(phone, code, "Anna's phone")
+        check("the owner pairs with the display's code and a key",
+              bool(paired and paired.get("ok") and paired.get("phone")) and "token" not in (paired or {}),
               json.dumps(paired))
-        token = (paired or {}).get("token", "")
+        phone_id = (paired or {}).get("phone", "")
         store = json.load(open(os.path.join(work, "pairing.json")))
-        check("the pairing file keeps no token, only its hash",
-              token and token not in json.dumps(store) and len(store["phones"][0]["token_sha256"]) == 64)
+        check("the pairing file keeps no secret: the phone's public key only",
+              store["phones"][0].get("public_key") == key.public() and "token" not in json.dumps(store),
+              json.dumps(store))
         # R-18: whoever got through the pairing window (the code seen over a
         # shoulder) may not drive before the person at the display, seeing
         # the phone's name, allows it.
@@ -226,10 +249,10 @@ def main():
         check("a newly paired phone may not drive before the display allows it (R-18)",
               bool(early) and not early.get("ok") and "Allow to drive" in early.get("error", ""), json.dumps(early))
         check("...nothing reached the controller", "phone_forward" not in con.held(), con.held())
-        allowed = display_request(display_port, {"op": "confirm", "phone": (paired or {}).get("phone", "")})
+        allowed = display_request(display_port, {"op": "confirm", "phone": phone_id})
         check("the display allows it by its id", bool(allowed and allowed.get("ok")), json.dumps(allowed))
         check("...and only the display: a phone cannot allow itself",
-              not (phone.request({"op": "confirm", "phone": (paired or {}).get("phone", "")}) or {}).get("ok"))
+              not (phone.request({"op": "confirm", "phone": phone_id}) or {}).get("ok"))
 
         # ---- unauthenticated sockets: 5 s, then closed
         idle = WebSocket(phone_port, "/ws", tls=True, timeout=15)
@@ -242,17 +265,34 @@ def main():
             closed_after = time.monotonic() - t0
         check("an unauthenticated socket is closed after 5 s", closed_after is not None and 4 < closed_after < 12,
               f"{closed_after} s, {idle.close_reason}")
+        idle.close()  # the listener allows 4 connections from one address: no slot held by a closed one
 
-        # ---- a replayed token: one connection per phone, the newest wins
+        # ---- what a phone sends to prove it is paired opens nothing else
         wait_for(lambda: state(display_port)["values"]["speed"] == 0 and state(display_port)["values"]["motion"] == 1)
         first = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(first)
-        check("the phone authenticates in its first message", (first.request({"op": "auth", "token": token}) or {}).get("ok"))
+        seen = {"op": "auth", "phone": phone_id, "signature": key.sign(first.challenge())}
+        check("the phone authenticates in its first message: its key signs the connection's challenge",
+              (first.request(seen) or {}).get("ok"))
+        phone.close()  # the pairing socket of the same phone, replaced by `first`
+        # Someone who saw that message (a phishing page the user clicked
+        # through to, a log) replays it on a connection of its own: the
+        # challenge there is another.
+        replay = WebSocket(phone_port, "/ws", tls=True)
+        again_seen = replay.request(seen)
+        check("a replayed signature (another connection's challenge) is refused",
+              again_seen is not None and not again_seen.get("ok") and "not paired" in again_seen.get("error", ""),
+              json.dumps(again_seen))
+        forged = replay.request({"op": "auth", "phone": phone_id, "signature": other_key.sign(replay.challenge())})
+        check("a signature by another key for the phone's id is refused",
+              forged is not None and not forged.get("ok"), json.dumps(forged))
+        replay.close()
+        # ---- one connection per phone, the newest wins
         watcher = WebSocket(display_port, "/ws?role=display")  # what the display hears
         sockets.append(watcher)
         second = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(second)
-        check("a second connection with the same token is accepted", (second.request({"op": "auth", "token": token}) or {}).get("ok"))
+        check("a second connection of the same phone is accepted", (key.auth(second, phone_id) or {}).get("ok"))
         told = next_message(watcher, "event", 5, event="replaced")
         check("...and the display is told, with the phone's name",
               told is not None and told.get("name") == "Anna's phone", json.dumps(told))
@@ -264,7 +304,6 @@ def main():
         except OSError:
             first_reason = first.close_reason
         check("...and closes the first one", first_reason == "replaced by a new connection", str(first_reason))
-        phone.close()  # the pairing socket of the same phone was replaced too
 
         # ---- dead-man: a lapsed press never restarts, at any renewal rate
         press = second.request({"op": "press", "command": "phone_forward", "value": 1, "press": 1})
@@ -320,7 +359,7 @@ def main():
         check("the chair comes to a stop", bool(wait_for(lambda: state(display_port)["values"]["speed"] == 0, 10)))
         second = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(second)
-        second.request({"op": "auth", "token": token})
+        key.auth(second, phone_id)
 
         # ---- the display's posture presses are hold-type too: stand never latches
         wait_for(lambda: not state(display_port)["emergency"], 10)
@@ -376,7 +415,7 @@ def main():
               bool(listed) and listed[0]["name"] == "Anna's phone" and listed[0]["last_contact"], json.dumps(listed))
         again = WebSocket(phone_port, "/ws", tls=True)
         sockets.append(again)
-        check("the phone connects again with its token", (again.request({"op": "auth", "token": token}) or {}).get("ok"))
+        check("the phone connects again with its key", (key.auth(again, phone_id) or {}).get("ok"))
         forget = display_request(display_port, {"op": "forget", "phone": listed[0]["phone"] if listed else ""})
         try:
             while again.recv(5) is not None:
@@ -387,8 +426,8 @@ def main():
         check("forgetting a phone closes its connection at once", bool(forget and forget.get("ok")) and reason is not None
               and "forgotten" in reason, f"{forget} {reason}")
         late_phone = WebSocket(phone_port, "/ws", tls=True)
-        r = late_phone.request({"op": "auth", "token": token})
-        check("a forgotten phone's token is refused", r is not None and not r.get("ok"), json.dumps(r))
+        r = key.auth(late_phone, phone_id)
+        check("a forgotten phone's key is refused", r is not None and not r.get("ok"), json.dumps(r))
         late_phone.close()
 
         # ---- a WebSocket message of endless empty fragments is cut
@@ -405,19 +444,19 @@ def main():
         wrong = str((int(code) + 1) % 1000000).zfill(6)
         guesser = WebSocket(phone_port, "/ws", tls=True)
         for _ in range(3):
-            guesser.request({"op": "pair", "code": wrong, "name": "x"})
+            GUESSER_KEY.pair(guesser, wrong, "x")
         new_code = wait_for(lambda: state(display_port)["pairing_code"] != code and state(display_port)["pairing_code"], 10)
         check("a code guessed at 3 times is replaced by a new one (not left unusable)",
               bool(new_code) and new_code != code, f"{code} -> {new_code}")
         limited = None
         for _ in range(12):
-            limited = guesser.request({"op": "pair", "code": wrong, "name": "x"})
+            limited = GUESSER_KEY.pair(guesser, wrong, "x")
             if limited and "too many" in limited.get("error", ""):
                 break
         check("wrong codes are rate-limited per source address",
               limited is not None and not limited.get("ok") and "too many" in limited.get("error", ""),
               json.dumps(limited))
-        right = guesser.request({"op": "pair", "code": new_code, "name": "x"})
+        right = GUESSER_KEY.pair(guesser, new_code, "x")
         check("...even the right code, while the limit lasts", right is not None and not right.get("ok"),
               json.dumps(right))
         guesser.close()
@@ -443,7 +482,7 @@ def main():
             longest = max(longest, st["pairing_seconds"])
             g = WebSocket(phone_port, "/ws", tls=True, source=f"127.0.0.{n}")
             try:
-                g.request({"op": "pair", "code": str((int(st["pairing_code"]) + 1) % 1000000).zfill(6), "name": "x"})
+                GUESSER_KEY.pair(g, str((int(st["pairing_code"]) + 1) % 1000000).zfill(6), "x")
             finally:
                 g.close()
             wrong_sent += 1
@@ -456,7 +495,7 @@ def main():
               closed_after == 10 and state(display_port)["pairing_code"] == "", f"closed after {closed_after}")
         late = WebSocket(phone_port, "/ws", tls=True, source="127.0.0.40")
         try:
-            r = late.request({"op": "pair", "code": shown_codes[-1], "name": "x"})
+            r = GUESSER_KEY.pair(late, shown_codes[-1], "x")
         finally:
             late.close()
         check("...then no code pairs, not even the last one shown", r is not None and not r.get("ok"), json.dumps(r))

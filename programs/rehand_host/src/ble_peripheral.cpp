@@ -79,6 +79,8 @@ struct BlePeripheral::Impl {
   std::vector<uint8_t> result_value;
   bool state_notifying = false, result_notifying = false;
   bool app_registered = false, advert_registered = false;
+  bool advert_wanted = false;  ///< what set_advertising last asked
+  bool advert_busy = false;    ///< a (un)registration is on its way to BlueZ
 
   std::atomic<bool> pairing_open{false};
   mutable std::mutex mutex;                ///< guards the devices, the jobs, the registration's answer
@@ -90,7 +92,7 @@ struct BlePeripheral::Impl {
   std::map<std::string, Bucket> buckets;  ///< commands per device (loop thread)
   std::deque<std::function<void()>> jobs;
   std::condition_variable registered_cv;
-  int registrations_left = 2;
+  int registrations_left = 2;  ///< the application, and the advertisement when it starts with one
   std::string registration_error;
   int wake_fd = -1;
   std::atomic<bool> stopping{false};
@@ -380,13 +382,36 @@ struct BlePeripheral::Impl {
           app_registered = e == nullptr;
           answered("RegisterApplication", e);
         });
+    if (!options.advertise) return;
+    advert_wanted = advert_busy = true;
     adapter->callMethodAsync("RegisterAdvertisement")
         .onInterface("org.bluez.LEAdvertisingManager1")
         .withArguments(sdbus::ObjectPath(kAdvert), Options{})
         .uponReplyInvoke([this, answered](const sdbus::Error* e) {
           advert_registered = e == nullptr;
+          advert_busy = false;
           answered("RegisterAdvertisement", e);
+          apply_advertising();
         });
+  }
+
+  // Brings BlueZ's advertisement to what was last asked, one call at a time.
+  void apply_advertising() {
+    if (advert_busy || advert_wanted == advert_registered) return;
+    advert_busy = true;
+    const char* method = advert_wanted ? "RegisterAdvertisement" : "UnregisterAdvertisement";
+    auto call = adapter->callMethodAsync(method).onInterface("org.bluez.LEAdvertisingManager1");
+    const auto answered = [this, method](const sdbus::Error* e) {
+      advert_busy = false;
+      // Unregistered also when BlueZ says it did not know it.
+      advert_registered = std::string_view(method) == "RegisterAdvertisement" && e == nullptr;
+      if (e) fmt::print(stderr, "rehand6600 host: Bluetooth LE: {}: {}\n", method, e->getMessage());
+      if (!e) apply_advertising();  // asked again meanwhile; after a refusal, at the next ask
+    };
+    if (advert_wanted)
+      call.withArguments(sdbus::ObjectPath(kAdvert), Options{}).uponReplyInvoke(answered);
+    else
+      call.withArguments(sdbus::ObjectPath(kAdvert)).uponReplyInvoke(answered);
   }
 
   // Asynchronous, as every call the loop makes while it runs: the loop never
@@ -449,6 +474,7 @@ Outcome<std::unique_ptr<BlePeripheral>> BlePeripheral::start(BleOptions options,
   d->options = std::move(options);
   d->handlers = std::move(handlers);
   d->adapter_path = "/org/bluez/" + d->options.adapter;
+  d->registrations_left = d->options.advertise ? 2 : 1;
   const auto failed = [](std::string why) {
     return rtukit::Status(Errc::io_error, fmt::format("Bluetooth LE: {}", why));
   };
@@ -547,6 +573,14 @@ void BlePeripheral::publish_result(std::vector<uint8_t> value) {
   d.post([&d, value = std::move(value)] {
     d.result_value = value;
     if (d.result_notifying) d.result->emitPropertiesChangedSignal(kCharIface, {"Value"});
+  });
+}
+
+void BlePeripheral::set_advertising(bool on) {
+  Impl& d = *impl_;
+  d.post([&d, on] {
+    d.advert_wanted = on;
+    d.apply_advertising();
   });
 }
 

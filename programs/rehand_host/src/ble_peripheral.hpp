@@ -60,6 +60,9 @@ struct BleOptions {
   /// "too many commands") before they reach the daemon: a flooding phone's
   /// renewals lapse and the chair stops, and nobody else is slowed.
   unsigned max_commands_per_s = 50;
+  /// Advertise from the start (start() then fails when BlueZ refuses the
+  /// advertisement); else only once set_advertising(true) is called.
+  bool advertise = true;
 };
 
 class BlePeripheral {
@@ -77,6 +80,11 @@ class BlePeripheral {
   void publish_state(std::vector<uint8_t> value);
   /// A result, notified on the result characteristic.
   void publish_result(std::vector<uint8_t> value);
+  /// Advertises the chair ("Rehand 6600" with the service UUID) or stops:
+  /// the daemon advertises only while a bonded phone may connect or the
+  /// pairing window is open. Applied asynchronously; BlueZ's refusal is
+  /// logged on stderr.
+  void set_advertising(bool on);
   /// Opens the pairing window (the adapter pairable and discoverable for at
   /// most BleOptions::pairing_window) or closes it.
   void set_pairing(bool open);

@@ -20,6 +20,7 @@
 #include <filesystem>
 #include <future>
 #include <map>
+#include <set>
 #include <nlohmann/json.hpp>
 #include <optional>
 
@@ -31,6 +32,7 @@
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
+#include "rtukit/web/webcrypto.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -46,17 +48,24 @@ constexpr int kCodeGuesses = 3;                          ///< wrong codes before
 /// closes: a guesser with many addresses gets 10 tries at 1 in a million each,
 /// then the display must open it again (the person at the chair sees it close).
 constexpr int kWindowGuesses = 10;
-constexpr int kWrongPerAddress = 10;                    ///< wrong codes or tokens per source address...
+constexpr int kWrongPerAddress = 10;                    ///< wrong codes or signatures per source address...
 constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
 constexpr size_t kWrongSources = 4096;                  ///< sources the table keeps at most (about 200 KiB)
 
 struct Client {
   web::SocketPtr socket;
   Role role = Role::display;
-  bool authenticated = false;  ///< a display always; a phone once it sent a good token or code
+  bool authenticated = false;  ///< a display always; a phone once it signed the challenge (auth or pair)
   std::string phone;           ///< the paired phone's id
   Clock::time_point opened{};
+  std::string challenge;  ///< base64url of 32 random bytes, sent in the hello: this connection's only
 };
+
+/// What a phone's key signs to prove it is paired: this text and the
+/// connection's challenge (docs/rehand6600-remote.md). The prefix keeps the
+/// signature from meaning anything anywhere else; the challenge is new on
+/// every connection, so a signature seen once opens no other.
+std::string challenge_message(const std::string& challenge) { return "rtukit-rehand6600-phone:" + challenge; }
 
 std::string local_time(int64_t unix_seconds, const char* format) {
   const std::time_t t = unix_seconds;
@@ -209,7 +218,7 @@ struct HostDaemon::Impl {
 
   std::optional<web::HttpResponse> upgrade(const web::HttpRequest& r) {
     if (r.path != "/ws") return web::HttpResponse{.status = 404, .body = R"({"error":"no such endpoint"})"};
-    if (r.query.find("token") != std::string::npos)
+    if (r.query.find("token") != std::string::npos || r.query.find("signature") != std::string::npos)
       return web::HttpResponse{
           .status = 400, .body = R"({"error":"no credential in a URL: authenticate in the first message"})"};
     return std::nullopt;
@@ -221,16 +230,25 @@ struct HostDaemon::Impl {
     Client c{.socket = s, .opened = clock.now()};
     c.role = s->request().listener == 0 ? Role::display : Role::phone;
     c.authenticated = c.role == Role::display;
+    if (c.role == Role::phone) {
+      std::array<unsigned char, 32> random{};
+      if (!web::random_bytes(random.data(), random.size())) {
+        s->close("no random numbers on the display computer");
+        return;
+      }
+      c.challenge = web::base64url({reinterpret_cast<const char*>(random.data()), random.size()});
+    }
     clients.emplace(s->id(), c);
     if (c.role == Role::display) host.join(s->id(), rh::ClientKind::display);
-    s->send(Json{{"type", "hello"},
-                 {"role", c.role == Role::display ? "display" : "phone"},
-                 {"authenticated", c.authenticated},
-                 {"client", s->id()},
-                 {"lease_ms", options.host.lease.count()},
-                 {"auth_timeout_ms", std::chrono::milliseconds(options.auth_timeout).count()},
-                 {"mph", options.mph}}
-                .dump());
+    Json hello{{"type", "hello"},
+               {"role", c.role == Role::display ? "display" : "phone"},
+               {"authenticated", c.authenticated},
+               {"client", s->id()},
+               {"lease_ms", options.host.lease.count()},
+               {"auth_timeout_ms", std::chrono::milliseconds(options.auth_timeout).count()},
+               {"mph", options.mph}};
+    if (c.role == Role::phone) hello["challenge"] = c.challenge;
+    s->send(hello.dump());
     if (c.role == Role::display) s->send(state_json(true).dump());
   }
 
@@ -270,7 +288,7 @@ struct HostDaemon::Impl {
     return rtukit::Status(Errc::refused, std::move(reason));
   }
 
-  // Wrong codes and tokens per source (an IPv4 address, an IPv6 /64), per
+  // Wrong codes and signatures per source (an IPv4 address, an IPv6 /64), per
   // minute: guessing is slow (GuessLimit, rehand_message.hpp).
   bool too_many_wrong(const std::string& peer) { return wrong.refused(peer, clock.now()); }
   void count_wrong(const std::string& peer) { wrong.count(peer, clock.now()); }
@@ -346,6 +364,7 @@ struct HostDaemon::Impl {
         if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
         code = {std::move(fresh), clock.now() + kCodeLifetime, 0, 0};
         if (ble) ble->set_pairing(true);
+        update_advertising();
         log("pairing code shown on the display");
         broadcast_state();
         return {};
@@ -388,14 +407,15 @@ struct HostDaemon::Impl {
         const std::string& from = c.socket->peer_address();
         if (too_many_wrong(from))
           return refuse(
-              "too many wrong tokens or codes from this address (or too many addresses guessing): wait a "
+              "too many wrong signatures or codes from this address (or too many addresses guessing): wait a "
               "minute");
-        const std::optional<std::string> phone = pairing.find(k.token);
-        if (!phone) {
+        // One answer for an unknown phone and a wrong signature.
+        if (!pairing.verify(k.phone, challenge_message(c.challenge), k.signature)) {
           count_wrong(from);
           return refuse(
               "not paired: this phone is unknown or was forgotten; pair again with the display's code");
         }
+        const std::optional<std::string> phone = k.phone;
         admit_phone(c, *phone);
         result["phone"] = *phone;
         result["name"] = name_of(*phone);
@@ -409,7 +429,7 @@ struct HostDaemon::Impl {
         const std::string& from = c.socket->peer_address();
         if (too_many_wrong(from))
           return refuse(
-              "too many wrong tokens or codes from this address (or too many addresses guessing): wait a "
+              "too many wrong signatures or codes from this address (or too many addresses guessing): wait a "
               "minute");
         // One answer for "no code shown", "expired" and "wrong": nothing a
         // stranger can probe tells whether a code is showing.
@@ -434,19 +454,22 @@ struct HostDaemon::Impl {
           }
           return refuse("wrong or expired code: enter the code the display shows now");
         }
+        // The right code: the phone also shows it holds the key it brings
+        // (a key the page cannot use would pair a phone that never connects).
+        if (!web::verify_p256(k.public_key, challenge_message(c.challenge), k.signature))
+          return refuse("the phone's signature does not match its key: reload the page and pair again");
         const std::string used = code.code;
         // One "Pair a phone", one phone: the window closes for both links
         // (before, a web pairing left the Bluetooth window open).
         close_pairing();
-        Outcome<PairingStore::Added> added = pairing.add(k.name, used, pairing_now());
+        Outcome<std::string> added = pairing.add(k.name, used, web::base64url(k.public_key), pairing_now());
         if (!added) return added.error();
-        admit_phone(c, added->id);
-        result["token"] = added->token;
-        result["phone"] = added->id;
-        result["name"] = name_of(added->id);
+        admit_phone(c, *added);
+        result["phone"] = *added;
+        result["name"] = name_of(*added);
         result["client"] = me;
-        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(added->id),
-                        added->id, from));
+        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(*added), *added,
+                        from));
         c.socket->send(state_json(false).dump());
         broadcast_state();
         return {};
@@ -468,13 +491,21 @@ struct HostDaemon::Impl {
       close_pairing();
       broadcast_state();
     }
-    if (now - last_expiry_check > std::chrono::minutes(1)) {
+    // With --ble, once the link is up: an expired bond is removed from BlueZ, not only from the file.
+    const bool ble_ready = options.ble_adapter.empty() || ble;
+    if (ble_ready && now - last_expiry_check > std::chrono::minutes(1)) {
       last_expiry_check = now;
-      for (const PairedPhone& p : pairing.expire(pairing_now(), options.pairing_max_age.count())) {
+      const auto days = options.pairing_max_age.count() / 86400;
+      for (const PairingStore::Forgotten& p : pairing.expire(pairing_now(), options.pairing_max_age.count())) {
+        if (p.id.starts_with("ble:")) {
+          if (!remove_bond(p.id, fmt::format("forgotten: unused for more than {} days", days)))
+            log(fmt::format("Bluetooth phone {} forgotten: unused for more than {} days", p.id, days));
+          continue;
+        }
         drop_phone(p.id, "this pairing expired");
-        log(fmt::format("phone '{}' ({}) forgotten: unused for more than {} days", p.name, p.id,
-                        options.pairing_max_age.count() / 86400));
+        log(fmt::format("phone '{}' ({}) forgotten: unused for more than {} days", p.name, p.id, days));
       }
+      if (ble) broadcast_state();
     }
     const rh::Snapshot s = host.snapshot();
     if (host.connected() && s.valid && s.sequence != last_sequence) {
@@ -513,6 +544,7 @@ struct HostDaemon::Impl {
     ble_passkey.clear();
     ble_passkey_for.clear();
     if (ble) ble->set_pairing(false);
+    update_advertising();
   }
 
   // A bonded phone wrote a command: the session decides, the result goes back
@@ -528,8 +560,7 @@ struct HostDaemon::Impl {
                                                    .reason = std::string(c.error().reason())}));
       return;
     }
-    ble_contact[device] =
-        std::chrono::duration_cast<std::chrono::seconds>(clock.wall().time_since_epoch()).count();
+    (void)pairing.touch(ble_id(device), pairing_now());  // recorded once a minute at most
     uint64_t& id = ble_clients[device];
     if (id == 0) {
       id = next_ble_client++;
@@ -617,16 +648,53 @@ struct HostDaemon::Impl {
 
   rtukit::Status ble_forget(const std::string& phone) {
     if (!ble) return rtukit::Status(Errc::invalid_argument, "no Bluetooth LE link");
+    if (!remove_bond(phone, "forgotten by the display"))
+      return rtukit::Status(Errc::invalid_argument, fmt::format("no such phone '{}'", phone));
+    return {};
+  }
+
+  // Ends Bluetooth phone `phone`'s link, its record (its leave to drive
+  // goes with it) and its bond in BlueZ. False when BlueZ lists no such device.
+  bool remove_bond(const std::string& phone, const std::string& why) {
+    (void)pairing.remove(phone);
+    if (!ble) return false;
     for (const BleDevice& b : ble->devices()) {
       if (ble_id(b.path) != phone) continue;
-      ble_gone(b.path, "forgotten by the display");
-      ble_contact.erase(b.path);
-      (void)pairing.remove(phone);  // its leave to drive goes with its bond
+      ble_gone(b.path, why);
+      // Until BlueZ reports the bond gone, its listing is no new bond.
+      ble_forgetting.insert(b.path);
       ble->forget(b.path);
-      log(fmt::format("Bluetooth phone '{}' ({}) forgotten by the display: its bond removed", b.name, phone));
-      return {};
+      log(fmt::format("Bluetooth phone '{}' ({}) {}: its bond removed", b.name, phone, why));
+      update_advertising();
+      return true;
     }
-    return rtukit::Status(Errc::invalid_argument, fmt::format("no such phone '{}'", phone));
+    return false;
+  }
+
+  // BlueZ's bonds and the store's records, after BlueZ reported a change: a
+  // bond gets its record (a new phone, not allowed to drive; its 30 days
+  // start), and the chair advertises only while it should.
+  void ble_sync() {
+    if (!ble) return;
+    const std::vector<BleDevice> devices = ble->devices();
+    std::erase_if(ble_forgetting, [&](const std::string& path) {
+      return std::none_of(devices.begin(), devices.end(),
+                          [&](const BleDevice& b) { return b.path == path && b.bonded; });
+    });
+    for (const BleDevice& b : devices)
+      if (b.bonded && !ble_forgetting.contains(b.path)) (void)pairing.bonded(ble_id(b.path), pairing_now());
+    update_advertising();
+    broadcast_state();
+  }
+
+  // Privacy: the chair advertises only while a bonded phone may connect or
+  // the pairing window is open; at any other time nothing in radio range
+  // tells that a chair is there (docs/rehand6600-ble.md, "Advertising").
+  void update_advertising() {
+    if (!ble) return;
+    bool bonded = false;
+    for (const BleDevice& b : ble->devices()) bonded = bonded || (b.bonded && !ble_forgetting.contains(b.path));
+    ble->set_advertising(bonded || !code.code.empty());
   }
 
   // ------------------------------------------------------------ state
@@ -744,6 +812,7 @@ struct HostDaemon::Impl {
     if (ble) {
       for (const BleDevice& b : ble->devices()) {
         if (!b.bonded) continue;
+        const BluetoothPhone* record = pairing.bluetooth_phone(ble_id(b.path));
         phones.push_back(
             {{"phone", ble_id(b.path)},
              {"name", b.name},
@@ -752,8 +821,7 @@ struct HostDaemon::Impl {
              {"connected", b.connected},
              {"driving", !driver.empty() && driver == ble_id(b.path)},
              {"confirmed", pairing.confirmed(ble_id(b.path))},
-             {"last_contact",
-              ble_contact.contains(b.path) ? local_time(ble_contact.at(b.path), "%Y-%m-%d %H:%M:%S") : ""}});
+             {"last_contact", record ? local_time(record->last_contact, "%Y-%m-%d %H:%M:%S") : ""}});
       }
       st["ble_passkey"] = ble_passkey.empty() ? "" : ble_passkey;
       st["ble_passkey_for"] = ble_passkey.empty() ? "" : ble_passkey_for;
@@ -884,7 +952,7 @@ struct HostDaemon::Impl {
   bool near_obstacle = false;
   Clock::time_point last_expiry_check{};
   std::map<std::string, uint64_t> ble_clients;    ///< a BLE phone's device path -> its session client
-  std::map<std::string, int64_t> ble_contact;     ///< a BLE phone's device path -> its last command (unix s)
+  std::set<std::string> ble_forgetting;           ///< device paths whose bond is being removed
   uint64_t next_ble_client = uint64_t{1} << 62;   ///< apart from the web sockets' ids
   std::string ble_passkey;                        ///< shown on the display while a phone pairs
   std::string ble_passkey_for;                    ///< the name of the phone that passkey is for
@@ -948,6 +1016,9 @@ rtukit::Status HostDaemon::start() {
   // Read before the server's thread runs: from then on the pairing store and
   // the phone URL are that thread's (its tick expires pairings).
   const size_t paired = d.pairing.size();
+  const bool ble_phones_known = !d.pairing.bluetooth().empty();
+  for (const std::string& name : d.pairing.legacy_dropped())
+    d.log(fmt::format("phone '{}' paired with a token before phones signed with a key: pair it again", name));
   if (rtukit::Status e = d.server->start()) return e;
   std::string phone_url = o.phone_url;
   if (phone_url.empty() && !o.phone.empty()) {
@@ -975,9 +1046,11 @@ rtukit::Status HostDaemon::start() {
     h.passkey = [&d](const std::string& device, uint32_t passkey) {
       d.server->post([&d, device, passkey] { d.ble_show_passkey(device, passkey); });
     };
-    h.devices_changed = [&d] { d.server->post([&d] { d.broadcast_state(); }); };
+    h.devices_changed = [&d] { d.server->post([&d] { d.ble_sync(); }); };
+    // Advertising from the start only when a bonded phone may connect
+    // (ble_sync then follows BlueZ's list of bonds).
     Outcome<std::unique_ptr<BlePeripheral>> ble =
-        BlePeripheral::start({.adapter = o.ble_adapter}, std::move(h));
+        BlePeripheral::start({.adapter = o.ble_adapter, .advertise = ble_phones_known}, std::move(h));
     if (!ble) {
       d.server->stop();
       return ble.error();
@@ -986,6 +1059,7 @@ rtukit::Status HostDaemon::start() {
     std::promise<void> handed;
     d.server->post([&d, &ble, &handed] {
       d.ble = std::move(*ble);
+      d.ble_sync();
       handed.set_value();
     });
     handed.get_future().wait();

@@ -9,6 +9,7 @@
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/session.hpp"
+#include "rtukit/web/webcrypto.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -136,21 +137,35 @@ rtukit::Outcome<HostCommand> display_command(const std::string& op, const Json& 
 rtukit::Outcome<HostCommand> phone_command(const std::string& op, const Json& m, bool authenticated) {
   if (op == "auth" || op == "pair") {
     if (authenticated) return bad("this connection is authenticated already");
+    // What a connection proves it holds: the key's signature of the
+    // challenge in the hello (docs/rehand6600-remote.md).
+    const std::optional<std::string> signature_text = text_field(m, "signature");
+    const std::optional<std::string> signature =
+        signature_text && signature_text->size() <= 128 ? web::from_base64url(*signature_text) : std::nullopt;
+    if (!signature || signature->size() != 64)
+      return bad("\"signature\" must be this phone's signature of the challenge (ECDSA P-256, base64url)");
     if (op == "auth") {
-      const std::optional<std::string> token = text_field(m, "token");
-      if (!token || token->empty() || token->size() > 128)
-        return bad("\"token\" must be the token this phone got");
+      const std::optional<std::string> phone = text_field(m, "phone");
+      if (!phone || phone->empty() || phone->size() > 64) return bad("\"phone\" must be this phone's id");
       HostCommand c = command(Kind::auth);
-      c.token = *token;
+      c.phone = *phone;
+      c.signature = *signature;
       return c;
     }
     const std::optional<std::string> code = text_field(m, "code");
     const std::optional<std::string> name = text_field(m, "name");
+    const std::optional<std::string> key_text = text_field(m, "key");
+    const std::optional<std::string> key =
+        key_text && key_text->size() <= 128 ? web::from_base64url(*key_text) : std::nullopt;
     if (!code || code->size() > 16) return bad("\"code\" must be the code the display shows");
     if (!name || name->size() > 200) return bad("\"name\" must be text");
+    if (!key || !web::valid_p256_key(*key))
+      return bad("\"key\" must be this phone's public key (ECDSA P-256, raw, base64url)");
     HostCommand c = command(Kind::pair);
     c.code = *code;
     c.name = phone_name(*name);
+    c.public_key = *key;
+    c.signature = *signature;
     return c;
   }
   if (!authenticated)

@@ -58,8 +58,11 @@ export function beep(ms = 300) {
 //   onClose(event)           the socket closed: event.reason is the daemon's
 //   shouldReconnect(event)   false keeps it closed (a replaced phone, a phone
 //                            that has not paired yet); default: always retry
+//   autoOpen                 false: no socket until reopen() (the phone page
+//                            reads its key first); default true
 // Returns { send, isOpen, reopen, close, lastMessageAt }.
-export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}, shouldReconnect = () => true }) {
+export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}, shouldReconnect = () => true,
+  autoOpen = true }) {
   let socket = null;
   let nextRequestId = 1;
   let reconnectTimer = null;
@@ -130,7 +133,7 @@ export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}
       if (shouldReconnect(event)) reconnectTimer = setTimeout(open, RECONNECT_MS);
     };
   }
-  open();
+  if (autoOpen) open();
   return link;
 }
 

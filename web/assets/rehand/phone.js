@@ -1,22 +1,28 @@
 // The phone remote (docs/rehand6600-remote.md). No credential ever goes in a
-// URL: the page opens /ws and authenticates with its first message, or pairs
-// on that same socket. Driving is a dead-man: a direction is pressed only
+// URL, and none is stored: the page opens /ws, the daemon's hello carries a
+// challenge, and the page answers by signing it with this phone's key
+// (phone-key.js: made at pairing, not extractable), or pairs on that same
+// socket with the display's code and a new key. Driving is a dead-man: a direction is pressed only
 // while a finger is down, the page visible and the socket alive; the daemon's
 // 300-ms lease stops the chair when the renewals stop coming.
 'use strict';
 import { $, $$, clockTime, connect, formatSpeed, holdButton, motionText, setControlEnabled } from '/rehand/common.js';
 import { buildChairView, showDistances } from '/rehand/distances.js';
+import { forgetIdentity, loadIdentity, newKeys, publicKeyText, saveIdentity, signChallenge } from '/rehand/phone-key.js';
 
-const TOKEN_KEY = 'rtukit-rehand6600-token';
+// Pages before 2026-11-29 kept a permanent token here, which one clicked-through
+// certificate warning could hand to a phishing page. It opens nothing now: removed.
+localStorage.removeItem('rtukit-rehand6600-token');
 const REPLACED_REASON = 'replaced by a new connection';  // the daemon's close reason
 const NOTICE_MS = 4000;  // how long a refusal stays shown over the standing reason
 const PAIR_RETRY_MS = 1000;  // before a pairing whose socket did not open tries a new one
 
-let token = localStorage.getItem(TOKEN_KEY) || '';
+let identity = null;               // { phone, name, keys } once paired (IndexedDB)
 let me = { phone: '', name: '' };  // this phone, as the daemon names it
 let authenticated = false;         // the open socket is authenticated (auth or pair answered ok)
 let replaced = false;              // another page of this phone took over: stay closed
-let pendingPair = null;            // { code, name, retried } to send once the socket is open
+let pendingPair = null;            // { code, name, retried, keys } to send once the hello came
+let challenge = '';                // the open socket's, from the daemon's hello
 let state = null;
 let stateIsFresh = false;          // the state came on the socket that is open now
 let mph = false;
@@ -27,47 +33,75 @@ const link = connect({
   onOpen,
   onMessage,
   onClose,
-  // Without a token there is nothing to reconnect for: the pairing form
-  // opens a socket when the user asks to pair. A replaced page stays closed.
-  shouldReconnect: () => !!token && !replaced,
+  // Unpaired there is nothing to reconnect for: the pairing form opens a
+  // socket when the user asks to pair. A replaced page stays closed.
+  shouldReconnect: () => !!identity && !replaced,
+  autoOpen: false,  // once the key is read (loadIdentity, below)
 });
 
 // ---------------------------------------------------------------- the socket
 
 function onOpen() {
   authenticated = false;
-  if (pendingPair) sendPair();
-  else if (token) sendAuth();
+  challenge = '';
   render();
+}
+
+// The daemon's first message: this connection's challenge. The answer is a
+// pairing (asked for) or a signature of it (paired).
+function onHello(hello) {
+  if (typeof hello.challenge !== 'string') return;
+  challenge = hello.challenge;
+  if (pendingPair) sendPair(hello.challenge);
+  else if (identity) sendAuth(hello.challenge);
 }
 
 // A refusal is the daemon's own answer; a local failure (socket closed before
 // the answer) is not, and must not cost the phone its pairing.
 const refusedByDaemon = (r) => r.type === 'result' && !r.ok;
 
-function sendAuth() {
-  link.send('auth', { token }).then((r) => {
+async function sendAuth(challenge) {
+  let signature;
+  try {
+    signature = await signChallenge(identity.keys, challenge);
+  } catch {
+    forgetPairing('This phone\'s key for the chair is gone (the browser\'s storage was cleared?). Pair it again with a new code from the display.');
+    return;
+  }
+  link.send('auth', { phone: identity.phone, signature }).then((r) => {
     if (r.ok) {
       authenticated = true;
       me = { phone: r.phone || '', name: r.name || '' };
       showScreen('remote');
       render();
+    } else if (refusedByDaemon(r) && /not paired/i.test(r.error || '')) {
+      forgetPairing(`This phone is no longer paired (${r.error}). Pair it again with a new code from the display.`);
     } else if (refusedByDaemon(r)) {
-      forgetToken(`This phone is no longer paired (${r.error || 'refused'}). Pair it again with a new code from the display.`);
+      showRefusal(r.error || 'refused');  // too many tries from this network: the key stays
     }
   });
 }
 
-function sendPair() {
+async function sendPair(challenge) {
   const request = pendingPair;
   pendingPair = null;
   $('#pair-go').disabled = true;
   $('#pair-reason').textContent = 'Pairing…';
-  link.send('pair', { code: request.code, name: request.name }).then((r) => {
+  let keys, key, signature;
+  try {
+    keys = request.keys || await newKeys();
+    key = await publicKeyText(keys);
+    signature = await signChallenge(keys, challenge);
+  } catch {
     $('#pair-go').disabled = false;
-    if (r.ok && r.token) {
-      token = r.token;
-      localStorage.setItem(TOKEN_KEY, token);
+    $('#pair-reason').textContent = 'This browser cannot make a key (WebCrypto): open the page over https in a current browser.';
+    return;
+  }
+  link.send('pair', { code: request.code, name: request.name, key, signature }).then(async (r) => {
+    $('#pair-go').disabled = false;
+    if (r.ok && r.phone) {
+      identity = { phone: r.phone, name: r.name || request.name, keys };
+      try { await saveIdentity(identity); } catch { /* kept for this page only: pair again after a reload */ }
       authenticated = true;  // this same socket now commands the chair
       me = { phone: r.phone || '', name: r.name || request.name };
       $('#pair-reason').textContent = '';
@@ -76,7 +110,7 @@ function sendPair() {
     } else if (!refusedByDaemon(r) && !request.retried) {
       // The socket closed under the request (the daemon closes a socket
       // that has not authenticated within 5 s): once more on a new one.
-      pendingPair = { ...request, retried: true };
+      pendingPair = { ...request, keys, retried: true };
       link.reopen();
     } else {
       $('#pair-reason').textContent = r.error || 'Pairing refused.';
@@ -100,15 +134,15 @@ function onClose(event) {
     }
   }
   if (event.reason === REPLACED_REASON) becomeReplaced();
-  else if (token && /not paired|unknown token|forgotten/i.test(event.reason || '')) {
-    forgetToken(`This phone is no longer paired (${event.reason}). Pair it again with a new code from the display.`);
+  else if (identity && /not paired|forgotten|expired/i.test(event.reason || '')) {
+    forgetPairing(`This phone is no longer paired (${event.reason}). Pair it again with a new code from the display.`);
   }
   render();
 }
 
-function forgetToken(why) {
-  token = '';
-  localStorage.removeItem(TOKEN_KEY);
+function forgetPairing(why) {
+  identity = null;
+  forgetIdentity();
   authenticated = false;
   state = null;
   stateIsFresh = false;
@@ -123,7 +157,8 @@ function becomeReplaced() {
 
 function onMessage(m) {
   if (typeof m.mph === 'boolean') mph = m.mph;  // the daemon's --mph, if it says
-  if (m.type === 'state') {
+  if (m.type === 'hello') onHello(m);
+  else if (m.type === 'state') {
     state = m;
     stateIsFresh = true;
     render();
@@ -214,7 +249,7 @@ $('#pair-go').addEventListener('click', () => {
     return;
   }
   pendingPair = { code, name: $('#pair-name').value.trim() || 'Phone', retried: false };
-  if (link.isOpen() && !authenticated) sendPair();
+  if (link.isOpen() && !authenticated && challenge) sendPair(challenge);
   else {
     $('#pair-go').disabled = true;
     $('#pair-reason').textContent = 'Pairing…';
@@ -224,7 +259,7 @@ $('#pair-go').addEventListener('click', () => {
 
 $('#reconnect').addEventListener('click', () => {
   replaced = false;
-  showScreen(token ? 'remote' : 'pairing');
+  showScreen(identity ? 'remote' : 'pairing');
   link.reopen();
 });
 
@@ -248,5 +283,12 @@ readFragment();
 window.addEventListener('hashchange', readFragment);
 
 buildChairView($('#distances'));
-showScreen(token ? 'remote' : 'pairing');
+showScreen('pairing');
 render();
+loadIdentity().then((found) => {
+  identity = found;
+  if (identity) me = { phone: identity.phone, name: identity.name };
+  showScreen(identity ? 'remote' : 'pairing');
+  if (identity) link.reopen();  // the hello's challenge is signed in onHello
+  render();
+});

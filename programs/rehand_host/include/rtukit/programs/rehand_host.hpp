@@ -36,49 +36,66 @@
 
 namespace rtukit::programs {
 
-/// One paired phone as the store keeps it: never its token, only the token's SHA-256.
+/// One phone paired over Wi-Fi, as the store keeps it: its public key,
+/// never a secret (the private key never leaves the phone's browser).
 struct PairedPhone {
-  std::string id;            ///< 12 hex digits, random: how the display names it in "forget"
-  std::string token_hash;    ///< SHA-256 of the token, hex
+  std::string id;            ///< 12 hex digits, random: how the page and the display name it
+  std::string public_key;    ///< ECDSA P-256, raw point, base64url (web/webcrypto.hpp)
   std::string name;          ///< as the phone asked, shown on the display
   std::string code;          ///< the pairing code it paired with (the display user saw it)
   std::string paired_at;     ///< UTC, ISO 8601
   int64_t last_contact = 0;  ///< Unix seconds of its last connection
   /// The display's user allowed it to drive, seeing its name. A phone
-  /// paired from now on starts without; one of a file from before the rule
-  /// keeps driving.
-  bool confirmed = true;
+  /// paired from now on starts without.
+  bool confirmed = false;
+};
+
+/// One phone bonded over Bluetooth LE: its bond is BlueZ's; the store keeps
+/// what the daemon decides about it.
+struct BluetoothPhone {
+  std::string id;            ///< "ble:ADDRESS"
+  bool confirmed = false;    ///< allowed to drive (R-18)
+  int64_t last_contact = 0;  ///< Unix seconds: its bonding, then its last command (30 days unused: forgotten)
 };
 
 /// Paired phones, in a JSON file written atomically (a temporary file
 /// created exclusively beside it, fsync, rename), mode 0600. A file that is
 /// not ours (not a regular file, too large, another program's JSON) is never
-/// overwritten: load() says why. Tokens are stored as SHA-256 hashes and
-/// compared in constant time; a file of the first format (tokens in the
-/// clear) is converted on load.
+/// overwritten: load() says why. A Wi-Fi phone is its public key: it proves
+/// it is paired by signing a challenge (verify()); no secret is on the disk.
+/// Files of the earlier formats kept phones by a token (in the clear, then
+/// hashed): their Wi-Fi phones are dropped at load (they pair again once,
+/// legacy_dropped() names them); their Bluetooth leaves are kept.
 class PairingStore {
  public:
   explicit PairingStore(std::string path) : path_(std::move(path)) {}
   /// Reads the file; a missing file is an empty store. Errors: io_error /
   /// invalid_argument with the reason (the store is then read-only).
-  /// `now`: Unix seconds, the pairing time given to a phone of an old file.
+  /// `now`: Unix seconds, the last contact given to a record that has none.
   rtukit::Status load(int64_t now);
-  struct Added {
-    std::string id, token;  ///< the token (256 bits, hex) goes to the phone once and is never stored
-  };
-  /// A new phone named `name` that paired with `code` at `now` (Unix s),
-  /// saved before it is returned. Errors: the save's, with the reason.
-  rtukit::Outcome<Added> add(std::string name, std::string code, int64_t now);
-  /// The phone whose token this is, or nullopt.
-  std::optional<std::string> find(std::string_view token) const;
+  /// A new phone named `name` (control characters removed; empty or over
+  /// 40 bytes: "phone N") with `public_key` (raw, base64url; the caller
+  /// checked it with web::valid_p256_key), paired with `code` at `now`
+  /// (Unix s), saved before its id is returned. Errors: the save's, with the
+  /// reason; io_error when the OS gives no random numbers.
+  rtukit::Outcome<std::string> add(std::string name, std::string code, std::string public_key, int64_t now);
+  /// Whether Wi-Fi phone `id` signed `message` with its key (`signature`:
+  /// P1363 bytes). False for an unknown id or anything malformed.
+  bool verify(std::string_view id, std::string_view message, std::string_view signature) const;
   const PairedPhone* phone(std::string_view id) const;
-  /// Records a contact (saved). Unknown ids are ignored.
+  /// Records a contact, saved. A Wi-Fi phone's at once (it connects
+  /// rarely); a Bluetooth phone's (it writes ten times a second) only when
+  /// the recorded one is a minute old or more. Unknown ids are ignored.
   rtukit::Status touch(std::string_view id, int64_t now);
-  /// Forgets a phone. Errors: invalid_argument (no such phone), the save's.
-  /// A Bluetooth phone's id ("ble:ADDRESS", its bond is BlueZ's) only loses
-  /// its confirmation: never an error but the save's.
+  /// Forgets a phone of either kind and its leave to drive. Errors:
+  /// invalid_argument (no such Wi-Fi phone; an unknown Bluetooth id is no
+  /// error: its bond is BlueZ's), the save's (then nothing changed).
   rtukit::Status remove(std::string_view id);
   rtukit::Status remove_all();
+  /// A Bluetooth phone BlueZ lists as bonded: a record is made for it at
+  /// `now` if it has none (a new bond, or one made before the store kept
+  /// Bluetooth phones), not allowed to drive. Errors: the save's.
+  rtukit::Status bonded(std::string_view id, int64_t now);
   /// the display's user allows phone `id` to drive (a paired phone's
   /// id, or "ble:ADDRESS" of a bonded Bluetooth phone; the caller checks
   /// that one is bonded). Saved. Errors: invalid_argument (no such paired
@@ -86,10 +103,15 @@ class PairingStore {
   rtukit::Status confirm(std::string_view id);
   /// Whether phone `id` (either kind) may drive.
   bool confirmed(std::string_view id) const;
-  /// Forgets the phones not seen for more than `max_age_s`; returns them. A
-  /// last contact after `now` (stored while the calendar was ahead) counts
-  /// as `now`.
-  std::vector<PairedPhone> expire(int64_t now, int64_t max_age_s);
+  /// Forgets the phones of either kind not seen for more than `max_age_s`
+  /// and returns them, id and name (a Bluetooth phone's name is BlueZ's:
+  /// empty here; its bond is the caller's to remove). A last contact after `now` (stored while the calendar was
+  /// ahead) counts as `now`. Not saved: none is forgotten (the file still
+  /// has them).
+  struct Forgotten {
+    std::string id, name;
+  };
+  std::vector<Forgotten> expire(int64_t now, int64_t max_age_s);
   /// The store's time, for add(), touch() and expire(): the calendar
   /// (`calendar_s`, Unix seconds), but never before the newest time the file
   /// recorded at load (a last contact, the file's own last write) plus the
@@ -101,6 +123,10 @@ class PairingStore {
   /// phone is kept longer, never forgotten sooner.
   int64_t time(int64_t calendar_s, int64_t monotonic_s);
   const std::vector<PairedPhone>& phones() const noexcept { return phones_; }
+  const std::vector<BluetoothPhone>& bluetooth() const noexcept { return bluetooth_; }
+  const BluetoothPhone* bluetooth_phone(std::string_view id) const;
+  /// The names of the Wi-Fi phones of an earlier format dropped at load.
+  const std::vector<std::string>& legacy_dropped() const noexcept { return legacy_dropped_; }
   size_t size() const noexcept { return phones_.size(); }
   const std::string& path() const noexcept { return path_; }
 
@@ -108,7 +134,8 @@ class PairingStore {
   rtukit::Status save() const;
   std::string path_;
   std::vector<PairedPhone> phones_;
-  std::vector<std::string> ble_confirmed_;  ///< "ble:ADDRESS" of Bluetooth phones allowed to drive
+  std::vector<BluetoothPhone> bluetooth_;
+  std::vector<std::string> legacy_dropped_;
   bool writable_ = true;
   int64_t floor_ = 0;                        ///< the newest time the file recorded, at load (Unix s)
   std::optional<int64_t> monotonic_origin_;  ///< time()'s first monotonic reading
@@ -122,9 +149,6 @@ class PairingStore {
 /// "rehand6600-pairing.json" in the current directory. A set value is used
 /// as it is, even empty. Pure: reads no environment, touches no file.
 std::string default_pairing_file(const char* state_directory, const char* home);
-
-/// SHA-256 of `text`, lower-case hex.
-std::string sha256_hex(std::string_view text);
 
 struct HostDaemonOptions {
   /// The display's listener: loopback only (the kiosk browser on the board);

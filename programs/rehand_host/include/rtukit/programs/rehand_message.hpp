@@ -41,14 +41,16 @@ struct HostCommand {
     forget,       ///< display: unpair phone `phone`
     forget_all,   ///< display: unpair every phone
     confirm,      ///< display: allow phone `phone` to drive (R-18)
-    auth,         ///< phone: authenticate with `token`
-    pair,         ///< phone: pair with `code`, named `name`
+    auth,         ///< phone: phone `phone` proves it is paired: `signature` of this connection's challenge
+    pair,         ///< phone: pair with `code`, named `name`, with `public_key`; `signature` of the challenge
   };
   Kind kind = Kind::pair_cancel;
   uint16_t address = 0;
   uint16_t value = 0;
   uint64_t press = 0;
-  std::string code, name, token, phone;
+  std::string code, name, phone;
+  std::string public_key;  ///< raw P-256 point (bytes, decoded), a checked point on the curve
+  std::string signature;   ///< P1363 bytes (decoded), 64 of them
 };
 
 /// A phone's name as the display shows it and the log writes it, from what a
