@@ -35,7 +35,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::vector<uint8_t> result =
       ble::encode_result({.sequence = 1, .code = ble::ResultCode::refused, .reason = reason});
   if (result.size() > ble::kMaxValue) std::abort();
-  const std::string_view out(reinterpret_cast<const char*>(result.data()) + 4, result.size() - 4);
+  // Byte 4 names the reason's entry (reasons.hpp); the text follows, cut at a character.
+  if (result[4] != static_cast<uint8_t>(rtukit::rehand6600::reason_of(reason))) std::abort();
+  const std::string_view out(reinterpret_cast<const char*>(result.data()) + 5, result.size() - 5);
   if (rtukit::fuzz::valid_utf8(reason) && !rtukit::fuzz::valid_utf8(out)) std::abort();
   (void)ble::parse_result(in);
   (void)ble::parse_state(in);

@@ -76,18 +76,42 @@ TEST(RehandBleGatt, TheSessionsAnswerBecomesTheResult) {
             ResultCode::refused);
   EXPECT_EQ(result_of(press, rtukit::Status(Errc::invalid_argument, "not new")).code, ResultCode::invalid);
 
-  // 20 bytes at most, cut at a character boundary ("é" is 2 bytes in UTF-8).
+  // 20 bytes at most, cut at a character boundary ("é" is 2 bytes in UTF-8);
+  // the reason's code in byte 4 names it in full (reasons.hpp).
   const Result long_reason{.sequence = 0x0201,
                            .code = ResultCode::refused,
                            .reason = "no phone driving while the chair is not fully seated"};
   const std::vector<uint8_t> b = encode_result(long_reason);
   ASSERT_EQ(b.size(), kMaxValue);
-  EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.begin() + 4), bytes({1, 1, 2, 1}));
-  EXPECT_EQ(parse_result(b)->reason, "no phone driving");
-  const std::vector<uint8_t> accented = encode_result({.reason = "012345678901234é"});
-  EXPECT_EQ(parse_result(accented)->reason, "012345678901234");
+  EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.begin() + 5), bytes({2, 1, 2, 1, 8}));
+  EXPECT_EQ(parse_result(b)->reason, "no phone drivin");
+  EXPECT_EQ(parse_result(b)->why, rtukit::rehand6600::Reason::not_seated);
+  const std::vector<uint8_t> accented = encode_result({.reason = "01234567890123é"});
+  EXPECT_EQ(parse_result(accented)->reason, "01234567890123");
+  EXPECT_EQ(parse_result(accented)->why, rtukit::rehand6600::Reason::other) << "no entry: its text says why";
   EXPECT_EQ(parse_result(encode_result(long_reason, 200))->reason, long_reason.reason);
-  EXPECT_FALSE(parse_result(bytes({1, 0, 0, 9})).ok());
+  EXPECT_EQ(parse_result(encode_result({}))->why, rtukit::rehand6600::Reason::none);
+  EXPECT_FALSE(parse_result(bytes({2, 0, 0, 9, 0})).ok());
+  EXPECT_FALSE(parse_result(bytes({1, 0, 0, 1, 0})).ok()) << "version 1 results had no code";
+  EXPECT_FALSE(parse_result(bytes({2, 0, 0, 1})).ok()) << "5 bytes at least";
+}
+
+// Every refusal a phone can get names its reason by number: the R-18
+// sentence, cut to "not allowed to d" in the first layout, is code 12.
+TEST(RehandBleGatt, EachReasonIsFoundFromTheRefusalsBuiltFromIt) {
+  namespace rh = rtukit::rehand6600;
+  for (const rh::ReasonText& r : rh::reasons()) {
+    EXPECT_EQ(rh::reason_of(r.text), r.reason) << r.text;
+    EXPECT_EQ(rh::reason_text(r.reason), r.text);
+  }
+  EXPECT_EQ(rh::reason_of("press 7 has ended: lift the finger and press again"), rh::Reason::ended);
+  EXPECT_EQ(rh::reason_of("10C3 Seat lift Error is active; only releasing is possible"), rh::Reason::error_active);
+  EXPECT_EQ(rh::reason_of("1010 Master Error: no communication with the controller"), rh::Reason::no_controller);
+  EXPECT_EQ(rh::reason_of("no standing up or raising the seat while charging"), rh::Reason::raise_charging);
+  EXPECT_EQ(rh::reason_of("something new"), rh::Reason::other);
+  EXPECT_EQ(rh::reason_of(""), rh::Reason::none);
+  const Result r18{.code = ResultCode::refused, .reason = std::string(rh::reason_text(rh::Reason::not_allowed))};
+  EXPECT_EQ(parse_result(encode_result(r18))->why, rh::Reason::not_allowed);
 }
 
 TEST(RehandBleGatt, TheStateByteByByte) {
@@ -108,10 +132,11 @@ TEST(RehandBleGatt, TheStateByteByByte) {
   s.regs[reg::kDistanceFront + 1] = 70000 & 0xFFFF;
   v.active_error = 0x10C3;
   v.disabled.drive = "the joystick on the chair is in use";
+  v.disabled.drive_reason = rtukit::rehand6600::Reason::joystick;
   v.phone_driving = true;
   const auto b = encode_state(v);
   EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.end()), bytes({1, 0b0110'1101, 87, 6, 2, 1, 0, 0, 0, 2, 0xC3,
-                                                             0x10, 0b010, 0xDC, 0x05, 0x70, 0x11, 0x34}));
+                                                             0x10, 0b010, 0xDC, 0x05, 0x70, 0x11, 0x34, 0, 9}));
   const Outcome<State> back = parse_state(b);
   ASSERT_TRUE(back.ok());
   EXPECT_TRUE(back->link && back->clutch_drive && back->main_light && back->right_signal && back->driving);
@@ -120,6 +145,12 @@ TEST(RehandBleGatt, TheStateByteByByte) {
   EXPECT_EQ(back->battery, 87U);
   EXPECT_EQ(back->active_error, 0x10C3);
   EXPECT_EQ(back->distance_front_mm, 1500U);
+  EXPECT_EQ(back->drive_reason, rtukit::rehand6600::Reason::joystick);
+  // A state of the first layout (18 bytes) still reads, without reasons.
+  const Outcome<State> first = parse_state(std::span<const uint8_t>(b.data(), 18));
+  ASSERT_TRUE(first.ok());
+  EXPECT_TRUE(first->drive_disabled);
+  EXPECT_EQ(first->drive_reason, rtukit::rehand6600::Reason::none);
   // The link down (1010): bit 0 clear, everything disabled.
   v.active_error = kMasterCommunicationError;
   v.disabled.all = "1010: no communication";

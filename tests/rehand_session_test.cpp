@@ -324,6 +324,9 @@ TEST(RehandSession, PhoneDrivingRules_OnePlaceWithTheirReasons) {
     EXPECT_EQ(e.code(), Errc::refused) << why;
     EXPECT_NE(e.reason().find(why), std::string::npos) << e.reason();
     EXPECT_EQ(r.session.disabled().drive.find(why) != std::string::npos, true) << r.session.disabled().drive;
+    // The same reason as a number (what a Bluetooth phone is sent), naming the same words.
+    EXPECT_EQ(r.session.disabled().drive_reason, reason_of(r.session.disabled().drive)) << why;
+    EXPECT_NE(r.session.disabled().drive_reason, Reason::other) << why;
   };
   {
     Rig r;
@@ -579,6 +582,12 @@ TEST(RehandSession, TheOverlaySaysWhichErrorDisablesTheChair) {
   r.poll();
   EXPECT_NE(r.session.disabled().all.find("is active"), std::string::npos) << r.session.disabled().all;
   EXPECT_EQ(r.session.disabled().all.find("no communication"), std::string::npos) << r.session.disabled().all;
+  EXPECT_EQ(r.session.disabled().all_reason, Reason::error_active);
+  EXPECT_EQ(r.session.disabled().drive_reason, Reason::error_active);
+  r.error = kMasterCommunicationError;
+  r.poll();
+  EXPECT_EQ(r.session.disabled().all_reason, Reason::no_controller);
+  EXPECT_EQ(r.session.disabled().raise_reason, Reason::no_controller);
 }
 
 // A release ends the press it names and nothing else: not the client's

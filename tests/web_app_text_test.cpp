@@ -1,7 +1,8 @@
 // The Bluetooth phone app (web/assets/rehand/app.html) reads the chair's
 // state as bytes and names what they mean with two files the device layer
-// decides: chair-text.js (the motion states and table 3's errors with their
-// advice, generated from the register table) and gatt.js (the UUIDs and
+// decides: chair-text.js (the motion states, table 3's errors with their
+// advice and the reasons' words, generated from the register table and
+// reasons.hpp) and gatt.js (the UUIDs and
 // function numbers of ble_gatt.hpp). These tests fail when either drifts
 // from the device layer; RTUKIT_UPDATE_WEB_TEXT=1 rewrites chair-text.js.
 #include <gtest/gtest.h>
@@ -38,11 +39,15 @@ std::string chair_text_js() {
     const nlohmann::ordered_json e = rh::error_json(code);
     errors[e["code"].get<std::string>()] = e;
   }
-  return "// Generated from the device layer (the register table and table 3): do not edit.\n"
+  nlohmann::ordered_json reasons = nlohmann::ordered_json::object();
+  for (const rh::ReasonText& r : rh::reasons())
+    reasons[std::to_string(static_cast<int>(r.reason))] = std::string(r.text);
+  return "// Generated from the device layer (the register table, table 3, reasons.hpp): do not edit.\n"
          "// tests/web_app_text_test.cpp fails when it drifts; RTUKIT_UPDATE_WEB_TEXT=1 with that\n"
          "// test rewrites it.\n"
          "export const MOTIONS = " +
-         motions.dump(2) + ";\nexport const ERRORS = " + errors.dump(2) + ";\n";
+         motions.dump(2) + ";\nexport const ERRORS = " + errors.dump(2) + ";\nexport const REASONS = " +
+         reasons.dump(2) + ";\n";
 }
 
 TEST(WebAppText, ChairTextIsTheDeviceLayers) {

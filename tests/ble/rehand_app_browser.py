@@ -197,6 +197,22 @@ def main():
               wait_for(lambda: f"ble:{PHONE}" in [p["phone"] for p in state(port)["phones"]]))
         check("the app is not shown as lost", "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
         display_request(port, {"op": "pair_cancel"})  # the window closes: no one else pairs from here on
+        # Why the chair says no, in its own full words: a result's 20 bytes
+        # hold 15 of text ("not allowed to"), its reason code names the rest.
+        fwd = app.find_element(By.ID, "fwd")
+        ActionChains(app).click_and_hold(fwd).perform()
+        r18 = wait_for(lambda: "beside this phone's name (R-18)" in text(app, "#reason"))
+        ActionChains(app).release(fwd).perform()
+        check("a press before the display allows the phone shows the chair's whole reason (R-18, by its code)",
+              bool(r18) and "Allow to drive" in text(app, "#reason"), text(app, "#reason"))
+        check("...and nothing reached the controller", register(con, "phone_forward") == 0)
+        # A standing reason comes in the state (its code): the buttons greyed, the words in full.
+        con.ask("charger on")
+        charging = wait_for(lambda: text(app, "#reason") == "no driving while charging" and not fwd.is_enabled())
+        check("charging greys the drive buttons with the chair's reason (the state's code)", bool(charging),
+              text(app, "#reason"))
+        con.ask("charger off")
+        wait_for(lambda: fwd.is_enabled())
         # the person at the display, seeing the phone's name, allows it to drive.
         r = display_request(port, {"op": "confirm", "phone": f"ble:{PHONE}"})
         check("the display allows the phone to drive", bool(r and r.get("ok")), f"{r}")

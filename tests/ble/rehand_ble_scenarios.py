@@ -336,8 +336,8 @@ def main():
         bluez.start_notify(RESULT)
         state_path, result_path = bluez.characteristic(STATE), bluez.characteristic(RESULT)
         value, err = bluez.read(PHONE, STATE)
-        check("the bonded phone reads the state (18 bytes, version 1, the link up)",
-              value is not None and len(value) == 18 and value[0] == 1 and value[1] & 1, f"{value} {err}")
+        check("the bonded phone reads the state (20 bytes, version 1, the link up)",
+              value is not None and len(value) == 20 and value[0] == 1 and value[1] & 1, f"{value} {err}")
 
         def result(sequence):
             for path, v in reversed(bluez.notified):
@@ -348,8 +348,9 @@ def main():
         # bonded, but not allowed to drive until the display says so.
         err = bluez.write(PHONE, COMMAND, command(PRESS, FORWARD, 1, 9))
         early = bluez.pump(START_DEADLINE, lambda: result(9) is not None) and result(9)
-        check("a press before the display allows the phone is refused (R-18), with its reason",
-              err == "" and early and early[3] != 0 and bytes(early[4:]).startswith(b"not allowed"), f"{err} {early}")
+        check("a press before the display allows the phone is refused (R-18), with its reason and its code (12)",
+              err == "" and early and early[0] == 2 and early[3] != 0 and early[4] == 12 and
+              bytes(early[5:]).startswith(b"not allowed"), f"{err} {early}")
         check("...and nothing reaches the controller", register(con, "phone_forward") == 0)
         allowed = display_request(port, {"op": "confirm", "phone": phone_id})
         check("the display allows it", bool(allowed and allowed.get("ok")), f"{allowed}")

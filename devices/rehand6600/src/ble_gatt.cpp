@@ -99,28 +99,31 @@ std::array<uint8_t, kCommandSize> encode_command(const Command& c) {
 }
 
 std::vector<uint8_t> encode_result(const Result& r, size_t max_size) {
-  size_t room = max_size > 4 ? max_size - 4 : 0;
+  size_t room = max_size > 5 ? max_size - 5 : 0;
   std::string_view text = r.reason;
   if (text.size() > room) {
     // Cut at a character boundary: never half a UTF-8 sequence.
     while (room > 0 && (static_cast<uint8_t>(text[room]) & 0xC0) == 0x80) --room;
     text = text.substr(0, room);
   }
-  std::vector<uint8_t> b(4 + text.size());
-  b[0] = kVersion;
+  std::vector<uint8_t> b(5 + text.size());
+  b[0] = kResultVersion;
   put_u16(&b[1], r.sequence);
   b[3] = static_cast<uint8_t>(r.code);
-  for (size_t i = 0; i < text.size(); ++i) b[4 + i] = static_cast<uint8_t>(text[i]);
+  b[4] = static_cast<uint8_t>(r.why != Reason::none ? r.why : reason_of(r.reason));
+  for (size_t i = 0; i < text.size(); ++i) b[5 + i] = static_cast<uint8_t>(text[i]);
   return b;
 }
 
 Outcome<Result> parse_result(std::span<const uint8_t> b) {
-  if (b.size() < 4) return bad(fmt::format("a result is at least 4 bytes, not {}", b.size()));
-  if (b[0] != kVersion) return bad(fmt::format("version {}: this client speaks {}", b[0], kVersion));
+  if (b.size() < 5) return bad(fmt::format("a result is at least 5 bytes, not {}", b.size()));
+  if (b[0] != kResultVersion)
+    return bad(fmt::format("result version {}: this client speaks {}", b[0], kResultVersion));
   if (b[3] > static_cast<uint8_t>(ResultCode::ended)) return bad(fmt::format("result code {}", b[3]));
   return Result{.sequence = u16_at(b, 1),
                 .code = static_cast<ResultCode>(b[3]),
-                .reason = std::string(b.begin() + 4, b.end())};
+                .reason = std::string(b.begin() + 5, b.end()),
+                .why = static_cast<Reason>(b[4])};
 }
 
 Result result_of(const Command& c, const rtukit::Status& answer) {
@@ -159,11 +162,14 @@ std::array<uint8_t, kStateSize> encode_state(const StateView& v) {
   put_u16(&b[13], s[reg::kDistanceFront]);
   put_u16(&b[15], s[reg::kDistanceFront + 1]);
   b[17] = static_cast<uint8_t>(s.sequence & 0xFF);
+  b[18] = static_cast<uint8_t>(v.disabled.all_reason);
+  b[19] = static_cast<uint8_t>(v.disabled.drive_reason);
   return b;
 }
 
 Outcome<State> parse_state(std::span<const uint8_t> b) {
-  if (b.size() < kStateSize) return bad(fmt::format("a state is {} bytes, not {}", kStateSize, b.size()));
+  constexpr size_t kFirstSize = 18;  // the first layout, without the reasons
+  if (b.size() < kFirstSize) return bad(fmt::format("a state is {} bytes, not {}", kStateSize, b.size()));
   if (b[0] != kVersion) return bad(fmt::format("version {}: this client speaks {}", b[0], kVersion));
   const auto bit = [&](size_t at, unsigned n) { return (b[at] >> n & 1) != 0; };
   State s{.link = bit(1, 0),
@@ -185,6 +191,10 @@ Outcome<State> parse_state(std::span<const uint8_t> b) {
           .distance_front_mm = u16_at(b, 13),
           .distance_rear_mm = u16_at(b, 15),
           .counter = b[17]};
+  if (b.size() >= kStateSize) {
+    s.all_reason = static_cast<Reason>(b[18]);
+    s.drive_reason = static_cast<Reason>(b[19]);
+  }
   return s;
 }
 

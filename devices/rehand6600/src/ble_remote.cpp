@@ -167,10 +167,13 @@ std::string describe(const State& s) {
   if (!s.clutch_drive) line += "  clutch in push";
   if (s.driving) line += "  a phone drives";
   if (s.emergency) line += "  EMERGENCY STOP";
+  // The chair's reason in full (a code: the state has no room for words).
   if (s.all_disabled)
-    line += "  (nothing may move)";
+    line += fmt::format("  (nothing may move: {})",
+                        s.all_reason != Reason::none ? reason_text(s.all_reason) : "see the display");
   else if (s.drive_disabled)
-    line += "  (no phone driving now)";
+    line += fmt::format("  (no phone driving now: {})",
+                        s.drive_reason != Reason::none ? reason_text(s.drive_reason) : "see the display");
   line += "  error ";
   line += s.active_error ? error_text(s.active_error) : std::string("none");
   return line;

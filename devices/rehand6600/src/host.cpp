@@ -508,7 +508,7 @@ void HostCore::absorb_results(TimePoint now) {
         slow_retry_at_ = now + std::chrono::milliseconds(500);
         for (uint16_t c = reg::kPhoneForward; c <= reg::kPhoneRight; ++c)
           session_.on_controller_stop(
-              c, "the chair could not be set to speed level 1, as a phone drives (D-14): press again", now);
+              c, fmt::format("{}: press again", reason_text(Reason::speed_level)), now);
       } else if (session_.driver()) {
         slow_ = Slow::yes;
       } else {

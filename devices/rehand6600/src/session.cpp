@@ -79,32 +79,37 @@ void Session::leave(ClientId client, TimePoint now) {
 
 Disabled Session::disabled() const {
   Disabled d;
-  if (active_error_)
+  if (active_error_) {
+    d.all_reason = active_error_ == kMasterCommunicationError ? Reason::no_controller : Reason::error_active;
     d.all = active_error_ == kMasterCommunicationError
-                ? fmt::format("{}: no communication with the controller", error_text(active_error_))
-                : fmt::format("{} is active", error_text(active_error_));
-  else if (stop_latched_)
-    d.all = "STOP is on: lift it on the display to use the chair again";
-  else if (emergency_)
-    d.all = "stopping: wait until the chair is still";
-  else if (!fresh())
-    d.all = "waiting for the controller's state";
+                ? fmt::format("{}: {}", error_text(active_error_), reason_text(Reason::no_controller))
+                : fmt::format("{}{}", error_text(active_error_), reason_text(Reason::error_active));
+  } else if (stop_latched_) {
+    d.all_reason = Reason::stop_latched;
+  } else if (emergency_) {
+    d.all_reason = Reason::stopping;
+  } else if (!fresh()) {
+    d.all_reason = Reason::waiting;
+  }
+  if (d.all.empty()) d.all = std::string(reason_text(d.all_reason));
   const Snapshot& s = snapshot_;
-  d.drive = d.all;
-  if (d.drive.empty()) d.drive = drive_block();
-  if (d.drive.empty() && !s.is_static() && !driver_) d.drive = "phone drive only while the chair is static";
-  d.raise = d.all;
-  if (d.raise.empty() && s.charging()) d.raise = "no standing up or raising the seat while charging";
+  d.drive_reason = d.all_reason;
+  if (d.drive_reason == Reason::none) d.drive_reason = drive_block();
+  if (d.drive_reason == Reason::none && !s.is_static() && !driver_) d.drive_reason = Reason::not_static;
+  d.drive = d.all_reason != Reason::none ? d.all : std::string(reason_text(d.drive_reason));
+  d.raise_reason = d.all_reason;
+  if (d.raise_reason == Reason::none && s.charging()) d.raise_reason = Reason::raise_charging;
+  d.raise = d.all_reason != Reason::none ? d.all : std::string(reason_text(d.raise_reason));
   return d;
 }
 
-std::string Session::drive_block() const {
+Reason Session::drive_block() const {
   const Snapshot& s = snapshot_;
-  if (s.charging()) return "no driving while charging";
-  if (!s.clutch_drive()) return "no driving with the clutch in push (free-wheel) mode";
-  if (!s.seated()) return "no phone driving while the chair is not fully seated";
-  if (!s.joystick_neutral()) return "the joystick on the chair is in use";
-  return {};
+  if (s.charging()) return Reason::charging;
+  if (!s.clutch_drive()) return Reason::push_mode;
+  if (!s.seated()) return Reason::not_seated;
+  if (!s.joystick_neutral()) return Reason::joystick;
+  return Reason::none;
 }
 
 // The rules every new press and one-shot command passes, with the reason
@@ -113,10 +118,9 @@ rtukit::Status Session::check_rules(const Client& c, uint16_t command, uint16_t 
   const Disabled d = disabled();
   if (!d.all.empty()) return refuse(d.all + (active_error_ ? "; only releasing is possible" : ""));
   if (reg::is_phone_drive(command)) {
-    if (driver_ && *driver_ != c.id) return refuse("another phone is driving");
+    if (driver_ && *driver_ != c.id) return refuse(std::string(reason_text(Reason::another_driver)));
     // The driving phone may change direction while the chair still moves.
-    if (!d.drive.empty() && !(driver_ == c.id && d.drive == "phone drive only while the chair is static"))
-      return refuse(d.drive);
+    if (!d.drive.empty() && !(driver_ == c.id && d.drive_reason == Reason::not_static)) return refuse(d.drive);
   }
   const bool raising = (command == reg::kStandSit || command == reg::kSeatLift) && value == 1;
   if (raising && !d.raise.empty()) return refuse(d.raise);
@@ -160,7 +164,7 @@ rtukit::Status Session::renew(ClientId client, PressId id, TimePoint now) {
   for (Press& p : presses_) {
     if (p.client != client || p.id != id) continue;
     // What forbids a phone to drive forbids it to go on driving.
-    if (const std::string block = reg::is_phone_drive(p.command) ? drive_block() : std::string();
+    if (const std::string block(reason_text(reg::is_phone_drive(p.command) ? drive_block() : Reason::none));
         !block.empty()) {
       end_where([&](const Press& q) { return q.client == client && q.id == id; }, block, false, now);
       return refuse(block);
@@ -243,7 +247,7 @@ void Session::on_status(const Snapshot& snapshot, uint16_t active_error, TimePoi
   }
   if (fresh()) {
     // What forbids a phone to drive ends its drive (D-10, charging, push, the joystick taking over).
-    if (const std::string block = drive_block(); !block.empty()) {
+    if (const std::string block(reason_text(drive_block())); !block.empty()) {
       end_where(
           [&](const Press& p) {
             const Client* c = find(p.client);

@@ -24,6 +24,7 @@ namespace rtukit::programs {
 namespace {
 
 namespace gatt = rehand6600::ble;
+namespace rh = rehand6600;
 using Clock = std::chrono::steady_clock;
 using Props = std::map<std::string, sdbus::Variant>;
 using Interfaces = std::map<std::string, Props>;
@@ -217,8 +218,13 @@ class Remote {
         fmt::print("{}: accepted\n", function_name(c.function));
     } else {
       static constexpr const char* kCodes[] = {"accepted", "refused", "invalid", "ended"};
+      // The reason in full from its code (the text is cut to fit 20 bytes),
+      // else what text came.
+      const std::string_view why = r->why != rh::Reason::none && r->why != rh::Reason::other
+                                       ? rh::reason_text(r->why)
+                                       : std::string_view(r->reason);
       fmt::print("{}: {}{}{}\n", function_name(c.function), kCodes[static_cast<size_t>(r->code) & 3],
-                 r->reason.empty() ? "" : ": ", r->reason);
+                 why.empty() ? "" : ": ", why);
     }
     std::fflush(stdout);
   }

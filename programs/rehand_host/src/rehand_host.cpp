@@ -625,10 +625,7 @@ struct HostDaemon::Impl {
   // it (its horn, light and signals need no leave: they move nothing).
   rtukit::Status may_drive(const std::string& phone, uint16_t command) const {
     if (phone.empty() || !rh::reg::is_phone_drive(command) || pairing.confirmed(phone)) return {};
-    return rtukit::Status(
-        Errc::refused,
-        "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's "
-        "name (R-18)");
+    return rtukit::Status(Errc::refused, std::string(rh::reason_text(rh::Reason::not_allowed)));
   }
 
   bool ble_bonded(const std::string& phone) const {

@@ -12,7 +12,7 @@ import { $, $$, clockTime, endAllPresses, formatSpeed, holdButton, setControlEna
 import { buildChairView, showDistances } from './distances.js';
 import { COMMAND_UUID, FUNCTIONS, OPS, RESULT, RESULT_UUID, SERVICE_UUID, STATE_UUID, decodeResult, decodeState,
   encodeCommand } from './gatt.js';
-import { ERRORS, MOTIONS } from './chair-text.js';
+import { ERRORS, MOTIONS, REASONS } from './chair-text.js';
 
 const STALE_MS = 1000;        // the chair notifies its state at 20 Hz: a second without one is a lost link
 const NOTICE_MS = 4000;       // how long a refusal stays shown over the standing reason
@@ -79,7 +79,7 @@ function onResult(event) {
   if (!r) return;
   link.lastMessageAt = new Date();
   const ok = r.code === RESULT.accepted;
-  settle(r.sequence, { ok, error: ok ? '' : r.reason || 'refused', ended: r.code === RESULT.ended });
+  settle(r.sequence, { ok, error: ok ? '' : reasonWords(r.why, r.reason), ended: r.code === RESULT.ended });
 }
 
 function onState(event) {
@@ -172,6 +172,16 @@ function showScreen(name) {
 
 function isLost() { return !link.isOpen() || !state || Date.now() - stateAt > STALE_MS || !state.answers; }
 
+// The chair's words for a reason's code (reasons.hpp, through chair-text.js),
+// else the text that came (cut to fit a Bluetooth value).
+const ERROR_ACTIVE = 1;
+const PRESS_ENDED = 14;
+function reasonWords(code, text = '') {
+  if (code === PRESS_ENDED) return `this press ${REASONS[code]}`;
+  if (code && code !== ERROR_ACTIVE && REASONS[code]) return REASONS[code];
+  return text || 'refused';
+}
+
 function stopReason(s) {
   if (s.error) {
     const e = ERRORS[s.error.toString(16).toUpperCase().padStart(4, '0')];
@@ -179,12 +189,10 @@ function stopReason(s) {
     return `${text}: every function is disabled${e && e.advice ? `. ${e.advice}` : ''}`;
   }
   if (s.emergency) return 'Stopped: a phone lost its link while driving; the chair stops and holds until still';
-  if (s.disabled.all) return 'Stopped from the chair\'s display (STOP): nothing moves until it is lifted there';
+  if (s.disabled.all) return reasonWords(s.reasons.all, 'every function is disabled: see the chair\'s display');
   if (s.disabled.drive) {
-    if (s.charging) return 'no driving while charging';
-    if (!s.clutchDrive) return 'no driving in push mode: put the clutch in drive';
-    if (s.phoneDrives) return 'another phone is driving';
-    return 'driving is off: the chair must be still, seated and the joystick at rest';
+    if (s.phoneDrives && !s.reasons.drive) return 'another phone is driving';
+    return reasonWords(s.reasons.drive, 'driving is off: the chair must be still, seated and the joystick at rest');
   }
   return '';
 }

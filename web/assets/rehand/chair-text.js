@@ -1,4 +1,4 @@
-// Generated from the device layer (the register table and table 3): do not edit.
+// Generated from the device layer (the register table, table 3, reasons.hpp): do not edit.
 // tests/web_app_text_test.cpp fails when it drifts; RTUKIT_UPDATE_WEB_TEXT=1 with that
 // test rewrites it.
 export const MOTIONS = {
@@ -541,4 +541,21 @@ export const ERRORS = {
     "text": "127B Chassis motor Error",
     "advice": "a drive motor or its motor driver reports a fault; check: the clutch is in drive, nothing blocks the wheels, the motor cables and connectors, the battery charge; when it clears, nothing restarts by itself: press the command again"
   }
+};
+export const REASONS = {
+  "2": "no communication with the controller",
+  "1": " is active",
+  "3": "STOP is on: lift it on the display to use the chair again",
+  "4": "stopping: wait until the chair is still",
+  "5": "waiting for the controller's state",
+  "15": "no standing up or raising the seat while charging",
+  "6": "no driving while charging",
+  "7": "no driving with the clutch in push (free-wheel) mode",
+  "8": "no phone driving while the chair is not fully seated",
+  "9": "the joystick on the chair is in use",
+  "10": "phone drive only while the chair is static",
+  "11": "another phone is driving",
+  "12": "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's name (R-18)",
+  "13": "the chair could not be set to speed level 1, as a phone drives (D-14)",
+  "14": "has ended: lift the finger and press again"
 };

@@ -90,16 +90,21 @@ enum class ResultCode : uint8_t {
 };
 
 /// A result, notified on the result characteristic after every write:
-///   0 version, 1..2 sequence (u16, the command's), 3 code (ResultCode),
-///   4.. the reason in UTF-8 (empty when accepted), cut to fit `max_size`
-///   at a character boundary.
+///   0 version (kResultVersion), 1..2 sequence (u16, the command's), 3 code
+///   (ResultCode), 4 why (Reason, reasons.hpp: 0 when accepted; a phone
+///   shows its own words for it), 5.. the reason in UTF-8 (empty when
+///   accepted), cut to fit `max_size` at a character boundary.
+/// Version 1 (before 2026-11-29) had no byte 4: its 16 bytes of text cut
+/// most reasons ("not allowed to d").
+inline constexpr uint8_t kResultVersion = 2;
 struct Result {
   uint16_t sequence = 0;
   ResultCode code = ResultCode::accepted;
   std::string reason;
+  Reason why = Reason::none;  ///< encode_result: reason_of(reason) when left none
 };
 std::vector<uint8_t> encode_result(const Result& r, size_t max_size = kMaxValue);
-/// Errors: invalid_argument (shorter than 4 bytes, another version, an unknown code).
+/// Errors: invalid_argument (shorter than 5 bytes, another version, an unknown code).
 Outcome<Result> parse_result(std::span<const uint8_t> bytes);
 
 /// The result of `c` given the session's answer: accepted, invalid
@@ -121,6 +126,10 @@ Result result_of(const Command& c, const rtukit::Status& answer);
 ///     bit 1 phone driving, bit 2 standing up and raising the seat
 ///   13..14 distance front (mm, u16), 15..16 distance rear (mm, u16)
 ///   17 a counter that moves with every new reading (wraps at 256)
+///   18 why everything is disabled (Reason, reasons.hpp; 0 when not)
+///   19 why phone driving is disabled (Reason; 0 when a phone may drive)
+/// Bytes 18 and 19 came with 2026-11-29 (the version stays 1: a reader of
+/// 18 bytes reads on).
 struct StateView {
   Snapshot snapshot;
   uint16_t active_error = 0;
@@ -128,7 +137,7 @@ struct StateView {
   bool phone_driving = false;  ///< a phone (over BLE or the web) holds the driver's seat
   bool emergency = false;
 };
-inline constexpr size_t kStateSize = 18;
+inline constexpr size_t kStateSize = 20;
 std::array<uint8_t, kStateSize> encode_state(const StateView& v);
 
 /// The state as a phone decodes it (the reference client).
@@ -141,6 +150,7 @@ struct State {
   bool all_disabled = false, drive_disabled = false, raise_disabled = false;
   unsigned distance_front_mm = 0, distance_rear_mm = 0;
   uint8_t counter = 0;
+  Reason all_reason = Reason::none, drive_reason = Reason::none;  ///< none from an 18-byte state
 };
 /// Errors: invalid_argument (shorter than 18 bytes, another version).
 Outcome<State> parse_state(std::span<const uint8_t> bytes);

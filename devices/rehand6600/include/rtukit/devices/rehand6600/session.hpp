@@ -49,6 +49,7 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/devices/rehand6600/reasons.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/snapshot.hpp"
 #include "rtukit/io/status.hpp"
@@ -80,11 +81,13 @@ bool may_press(ClientKind kind, uint16_t command) noexcept;
 /// turn signals, a tool all of them.
 bool may_send(ClientKind kind, uint16_t command) noexcept;
 
-/// Why a kind of control is disabled now ("" = allowed), as pages show it.
+/// Why a kind of control is disabled now ("" = allowed), as pages show it,
+/// and the same as a number (reasons.hpp: Reason::none = allowed).
 struct Disabled {
   std::string all;    ///< every command (the error overlay, a loss of control being stopped)
   std::string drive;  ///< phone driving
   std::string raise;  ///< standing up, raising the seat
+  Reason all_reason = Reason::none, drive_reason = Reason::none, raise_reason = Reason::none;
 };
 
 class Session {
@@ -208,8 +211,8 @@ class Session {
   Client* find(ClientId id);
   const Client* find(ClientId id) const;
   rtukit::Status check_rules(const Client& c, uint16_t command, uint16_t value) const;
-  /// Why a phone may not drive the chair as `snapshot_` shows it ("" = may).
-  std::string drive_block() const;
+  /// Why a phone may not drive the chair as `snapshot_` shows it (none = may).
+  Reason drive_block() const;
   /// The snapshot is a reading taken after the last outage.
   bool fresh() const noexcept { return snapshot_.valid && snapshot_.sequence >= fresh_from_; }
   void start_emergency(TimePoint now, const std::string& reason);
