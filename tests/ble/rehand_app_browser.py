@@ -342,6 +342,41 @@ def main():
         check("...and the display no longer shows the phone driving",
               bool(wait_for(lambda: not state(port).get("driver"))))
 
+        # ---- the tab closed gracefully while driving (the user closes it,
+        # the finger still down): the page says goodbye (pagehide ends its
+        # presses) and Chromium lets go of the link; whichever reaches the
+        # chair first stops it, within the bound. A new browser (the phone's
+        # browser restarted after the crash): its bond is the phone's OS's,
+        # so it connects without a passkey. (The same browser reconnecting
+        # after its page let go of the link ended Chromium's session beside
+        # the mock: a limit of the mock's disconnect, not of the app.)
+        app = app_browser(bluez, work, "phone-again")
+        drivers.append(app)
+        app.get(f"http://127.0.0.1:{app_port}/app.html")
+        wait_for(lambda: app.find_element(By.ID, "connect-go").is_displayed())
+        chooser = DeviceChooser(app, "Rehand 6600")
+        tap(app, "connect-go")
+        check("a new browser connects to the bonded chair without a passkey",
+              wait_for(lambda: app.find_element(By.ID, "remote").is_displayed() and
+                       text(app, "#battery").endswith("%")), f"{text(app, '#connect-reason')!r}")
+        wait_for(lambda: state(port)["values"]["speed"] == 0 and register(con, "anti_pinch") == 0)
+        wait_for(lambda: "lost" not in app.find_element(By.TAG_NAME, "body").get_attribute("class"))
+        fwd = app.find_element(By.ID, "fwd")
+        ActionChains(app).click_and_hold(fwd).perform()
+        check("held in the tab about to close: drives", wait_for(lambda: register(con, "phone_forward") == 1),
+              why_not_driving(app, chair, fwd))
+        chooser.close()
+        chooser = None
+        closed_at = now_ms()
+        app.close()  # its only tab, closed as a user closes it: the browser ends with it
+        took = stop_took(chair, closed_at, FORWARD_0, STOP_COMMAND)
+        check("a tab closed while driving stops the chair within the bound (its release or the link's end)",
+              took is not None and took <= STOP_BOUND_S,
+              f"{took} s (bound {STOP_BOUND_S} s); mock calls {bluez.call(lambda: bluez.browser_calls[-4:])}")
+        check("...and nothing drives afterwards", bool(wait_for(lambda: register(con, "phone_forward") == 0, 5)))
+        app.quit()
+        drivers.remove(app)
+
 
         # ---- the pairing window's bookkeeping, Bluetooth and Wi-Fi together
         def pairable():
