@@ -265,7 +265,7 @@ def main():
             closed_after = time.monotonic() - t0
         check("an unauthenticated socket is closed after 5 s", closed_after is not None and 4 < closed_after < 12,
               f"{closed_after} s, {idle.close_reason}")
-        idle.close()  # the listener allows 4 connections from one address: no slot held by a closed one
+        idle.close()  # the listener allows 8 connections from one address: no slot held by a closed one
 
         # ---- what a phone sends to prove it is paired opens nothing else
         wait_for(lambda: state(display_port)["values"]["speed"] == 0 and state(display_port)["values"]["motion"] == 1)

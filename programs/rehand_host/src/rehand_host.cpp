@@ -991,7 +991,11 @@ rtukit::Status HostDaemon::start() {
       web::Listener l = web::Listener::from(p);
       l.tls = web::TlsFiles{d.cert_path, key};
       l.max_connections = 16;
-      l.max_per_source = 4;
+      // A phone's browser loads the page's modules over up to 6 parallel
+      // HTTP/1.1 connections and keeps them open beside its WebSocket: with 4
+      // a page of 7 files had its WebSocket refused (the browser test). 8 of
+      // 16 leaves a stranger's one address half the slots, the owner the rest.
+      l.max_per_source = 8;
       l.host_names = o.host_names;
       so.listen.push_back(std::move(l));
     }

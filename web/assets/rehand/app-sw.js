@@ -5,9 +5,9 @@
 // origin (the daemon's display and Wi-Fi phone pages) goes to the network
 // untouched.
 'use strict';
-const CACHE = 'rehand6600-app-1';
+const CACHE = 'rehand6600-app-2';
 const FILES = ['app.html', 'app.js', 'app.webmanifest', 'app-icon.svg', 'gatt.js', 'chair-text.js', 'common.js',
-  'distances.js', 'style.css', 'phone.css'];
+  'distances.js', 'remote.js', 'style.css', 'phone.css'];
 const mine = (url) => FILES.some((f) => url === new URL(f, self.registration.scope).href);
 
 self.addEventListener('install', (event) => {

@@ -10,9 +10,12 @@
 'use strict';
 import { $, $$, clockTime, endAllPresses, formatSpeed, holdButton, setControlEnabled } from './common.js';
 import { buildChairView, showDistances } from './distances.js';
+import { buildRemote } from './remote.js';
 import { COMMAND_UUID, FUNCTIONS, OPS, RESULT, RESULT_UUID, SERVICE_UUID, STATE_UUID, decodeResult, decodeState,
   encodeCommand } from './gatt.js';
 import { ERRORS, MOTIONS, REASONS } from './chair-text.js';
+
+buildRemote($('#remote'), { connectAgain: true, disconnect: true });
 
 const STALE_MS = 1000;        // the chair notifies its state at 20 Hz: a second without one is a lost link
 const NOTICE_MS = 4000;       // how long a refusal stays shown over the standing reason
@@ -186,10 +189,14 @@ function stopReason(s) {
   if (s.error) {
     const e = ERRORS[s.error.toString(16).toUpperCase().padStart(4, '0')];
     const text = e ? e.text : `error ${s.error.toString(16).toUpperCase()}`;
-    return `${text}: every function is disabled${e && e.advice ? `. ${e.advice}` : ''}`;
+    const advice = e && e.advice ? `. ${e.advice[0].toUpperCase()}${e.advice.slice(1)}` : '';
+    return `${text}: every function is disabled${advice}`;
   }
+  // The chair's own reason first: its STOP holds the stop command too (the
+  // emergency flag), and must not read as a lost phone.
+  if (s.disabled.all && s.reasons.all) return reasonWords(s.reasons.all);
   if (s.emergency) return 'Stopped: a phone lost its link while driving; the chair stops and holds until still';
-  if (s.disabled.all) return reasonWords(s.reasons.all, 'every function is disabled: see the chair\'s display');
+  if (s.disabled.all) return 'every function is disabled: see the chair\'s display';
   if (s.disabled.drive) {
     if (s.phoneDrives && !s.reasons.drive) return 'another phone is driving';
     return reasonWords(s.reasons.drive, 'driving is off: the chair must be still, seated and the joystick at rest');

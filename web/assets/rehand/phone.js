@@ -8,7 +8,10 @@
 'use strict';
 import { $, $$, clockTime, connect, formatSpeed, holdButton, motionText, setControlEnabled } from '/rehand/common.js';
 import { buildChairView, showDistances } from '/rehand/distances.js';
+import { buildRemote } from '/rehand/remote.js';
 import { forgetIdentity, loadIdentity, newKeys, publicKeyText, saveIdentity, signChallenge } from '/rehand/phone-key.js';
+
+buildRemote($('#remote'));
 
 // Pages before 2026-11-29 kept a permanent token here, which one clicked-through
 // certificate warning could hand to a phishing page. It opens nothing now: removed.
