@@ -39,9 +39,10 @@ class PhoneKey {
     EVP_MD_CTX* ctx = EVP_MD_CTX_new();
     std::array<unsigned char, 80> der{};
     size_t n = der.size();
-    const bool ok = EVP_DigestSignInit(ctx, nullptr, EVP_sha256(), nullptr, key_) == 1 &&
-                    EVP_DigestSign(ctx, der.data(), &n, reinterpret_cast<const unsigned char*>(message.data()),
-                                   message.size()) == 1;
+    const bool ok =
+        EVP_DigestSignInit(ctx, nullptr, EVP_sha256(), nullptr, key_) == 1 &&
+        EVP_DigestSign(ctx, der.data(), &n, reinterpret_cast<const unsigned char*>(message.data()),
+                       message.size()) == 1;
     EVP_MD_CTX_free(ctx);
     if (!ok) throw std::runtime_error("EVP_DigestSign failed");
     const unsigned char* p = der.data();

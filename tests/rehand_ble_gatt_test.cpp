@@ -105,12 +105,15 @@ TEST(RehandBleGatt, EachReasonIsFoundFromTheRefusalsBuiltFromIt) {
     EXPECT_EQ(rh::reason_text(r.reason), r.text);
   }
   EXPECT_EQ(rh::reason_of("press 7 has ended: lift the finger and press again"), rh::Reason::ended);
-  EXPECT_EQ(rh::reason_of("10C3 Seat lift Error is active; only releasing is possible"), rh::Reason::error_active);
-  EXPECT_EQ(rh::reason_of("1010 Master Error: no communication with the controller"), rh::Reason::no_controller);
+  EXPECT_EQ(rh::reason_of("10C3 Seat lift Error is active; only releasing is possible"),
+            rh::Reason::error_active);
+  EXPECT_EQ(rh::reason_of("1010 Master Error: no communication with the controller"),
+            rh::Reason::no_controller);
   EXPECT_EQ(rh::reason_of("no standing up or raising the seat while charging"), rh::Reason::raise_charging);
   EXPECT_EQ(rh::reason_of("something new"), rh::Reason::other);
   EXPECT_EQ(rh::reason_of(""), rh::Reason::none);
-  const Result r18{.code = ResultCode::refused, .reason = std::string(rh::reason_text(rh::Reason::not_allowed))};
+  const Result r18{.code = ResultCode::refused,
+                   .reason = std::string(rh::reason_text(rh::Reason::not_allowed))};
   EXPECT_EQ(parse_result(encode_result(r18))->why, rh::Reason::not_allowed);
 }
 
@@ -135,8 +138,9 @@ TEST(RehandBleGatt, TheStateByteByByte) {
   v.disabled.drive_reason = rtukit::rehand6600::Reason::joystick;
   v.phone_driving = true;
   const auto b = encode_state(v);
-  EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.end()), bytes({1, 0b0110'1101, 87, 6, 2, 1, 0, 0, 0, 2, 0xC3,
-                                                             0x10, 0b010, 0xDC, 0x05, 0x70, 0x11, 0x34, 0, 9}));
+  EXPECT_EQ(std::vector<uint8_t>(b.begin(), b.end()),
+            bytes({1,    0b0110'1101, 87,    6,    2,    1,    0,    0,    0, 2,
+                   0xC3, 0x10,        0b010, 0xDC, 0x05, 0x70, 0x11, 0x34, 0, 9}));
   const Outcome<State> back = parse_state(b);
   ASSERT_TRUE(back.ok());
   EXPECT_TRUE(back->link && back->clutch_drive && back->main_light && back->right_signal && back->driving);

@@ -145,7 +145,6 @@ TEST_F(PairingExpiry, ANewPhoneDrivesOnceAllowed_TheLeaveIsSaved) {
   PairingStore third(path_);
   ASSERT_FALSE(third.load(clock.unix_seconds()));
   EXPECT_FALSE(third.confirmed("ble:AA:BB:CC:DD:EE:FF")) << "saved too";
-
 }
 
 // A Wi-Fi phone is its public key: it proves it is paired by signing the
@@ -158,7 +157,8 @@ TEST_F(PairingExpiry, APhoneProvesItIsPairedBySigning_TheFileHoldsNoSecret) {
   const auto id = store.add("Anna's phone", "123456", web::base64url(key.public_raw()), clock.unix_seconds());
   ASSERT_TRUE(id);
   EXPECT_TRUE(store.verify(*id, "challenge A", key.sign("challenge A")));
-  EXPECT_FALSE(store.verify(*id, "challenge B", key.sign("challenge A"))) << "a signature opens one challenge";
+  EXPECT_FALSE(store.verify(*id, "challenge B", key.sign("challenge A")))
+      << "a signature opens one challenge";
   EXPECT_FALSE(store.verify(*id, "challenge A", stranger.sign("challenge A"))) << "another key";
   EXPECT_FALSE(store.verify("nobody", "challenge A", key.sign("challenge A")));
   PairingStore again(path_);

@@ -46,8 +46,8 @@ std::string chair_text_js() {
          "// tests/web_app_text_test.cpp fails when it drifts; RTUKIT_UPDATE_WEB_TEXT=1 with that\n"
          "// test rewrites it.\n"
          "export const MOTIONS = " +
-         motions.dump(2) + ";\nexport const ERRORS = " + errors.dump(2) + ";\nexport const REASONS = " +
-         reasons.dump(2) + ";\n";
+         motions.dump(2) + ";\nexport const ERRORS = " + errors.dump(2) +
+         ";\nexport const REASONS = " + reasons.dump(2) + ";\n";
 }
 
 TEST(WebAppText, ChairTextIsTheDeviceLayers) {

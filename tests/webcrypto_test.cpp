@@ -18,7 +18,8 @@ constexpr std::string_view kGoldenKey =
     "BL18c7iLLptM7aYgIrLai-Exk6W1btwm5994QuJM0LXrBgWtp72oOsaiuA1-MUBA-kf_Frg7rIXO2wFEUbt85xo";
 constexpr std::string_view kGoldenSignature =
     "RxjGd4LyoUHKewPPVdZeP-gT2Jlk7e8uvxvXT2p1bvybwiluOMsx5HFEjAorsv6z1WYNiFe1iJDFQiAfBOWf1w";
-constexpr std::string_view kGoldenMessage = "rtukit-rehand6600-phone:q2K3xY0vM5w8nJ1cT6rB4uE7zA9dF0gH2iL5oP8sV1U";
+constexpr std::string_view kGoldenMessage =
+    "rtukit-rehand6600-phone:q2K3xY0vM5w8nJ1cT6rB4uE7zA9dF0gH2iL5oP8sV1U";
 
 std::string decoded(std::string_view text) {
   const std::optional<std::string> bytes = from_base64url(text);
@@ -87,7 +88,8 @@ TEST(WebCryptoKey, AKeyMadeNowSignsWhatItsPublicKeyVerifies) {
   const std::string signature = phone.sign("challenge 1");
   EXPECT_TRUE(verify_p256(phone.public_raw(), "challenge 1", signature));
   EXPECT_FALSE(verify_p256(other.public_raw(), "challenge 1", signature)) << "another phone's key";
-  EXPECT_FALSE(verify_p256(phone.public_raw(), "challenge 2", signature)) << "a signature opens one challenge";
+  EXPECT_FALSE(verify_p256(phone.public_raw(), "challenge 2", signature))
+      << "a signature opens one challenge";
 }
 
 }  // namespace

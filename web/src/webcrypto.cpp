@@ -84,7 +84,9 @@ std::optional<std::string> from_base64url(std::string_view text) {
   return out;
 }
 
-bool valid_p256_key(std::string_view public_key) noexcept { return p256_key(public_key) != nullptr; }
+bool valid_p256_key(std::string_view public_key) noexcept {
+  return p256_key(public_key) != nullptr;
+}
 
 bool verify_p256(std::string_view public_key, std::string_view message, std::string_view signature) noexcept {
   if (signature.size() != kSignatureSize) return false;

@@ -507,8 +507,8 @@ void HostCore::absorb_results(TimePoint now) {
         slow_ = Slow::no;
         slow_retry_at_ = now + std::chrono::milliseconds(500);
         for (uint16_t c = reg::kPhoneForward; c <= reg::kPhoneRight; ++c)
-          session_.on_controller_stop(
-              c, fmt::format("{}: press again", reason_text(Reason::speed_level)), now);
+          session_.on_controller_stop(c, fmt::format("{}: press again", reason_text(Reason::speed_level)),
+                                      now);
       } else if (session_.driver()) {
         slow_ = Slow::yes;
       } else {

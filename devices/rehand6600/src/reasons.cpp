@@ -22,15 +22,18 @@ constexpr std::array kReasons = {
     ReasonText{Reason::joystick, "the joystick on the chair is in use"},
     ReasonText{Reason::not_static, "phone drive only while the chair is static"},
     ReasonText{Reason::another_driver, "another phone is driving"},
-    ReasonText{Reason::not_allowed,
-               "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's name (R-18)"},
+    ReasonText{
+        Reason::not_allowed,
+        "not allowed to drive yet: on the display, tap \"Allow to drive\" beside this phone's name (R-18)"},
     ReasonText{Reason::speed_level, "the chair could not be set to speed level 1, as a phone drives (D-14)"},
     ReasonText{Reason::ended, "has ended: lift the finger and press again"},
 };
 
 }  // namespace
 
-std::span<const ReasonText> reasons() noexcept { return kReasons; }
+std::span<const ReasonText> reasons() noexcept {
+  return kReasons;
+}
 
 std::string_view reason_text(Reason r) noexcept {
   if (r == Reason::none) return "";

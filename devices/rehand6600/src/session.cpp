@@ -120,7 +120,8 @@ rtukit::Status Session::check_rules(const Client& c, uint16_t command, uint16_t 
   if (reg::is_phone_drive(command)) {
     if (driver_ && *driver_ != c.id) return refuse(std::string(reason_text(Reason::another_driver)));
     // The driving phone may change direction while the chair still moves.
-    if (!d.drive.empty() && !(driver_ == c.id && d.drive_reason == Reason::not_static)) return refuse(d.drive);
+    if (!d.drive.empty() && !(driver_ == c.id && d.drive_reason == Reason::not_static))
+      return refuse(d.drive);
   }
   const bool raising = (command == reg::kStandSit || command == reg::kSeatLift) && value == 1;
   if (raising && !d.raise.empty()) return refuse(d.raise);

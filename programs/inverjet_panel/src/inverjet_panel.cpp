@@ -44,6 +44,7 @@
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
+#include "rtukit/web/webcrypto.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -88,23 +89,6 @@ std::optional<std::vector<unsigned char>> unhex(std::string_view text) {
     }
     out.push_back(static_cast<unsigned char>(v));
   }
-  return out;
-}
-
-std::string base64url(const unsigned char* data, size_t n) {
-  static constexpr char kAlphabet[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789-_";
-  std::string out;
-  uint32_t bits = 0;
-  int have = 0;
-  for (size_t i = 0; i < n; ++i) {
-    bits = (bits << 8) | data[i];
-    have += 8;
-    while (have >= 6) {
-      have -= 6;
-      out += kAlphabet[(bits >> have) & 63];
-    }
-  }
-  if (have > 0) out += kAlphabet[(bits << (6 - have)) & 63];
   return out;
 }
 
@@ -680,7 +664,7 @@ struct Panel::Impl {
     }
     std::array<unsigned char, kTokenBytes> raw{};
     if (!web::random_bytes(raw.data(), raw.size())) return refuse(500, "no random bytes from the OS");
-    const std::string token = base64url(raw.data(), raw.size());
+    const std::string token = web::base64url({reinterpret_cast<const char*>(raw.data()), raw.size()});
     if (sessions.size() >= kMaxSessions) {
       auto oldest = sessions.begin();
       for (auto it = sessions.begin(); it != sessions.end(); ++it)

@@ -38,7 +38,9 @@ std::string random_hex(size_t bytes) {
   return out;
 }
 
-bool is_bluetooth_id(std::string_view id) { return id.starts_with("ble:") && id.size() <= 64; }
+bool is_bluetooth_id(std::string_view id) {
+  return id.starts_with("ble:") && id.size() <= 64;
+}
 
 }  // namespace
 
@@ -73,8 +75,9 @@ rtukit::Status PairingStore::load(int64_t now) {
         fmt::format("{}: not an rtukit pairing file; move it away or choose another path", path_));
   }
   const auto time_of = [&](const nlohmann::json& j) {
-    return j.contains("last_contact") && j["last_contact"].is_number_integer() ? j["last_contact"].get<int64_t>()
-                                                                                 : now;
+    return j.contains("last_contact") && j["last_contact"].is_number_integer()
+               ? j["last_contact"].get<int64_t>()
+               : now;
   };
   for (const nlohmann::json& p : doc["phones"]) {
     if (!p.is_object()) continue;
@@ -113,7 +116,8 @@ rtukit::Status PairingStore::load(int64_t now) {
         continue;
       const std::string id = b["id"].get<std::string>();
       if (!is_bluetooth_id(id) || bluetooth_phone(id)) continue;
-      const bool confirmed = b.contains("confirmed") && b["confirmed"].is_boolean() && b["confirmed"].get<bool>();
+      const bool confirmed =
+          b.contains("confirmed") && b["confirmed"].is_boolean() && b["confirmed"].get<bool>();
       bluetooth_.push_back({id, confirmed, time_of(b)});
       floor_ = std::max(floor_, bluetooth_.back().last_contact);
     }
@@ -156,9 +160,10 @@ rtukit::Outcome<std::string> PairingStore::add(std::string name, std::string cod
       name.end());
   if (name.empty() || name.size() > 40) name = fmt::format("phone {}", phones_.size() + 1);
   const auto t = std::chrono::system_clock::time_point(std::chrono::seconds(now));
-  phones_.push_back({id, std::move(public_key), name, std::move(code),
-                     fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))),
-                     now, false});  // it drives once the display's user allowed it
+  phones_.push_back(
+      {id, std::move(public_key), name, std::move(code),
+       fmt::format("{:%Y-%m-%dT%H:%M:%SZ}", fmt::gmtime(std::chrono::system_clock::to_time_t(t))), now,
+       false});  // it drives once the display's user allowed it
   if (rtukit::Status e = save()) {
     phones_.pop_back();
     return e;
@@ -201,7 +206,8 @@ rtukit::Status PairingStore::touch(std::string_view id, int64_t now) {
 
 rtukit::Status PairingStore::remove(std::string_view id) {
   if (id.starts_with("ble:")) {
-    const auto at = std::find_if(bluetooth_.begin(), bluetooth_.end(), [&](const auto& b) { return b.id == id; });
+    const auto at =
+        std::find_if(bluetooth_.begin(), bluetooth_.end(), [&](const auto& b) { return b.id == id; });
     if (at == bluetooth_.end()) return {};
     const BluetoothPhone removed = *at;
     bluetooth_.erase(at);

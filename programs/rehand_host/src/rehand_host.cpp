@@ -20,9 +20,9 @@
 #include <filesystem>
 #include <future>
 #include <map>
-#include <set>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 
 #include "ble_peripheral.hpp"
 #include "rtukit/devices/profile/text.hpp"
@@ -65,7 +65,9 @@ struct Client {
 /// connection's challenge (docs/rehand6600-remote.md). The prefix keeps the
 /// signature from meaning anything anywhere else; the challenge is new on
 /// every connection, so a signature seen once opens no other.
-std::string challenge_message(const std::string& challenge) { return "rtukit-rehand6600-phone:" + challenge; }
+std::string challenge_message(const std::string& challenge) {
+  return "rtukit-rehand6600-phone:" + challenge;
+}
 
 std::string local_time(int64_t unix_seconds, const char* format) {
   const std::time_t t = unix_seconds;
@@ -496,7 +498,8 @@ struct HostDaemon::Impl {
     if (ble_ready && now - last_expiry_check > std::chrono::minutes(1)) {
       last_expiry_check = now;
       const auto days = options.pairing_max_age.count() / 86400;
-      for (const PairingStore::Forgotten& p : pairing.expire(pairing_now(), options.pairing_max_age.count())) {
+      for (const PairingStore::Forgotten& p :
+           pairing.expire(pairing_now(), options.pairing_max_age.count())) {
         if (p.id.starts_with("ble:")) {
           if (!remove_bond(p.id, fmt::format("forgotten: unused for more than {} days", days)))
             log(fmt::format("Bluetooth phone {} forgotten: unused for more than {} days", p.id, days));
@@ -690,7 +693,8 @@ struct HostDaemon::Impl {
   void update_advertising() {
     if (!ble) return;
     bool bonded = false;
-    for (const BleDevice& b : ble->devices()) bonded = bonded || (b.bonded && !ble_forgetting.contains(b.path));
+    for (const BleDevice& b : ble->devices())
+      bonded = bonded || (b.bonded && !ble_forgetting.contains(b.path));
     ble->set_advertising(bonded || !code.code.empty());
   }
 

@@ -105,9 +105,8 @@ class PairingStore {
   bool confirmed(std::string_view id) const;
   /// Forgets the phones of either kind not seen for more than `max_age_s`
   /// and returns them, id and name (a Bluetooth phone's name is BlueZ's:
-  /// empty here; its bond is the caller's to remove). A last contact after `now` (stored while the calendar was
-  /// ahead) counts as `now`. Not saved: none is forgotten (the file still
-  /// has them).
+  /// empty here; its bond is the caller's to remove). A last contact after `now` (stored while the calendar
+  /// was ahead) counts as `now`. Not saved: none is forgotten (the file still has them).
   struct Forgotten {
     std::string id, name;
   };
