@@ -149,11 +149,50 @@ TEST(PhoneName, ControlAndBidiCharactersNeverReachTheLogOrTheDisplay) {
   EXPECT_EQ(phone_name("", "AA:BB:CC:DD:EE:01"), "AA:BB:CC:DD:EE:01");
 }
 
+// A phone's key and its signature (WebCrypto's encodings, base64url): a
+// point on P-256 and 64 bytes (the golden vector of webcrypto_test.cpp).
+constexpr std::string_view kKey =
+    "BL18c7iLLptM7aYgIrLai-Exk6W1btwm5994QuJM0LXrBgWtp72oOsaiuA1-MUBA-kf_Frg7rIXO2wFEUbt85xo";
+constexpr std::string_view kSignature =
+    "RxjGd4LyoUHKewPPVdZeP-gT2Jlk7e8uvxvXT2p1bvybwiluOMsx5HFEjAorsv6z1WYNiFe1iJDFQiAfBOWf1w";
+
+std::string pair_message(std::string_view name, std::string_view key = kKey,
+                         std::string_view signature = kSignature) {
+  return std::string(R"({"op":"pair","code":"123456","name":")") + std::string(name) + R"(","key":")" +
+         std::string(key) + R"(","signature":")" + std::string(signature) + R"("})";
+}
+
 TEST(PhoneName, APairMessagesNameIsCleaned) {
-  const HostMessage m =
-      parse_host_message(R"({"op":"pair","code":"123456","name":"a\u202Eb\nc"})", HostRole::phone, false);
+  const HostMessage m = parse_host_message(pair_message("a\\u202Eb\\nc"), HostRole::phone, false);
   ASSERT_TRUE(m.command) << m.command.error().reason();
   EXPECT_EQ(m.command->name, "abc");
+  EXPECT_EQ(m.command->public_key.size(), 65U) << "the key decoded";
+  EXPECT_EQ(m.command->signature.size(), 64U);
+}
+
+// A pairing or an authentication without what proves the key is refused
+// before the daemon looks at it, each with what was expected.
+TEST(PhoneKeyMessages, AKeyThatIsNoPointOrASignatureOfTheWrongSizeIsRefused) {
+  const auto refused = [](const std::string& text, std::string_view why) {
+    const HostMessage m = parse_host_message(text, HostRole::phone, false);
+    ASSERT_FALSE(m.command) << text;
+    EXPECT_EQ(m.command.error().code(), Errc::invalid_argument) << text;
+    EXPECT_NE(m.command.error().reason().find(why), std::string_view::npos) << m.command.error().reason();
+  };
+  refused(R"({"op":"pair","code":"123456","name":"x"})", "signature");  // a page of before: no key
+  refused(pair_message("x", "BAAA"), "public key");
+  std::string off_curve(kKey);
+  off_curve.back() = off_curve.back() == 'o' ? 'p' : 'o';
+  refused(pair_message("x", off_curve), "public key");
+  refused(pair_message("x", kKey, kSignature.substr(0, 40)), "signature");
+  refused(pair_message("x", kKey, "not base64url!"), "signature");
+  refused(R"({"op":"auth","token":"00112233445566778899aabbccddeeff"})", "signature");
+  refused(std::string(R"({"op":"auth","signature":")") + std::string(kSignature) + R"("})", "phone");
+  const HostMessage ok = parse_host_message(
+      std::string(R"({"op":"auth","phone":"0123456789ab","signature":")") + std::string(kSignature) + R"("})",
+      HostRole::phone, false);
+  ASSERT_TRUE(ok.command) << ok.command.error().reason();
+  EXPECT_EQ(ok.command->phone, "0123456789ab");
 }
 
 }  // namespace
