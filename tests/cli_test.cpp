@@ -258,6 +258,7 @@ TEST_F(Cli, UsageErrors_Exit2_OneLine) {
            {"write", "--port", port_, "0", "70000"},
            {"read", "--port", "udp://x:1", "0"},
            {"read", "--port", port_, "--baud", "5", "0"},
+           {"read", "--port", port_, "--timeout", "0", "0"},  // never waiting is no timeout
            {"frobnicate"},
            {}}) {
     const RunResult r = rtukit(args);

@@ -15,6 +15,7 @@
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
 #include "rtukit/devices/rehand6600/device.hpp"
+#include "rtukit/devices/rehand6600/motion.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/verbs.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
@@ -287,6 +288,53 @@ TEST(RehandViews, ThePanelWrapsTheAdvice_HighlightsOnlyAnError) {
                       std::string(30, 'c') + "\n");
 }
 
+// The display's postures come from the device layer's posture table: the
+// host daemon had its own copy, which said leg rotation moves actuator 4
+// only, so the display never showed actuator 5's limit or over-current.
+TEST(RehandViews, ThePosturesAreTheModelsTable_LegRotationShowsActuators4And5) {
+  rh::Snapshot s = chair();
+  s.regs[rh::reg::actuator_state(4)] = rh::kActuatorMoving;
+  s.regs[rh::reg::actuator_state(5)] = rh::kOverCurrent;
+  const auto held = [](uint16_t command) -> uint16_t { return command == rh::reg::kLegRotate ? 1 : 0; };
+  const nlohmann::ordered_json postures = rh::postures_view(s, held);
+  ASSERT_EQ(postures.size(), rh::kPostures.size());
+  for (size_t i = 0; i < rh::kPostures.size(); ++i) {
+    std::vector<int> listed;
+    for (const auto& a : postures[i]["actuators"]) listed.push_back(a["n"].get<int>());
+    const auto driven = rh::kPostures[i].driven();
+    EXPECT_EQ(listed, std::vector<int>(driven.begin(), driven.end())) << postures[i]["key"];
+  }
+  const nlohmann::ordered_json& leg = postures[4];
+  EXPECT_EQ(leg["key"], "leg_rotate");
+  ASSERT_EQ(leg["actuators"].size(), 2U);
+  EXPECT_EQ(leg["actuators"][1]["n"], 5);
+  EXPECT_EQ(leg["actuators"][1]["state"], "over-current") << leg.dump();
+  EXPECT_EQ(leg["actuators"][1]["position"], 400);
+  EXPECT_TRUE(leg["moving"]) << "held, and actuator 4 moves";
+  EXPECT_EQ(leg["held"], "up") << leg.dump();
+  EXPECT_FALSE(postures[5]["moving"]) << "leg extension shares actuator 5 but is not held";
+  EXPECT_EQ(postures[0]["status"], "still");
+}
+
+// Stand/sit's progress is the mean of the actuators it drives (1, 2, 4);
+// the distances by name; a signed row signed.
+TEST(RehandViews, StandProgressDistancesAndSignedNumbers) {
+  rh::Snapshot s = chair();  // positions 0, 100, 200, 300, 400, 500
+  EXPECT_EQ(rh::stand_progress(s), (0 + 100 + 300) / 30);
+  for (unsigned n = 1; n <= 6; ++n) s.regs[rh::reg::actuator_position(n)] = 1000;
+  EXPECT_EQ(rh::stand_progress(s), 100);
+  s.regs[rh::reg::kDistanceRear] = 1200;
+  s.regs[rh::reg::kDistanceRight] = 30;
+  const nlohmann::ordered_json d = rh::distances_view(s);
+  EXPECT_EQ(d["rear"], 1200);
+  EXPECT_EQ(d["right"], 30);
+  s.regs[rh::find_register("joystick_x")->address] = static_cast<uint16_t>(-40);
+  const nlohmann::ordered_json n = rh::status_numbers(s);
+  EXPECT_EQ(n["joystick_x"], -40) << "a signed row is signed, not 65496";
+  EXPECT_EQ(n["battery"], 80);
+  EXPECT_FALSE(n.contains("reserved_27"));
+}
+
 TEST(RehandViews, TheJsonValuesOfTableOne) {
   rh::Snapshot s = chair();
   nlohmann::ordered_json v = rh::snapshot_values(s, false);
@@ -328,8 +376,14 @@ TEST(RehandVerbs, CommandsByName_TheirDirections_AHoldsLength) {
   EXPECT_EQ(*rh::parse_hold_duration("2s"), 2000ms);
   EXPECT_EQ(*rh::parse_hold_duration("1.5"), 1500ms);
   EXPECT_EQ(rh::parse_hold_duration("0s").error().reason(),
-            "duration '0s': e.g. 2s, 500ms (at most 10 minutes)");
+            "duration '0s': e.g. 2s, 500ms, 1m (at most 10 minutes)");
+  // The one duration form of every front-end too (hold --for 1m was refused).
+  EXPECT_EQ(*rh::parse_hold_duration("1m"), 60000ms);
+  EXPECT_EQ(*rh::parse_hold_duration("1m30s"), 90000ms);
+  EXPECT_EQ(*rh::parse_hold_duration("1:30"), 90000ms);
+  EXPECT_EQ(*rh::parse_hold_duration("10m"), 600000ms);
   EXPECT_FALSE(rh::parse_hold_duration("11m").ok());
+  EXPECT_FALSE(rh::parse_hold_duration("0:00").ok());
   EXPECT_FALSE(rh::parse_hold_duration("601s").ok());
 }
 

@@ -375,7 +375,8 @@ TEST_F(RehandSim, DeviceErrorsSayWhatTheyMeanAndWhatToCheck) {
   const std::string seat_lift =
       "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat "
       "above "
-      "or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, "
+      "or below; actuator 1's cable and connector; whether the actuator states show over-current; when it "
+      "clears, "
       "nothing restarts by itself: press the command again";
   r = cli({"rehand6600", "hold", "seat_lift", "up"});
   EXPECT_EQ(r.code, 5) << r.output;

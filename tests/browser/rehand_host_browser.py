@@ -221,6 +221,19 @@ setTimeout(() => done({timeout: true}), 5000);
         check("a tap on Stand up holds nothing after the lease", bool(wait_for(lambda: "stand" not in con.held(), 3)),
               con.held())
 
+        # The joystick's horn button: the display sounds the horn while it is
+        # held (before, one beep at its rising edge and a 1.5-s banner).
+        con.cmd("horn on")
+        on = wait_for(lambda: hmi.execute_script("return document.body.dataset.horn") == "on" and
+                      hmi.find_element(By.ID, "horn-banner").is_displayed(), DEADLINE)
+        host_polls_later(lambda: state(http_port), 40)  # 2 s at least: longer than the old banner
+        still = hmi.execute_script("return document.body.dataset.horn") == "on"
+        con.cmd("horn off")
+        off = wait_for(lambda: hmi.execute_script("return document.body.dataset.horn") == "off" and
+                       not hmi.find_element(By.ID, "horn-banner").is_displayed(), DEADLINE)
+        check("the horn sounds while the joystick's horn button is held, and stops when it is let go",
+              bool(on) and still and bool(off), f"on {on}, still {still}, off {off}")
+
         # error overlay; clearing restarts nothing (D-8); Stop stays usable above it
         leg = hmi.find_element(By.CSS_SELECTOR, '[data-cmd="leg_rotate"][data-value="up"]')
         ActionChains(hmi).click_and_hold(leg).perform()
@@ -229,6 +242,9 @@ setTimeout(() => done({timeout: true}), 5000);
         overlay = wait_for(lambda: hmi.find_element(By.ID, "error-overlay").is_displayed(), DEADLINE)
         check("error overlay shown", bool(overlay), text(hmi, "#error-text"))
         check("overlay text is table 3's", text(hmi, "#error-text") == "10C3 Seat lift Error", text(hmi, "#error-text"))
+        check("...with table 3's advice: what to check (the device layer's, as `rehand6600 errors` prints it)",
+              wait_for(lambda: text(hmi, "#error-advice").startswith("The seat-lift actuator (actuator 1)") and
+                       "check:" in text(hmi, "#error-advice"), DEADLINE), text(hmi, "#error-advice"))
         other = hmi.find_element(By.CSS_SELECTOR, '[data-cmd="backrest"][data-value="forward"]')
         check("buttons disabled under the overlay", not other.is_enabled())
         check("Stop stays enabled above the overlay", hmi.find_element(By.ID, "stop").is_enabled() and hmi.execute_script(
@@ -446,6 +462,19 @@ setTimeout(() => done('still open'), 10000);
         phone.save_screenshot(os.path.join(OUT, "phone-charging.png"))
         con.cmd("charger off")
         wait_for(lambda: phone.find_element(By.ID, "fwd").is_enabled(), DEADLINE)
+        # The light's button says whether the light is on (a pulse toggles it).
+        light = phone.find_element(By.ID, "light")
+        was = state(http_port)["values"]["main_light"]
+        light.click()
+        toggled = wait_for(lambda: state(http_port)["values"]["main_light"] != was, DEADLINE)
+        shown = wait_for(lambda: light.get_attribute("aria-pressed") == ("true" if was == 0 else "false"), DEADLINE)
+        check("the phone's Light button shows the light's state (a pulse toggled it)", bool(toggled and shown),
+              f"main_light {was} -> {state(http_port)['values']['main_light']}, aria-pressed "
+              f"{light.get_attribute('aria-pressed')!r}")
+        phone.save_screenshot(os.path.join(OUT, "phone-light-390x844.png"))
+        if toggled and state(http_port)["values"]["main_light"] == 1:
+            light.click()  # back off, as the rest of the test expects the chair
+            wait_for(lambda: state(http_port)["values"]["main_light"] == 0, DEADLINE)
 
         # The same phone opens the remote in a second tab (its key from
         # IndexedDB signs the new connection's challenge): the new connection

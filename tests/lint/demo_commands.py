@@ -1,8 +1,10 @@
 #!/usr/bin/env python3
-"""Every command the README's demo (scripts/demo.sh) runs is a command the
-rtukit binary has: a command renamed or moved (as `rtukit watch` became
-`rtukit map watch`) would otherwise leave the demo printing "unknown command"
-while still exiting 0.
+"""Every command the README's demo (scripts/demo.sh) runs, and every
+`rtukit ...` line an example file tells its reader to try (examples/**: the
+"# Try it:" comments), is a command the rtukit binary has: a command renamed
+or moved (as `rtukit watch` became `rtukit map watch`) would otherwise leave
+the demo printing "unknown command" while still exiting 0, and an example
+telling users to run a command that no longer exists (energy-meter.yaml did).
 
 Usage: demo_commands.py RTUKIT   (exit 1 naming each line that fails)
 """
@@ -12,7 +14,9 @@ import shlex
 import subprocess
 import sys
 
-DEMO = pathlib.Path(__file__).resolve().parents[2] / "scripts" / "demo.sh"
+ROOT = pathlib.Path(__file__).resolve().parents[2]
+DEMO = ROOT / "scripts" / "demo.sh"
+EXAMPLES = ROOT / "examples"
 
 
 def command_words(args):
@@ -44,6 +48,22 @@ def main():
                             f"{(done.stderr or done.stdout).strip().splitlines()[:1]}")
     if checked < 20:
         failures.append(f"only {checked} demo commands found in {DEMO}: did the demo's `run` helper change?")
+    examples = 0
+    for path in sorted(p for p in EXAMPLES.rglob("*") if p.is_file()):
+        for number, line in enumerate(path.read_text(errors="replace").splitlines(), 1):
+            match = re.match(r'\s*(?:#|//)\s{2,}rtukit\s+(.*)', line)  # an indented command, not prose
+            if not match:
+                continue
+            words = command_words(shlex.split(match.group(1).split(" #", 1)[0], posix=False))
+            if not words:
+                continue
+            examples += 1
+            done = subprocess.run([rtukit, *words, "--help"], capture_output=True, text=True, timeout=60)
+            if done.returncode != 0:
+                failures.append(f"{path.relative_to(ROOT)}:{number}: rtukit {' '.join(words)}: "
+                                f"{(done.stderr or done.stdout).strip().splitlines()[:1]}")
+    if examples < 3:
+        failures.append(f"only {examples} commands found in the examples' comments: did their form change?")
     for failure in failures:
         print(failure)
     return 1 if failures else 0

@@ -160,7 +160,7 @@ std::array<uint8_t, kStateSize> encode_state(const StateView& v) {
   b[12] = static_cast<uint8_t>((v.disabled.all.empty() ? 0 : 1) | (v.disabled.drive.empty() ? 0 : 2) |
                                (v.disabled.raise.empty() ? 0 : 4));
   put_u16(&b[13], s[reg::kDistanceFront]);
-  put_u16(&b[15], s[reg::kDistanceFront + 1]);
+  put_u16(&b[15], s[reg::kDistanceRear]);
   b[17] = static_cast<uint8_t>(s.sequence & 0xFF);
   b[18] = static_cast<uint8_t>(v.disabled.all_reason);
   b[19] = static_cast<uint8_t>(v.disabled.drive_reason);

@@ -262,8 +262,8 @@ const std::vector<profile::Verb>& verb_table() {
                  "the direction, required where the command has two: stand|sit, up|down (seat_lift, "
                  "leg_rotate), forward|back (backrest, seat_tilt, plate_tilt), extend|retract "
                  "(leg_extend); none for the others"},
-                {"for", profile::VerbArg::Form::option, "how long (2s, 500ms; at most 10 minutes)", false,
-                 "1s"}},
+                {"for", profile::VerbArg::Form::option, "how long (2s, 500ms, 1m, 1m30s; at most 10 minutes)",
+                 false, "1s"}},
        .examples = {"{port} seat_lift up --for 2s", "{port} stand sit --for 500ms --json"},
        .lasting = true},
       {.name = "errors",

@@ -74,6 +74,18 @@ Outcome<uint16_t> command_value(const Register& r, std::string_view text) {
 }
 
 Outcome<std::chrono::milliseconds> parse_hold_duration(std::string_view text) {
+  const auto too_long = [&] {
+    return rtukit::Status(Errc::invalid_argument,
+                          fmt::format("duration '{}': e.g. 2s, 500ms, 1m (at most 10 minutes)", text));
+  };
+  // The one duration form every front-end takes (1m, 1m30s, 1:30, 90s), then
+  // what a short hold needs beyond it: milliseconds and decimal seconds.
+  if (!text.ends_with("ms")) {
+    if (const Result<uint32_t> s = profile::parse_duration(text); s.ok()) {
+      if (*s == 0 || *s > 600) return too_long();
+      return std::chrono::milliseconds(*s * 1000LL);
+    }
+  }
   std::string t(text);
   double scale = 1000;
   if (t.ends_with("ms")) {
@@ -84,9 +96,7 @@ Outcome<std::chrono::milliseconds> parse_hold_duration(std::string_view text) {
   }
   char* end = nullptr;
   const double v = std::strtod(t.c_str(), &end);
-  if (t.empty() || *end != '\0' || !(v > 0) || v * scale > 600000)
-    return rtukit::Status(Errc::invalid_argument,
-                          fmt::format("duration '{}': e.g. 2s, 500ms (at most 10 minutes)", text));
+  if (t.empty() || *end != '\0' || !(v > 0) || v * scale > 600000) return too_long();
   return std::chrono::milliseconds(static_cast<long>(v * scale));
 }
 

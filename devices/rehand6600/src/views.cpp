@@ -3,9 +3,11 @@
 
 #include <fmt/core.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "rtukit/devices/profile/text.hpp"
+#include "rtukit/devices/rehand6600/motion.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 
 namespace rtukit::rehand6600 {
@@ -14,7 +16,7 @@ namespace {
 using Json = nlohmann::ordered_json;
 
 uint16_t actuator(const Snapshot& s, unsigned i) {
-  return s[static_cast<uint16_t>(reg::kActuatorPosition + i)];
+  return s[reg::actuator_position(i + 1)];
 }
 
 }  // namespace
@@ -72,7 +74,7 @@ std::string panel(const Snapshot& s, bool mph, const Highlight& alert) {
     out += fmt::format(" {}:{} {}", i + 1, actuator(s, i), v(fmt::format("actuator{}_state", i + 1)));
   }
   out += fmt::format("\ndistances front {} mm, rear {} mm, left {} mm, right {} mm\n", s[reg::kDistanceFront],
-                     s[reg::kDistanceFront + 1], s[reg::kDistanceFront + 2], s[reg::kDistanceFront + 3]);
+                     s[reg::kDistanceRear], s[reg::kDistanceLeft], s[reg::kDistanceRight]);
   out += fmt::format("buttons   horn {}, 360 view {}\n", v("horn_button"), v("view_button"));
   out +=
       fmt::format("error     {}\n", s.error_code() ? mark(error_text(s.error_code())) : std::string("none"));
@@ -103,6 +105,59 @@ Json snapshot_values(const Snapshot& s, bool mph) {
   const std::string advice = s.error_code() ? error_advice(s.error_code()) : std::string();
   values["error_advice"] = profile::quantity_json(advice, {}, advice.empty() ? "none" : advice);
   return values;
+}
+
+Json status_numbers(const Snapshot& s) {
+  Json values = Json::object();
+  for (const Register& r : registers()) {
+    if (table_of(r) != Table::status || r.key.starts_with("reserved")) continue;
+    values[std::string(r.key)] =
+        r.is_signed() ? int64_t{static_cast<int16_t>(s[r.address])} : int64_t{s[r.address]};
+  }
+  return values;
+}
+
+Json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& held) {
+  const auto name = [](uint16_t address, uint16_t value) {
+    const std::string_view n = profile::name_of(*find_register(address), value);
+    return n.empty() ? std::to_string(value) : std::string(n);
+  };
+  Json postures = Json::array();
+  for (const Posture& p : kPostures) {
+    Json actuators = Json::array();
+    bool actuator_moving = false;
+    for (uint8_t n : p.driven()) {
+      const uint16_t state = s[reg::actuator_state(n)];
+      actuator_moving = actuator_moving || state == kActuatorMoving;
+      actuators.push_back({{"n", n},
+                           {"state", name(reg::actuator_state(n), state)},
+                           {"position", s[reg::actuator_position(n)]}});
+    }
+    const uint16_t held_value = held ? held(p.command) : 0;
+    const uint16_t status = p.status ? s[p.status] : 0;
+    const bool own_status = status != 0 && (status == p.status_values[0] || status == p.status_values[1]);
+    postures.push_back({{"key", std::string(find_register(p.command)->key)},
+                        {"status", own_status ? name(p.status, status) : "still"},
+                        {"held", held_value ? name(p.command, held_value) : ""},
+                        {"moving", own_status || (held_value != 0 && actuator_moving)},
+                        {"actuators", actuators}});
+  }
+  return postures;
+}
+
+int stand_progress(const Snapshot& s) {
+  const Posture& stand = *find_posture(reg::kStandSit);
+  unsigned sum = 0;
+  for (uint8_t n : stand.driven()) sum += s[reg::actuator_position(n)];
+  // Positions are per mille: the mean over ten is a percentage.
+  return std::min(100, static_cast<int>(sum / (stand.driven().size() * 10)));
+}
+
+Json distances_view(const Snapshot& s) {
+  return {{"front", s[reg::kDistanceFront]},
+          {"rear", s[reg::kDistanceRear]},
+          {"left", s[reg::kDistanceLeft]},
+          {"right", s[reg::kDistanceRight]}};
 }
 
 Json error_json(uint16_t code) {

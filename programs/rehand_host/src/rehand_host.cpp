@@ -28,6 +28,7 @@
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
+#include "rtukit/devices/rehand6600/views.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
@@ -121,26 +122,6 @@ std::string random_code() {
     return fmt::format("{:06d}", r % 1000000U);
   }
 }
-
-// Which posture each command moves: its status register, the values of that
-// register that are this posture's (the leg rest's register tells rotation,
-// 1 and 2, from extension, 3), and its actuators (table 1). Postures share
-// actuators (stand/sit moves 1, 2 and 4; seat lift moves 1), so an actuator
-// that moves does not say which posture moves it: the command held does.
-struct PostureRows {
-  uint16_t command, status;
-  std::array<uint16_t, 2> status_values;  ///< the status values that are this posture's motion
-  std::array<int, 3> actuators;           ///< 1-based, 0 = none
-};
-constexpr PostureRows kPostures[] = {
-    {rh::reg::kStandSit, rh::reg::kStandStatus, {1, 2}, {1, 2, 4}},
-    {rh::reg::kSeatLift, rh::reg::kSeatLiftStatus, {1, 2}, {1, 0, 0}},
-    {rh::reg::kBackrest, rh::reg::kBackrestStatus, {1, 2}, {2, 0, 0}},
-    {rh::reg::kSeatTilt, rh::reg::kSeatTiltStatus, {1, 2}, {3, 0, 0}},
-    {rh::reg::kLegRotate, rh::reg::kLegRestStatus, {1, 2}, {4, 0, 0}},
-    {rh::reg::kLegExtend, rh::reg::kLegRestStatus, {3, 3}, {5, 0, 0}},
-    {rh::reg::kPlateTilt, 0, {0, 0}, {6, 0, 0}},
-};
 
 std::string key_of(uint16_t address) {
   const rh::Register* r = rh::find_register(address);
@@ -703,52 +684,23 @@ struct HostDaemon::Impl {
   Json state_json(bool for_display) {
     const rh::Snapshot s = host.snapshot();
     const uint16_t error = host.active_error();
-    Json values = Json::object(), text = Json::object();
-    for (const rh::Register& r : rh::registers()) {
-      if (rh::table_of(r) != rh::Table::status || r.key.starts_with("reserved")) continue;
-      values[std::string(r.key)] = s[r.address];
-      text[std::string(r.key)] = rh::format_value(r, s[r.address]);
-    }
+    Json text = Json::object();
+    for (const rh::Register& r : rh::registers())
+      if (rh::table_of(r) == rh::Table::status && !r.key.starts_with("reserved"))
+        text[std::string(r.key)] = rh::format_value(r, s[r.address]);
     const bool live = host.connected() && s.valid;
     const int64_t contact_ms =
         last_contact
             ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
             : 0;
-    // A posture row: its actuators (their limits and over-current are the
-    // row's too), the command held for it ("held": the value's name, "" =
-    // none) and whether it moves: its own status register says so (a physical
-    // button moves it too), or its command is held and one of its actuators
-    // moves. Holding seat lift moves actuator 1, which stand/sit shares: only
-    // seat lift moves.
+    // The device layer's views (views.hpp): postures as kPostures says,
+    // signed rows signed, distances by name.
     const std::vector<rh::Session::Press> held = host.presses();
-    Json postures = Json::array();
-    for (const PostureRows& p : kPostures) {
-      Json actuators = Json::array();
-      bool actuator_moving = false;
-      for (int n : p.actuators) {
-        if (n == 0) continue;
-        const auto state_reg = static_cast<uint16_t>(rh::reg::kActuatorState + n - 1);
-        const std::string state = choice(state_reg, s[state_reg]);
-        actuator_moving = actuator_moving || state == "moving";
-        actuators.push_back({{"n", n},
-                             {"state", state},
-                             {"position", s[static_cast<uint16_t>(rh::reg::kActuatorPosition + n - 1)]}});
-      }
-      uint16_t held_value = 0;
+    const auto held_on = [&held](uint16_t command) -> uint16_t {
       for (const rh::Session::Press& h : held)
-        if (h.command == p.command) held_value = h.value;
-      const uint16_t status = p.status ? s[p.status] : 0;
-      const bool own_status = status != 0 && (status == p.status_values[0] || status == p.status_values[1]);
-      postures.push_back({{"key", key_of(p.command)},
-                          {"status", own_status ? choice(p.status, status) : "still"},
-                          {"held", held_value ? choice(p.command, held_value) : ""},
-                          {"moving", own_status || (held_value != 0 && actuator_moving)},
-                          {"actuators", actuators}});
-    }
-    // Stand/sit moves actuators 1, 2 and 4 towards standing: its progress.
-    const int stand_progress = (s[rh::reg::kActuatorPosition] + s[rh::reg::kActuatorPosition + 1] +
-                                s[rh::reg::kActuatorPosition + 3]) /
-                               30;
+        if (h.command == command) return h.value;
+      return 0;
+    };
     Json presses = Json::array();
     for (const rh::Session::Press& p : held) {
       auto owner = clients.find(p.client);
@@ -773,17 +725,14 @@ struct HostDaemon::Impl {
             {"last_contact_ms", contact_ms},
             {"error", error},
             {"error_text", error ? rh::error_text(error) : ""},
-            {"values", values},
+            {"error_advice", error ? rh::error_advice(error) : ""},  // what to check (table 3's advice)
+            {"values", rh::status_numbers(s)},
             {"text", text},
             {"drive_mode", choice(rh::reg::kDriveMode, drive_mode)},
             {"speed_level", host.speed_level()},  // 1 while a phone drives (D-14)
-            {"postures", postures},
-            {"stand_progress", std::min(100, stand_progress)},
-            {"distances",
-             {{"front", s[rh::reg::kDistanceFront]},
-              {"rear", s[rh::reg::kDistanceFront + 1]},
-              {"left", s[rh::reg::kDistanceFront + 2]},
-              {"right", s[rh::reg::kDistanceFront + 3]}}},
+            {"postures", rh::postures_view(s, held_on)},
+            {"stand_progress", rh::stand_progress(s)},
+            {"distances", rh::distances_view(s)},
             {"near_obstacle", host.near_obstacle()},
             {"emergency", host.emergency()},
             {"stop", host.stop_latched()},

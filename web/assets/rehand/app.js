@@ -10,7 +10,7 @@
 'use strict';
 import { $, $$, clockTime, endAllPresses, formatSpeed, holdButton, setControlEnabled } from './common.js';
 import { buildChairView, showDistances } from './distances.js';
-import { buildRemote } from './remote.js';
+import { buildRemote, showLights } from './remote.js';
 import { COMMAND_UUID, FUNCTIONS, OPS, RESULT, RESULT_UUID, SERVICE_UUID, STATE_UUID, decodeResult, decodeState,
   encodeCommand } from './gatt.js';
 import { ERRORS, MOTIONS, REASONS } from './chair-text.js';
@@ -224,9 +224,7 @@ function render() {
   for (const b of $$('#pad button')) setControlEnabled(b, !driveOff);
   setControlEnabled($('#horn'), !allOff);
   for (const b of $$('#light, #left-signal, #right-signal')) b.disabled = allOff;
-  $('#light').classList.toggle('on', !!(s && s.light));
-  $('#left-signal').classList.toggle('on', !!(s && s.leftSignal));
-  $('#right-signal').classList.toggle('on', !!(s && s.rightSignal));
+  showLights(lost || !s ? {} : { light: s.light, left: s.leftSignal, right: s.rightSignal });
 
   const recent = refusal.text && Date.now() - refusal.at < NOTICE_MS;
   $('#reason').textContent = lost ? '' : recent ? refusal.text : s ? stopReason(s) : '';

@@ -38,15 +38,26 @@ export function motionText(state) {
   return typeof text === 'string' ? text.replace(/ \(\d+\)$/, '') : '--';
 }
 
-export function beep(ms = 300) {
-  try {
-    const ctx = new (window.AudioContext || window.webkitAudioContext)();
-    const tone = ctx.createOscillator();
-    tone.frequency.value = 440;
-    tone.connect(ctx.destination);
-    tone.start();
-    setTimeout(() => { tone.stop(); ctx.close(); }, ms);
-  } catch { /* no audio device */ }
+// A tone that sounds until stopped: the horn while its button is held.
+// start() and stop() may be called at any time, any number of times.
+export function holdTone(frequency = 440) {
+  let ctx = null;
+  return {
+    start() {
+      if (ctx) return;
+      try {
+        ctx = new (window.AudioContext || window.webkitAudioContext)();
+        const tone = ctx.createOscillator();
+        tone.frequency.value = frequency;
+        tone.connect(ctx.destination);
+        tone.start();
+      } catch { ctx = null; /* no audio device */ }
+    },
+    stop() {
+      if (ctx) ctx.close();
+      ctx = null;
+    },
+  };
 }
 
 // ---------------------------------------------------------------- WebSocket

@@ -4,7 +4,7 @@
 // disabled, never retries on its own, and never shows old values as live.
 'use strict';
 import {
-  $, $$, beep, clockTime, connect, endAllPresses, formatSpeed, holdButton, motionText, setControlEnabled,
+  $, $$, clockTime, connect, endAllPresses, formatSpeed, holdButton, holdTone, motionText, setControlEnabled,
 } from '/rehand/common.js';
 import { buildChairView, showDistances } from '/rehand/distances.js';
 
@@ -50,12 +50,19 @@ function onMessage(m) {
   if (m.type === 'error' && m.error) notice(m.error, true);
 }
 
+// The joystick's horn button (0x0023, "the host reads it and executes it"):
+// a horn sounds while its button is held and stops when it is let go, or
+// when the chair's state stops coming (nothing sounds on a stale reading).
+const horn = holdTone();
+function renderHorn(s, lost) {
+  const held = !lost && !!s && !!s.values && s.values.horn_button === 1;
+  if (held) horn.start(); else horn.stop();
+  $('#horn-banner').classList.toggle('hidden', !held);
+  document.body.dataset.horn = held ? 'on' : 'off';  // for the tests: audio is not observable headless
+}
+
 function onEvent(m) {
-  if (m.event === 'horn') {
-    beep();
-    $('#horn-banner').classList.remove('hidden');
-    setTimeout(() => $('#horn-banner').classList.add('hidden'), 1500);
-  } else if (m.event === 'view') {
+  if (m.event === 'view') {
     openView('joystick');
   } else if (m.event === 'near_obstacle') {
     openView('obstacle');
@@ -115,6 +122,7 @@ function render() {
   if (state) renderValues(state, lost);
   renderControls(lost);
   renderErrorOverlay(lost);
+  renderHorn(state, lost);
   if (state) renderPhones(state);
   showCodeTime();
 }
@@ -259,6 +267,9 @@ function renderErrorOverlay(lost) {
     $('#error-detail').textContent = s.error === 0x1010
       ? 'No communication with the controller. Every function is disabled.'
       : 'Every function is disabled until the error clears.';
+    // What to check, as table 3 says (the device layer's advice, as `rtukit rehand6600 errors`).
+    const advice = s.error_advice || '';
+    $('#error-advice').textContent = advice ? `${advice[0].toUpperCase()}${advice.slice(1)}` : '';
     $('#ack').textContent = acknowledgedError === s.error ? 'Acknowledged: waiting for the error to clear' : 'Acknowledge';
     overlay.classList.remove('hidden');
   } else if (!overlay.classList.contains('hidden') && stateIsFresh) {
@@ -267,6 +278,7 @@ function renderErrorOverlay(lost) {
       overlay.classList.add('hidden');
     } else {
       $('#error-detail').textContent = 'The error has cleared. Nothing restarts by itself: press again to move.';
+      $('#error-advice').textContent = '';
       $('#ack').textContent = 'Acknowledge';
     }
   }

@@ -8,7 +8,7 @@
 'use strict';
 import { $, $$, clockTime, connect, formatSpeed, holdButton, motionText, setControlEnabled } from '/rehand/common.js';
 import { buildChairView, showDistances } from '/rehand/distances.js';
-import { buildRemote } from '/rehand/remote.js';
+import { buildRemote, showLights } from '/rehand/remote.js';
 import { forgetIdentity, loadIdentity, newKeys, publicKeyText, saveIdentity, signChallenge } from '/rehand/phone-key.js';
 
 buildRemote($('#remote'));
@@ -214,6 +214,7 @@ function render() {
   for (const b of $$('#pad button')) setControlEnabled(b, !driveOff);
   setControlEnabled($('#horn'), !allOff);
   for (const b of $$('#light, #left-signal, #right-signal')) b.disabled = allOff;
+  showLights(lost ? {} : { light: v.main_light === 1, left: v.left_signal === 1, right: v.right_signal === 1 });
 
   // The reason: an error first, then a fresh refusal of what the user just
   // did, then why driving is off. Empty when the phone may drive.

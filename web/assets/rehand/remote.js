@@ -34,6 +34,18 @@ const PAD = `
   DISCONNECT
   <div class="foot" id="who"></div>`;
 
+// The light and the turn signals on their buttons, as the chair reports
+// them (a pulse toggles: the button says what it is now). Unknown
+// (undefined): neither on nor off is claimed.
+export function showLights({ light, left, right }) {
+  for (const [id, on] of [['light', light], ['left-signal', left], ['right-signal', right]]) {
+    const b = document.getElementById(id);
+    b.classList.toggle('on', on === true);
+    if (on === undefined) b.removeAttribute('aria-pressed');
+    else b.setAttribute('aria-pressed', String(on));
+  }
+}
+
 // Fills `screen` (the page's empty <div id="remote">) with the remote.
 //   connectAgain  a "Connect again" button (#reconnect) on the lost panel
 //   disconnect    a "Disconnect" button (#disconnect) under the controls

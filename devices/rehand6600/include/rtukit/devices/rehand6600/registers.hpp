@@ -255,7 +255,10 @@ inline constexpr uint16_t kCharging = at("charging");
 inline constexpr uint16_t kSpeed = at("speed");
 inline constexpr uint16_t kClutch = at("clutch");
 inline constexpr uint16_t kMotion = at("motion");
-inline constexpr uint16_t kDistanceFront = at("distance_front");  ///< .. 0x0009 rear, left, right
+inline constexpr uint16_t kDistanceFront = at("distance_front");
+inline constexpr uint16_t kDistanceRear = at("distance_rear");
+inline constexpr uint16_t kDistanceLeft = at("distance_left");
+inline constexpr uint16_t kDistanceRight = at("distance_right");
 inline constexpr uint16_t kJoystickX = at("joystick_x");
 inline constexpr uint16_t kJoystickY = at("joystick_y");
 inline constexpr uint16_t kMainLight = at("main_light");
@@ -268,6 +271,13 @@ inline constexpr uint16_t kSeatTiltStatus = at("seat_tilt_status");
 inline constexpr uint16_t kLegRestStatus = at("leg_rest_status");
 inline constexpr uint16_t kActuatorPosition = at("actuator1_position");  ///< .. 0x001A, actuators 1..6
 inline constexpr uint16_t kActuatorState = at("actuator1_state");        ///< .. 0x0020
+/// Actuator `n`'s (1..6) position and state registers.
+constexpr uint16_t actuator_position(unsigned n) noexcept {
+  return static_cast<uint16_t>(kActuatorPosition + n - 1);
+}
+constexpr uint16_t actuator_state(unsigned n) noexcept {
+  return static_cast<uint16_t>(kActuatorState + n - 1);
+}
 inline constexpr uint16_t kMotor1State = at("motor1_state");
 inline constexpr uint16_t kMotor2State = at("motor2_state");
 inline constexpr uint16_t kHornButton = at("horn_button");
@@ -340,18 +350,19 @@ inline constexpr ErrorAdvice kAdvice[] = {
      "the controller's power and battery connection; switch the chair off and on; a code that comes back "
      "needs the dealer"},
     {"Legs", "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault",
-     "nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` "
-     "(over-current)"},
+     "nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator "
+     "states show over-current"},
     {"Tilt",
      "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive "
      "reports a fault",
-     "nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in "
-     "`status` (over-current)"},
+     "nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the "
+     "actuator states show over-current"},
     {"Back", "the backrest actuator (actuator 2) or its drive reports a fault",
-     "nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current)"},
+     "nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show "
+     "over-current"},
     {"Seat lift", "the seat-lift actuator (actuator 1) or its drive reports a fault",
-     "nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` "
-     "(over-current)"},
+     "nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator "
+     "states show over-current"},
     {"Stand", "the stand/sit movement (actuators 1, 2 and 4 together) reports a fault",
      "nothing blocks the seat, the backrest or the leg rest; the cables and connectors of actuators 1, 2 and "
      "4; the user's position"},

@@ -43,9 +43,10 @@ Outcome<const Register*> command_register(std::string_view key, Kind kind);
 /// (nothing sent)".
 Outcome<uint16_t> command_value(const Register& r, std::string_view text);
 
-/// How long a hold lasts: "2s", "500ms", "1.5" (seconds); more than 0 and
-/// at most 10 minutes. invalid_argument: "duration '0s': e.g. 2s, 500ms (at
-/// most 10 minutes)".
+/// How long a hold lasts: the duration form every front-end takes ("1m",
+/// "1m30s", "1:30", "90s": profile::parse_duration), or "500ms", "1.5"
+/// (seconds); more than 0 and at most 10 minutes. invalid_argument:
+/// "duration '0s': e.g. 2s, 500ms, 1m (at most 10 minutes)".
 Outcome<std::chrono::milliseconds> parse_hold_duration(std::string_view text);
 
 /// A setting to write: drive mode, speed level or the host fault code.

@@ -36,6 +36,27 @@ std::string line(const Snapshot& s, bool mph);
 /// "error_text" and "error_advice".
 nlohmann::ordered_json snapshot_values(const Snapshot& s, bool mph);
 
+/// The host's state document's pieces, for the display and the phones
+/// (docs/rehand6600.md, "The host daemon"): the device's facts, once.
+///
+/// Table 1's status registers by key as plain numbers, a signed row (the
+/// joystick) as its signed value; reserved rows left out.
+nlohmann::ordered_json status_numbers(const Snapshot& s);
+/// The postures, one object per row of kPostures (motion.hpp): "key",
+/// "status" (its status register's name for the value, "still" when the
+/// register shows none of this posture's values), "held" (the name of the
+/// value a client holds on its command, "" for none), "moving" (its status
+/// register says so, or its command is held and an actuator it drives
+/// moves: holding seat lift moves actuator 1, which stand/sit shares, and
+/// only seat lift moves) and "actuators": each actuator it drives, {"n",
+/// "state" (its row's name), "position" (per mille)}. `held(command)`: the
+/// value held on that command, 0 for none.
+nlohmann::ordered_json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& held);
+/// Stand/sit's progress, 0..100 %: the mean position of the actuators it drives.
+int stand_progress(const Snapshot& s);
+/// The four ultrasonic distances in mm: {"front", "rear", "left", "right"}.
+nlohmann::ordered_json distances_view(const Snapshot& s);
+
 /// One table-3 error code as JSON: {"code": "10C3", "function", "text",
 /// "advice"} (`rtukit rehand6600 errors --json`).
 nlohmann::ordered_json error_json(uint16_t code);
