@@ -25,7 +25,7 @@ void LinkOptions::add_to(CLI::App& cmd_app, bool listening, uint32_t default_bau
     cmd.add_option("--port,-p", port, "/dev/ttyX | tcp://HOST:PORT | rtu+tcp://HOST:PORT")->required();
     // 0 would never wait for an answer: every request a timeout (issue 38).
     cmd.add_option("--timeout", timeout_ms, "response timeout in ms (1..600000)")
-        ->check(CLI::Range(1u, 600000u))
+        ->check(CLI::Range(1u, 600000u).description(""))  // the range is in the text: keep the type "UINT"
         ->capture_default_str();
     cmd.add_option("--retries", retries, "extra attempts after a timeout")->capture_default_str();
     cmd.add_option("--delay", delay_ms, "minimum ms between requests (slow devices)")->capture_default_str();

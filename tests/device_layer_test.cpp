@@ -269,6 +269,88 @@ TEST(InverjetView, OneMeaningOfTheTime_InEveryDocument) {
   EXPECT_EQ(state_document(plan)["elapsed_s"], 600);
 }
 
+// What the swimmer's screen shows, decided in the device layer (issue 38):
+// a jet that stands shows 0 %, whatever the speed register holds; the fault
+// screen gives each fault's advice and refuses a start; an off machine has
+// no mode.
+TEST(InverjetView, TheScreensFactsComeFromTheDeviceLayer) {
+  using namespace rtukit::inverjet;
+  MachineStatus s;
+  s.mode = 0;
+  s.speed = 70;
+  s.state = state_value(Family::free, Phase::running);
+  nlohmann::json doc = state_document(s);
+  EXPECT_EQ(doc["jet_speed"], 70);
+  EXPECT_EQ(doc["mode"], "free");
+  EXPECT_EQ(
+      doc["allowed"],
+      (nlohmann::json{{"start", true}, {"pause", true}, {"resume", false}, {"stop", true}, {"speed", true}}));
+
+  s.state = state_value(Family::free, Phase::paused);
+  EXPECT_EQ(state_document(s)["jet_speed"], 0) << "a paused jet stands";
+  EXPECT_EQ(state_document(s)["allowed"]["resume"], true);
+  EXPECT_EQ(state_document(s)["allowed"]["pause"], false);
+
+  s.state = state_value(Family::none, Phase::fault);
+  s.faults = (1U << 1) | (1U << 8);
+  doc = state_document(s);
+  EXPECT_EQ(doc["speed"], 70) << "the set speed stays the register's";
+  EXPECT_EQ(doc["jet_speed"], 0) << "the fault screen's motor is at 0 rpm: 70 % would be a lie";
+  EXPECT_EQ(doc["allowed"]["start"], false) << "B-3: nothing starts the motor from the fault screen";
+  EXPECT_EQ(doc["allowed"]["stop"], true);
+  ASSERT_EQ(doc["fault_advice"].size(), 2u);
+  EXPECT_EQ(doc["fault_advice"][0]["fault"], "output over-current");
+  EXPECT_NE(doc["fault_advice"][0]["advice"].get<std::string>().find("propeller"), std::string::npos);
+  EXPECT_EQ(doc["fault_advice"][1]["fault"], "driver-board communication");
+  EXPECT_NE(doc["fault_advice"][1]["advice"].get<std::string>().find("driver board"), std::string::npos);
+  EXPECT_EQ(fault_advice(15), "a fault we cannot name: call service");
+  for (const auto& bit : fault_names()) EXPECT_NE(fault_advice(bit.value), fault_advice(15)) << bit.name;
+
+  MachineStatus off;
+  off.speed = 40;
+  EXPECT_EQ(state_document(off)["mode"], "off") << "not \"free\" while nothing runs";
+  EXPECT_EQ(state_document(off)["allowed"]["stop"], false);
+  EXPECT_EQ(state_document(off)["jet_speed"], 0);
+
+  const nlohmann::json limits = limits_document();
+  EXPECT_EQ(limits["plans"], kPlanCount);
+  EXPECT_EQ(limits["segments"], kSegmentsPerPlan);
+  EXPECT_EQ(limits["speed"]["max"], kMaxSpeed);
+  EXPECT_EQ(limits["time_max"], "99:59");
+}
+
+// A failed command's kind is the device layer's, so no page or automation
+// reads it from message text (issue 38: the panel did, by regex).
+TEST(InverjetView, AFailedCommandSaysWhatKindItIs) {
+  using namespace rtukit::inverjet;
+  const auto described = [](const rtukit::Status& e) {
+    nlohmann::json r;
+    describe_failure(e, r);
+    EXPECT_EQ(r["ok"], false);
+    EXPECT_FALSE(r["advice"].get<std::string>().empty());
+    return r;
+  };
+  const Error x04(Errc::server_device_failure);
+  nlohmann::json r = described(rtukit::Status(x04, std::string(kFaultScreenReason) + " (voltage)"));
+  EXPECT_EQ(r["code"], "fault");
+  EXPECT_EQ(r["error"], "Modbus exception 04 (server device failure): the machine shows a fault (voltage)");
+  EXPECT_EQ(described(rtukit::Status(x04, std::string(kMaskedReason) + " (bit 1)"))["code"], "masked");
+  EXPECT_EQ(described(rtukit::Status(x04, std::string(kWrongStateReason) + " off"))["code"], "wrong_state");
+  EXPECT_EQ(described(rtukit::Status(x04, "who knows"))["code"], "refused");
+  EXPECT_EQ(described(rtukit::Status(Errc::invalid_argument, std::string(kNothingPausedReason)))["code"],
+            "wrong_state");
+  EXPECT_EQ(described(rtukit::Status(Errc::invalid_argument, "speed 101 is out of range"))["code"],
+            "invalid");
+  EXPECT_EQ(described(rtukit::Status(Error(Errc::illegal_data_value)))["code"], "invalid");
+  EXPECT_EQ(described(rtukit::Status(Error(Errc::server_device_busy)))["code"], "busy");
+  EXPECT_EQ(described(rtukit::Status(Error(Errc::timeout)))["code"], "no_answer");
+  EXPECT_EQ(described(rtukit::Status(Error(Errc::bad_crc)))["code"], "no_answer");
+  nlohmann::json busy;
+  describe_busy("busy: 16 waiting", busy);
+  EXPECT_EQ(busy["code"], "busy");
+  EXPECT_EQ(busy["error"], "busy: 16 waiting");
+}
+
 // The example third device (examples/devices/thermostat: a table, a pure
 // model and a registry entry, registered by one rtukit_add_device() line)
 // through every verb, the simulator and the sniffer, with nothing written

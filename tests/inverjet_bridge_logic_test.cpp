@@ -9,11 +9,11 @@
 #include <array>
 #include <nlohmann/json.hpp>
 
+#include "inverjet_on_memory_link.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "inverjet_on_memory_link.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
 namespace rtukit::programs {
@@ -122,6 +122,7 @@ TEST_F(BridgeLogicTest, AFloodIsAnsweredBusyAtOnce_NotQueued) {
   EXPECT_EQ(busy["ok"], false);
   EXPECT_EQ(busy["id"], 7);
   EXPECT_NE(busy["error"].get<std::string>().find("busy"), std::string::npos);
+  EXPECT_EQ(busy["code"], "busy") << "a code programs act on, not the text";
   logic_->step(clock_.now());
   EXPECT_EQ(taken("/result").size(), kCommandQueueLimit + 1);
 }

@@ -10,11 +10,11 @@
 #include <array>
 #include <nlohmann/json.hpp>
 
+#include "inverjet_on_memory_link.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "inverjet_on_memory_link.hpp"
 #include "rtukit/programs/inverjet_panel.hpp"
 
 namespace rtukit::programs {
@@ -117,6 +117,7 @@ TEST_F(PanelLogicTest, PastTheQueueLimit_BusyAtOnce_AndNeverRun) {
   EXPECT_EQ(busy["id"], "late");
   EXPECT_EQ(busy["op"], "start");
   EXPECT_NE(busy["error"].get<std::string>().find("busy"), std::string::npos) << busy.dump();
+  EXPECT_EQ(busy["code"], "busy") << "a code programs act on, not the text";
   logic_->step(clock_.now());
   run_for(2s);
   EXPECT_EQ(taken("result", kPage).size(), 17u);
@@ -195,7 +196,7 @@ TEST_F(PanelLogicTest, DuringARun_SamplesCarryTheSpeed_AndTheHistoryKeepsThem) {
 
   uint64_t seq = 0;
   const std::vector<std::string> welcome = logic_->welcome(seq);
-  ASSERT_EQ(welcome.size(), 3u);  // state, history, plans
+  ASSERT_EQ(welcome.size(), 4u);  // state, history, plans, limits
   const Json history = Json::parse(welcome[1]);
   EXPECT_EQ(history["type"], "history");
   ASSERT_EQ(history["samples"].size(), samples.size());
@@ -268,13 +269,17 @@ TEST_F(PanelLogicTest, APlanTheMachineTook_IsReadBackAndSent) {
 
 TEST_F(PanelLogicTest, Welcome_CoversTheMessagesUpToItsSeq) {
   uint64_t seq = 99;
-  EXPECT_EQ(logic_->welcome(seq).size(), 1u);  // the empty history only
+  EXPECT_EQ(logic_->welcome(seq).size(), 2u);  // the empty history and the limits only
   EXPECT_EQ(seq, 0u);
   run_for(2s);
   const std::vector<std::string> welcome = logic_->welcome(seq);
-  ASSERT_EQ(welcome.size(), 3u);
+  ASSERT_EQ(welcome.size(), 4u);
   EXPECT_EQ(seq, sent_.back().seq);
-  EXPECT_EQ(welcome[0], sent_.back().text);  // the last state
+  EXPECT_EQ(welcome[0], sent_.back().text);     // the last state
+  const Json limits = Json::parse(welcome[3]);  // the page's limits, from the device layer
+  EXPECT_EQ(limits["type"], "limits");
+  EXPECT_EQ(limits["limits"]["plans"], 4);
+  EXPECT_EQ(limits["limits"]["segments"], 50);
   for (size_t i = 0; i < sent_.size(); ++i) EXPECT_EQ(sent_[i].seq, i + 1);
 }
 

@@ -275,6 +275,9 @@ def main():
         # The debugger attached before the press: attaching stalls the page
         # for a moment, which would let the press lapse before the freeze.
         devtools = page_session(app)
+        # The display's connection hears the stop, which phone and why (the
+        # HMI shows that line; it once showed a stop nobody explained).
+        display = WebSocket(port, "/ws?role=display")
         try:
             devtools.send("Debugger.enable")
             ActionChains(app).click_and_hold(fwd).perform()
@@ -291,8 +294,22 @@ def main():
                   f"anti_pinch={register(con, 'anti_pinch')}; writes before: {writes_before(chair, frozen_at)}")
             devtools.send("Debugger.resume")
             devtools.send("Debugger.disable")
+            said = None
+            deadline = time.monotonic() + 10
+            while said is None and time.monotonic() < deadline:
+                m = display.recv(timeout=max(0.01, deadline - time.monotonic()))
+                if m is None:
+                    break
+                m = json.loads(m)
+                if m.get("type") == "event" and m.get("event") == "emergency":
+                    said = m
+            check("the display hears which phone lost control, and why",
+                  said is not None and said.get("phone") == "Pixel 8"
+                  and said.get("reason") == "a phone lost control while driving: no renewal within the lease",
+                  json.dumps(said))
         finally:
             devtools.close()
+            display.close()
         ActionChains(app).release(fwd).perform()
         check("thawed, nothing restarts (the press ended)", wait_for(lambda: register(con, "phone_forward") == 0, 2)
               and register(con, "phone_forward") == 0)

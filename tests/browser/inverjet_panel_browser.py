@@ -22,6 +22,7 @@ import functools
 import http.server
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -214,6 +215,15 @@ def main():
         d.get(url + "/")
         d.execute_script(SPY)
         check("state as the display shows it", wait_for(lambda: text(d, "#state") == "off", DEADLINE), text(d, "#state"))
+        check("...with no mode while nothing runs (it read \"mode: free\")", text(d, "#mode") == "", text(d, "#mode"))
+        check("...and the plans the machine has, from its limits", d.execute_script(
+            "return [...document.querySelectorAll('#plan-tabs button')].map((b) => b.textContent).join()")
+              == "Plan 1,Plan 2,Plan 3,Plan 4" and d.execute_script(
+            "return [...document.querySelectorAll('#start-mode option')].filter((o) => o.value.startsWith('plan')).length")
+              == 4)
+        check("Start sits below the fields it uses", d.execute_script(
+            "return document.getElementById('start').getBoundingClientRect().top > "
+            "document.getElementById('speed-in').getBoundingClientRect().bottom"))
         check("plans read from the machine",
               wait_for(lambda: len(d.find_elements(By.CSS_SELECTOR, "#segments .seg")) == 1, DEADLINE))
         check("the log out button shows with a password", d.find_element(By.CSS_SELECTOR, "#logout button").is_displayed())
@@ -357,6 +367,9 @@ def main():
             "return window.__sent.some((m) => m.op === 'plan' && m.segments[1].end === '10:00')"))
         check("the step chart shows it", d.execute_script(
             "return document.querySelector('#plan-chart polyline').points.length") == 4)
+        check("...on axes: 0 to 100 % up, 00:00 to the plan's end across", text(d, "#plans .chart-box .y-top") == "100 %"
+              and text(d, "#plans .chart-box .x-end") == "10:00",
+              f"{text(d, '#plans .chart-box .y-top')!r} {text(d, '#plans .chart-box .x-end')!r}")
 
         # An invalid plan is refused on the page with the reason, nothing sent...
         click(d, '#plan-tabs [data-plan="3"]')
@@ -369,6 +382,10 @@ def main():
               wait_for(lambda: "not saved: segment 2: end 00:30 is not after 01:00" in text(d, "#plan-reason"),
                        DEADLINE), text(d, "#plan-reason"))
         check("...nothing sent", sent(d) == [], json.dumps(sent(d)))
+        rows = d.find_elements(By.CSS_SELECTOR, "#segments .seg")
+        check("...and the row at fault is marked (its end field)", "bad" in rows[1].get_attribute("class")
+              and end.get_attribute("aria-invalid") == "true" and "bad" not in rows[0].get_attribute("class"),
+              f"{rows[1].get_attribute('class')!r} aria-invalid {end.get_attribute('aria-invalid')!r}")
         fill(d, end, "30")
         check("a bare number as an end is refused with the example",
               wait_for(lambda: "write 30:00, 30m or 90s" in text(d, "#plan-reason"), DEADLINE), text(d, "#plan-reason"))
@@ -377,6 +394,8 @@ def main():
         fill(d, end, "02:00")
         check("...and the refusal goes away when it is right", wait_for(lambda: text(d, "#plan-reason") == "", DEADLINE),
               text(d, "#plan-reason"))
+        check("...and so does the mark", "bad" not in rows[1].get_attribute("class")
+              and end.get_attribute("aria-invalid") == "false", rows[1].get_attribute("class"))
         # ...and the server refuses one too, even when a page skips the check.
         r = d.execute_async_script("""
 const done = arguments[arguments.length - 1]; const ws = new WebSocket(`wss://${location.host}/ws`);
@@ -384,18 +403,45 @@ ws.onopen = () => ws.send(JSON.stringify({op: 'plan', id: 1, plan: 3, segments: 
 ws.onmessage = (e) => { const m = JSON.parse(e.data); if (m.type === 'result') { ws.close(); done(m); } };
 setTimeout(() => done(null), 20000);""")
         check("the server refuses a plan the page did not check", r and not r["ok"] and "120" in r["error"], json.dumps(r))
+        check("...saying what kind of refusal it is (a code, not text to parse)", r and r.get("code") == "invalid"
+              and r.get("advice"), json.dumps(r))
 
         # A fault injected on the simulator shows, with what to do; a refused start says what to do; both clear.
+        # A run first: the fault comes while the jet moves.
+        Select(d.find_element(By.ID, "start-mode")).select_by_value("free")
+        fill(d, d.find_element(By.ID, "speed-in"), "40")
+        click(d, "#start")
+        check("a free run at 40 % before the fault", wait_for(lambda: text(d, "#speed") == "40 %", DEADLINE),
+              text(d, "#speed"))
         con.ask("fault motor-drive")
         check("the fault shows by name with advice", wait_for(
             lambda: "motor drive" in text(d, "#fault-list") and "motor cable" in text(d, "#fault-list"), DEADLINE),
             text(d, "#fault-list"))
-        Select(d.find_element(By.ID, "start-mode")).select_by_value("free")
-        fill(d, d.find_element(By.ID, "speed-in"), "40")
-        click(d, "#start")
-        check("a start refused by the machine says why and what to do",
-              wait_for(lambda: "fault" in text(d, "#reason") and "fault box" in text(d, "#reason"), DEADLINE),
-              text(d, "#reason"))
+        # The fault screen's motor stands: the big figure is 0 %, the set speed
+        # beside it (it showed the set speed as if the jet ran).
+        set_speed = int(re.search(r"speed = (\d+)", con.ask("get speed")).group(1))
+        check(f"a stopped jet shows 0 %, the set speed ({set_speed} %) marked as such",
+              set_speed > 0 and wait_for(lambda: text(d, "#speed") == "0 %"
+                                         and text(d, "#speed-set") == f"set {set_speed} %", DEADLINE),
+              f"{text(d, '#speed')!r} {text(d, '#speed-set')!r}")
+        # The machine takes no start in the fault screen: Start is off (not
+        # green) and the page says why; Stop stays.
+        check("Start is off during a fault, and the page says why",
+              d.find_element(By.ID, "start").get_attribute("disabled") is not None
+              and "fault" in text(d, "#start-why") and d.find_element(By.ID, "stop").is_enabled(),
+              f"start disabled {d.find_element(By.ID, 'start').get_attribute('disabled')}, {text(d, '#start-why')!r}")
+        check("...and looks off", d.execute_script(
+            "return getComputedStyle(document.getElementById('start')).backgroundColor") != "rgb(25, 195, 125)",
+            d.execute_script("return getComputedStyle(document.getElementById('start')).backgroundColor"))
+        # A start sent anyway (another page, an automation) is refused by the
+        # machine, with the kind and what to do from the device layer.
+        r = d.execute_async_script("""
+const done = arguments[arguments.length - 1]; const ws = new WebSocket(`wss://${location.host}/ws`);
+ws.onopen = () => ws.send(JSON.stringify({op: 'start', id: 1, mode: 'free', speed: 40}));
+ws.onmessage = (e) => { const m = JSON.parse(e.data); if (m.type === 'result') { ws.close(); done(m); } };
+setTimeout(() => done(null), 20000);""")
+        check("a start refused in the fault screen says it is the fault, and what to do",
+              r and not r["ok"] and r.get("code") == "fault" and "fault box" in r.get("advice", ""), json.dumps(r))
         d.execute_script("document.getElementById('faults').scrollIntoView({block: 'start'})")  # the box and the refusal
         d.save_screenshot(os.path.join(OUT, "panel-fault.png"))
         wait_for(lambda: "motor drive" in text(t, "#fault-list"), DEADLINE)
@@ -403,7 +449,8 @@ setTimeout(() => done(null), 20000);""")
         con.ask("fault clear")
         check("the fault box goes when the fault clears",
               wait_for(lambda: not d.find_element(By.ID, "faults").is_displayed(), DEADLINE))
-        check("...and so does the refusal", wait_for(lambda: text(d, "#reason") == "", DEADLINE), text(d, "#reason"))
+        check("...and Start is back", wait_for(lambda: d.find_element(By.ID, "start").is_enabled()
+                                              and text(d, "#start-why") == "", DEADLINE), text(d, "#start-why"))
 
         # Log out: back to the login page; the old session opens nothing.
         t.find_element(By.CSS_SELECTOR, "#logout button").click()

@@ -73,11 +73,12 @@ rtukit::Status Client::explain(Error e) {
   if (st.ok() && st->phase() == Phase::fault) {
     std::string names;
     for (auto n : st->fault_names()) names += (names.empty() ? "" : ", ") + std::string(n);
-    return rtukit::Status(e, "the machine shows a fault (" + names + ")");
+    return rtukit::Status(e, fmt::format("{} ({})", kFaultScreenReason, names));
   }
   if (!mask_read && (mask[0] & 0x2))
-    return rtukit::Status(e, "Modbus control is masked (control mask bit 1; `config mask 0` clears it)");
-  if (st.ok()) return rtukit::Status(e, fmt::format("not possible while {}", st->state_name()));
+    return rtukit::Status(e,
+                          fmt::format("{} (control mask bit 1; `config mask 0` clears it)", kMaskedReason));
+  if (st.ok()) return rtukit::Status(e, fmt::format("{} {}", kWrongStateReason, st->state_name()));
   return rtukit::Status(e, "control masked, fault screen, or nothing to pause");
 }
 
@@ -182,7 +183,8 @@ rtukit::Status Client::pause() {
 rtukit::Status Client::resume() {
   std::array<uint16_t, 1> state{};
   if (Error e = master_.read_holding_registers(unit_, reg::kState, state)) return e;
-  if (phase_of(state[0]) != Phase::paused) return rtukit::Status(Errc::invalid_argument, "nothing is paused");
+  if (phase_of(state[0]) != Phase::paused)
+    return rtukit::Status(Errc::invalid_argument, std::string(kNothingPausedReason));
   const std::array<uint16_t, 1> v{state_value(family_of(state[0]), Phase::running)};
   return write(reg::kState, v);
 }

@@ -112,13 +112,148 @@ Json status_values(const MachineStatus& s, Family remembered) {
   return v;
 }
 
+uint16_t jet_speed(const MachineStatus& s) noexcept {
+  const Phase p = s.phase();
+  return p == Phase::starting || p == Phase::running ? s.speed : 0;
+}
+
+std::string_view fault_advice(unsigned bit) noexcept {
+  for (const Named& a : detail::kFaultAdvice)
+    if (a.value == bit) return a.name;
+  return "a fault we cannot name: call service";
+}
+
+Actions allowed_actions(const MachineStatus& s) noexcept {
+  const Phase p = s.phase();
+  Actions a;
+  a.start = p != Phase::fault;  // B-3: nothing starts the motor from the fault screen
+  a.pause = p == Phase::starting || p == Phase::running;
+  a.resume = p == Phase::paused;
+  a.stop = p != Phase::off;
+  a.speed = p == Phase::starting || p == Phase::running || p == Phase::paused;
+  return a;
+}
+
+Json limits_document() {
+  const profile::Range speed = kMap.row(reg::speed).write_range();
+  return Json{{"plans", kPlanCount},
+              {"segments", kSegmentsPerPlan},
+              {"speed", {{"min", speed.min}, {"max", speed.max}}},
+              {"time_max_s", kMaxTime},
+              {"time_max", profile::format_mm_ss(kMaxTime)},
+              {"fast_speed", kFastSpeed}};
+}
+
+std::string_view failure_code(Failure f) noexcept {
+  switch (f) {
+    case Failure::invalid:
+      return "invalid";
+    case Failure::fault:
+      return "fault";
+    case Failure::masked:
+      return "masked";
+    case Failure::wrong_state:
+      return "wrong_state";
+    case Failure::refused:
+      return "refused";
+    case Failure::no_answer:
+      return "no_answer";
+    case Failure::busy:
+      return "busy";
+  }
+  return "refused";
+}
+
+Failure classify_failure(const rtukit::Status& e) noexcept {
+  const std::string_view why = e.reason();
+  if (why.starts_with(kNothingPausedReason)) return Failure::wrong_state;
+  if (e.is_exception()) {
+    switch (e.error().exception_code()) {
+      case 0x01:
+      case 0x02:
+      case 0x03:
+        return Failure::invalid;
+      case 0x06:
+        return Failure::busy;
+      case 0x04:
+        if (why.starts_with(kFaultScreenReason)) return Failure::fault;
+        if (why.starts_with(kMaskedReason)) return Failure::masked;
+        if (why.starts_with(kWrongStateReason)) return Failure::wrong_state;
+        return Failure::refused;
+      default:
+        return Failure::refused;
+    }
+  }
+  switch (e.code()) {
+    case Errc::invalid_argument:
+      return Failure::invalid;
+    case Errc::timeout:
+    case Errc::bad_crc:
+    case Errc::malformed:
+    case Errc::unexpected_response:
+    case Errc::io_error:
+    case Errc::not_connected:
+      return Failure::no_answer;
+    default:
+      return Failure::refused;
+  }
+}
+
+std::string_view failure_advice(Failure f) noexcept {
+  switch (f) {
+    case Failure::invalid:
+      return "The machine did not accept the values: check the speed and the time.";
+    case Failure::fault:
+      return "The machine shows a fault: see the fault box for what to do; it can start again once the fault "
+             "is cleared.";
+    case Failure::masked:
+      return "The machine ignores remote control right now (control mask): use its own buttons, or ask the "
+             "pool staff.";
+    case Failure::wrong_state:
+      return "The machine is not in a state for that: look at the state above and use the matching button.";
+    case Failure::refused:
+      return "The machine refused: check its display; press Stop on the machine if in doubt.";
+    case Failure::no_answer:
+      return "The machine did not answer: check its power and cable. To stop it, press Stop on the machine "
+             "itself.";
+    case Failure::busy:
+      return "Too many commands at once: wait a moment and try again.";
+  }
+  return "";
+}
+
+void describe_failure(const rtukit::Status& e, Json& result) {
+  const Failure f = classify_failure(e);
+  result["ok"] = false;
+  result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
+                                                   e.error().exception_code(), e.name(), e.reason())
+                                     : std::string(e.reason());
+  result["code"] = std::string(failure_code(f));
+  result["advice"] = std::string(failure_advice(f));
+}
+
+void describe_busy(std::string_view why, Json& result) {
+  result["ok"] = false;
+  result["error"] = std::string(why);
+  result["code"] = std::string(failure_code(Failure::busy));
+  result["advice"] = std::string(failure_advice(Failure::busy));
+}
+
 Json state_document(const MachineStatus& s, Family remembered) {
   Json faults = Json::array();
-  for (std::string_view f : s.fault_names()) faults.push_back(std::string(f));
+  Json advice = Json::array();
+  for (const Named& bit : fault_names()) {
+    if (!(s.faults & (1U << bit.value))) continue;
+    faults.push_back(std::string(bit.name));
+    advice.push_back({{"fault", std::string(bit.name)}, {"advice", std::string(fault_advice(bit.value))}});
+  }
+  const Actions allowed = allowed_actions(s);
   const TimeCounts counts = time_counts(s, remembered);
   const std::optional<unsigned> plan = plan_of(s);
   const bool timer = time_family(s, remembered) == Family::timer;
-  return Json{{"mode", plan    ? fmt::format("plan {}", *plan)
+  const bool off = s.phase() == Phase::off;
+  return Json{{"mode", off     ? "off"
+                       : plan  ? fmt::format("plan {}", *plan)
                        : timer ? "timer"
                                : "free"},
               {"mode_raw", s.mode},
@@ -126,12 +261,20 @@ Json state_document(const MachineStatus& s, Family remembered) {
               {"state_raw", s.state},
               {"running", s.phase() == Phase::running},
               {"speed", s.speed},
+              {"jet_speed", jet_speed(s)},
               {"time", profile::format_mm_ss(s.run_time)},
               {"time_counts", time_counts_name(counts)},
               {"remaining_s", counts == TimeCounts::remaining ? Json(s.run_time) : Json(nullptr)},
               {"elapsed_s", counts == TimeCounts::elapsed ? Json(s.run_time) : Json(nullptr)},
               {"faults", faults},
               {"fault", !faults.empty()},
+              {"fault_advice", advice},
+              {"allowed",
+               {{"start", allowed.start},
+                {"pause", allowed.pause},
+                {"resume", allowed.resume},
+                {"stop", allowed.stop},
+                {"speed", allowed.speed}}},
               {"mosfet_c", s.mosfet_c},
               {"motor_c", s.motor_c},
               {"current_a", s.current_a},

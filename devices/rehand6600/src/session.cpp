@@ -328,16 +328,21 @@ void Session::end_where(const std::function<bool(const Press&)>& which, const st
                             .emergency = emergency,
                             .reason = reason});
   }
-  if (emergency) start_emergency(now, "stopped: a phone lost control");
+  // The stop says which phone and why (the display shows it to the person in
+  // the chair: a stop nobody explains looks like a fault of the chair).
+  if (emergency)
+    start_emergency(now, fmt::format("a phone lost control while driving: {}", reason), ended.front().client);
 }
 
-void Session::start_emergency(TimePoint now, const std::string& reason) {
+void Session::start_emergency(TimePoint now, const std::string& reason, std::optional<ClientId> phone) {
   // 0x006A stops every actuator too, and the controller clears its holds
   // (D-8), so every other press ends here as well: writing one again after
   // the stop would be a new rising edge, a restart by itself.
   if (!std::exchange(emergency_, true)) {
     emergency_serial_ = next_serial_++;
-    events_.push_back(Event{.type = Event::Type::emergency_started, .reason = reason});
+    Event e{.type = Event::Type::emergency_started, .reason = reason};
+    if (phone) e.client = *phone;
+    events_.push_back(std::move(e));
   }
   end_where([](const Press&) { return true; }, reason, false, now);
 }

@@ -251,6 +251,7 @@ struct BridgeLogic::Impl {
                 config.dump(), true);
     };
     const std::string state = m.base + "/state";
+    const Json limits = ij::limits_document();  // the rows' ranges and the plan count
     const auto sensor = [&](const std::string& object, const std::string& name, const std::string& key,
                             Json extra = {}) {
       Json c{{"name", name}, {"state_topic", state}, {"value_template", "{{ value_json." + key + " }}"}};
@@ -278,8 +279,8 @@ struct BridgeLogic::Impl {
             {"value_template", "{{ value_json.speed }}"},
             {"command_topic", m.base + "/set/speed"},
             {"command_template", "{\"speed\": {{ value | int }}, \"ts\": {{ now().timestamp() | int }}}"},
-            {"min", 0},
-            {"max", 100},
+            {"min", limits["speed"]["min"]},
+            {"max", limits["speed"]["max"]},
             {"step", 1},
             {"unit_of_measurement", "%"},
             {"mode", "slider"}});
@@ -303,6 +304,9 @@ struct BridgeLogic::Impl {
       entity("button", b,
              {{"name", name}, {"command_topic", m.base + "/set/" + b}, {"command_template", body}});
     }
+    Json plan_options = Json::array();  // "Plan 1".."Plan N", as the state's plan_select names them
+    for (unsigned p = 1; p <= limits["plans"].get<unsigned>(); ++p)
+      plan_options.push_back(fmt::format("Plan {}", p));
     entity("select", "plan",
            {{"name", "Training plan"},
             {"state_topic", state},
@@ -310,7 +314,7 @@ struct BridgeLogic::Impl {
             {"command_topic", m.base + "/set/start"},
             {"command_template",
              "{\"mode\": \"plan\", \"plan\": {{ value[-1] | int }}, \"ts\": {{ now().timestamp() | int }}}"},
-            {"options", Json::array({"Plan 1", "Plan 2", "Plan 3", "Plan 4"})}});
+            {"options", plan_options}});
   }
 
   // `command_effect`: the poll right after a command, published at once and
@@ -368,11 +372,7 @@ struct BridgeLogic::Impl {
         result["id"] = body["id"];
       const rtukit::Status e = run_command(m, c, result);
       result["ok"] = !e;
-      if (e) {
-        result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
-                                                         e.error().exception_code(), e.name(), e.reason())
-                                           : std::string(e.reason());
-      }
+      if (e) ij::describe_failure(e, result);  // "error", and "code" and "advice" for programs
       m.publish(m.base + "/result", result.dump(), false);
       ++m.commands_run;
       if (!e) m.schedule.poll_soon();  // show the effect at once
@@ -449,11 +449,10 @@ bool BridgeLogic::queue_command(size_t machine, std::string name, std::string pa
   }
   // A flood is cut, not queued, and every command cut gets its answer:
   // a sender that hears nothing would not know to try again.
-  Json result{{"command", profile::excerpt(c.name, 40)},
-              {"at", iso_time(impl_->clock.wall())},
-              {"ok", false},
-              {"error", fmt::format("busy: {} commands are waiting for the machine; send it again",
-                                    kCommandQueueLimit)}};
+  Json result{{"command", profile::excerpt(c.name, 40)}, {"at", iso_time(impl_->clock.wall())}};
+  ij::describe_busy(
+      fmt::format("busy: {} commands are waiting for the machine; send it again", kCommandQueueLimit),
+      result);
   if (const Json body = Json::parse(c.payload, nullptr, false); body.is_object() && body.contains("id"))
     result["id"] = body["id"];
   m.publish(m.base + "/result", result.dump(-1, ' ', false, Json::error_handler_t::replace), false);

@@ -377,10 +377,7 @@ struct PanelLogic::Impl {
       if (!e && op == "plan") send_plans();  // read back what the machine stored
     }
     result["ok"] = !e;
-    if (e)
-      result["error"] = e.is_exception() ? fmt::format("Modbus exception {:02X} ({}): {}",
-                                                       e.error().exception_code(), e.name(), e.reason())
-                                         : std::string(e.reason());
+    if (e) inverjet::describe_failure(e, result);  // the page acts on "code" and shows "advice"
     out(c.socket, result.dump());
     schedule.poll_soon();  // show its effect at once
   }
@@ -453,11 +450,8 @@ bool PanelLogic::queue_command(uint64_t socket, Json command) {
     l.out(socket, Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
     return false;
   }
-  Json busy{{"type", "result"},
-            {"op", command.value("op", Json())},
-            {"id", command.value("id", Json())},
-            {"ok", false},
-            {"error", "busy: too many commands waiting"}};
+  Json busy{{"type", "result"}, {"op", command.value("op", Json())}, {"id", command.value("id", Json())}};
+  inverjet::describe_busy("busy: too many commands waiting", busy);
   {
     std::lock_guard lock(l.mutex);
     if (l.commands.size() < kPanelCommandLimit) {
@@ -477,6 +471,9 @@ std::vector<std::string> PanelLogic::welcome(uint64_t& seq) const {
   if (!l.last_state.empty()) out.push_back(l.last_state);
   out.push_back(Json{{"type", "history"}, {"samples", l.history}}.dump());
   if (!l.plans.empty()) out.push_back(l.plans);
+  // The machine's limits: the page builds its plan list and checks its
+  // fields from them, never from constants of its own.
+  out.push_back(Json{{"type", "limits"}, {"limits", inverjet::limits_document()}}.dump());
   seq = l.seq;
   return out;
 }

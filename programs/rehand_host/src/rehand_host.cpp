@@ -242,6 +242,7 @@ struct HostDaemon::Impl {
     // driving is a loss of control (the stop command), anything else ends.
     host.leave(s->id());
     const Client c = it->second;
+    if (c.role == Role::phone && c.authenticated) remember_gone(s->id(), name_of(c.phone));
     clients.erase(it);
     if (c.role == Role::phone && c.authenticated) {
       (void)pairing.touch(c.phone, pairing_now());
@@ -511,6 +512,22 @@ struct HostDaemon::Impl {
         if (b.path == path) return "ble:" + b.address;
     return "ble:" + path;
   }
+  // A phone's name for the session's events about it, also once it has gone:
+  // a lost phone's stop is announced after its connection closed. The last
+  // few are kept (one per phone that left since).
+  void remember_gone(uint64_t client, std::string name) {
+    gone_names.emplace_back(client, std::move(name));
+    if (gone_names.size() > 16) gone_names.erase(gone_names.begin());
+  }
+  std::string client_name(uint64_t client) const {
+    if (const auto it = clients.find(client); it != clients.end() && it->second.role == Role::phone)
+      return name_of(it->second.phone);
+    if (std::string ble_phone = ble_name(client); !ble_phone.empty()) return ble_phone;
+    for (const auto& [id, name] : gone_names)
+      if (id == client) return name;
+    return {};
+  }
+
   // The name of the BLE phone behind session client `client`, "" when it is none.
   std::string ble_name(uint64_t client) const {
     for (const auto& [path, id] : ble_clients) {
@@ -577,6 +594,7 @@ struct HostDaemon::Impl {
     const auto it = ble_clients.find(device);
     if (it == ble_clients.end()) return;
     log(fmt::format("Bluetooth phone '{}' ({}) {}", ble_name(it->second), ble_id(device), why));
+    remember_gone(it->second, ble_name(it->second));
     host.leave(it->second);
     ble_clients.erase(it);
     broadcast_state();
@@ -859,9 +877,12 @@ struct HostDaemon::Impl {
       case T::emergency_ended:
         log(e.type == T::emergency_started ? fmt::format("emergency stop (0x006A): {}", e.reason)
                                            : "the chair is still: emergency stop released");
+        // Which phone and why, for the display to say (a stop nobody
+        // explains looks like a fault of the chair).
         broadcast({{"type", "event"},
                    {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"},
-                   {"reason", e.reason}});
+                   {"reason", e.reason},
+                   {"phone", e.type == T::emergency_started && e.client ? client_name(e.client) : ""}});
         broadcast_state();
         break;
       case T::driver_changed:
@@ -901,6 +922,7 @@ struct HostDaemon::Impl {
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
   Clock::time_point last_expiry_check{};
+  std::vector<std::pair<uint64_t, std::string>> gone_names;  ///< remember_gone()
   std::map<std::string, uint64_t> ble_clients;    ///< a BLE phone's device path -> its session client
   std::set<std::string> ble_forgetting;           ///< device paths whose bond is being removed
   uint64_t next_ble_client = uint64_t{1} << 62;   ///< apart from the web sockets' ids

@@ -1,7 +1,11 @@
 // The pool panel. The machine's rules are checked here for a quick answer
-// (the same rules as the CLI: 1..50 segments, increasing end times, speeds
-// 0..100, up to 99:59), and again by the panel's server, which runs every
-// command through the typed client: the page never has the last word.
+// (the same rules as the CLI, with the limits the panel sends from the
+// device layer: segments per plan, speeds, the longest time, the number of
+// plans), and again by the panel's server, which runs every command through
+// the typed client: the page never has the last word. What a fault or a
+// refusal means, what to do about it and which buttons the machine takes now
+// come from the device layer too (the state's fault_advice and allowed, a
+// result's code and advice): nothing here reads message text.
 //
 // For a swimmer: a lost link never looks live (values greyed, "No contact
 // since", every control disabled, what to do instead); an empty or unclear
@@ -22,32 +26,7 @@ let plans = [[], [], [], []];
 let editing = 1;
 const drafts = new Map();  // plan -> {segments: [{speed, speedText, end, endText}], dirty}
 let samples = [];
-const FAST = 80;           // speeds above this ask first
-
-const FAULT_ADVICE = {
-  'voltage': 'Mains voltage out of range: check the supply; the machine restarts when it is back in range.',
-  'output over-current': 'The motor drew too much current: check the propeller for blockage, then restart.',
-  'current-sensor bias': 'Current sensor fault: switch the machine off and on; call service if it returns.',
-  'MOSFET over-temperature': 'The drive is too hot: let it cool down and check the cooling water flow.',
-  'enclosure over-temperature': 'The enclosure is too hot: check ventilation of the technical room.',
-  'temperature sensor 1': 'Temperature sensor fault: call service.',
-  'temperature sensor 2': 'Temperature sensor fault: call service.',
-  'motor drive': 'Motor drive fault: switch off, check the motor cable, then restart; call service if it returns.',
-  'driver-board communication': 'The display lost the driver board: check the cable between them.',
-};
-
-// What the swimmer can do about a refused command.
-function advice(error) {
-  const e = String(error || '');
-  if (/fault/.test(e)) return 'The machine shows a fault: see the fault box for what to do; it can start again once the fault is cleared.';
-  if (/masked/.test(e)) return 'The machine ignores remote control right now (control mask): use its own buttons, or ask the pool staff.';
-  if (/not possible while|nothing to pause|nothing is paused/.test(e)) return 'The machine is not in a state for that: look at the state above and try the matching button.';
-  if (/exception 04/i.test(e)) return 'The machine refused: check its display; press Stop on the machine if in doubt.';
-  if (/exception 0[123]/i.test(e)) return 'The machine did not accept the values: check the speed and time.';
-  if (/timeout|no response|I\/O error|not connected|connection/i.test(e)) return 'The machine did not answer: check its power and cable. To stop it, press Stop on the machine itself.';
-  if (/busy/.test(e)) return 'Too many commands at once: wait a moment and try again.';
-  return '';
-}
+let limits = null;         // the machine's, from the panel ("limits"): none until they come
 
 // ---- durations and speeds: one format everywhere
 function mmss(s) { return `${String(Math.floor(s / 60)).padStart(2, '0')}:${String(s % 60).padStart(2, '0')}`; }
@@ -61,13 +40,16 @@ function parseDuration(text, what = 'Time') {
   if (m) s = Number(m[1]) * 60 + Number(m[2]);
   else if ((m = /^(?:(\d{1,2})m)?(?:(\d{1,4})s)?$/.exec(t)) && (m[1] || m[2])) s = Number(m[1] || 0) * 60 + Number(m[2] || 0);
   else return { error: `${what} "${String(text).trim()}" is not a time: ${EXAMPLE}.` };
-  if (s < 1 || s > 5999) return { error: `${what} ${String(text).trim()} is out of range: 00:01 to 99:59.` };
+  if (!limits) return { error: 'Waiting for the machine\'s limits from the panel.' };
+  if (s < 1 || s > limits.time_max_s) return { error: `${what} ${String(text).trim()} is out of range: 00:01 to ${limits.time_max}.` };
   return { seconds: s };
 }
 function parseSpeed(text) {
   const t = String(text).trim().replace(/\s*%$/, '');
-  if (t === '') return { error: 'Speed is empty: enter 0 to 100 %, for example 60.' };
-  if (!/^\d{1,3}$/.test(t) || Number(t) > 100) return { error: `Speed "${String(text).trim()}" is not 0 to 100 %: for example 60.` };
+  if (!limits) return { error: 'Waiting for the machine\'s limits from the panel.' };
+  const { min, max } = limits.speed;
+  if (t === '') return { error: `Speed is empty: enter ${min} to ${max} %, for example 60.` };
+  if (!/^\d{1,3}$/.test(t) || Number(t) < min || Number(t) > max) return { error: `Speed "${String(text).trim()}" is not ${min} to ${max} %: for example 60.` };
   return { speed: Number(t) };
 }
 
@@ -86,12 +68,12 @@ function say(where, text, kind, extra = '', gone = null) {
     el.append(a);
   }
 }
-// When a refused command's cause is gone: the fault cleared, the link back,
-// or else the machine's state changed.
-function causeGone(error) {
+// When a refused command's cause is gone (by the result's code): the fault
+// cleared, the link back, or else the machine's state changed.
+function causeGone(code) {
   const was = state && state.state;
-  if (/fault/.test(error)) return () => state && state.online === true && !(state.faults || []).length;
-  if (/timeout|no response|I\/O error|not connected|connection/i.test(error)) return () => !linkLost();
+  if (code === 'fault') return () => state && state.online === true && !(state.faults || []).length;
+  if (code === 'no_answer' || code === 'no_panel') return () => !linkLost();
   return () => !state || state.state !== was;
 }
 
@@ -107,12 +89,13 @@ function connect() {
     else if (m.type === 'history') { samples = m.samples; drawRun(); }
     else if (m.type === 'sample') { samples.push(m); if (samples.length > 14400) samples.shift(); drawRun(); }
     else if (m.type === 'plans') { plans = m.plans; refreshDrafts(); }
+    else if (m.type === 'limits') { limits = m.limits; buildPlanChoices(); renderDraft(); }
     else if (m.type === 'result' && pending.has(m.id)) { pending.get(m.id)(m); pending.delete(m.id); }
   };
   ws.onclose = () => {
     const was = ws;
     wsOpen = false;
-    for (const [, done] of pending) done({ ok: false, error: 'no connection to the panel' });
+    for (const [, done] of pending) done(NO_PANEL);
     pending.clear();
     renderLink();
     // Logged out or the session ended: back to the login page. Else try again.
@@ -157,8 +140,13 @@ function renderLink() {
   updateControls();
 }
 
+// The one failure the page itself finds: the panel is not there to ask.
+const NO_PANEL = {
+  ok: false, code: 'no_panel', error: 'no connection to the panel',
+  advice: 'This page lost the panel (Wi-Fi or the panel itself): to stop the machine now, press Stop on the machine itself.',
+};
 function send(op, fields = {}) {
-  if (!ws || !wsOpen) return Promise.resolve({ ok: false, error: 'no connection to the panel' });
+  if (!ws || !wsOpen) return Promise.resolve(NO_PANEL);
   const id = nextId++;
   ws.send(JSON.stringify({ op, id, ...fields }));
   return new Promise((resolve) => pending.set(id, resolve));
@@ -167,26 +155,31 @@ function send(op, fields = {}) {
 async function act(op, fields, where = '#reason') {
   say(where, '');
   const r = await send(op, fields);
-  if (!r.ok) say(where, `${op}: ${r.error}`, 'command', advice(r.error), causeGone(r.error));
+  if (!r.ok) say(where, `${op}: ${r.error}`, 'command', r.advice || '', causeGone(r.code));
   return r;
 }
 
-function running() { return state && /running|starting|paused|initial/.test(state.state || ''); }
+// A run is going (a start would replace it): the machine takes Stop and a speed.
+function running() { return !!(state && state.allowed && state.allowed.speed); }
 
 function render(s) {
   state = s;
   if (s.state !== undefined) {
     $('#state').textContent = s.state;
-    $('#mode').textContent = s.mode ? `mode: ${s.mode}` : '';
-    $('#speed').textContent = `${s.speed} %`;
+    $('#mode').textContent = s.mode && s.mode !== 'off' ? `mode: ${s.mode}` : '';
+    // The water's speed, big: 0 % when the jet stands (paused, the fault
+    // screen), with the set speed beside it, never the set speed as if it ran.
+    const jet = typeof s.jet_speed === 'number' ? s.jet_speed : 0;
+    $('#speed').textContent = `${jet} %`;
+    $('#speed-set').textContent = s.speed !== jet ? `set ${s.speed} %` : '';
     $('#time').textContent = s.time;
-    const faults = s.faults || [];
+    const faults = s.fault_advice || [];
     $('#faults').classList.toggle('hidden', faults.length === 0);
     $('#fault-list').replaceChildren(...faults.map((f) => {
       const li = document.createElement('li');
       const b = document.createElement('b');
-      b.textContent = f;
-      li.append(b, `: ${FAULT_ADVICE[f] || 'Call service.'}`);
+      b.textContent = f.fault;
+      li.append(b, `: ${f.advice[0].toUpperCase()}${f.advice.slice(1)}.`);
       return li;
     }));
   }
@@ -203,11 +196,14 @@ function updateControls() {
     rows[0].querySelectorAll('.tools button')[0].disabled = true;
     rows[rows.length - 1].querySelectorAll('.tools button')[1].disabled = true;
   }
-  const st = state.state || '';
-  $('#pause').disabled = !/running|starting/.test(st);
-  $('#resume').disabled = !/paused/.test(st);
-  $('#stop').disabled = st === 'off';
-  for (const id of ['#slower', '#faster', '#set-speed']) $(id).disabled = !/running|starting|paused/.test(st);
+  // Which buttons the machine takes now: the device layer's (state.allowed).
+  const allowed = state.allowed || {};
+  $('#start').disabled = !allowed.start || !limits;
+  $('#pause').disabled = !allowed.pause;
+  $('#resume').disabled = !allowed.resume;
+  $('#stop').disabled = !allowed.stop;
+  for (const id of ['#slower', '#faster', '#set-speed']) $(id).disabled = !allowed.speed || !limits;
+  $('#start-why').textContent = allowed.start ? '' : (state.fault ? 'Start is off while the machine shows a fault (see above).' : '');
   const how = $('#start-mode').value;
   $('#timer-field').classList.toggle('hidden', how !== 'timer');
   $('#timer-hint').classList.toggle('hidden', how !== 'timer');
@@ -240,11 +236,32 @@ function polyline(svg, points, xmax, ymax, color) {
   svg.append(p);
 }
 
+// Axes: gridlines at quarters of the height in the SVG; the figures beside
+// it as HTML (the SVG stretches to its box: text in it would stretch too).
+function grid(svg) {
+  for (const f of [0.25, 0.5, 0.75]) {
+    const l = document.createElementNS('http://www.w3.org/2000/svg', 'line');
+    l.setAttribute('x1', '0'); l.setAttribute('x2', '600');
+    l.setAttribute('y1', String(120 - f * 115)); l.setAttribute('y2', String(120 - f * 115));
+    l.setAttribute('stroke', '#2b5573'); l.setAttribute('stroke-width', '1');
+    l.setAttribute('vector-effect', 'non-scaling-stroke');
+    svg.append(l);
+  }
+}
+function axes(svg, top, span) {
+  const box = svg.closest('.chart-box');
+  box.querySelector('.y-top').textContent = top;
+  box.querySelector('.x-end').textContent = mmss(Math.round(span));
+}
+
 function drawRun() {
   const t0 = samples.length ? samples[0].t : 0;
   const span = Math.max(60, samples.length ? samples[samples.length - 1].t - t0 : 60);
   const a = $('#chart-speed'), b = $('#chart-temp');
   a.replaceChildren(); b.replaceChildren();
+  grid(a); grid(b);
+  axes(a, '100 % · 10 A', span);
+  axes(b, '100 °C', span);
   polyline(a, samples.map((s) => [s.t - t0, s.speed]), span, 100, '#4fd1ff');
   polyline(a, samples.map((s) => [s.t - t0, s.current_a * 10]), span, 100, '#ffd166');
   polyline(b, samples.map((s) => [s.t - t0, s.mosfet_c]), span, 100, '#ff8fab');
@@ -255,6 +272,8 @@ function drawPlan(segments) {
   const svg = $('#plan-chart');
   svg.replaceChildren();
   const end = Math.max(60, ...segments.map((s) => s.end || 0));
+  grid(svg);
+  axes(svg, '100 %', end);
   const pts = [];
   let from = 0;
   for (const s of segments) {
@@ -290,19 +309,22 @@ function markTabs() {
   }
 }
 
+// The first thing wrong with a plan: {why, row (0-based, or -1), field
+// ('speed' or 'end')}; why is '' when the plan is right.
 function validate(segments) {
-  if (segments.length < 1 || segments.length > 50) return 'a plan has 1 to 50 segments';
+  if (!limits) return { why: 'waiting for the machine\'s limits from the panel', row: -1 };
+  if (segments.length < 1 || segments.length > limits.segments) return { why: `a plan has 1 to ${limits.segments} segments`, row: -1 };
   let prev = 0;
   for (let i = 0; i < segments.length; ++i) {
     const s = segments[i];
     const sp = parseSpeed(s.speedText);
-    if (sp.error) return `segment ${i + 1}: ${sp.error}`;
+    if (sp.error) return { why: `segment ${i + 1}: ${sp.error}`, row: i, field: 'speed' };
     const d = parseDuration(s.endText, 'End');
-    if (d.error) return `segment ${i + 1}: ${d.error}`;
-    if (d.seconds <= prev) return `segment ${i + 1}: end ${mmss(d.seconds)} is not after ${mmss(prev)}`;
+    if (d.error) return { why: `segment ${i + 1}: ${d.error}`, row: i, field: 'end' };
+    if (d.seconds <= prev) return { why: `segment ${i + 1}: end ${mmss(d.seconds)} is not after ${mmss(prev)}`, row: i, field: 'end' };
     prev = d.seconds;
   }
-  return '';
+  return { why: '', row: -1 };
 }
 
 function button(text, label) {
@@ -350,7 +372,14 @@ function renderDraft() {
 }
 
 function check() {
-  const why = validate(draft().segments);
+  const { why, row, field } = validate(draft().segments);
+  // The row at fault is marked (red border, aria-invalid) until it is right.
+  [...$('#segments').children].forEach((el, i) => {
+    el.classList.toggle('bad', i === row && field === 'end');
+    el.classList.toggle('bad-speed', i === row && field === 'speed');
+    el.querySelector('input.end').setAttribute('aria-invalid', String(i === row && field === 'end'));
+    el.querySelector('input.speed').setAttribute('aria-invalid', String(i === row && field === 'speed'));
+  });
   // A refusal goes away as soon as the plan is right again.
   if (why) say('#plan-reason', why, 'input');
   else if (shown['#plan-reason'] && shown['#plan-reason'].kind === 'input') say('#plan-reason', '');
@@ -361,7 +390,7 @@ function check() {
 $('#seg-add').onclick = () => {
   const list = draft().segments;
   const last = list[list.length - 1];
-  const end = Math.min(5999, (last && Number.isFinite(last.end) ? last.end : 0) + 300);
+  const end = Math.min(limits ? limits.time_max_s : 0, (last && Number.isFinite(last.end) ? last.end : 0) + 300);
   const speed = last && Number.isFinite(last.speed) ? last.speed : 50;
   list.push({ speed, speedText: String(speed), end, endText: mmss(end) });
   touched();
@@ -381,8 +410,22 @@ $('#plan-save').onclick = async () => {
   }
 };
 $('#plan-revert').onclick = () => { drafts.delete(editing); say('#plan-reason', ''); renderDraft(); };
-for (const b of document.querySelectorAll('#plan-tabs button'))
-  b.onclick = () => { editing = Number(b.dataset.plan); if (shown['#plan-reason'] && shown['#plan-reason'].kind !== 'input') say('#plan-reason', ''); renderDraft(); };
+// The plans the machine has (limits.plans): a tab each, and a choice each in the run's list.
+function buildPlanChoices() {
+  const tabs = [];
+  const select = $('#start-mode');
+  for (const o of [...select.options]) if (o.value.startsWith('plan')) o.remove();
+  for (let p = 1; p <= limits.plans; ++p) {
+    const b = document.createElement('button');
+    b.dataset.plan = String(p);
+    b.textContent = `Plan ${p}`;
+    b.onclick = () => { editing = p; if (shown['#plan-reason'] && shown['#plan-reason'].kind !== 'input') say('#plan-reason', ''); renderDraft(); };
+    tabs.push(b);
+    select.append(new Option(`Plan ${p}`, `plan${p}`));
+  }
+  $('#plan-tabs').replaceChildren(...tabs);
+  if (editing > limits.plans) editing = 1;
+}
 
 // ---- the run
 function startFields() {
@@ -411,14 +454,14 @@ $('#start').onclick = async () => {
   if (f.error) { say('#reason', f.error, 'input'); return; }
   const what = f.fields.mode === 'plan' ? `plan ${f.fields.plan}` : `a ${f.fields.mode} run at ${f.fields.speed} %`;
   if (running() && !await confirmFirst(`A run is going (${state.state}, ${state.time}). Stop it and start ${what}?`, 'Yes, start again')) return;
-  if (f.fields.speed > FAST && !await confirmFirst(`Start at ${f.fields.speed} %? That is very fast.`, `Yes, ${f.fields.speed}\u00a0%`)) return;
+  if (f.fields.speed > limits.fast_speed && !await confirmFirst(`Start at ${f.fields.speed} %? That is very fast.`, `Yes, ${f.fields.speed}\u00a0%`)) return;
   act('start', f.fields);
 };
 $('#pause').onclick = () => act('pause');
 $('#resume').onclick = () => act('resume');
 $('#stop').onclick = () => act('stop');
 async function setSpeed(speed) {
-  if (speed > FAST && speed > (state ? state.speed : 0) && !await confirmFirst(`Go to ${speed} %? That is very fast.`, `Yes, ${speed}\u00a0%`)) return;
+  if (speed > limits.fast_speed && speed > (state ? state.speed : 0) && !await confirmFirst(`Go to ${speed} %? That is very fast.`, `Yes, ${speed}\u00a0%`)) return;
   $('#speed-in').value = speed;
   recheck();
   act('speed', { speed });
@@ -428,8 +471,8 @@ $('#set-speed').onclick = () => {
   if (sp.error) { say('#reason', sp.error, 'input'); return; }
   setSpeed(sp.speed);
 };
-$('#slower').onclick = () => setSpeed(Math.max(0, (state ? state.speed : 0) - 5));
-$('#faster').onclick = () => setSpeed(Math.min(100, (state ? state.speed : 0) + 5));
+$('#slower').onclick = () => setSpeed(Math.max(limits.speed.min, (state ? state.speed : 0) - 5));
+$('#faster').onclick = () => setSpeed(Math.min(limits.speed.max, (state ? state.speed : 0) + 5));
 
 // With a password, the panel offers to log out.
 fetch('/api/session', { cache: 'no-store' }).then((r) => r.json()).then((s) => {

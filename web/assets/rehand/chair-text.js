@@ -71,265 +71,265 @@ export const ERRORS = {
     "code": "1081",
     "function": "Tilt",
     "text": "1081 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1082": {
     "code": "1082",
     "function": "Tilt",
     "text": "1082 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1083": {
     "code": "1083",
     "function": "Tilt",
     "text": "1083 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1084": {
     "code": "1084",
     "function": "Tilt",
     "text": "1084 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1085": {
     "code": "1085",
     "function": "Tilt",
     "text": "1085 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1086": {
     "code": "1086",
     "function": "Tilt",
     "text": "1086 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1087": {
     "code": "1087",
     "function": "Tilt",
     "text": "1087 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1088": {
     "code": "1088",
     "function": "Tilt",
     "text": "1088 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1089": {
     "code": "1089",
     "function": "Tilt",
     "text": "1089 Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "108A": {
     "code": "108A",
     "function": "Tilt",
     "text": "108A Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "108D": {
     "code": "108D",
     "function": "Tilt",
     "text": "108D Tilt Error",
-    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a tilt actuator (whole-seat tilt, actuator 3; seat-plate tilt, actuator 6) or its drive reports a fault; check: nothing blocks the seat's tilt; the cables and connectors of actuators 3 and 6; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1091": {
     "code": "1091",
     "function": "Legs",
     "text": "1091 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1092": {
     "code": "1092",
     "function": "Legs",
     "text": "1092 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1093": {
     "code": "1093",
     "function": "Legs",
     "text": "1093 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1094": {
     "code": "1094",
     "function": "Legs",
     "text": "1094 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1095": {
     "code": "1095",
     "function": "Legs",
     "text": "1095 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1096": {
     "code": "1096",
     "function": "Legs",
     "text": "1096 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1097": {
     "code": "1097",
     "function": "Legs",
     "text": "1097 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1098": {
     "code": "1098",
     "function": "Legs",
     "text": "1098 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1099": {
     "code": "1099",
     "function": "Legs",
     "text": "1099 Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "109A": {
     "code": "109A",
     "function": "Legs",
     "text": "109A Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "109B": {
     "code": "109B",
     "function": "Legs",
     "text": "109B Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B1": {
     "code": "10B1",
     "function": "Back",
     "text": "10B1 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B2": {
     "code": "10B2",
     "function": "Back",
     "text": "10B2 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B3": {
     "code": "10B3",
     "function": "Back",
     "text": "10B3 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B4": {
     "code": "10B4",
     "function": "Back",
     "text": "10B4 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B5": {
     "code": "10B5",
     "function": "Back",
     "text": "10B5 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B6": {
     "code": "10B6",
     "function": "Back",
     "text": "10B6 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B7": {
     "code": "10B7",
     "function": "Back",
     "text": "10B7 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B8": {
     "code": "10B8",
     "function": "Back",
     "text": "10B8 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10B9": {
     "code": "10B9",
     "function": "Back",
     "text": "10B9 Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10BA": {
     "code": "10BA",
     "function": "Back",
     "text": "10BA Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10BB": {
     "code": "10BB",
     "function": "Back",
     "text": "10BB Back Error",
-    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the backrest actuator (actuator 2) or its drive reports a fault; check: nothing blocks the backrest; actuator 2's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C1": {
     "code": "10C1",
     "function": "Seat lift",
     "text": "10C1 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C2": {
     "code": "10C2",
     "function": "Seat lift",
     "text": "10C2 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C3": {
     "code": "10C3",
     "function": "Seat lift",
     "text": "10C3 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C4": {
     "code": "10C4",
     "function": "Seat lift",
     "text": "10C4 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C5": {
     "code": "10C5",
     "function": "Seat lift",
     "text": "10C5 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C6": {
     "code": "10C6",
     "function": "Seat lift",
     "text": "10C6 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C7": {
     "code": "10C7",
     "function": "Seat lift",
     "text": "10C7 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C8": {
     "code": "10C8",
     "function": "Seat lift",
     "text": "10C8 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10C9": {
     "code": "10C9",
     "function": "Seat lift",
     "text": "10C9 Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10CA": {
     "code": "10CA",
     "function": "Seat lift",
     "text": "10CA Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10CB": {
     "code": "10CB",
     "function": "Seat lift",
     "text": "10CB Seat lift Error",
-    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; its state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "the seat-lift actuator (actuator 1) or its drive reports a fault; check: nothing blocks the seat above or below; actuator 1's cable and connector; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "10D1": {
     "code": "10D1",
@@ -467,13 +467,13 @@ export const ERRORS = {
     "code": "119A",
     "function": "Legs",
     "text": "119A Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "119B": {
     "code": "119B",
     "function": "Legs",
     "text": "119B Legs Error",
-    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; their state in `status` (over-current); when it clears, nothing restarts by itself: press the command again"
+    "advice": "a leg-rest actuator (rotation, actuator 4; extension, actuator 5) or its drive reports a fault; check: nothing blocks the leg rest; the cables and connectors of actuators 4 and 5; whether the actuator states show over-current; when it clears, nothing restarts by itself: press the command again"
   },
   "1271": {
     "code": "1271",

@@ -72,6 +72,13 @@ function onEvent(m) {
     const line = `Phone ${m.name || m.phone || '?'}: a new connection replaced the old one`;
     phoneNotice(line);
     notice(line);
+  } else if (m.event === 'emergency' && m.phone) {
+    // A phone lost control while driving (its link, or its renewals): the
+    // daemon held the controller's stop command. Say which phone and why,
+    // and keep it under the phone list: the stop itself lasts a moment.
+    const line = `Emergency stop: phone ${m.phone}: ${m.reason}. Nothing restarts by itself.`;
+    phoneNotice(line);
+    notice(line, true, true);
   } else if (m.event === 'released') {
     // A press released by the daemon (its lease lapsed, or Stop): the chair
     // stopped that motion; say so, the user presses again if they want it.
@@ -384,14 +391,22 @@ setInterval(showCodeTime, 1000);
 
 // ---------------------------------------------------------------- notices
 
+// A notice that matters more (Stop's confirmation, a phone's emergency
+// stop: `important`) stays its time and is not replaced by the ordinary ones
+// its own effects bring (each press it ended reports "released"): they once
+// overwrote STOP's confirmation with a red fragment.
 let noticeTimer = null;
-function notice(text, bad = false) {
+let importantUntil = 0;
+function notice(text, bad = false, important = false) {
+  if (!important && Date.now() < importantUntil) return;
   const el = $('#notice');
   el.textContent = text;
   el.classList.toggle('bad', bad);
   el.classList.remove('hidden');
   clearTimeout(noticeTimer);
-  noticeTimer = setTimeout(() => el.classList.add('hidden'), NOTICE_MS);
+  const ms = important ? 2 * NOTICE_MS : NOTICE_MS;
+  importantUntil = important ? Date.now() + ms : 0;
+  noticeTimer = setTimeout(() => { el.classList.add('hidden'); importantUntil = 0; }, ms);
 }
 
 // What happened to a phone's connection (a connection replaced by a new
@@ -443,10 +458,10 @@ function stopEverything() {
   const answer = link.send('stop', {}, { timeoutMs: 2000 });
   endAllPresses('stopped with the Stop button');
   answer.then((r) => {
-    if (r.ok) notice('Stopped: every command released. Lift STOP to use the chair again');
-    else if (r.type === 'result') notice(`Stop refused (${r.error}): use the joystick's own stop`, true);
-    else if (r.unanswered) notice('Stop not confirmed: use the joystick\'s own stop', true);
-    else notice('Stop not sent (no connection): use the joystick\'s own stop', true);
+    if (r.ok) notice('Stopped: every command released. Lift STOP to use the chair again', false, true);
+    else if (r.type === 'result') notice(`Stop refused (${r.error}): use the joystick's own stop`, true, true);
+    else if (r.unanswered) notice('Stop not confirmed: use the joystick\'s own stop', true, true);
+    else notice('Stop not sent (no connection): use the joystick\'s own stop', true, true);
   });
 }
 $('#stop').addEventListener('pointerdown', (event) => {

@@ -125,7 +125,8 @@ using PanelSend = std::function<void(const PanelMessage&)>;
 ///  - "plans" (the four plans as the machine stores them) after its first
 ///    answer ever, after the "plans" command and after a "plan" it took.
 ///  - "result" for each command, to its page only, with the page's "id";
-///    the reason when it failed. A command's effect is polled at once.
+///    when it failed, "error", "code" and "advice" (inverjet::describe_failure).
+///    A command's effect is polled at once.
 /// Commands run at the next step, before its poll, in the order queued,
 /// through inverjet::run_command (which refuses a bad one before it writes).
 /// A command that finds kPanelCommandLimit waiting is refused at once
@@ -145,7 +146,8 @@ class PanelLogic {
   /// to `socket` at once: "busy", or an "error" for a message with no "op".
   bool queue_command(uint64_t socket, nlohmann::json command);
   /// What a page that connects now is sent first: the last state (if any),
-  /// the history, the plans (once read). `seq` is set to the last message
+  /// the history, the plans (once read), then the machine's "limits"
+  /// (inverjet::limits_document). `seq` is set to the last message
   /// these include: the later ones (seq > it) are the page's to receive.
   std::vector<std::string> welcome(uint64_t& seq) const;
   /// Runs the commands queued, then the poll if it is due at `now` (or a

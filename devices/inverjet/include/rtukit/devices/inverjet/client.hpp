@@ -31,6 +31,15 @@
 
 namespace rtukit::inverjet {
 
+/// How the client's refusals begin, so the device layer can say which kind
+/// a failure is (verbs.hpp, classify_failure) without a second copy of them:
+/// the three causes of exception 04 (Client::explain) and a resume with
+/// nothing paused.
+inline constexpr std::string_view kFaultScreenReason = "the machine shows a fault";
+inline constexpr std::string_view kMaskedReason = "Modbus control is masked";
+inline constexpr std::string_view kWrongStateReason = "not possible while";
+inline constexpr std::string_view kNothingPausedReason = "nothing is paused";
+
 struct MachineStatus {
   uint16_t mode = 0;      ///< 0 free & timer, 1..4 plan P1..P4
   uint16_t state = 0;     ///< 0..17

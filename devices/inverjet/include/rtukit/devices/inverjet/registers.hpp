@@ -31,6 +31,9 @@ inline constexpr unsigned kPlanCount = 4;
 inline constexpr unsigned kSegmentsPerPlan = 50;
 inline constexpr uint16_t kMaxTime = 5999;  ///< seconds (99:59), every time register
 inline constexpr uint16_t kMaxSpeed = 100;  ///< percent
+/// Screens ask before a start or a change above this speed (percent): a
+/// rule of ours for people, not the machine's (docs/inverjet.md, "Pool panel").
+inline constexpr uint16_t kFastSpeed = 80;
 
 /// The Inverjet's own row flag: masked by control-mask bit 1 (D-5).
 inline constexpr profile::Flags kMasked = 1U << 1;
@@ -72,6 +75,20 @@ inline constexpr Named kFaultBits[] = {
     {6, "temperature sensor 2"},
     {7, "motor drive"},
     {8, "driver-board communication"},
+};
+// What the swimmer or the pool staff does about each fault bit (same bits as
+// kFaultBits): the panel, the bridge's state and `inverjet status` show it.
+inline constexpr Named kFaultAdvice[] = {
+    {0, "mains voltage out of range: check the supply; the machine restarts when it is back in range"},
+    {1, "the motor drew too much current: check the propeller for a blockage, then start again"},
+    {2, "current-sensor fault: switch the machine off and on; call service if it comes back"},
+    {3, "the drive is too hot: let it cool down and check the cooling water flow"},
+    {4, "the enclosure is too hot: check the ventilation of the technical room"},
+    {5, "temperature sensor fault: call service"},
+    {6, "temperature sensor fault: call service"},
+    {7,
+     "motor drive fault: switch off, check the motor cable, then start again; call service if it comes back"},
+    {8, "the display lost the driver board: check the cable between them"},
 };
 inline constexpr profile::Range kPercent{0, kMaxSpeed};
 inline constexpr profile::Range kTime{0, kMaxTime};

@@ -51,11 +51,60 @@ std::optional<unsigned> plan_of(const MachineStatus& s) noexcept;
 /// "run_time_counts" and "rpm": the "values" of `rtukit inverjet status --json`.
 nlohmann::json status_values(const MachineStatus& s, Family remembered = Family::none);
 
+/// The speed the water moves at, as a screen shows it big: the set speed
+/// while the run is starting or running, 0 when the jet stands (off, paused,
+/// ended, the menu, the fault screen), whatever the speed register holds.
+uint16_t jet_speed(const MachineStatus& s) noexcept;
+
+/// What to do about fault bit `bit` (registers.hpp, kFaultAdvice): "call
+/// service" for a bit the table does not name.
+std::string_view fault_advice(unsigned bit) noexcept;
+
+/// Which commands the machine takes in this state (the model's rules, D-10,
+/// B-3): start anywhere but the fault screen (a start over a run replaces
+/// it), pause while starting or running, resume while paused, stop unless
+/// off, speed during a run (starting, running, paused).
+struct Actions {
+  bool start = false, pause = false, resume = false, stop = false, speed = false;
+};
+Actions allowed_actions(const MachineStatus& s) noexcept;
+
 /// The flat state document (docs/inverjet.md, "MQTT"): mode ("free",
-/// "timer", "plan N"), state by name, running, speed, time, remaining_s or
-/// elapsed_s (both null when the time's meaning is unknown), faults by name,
-/// temperatures, current, rpm, bus voltage, versions.
+/// "timer", "plan N"; "off" when the machine is off), state by name,
+/// running, speed (the set speed), jet_speed (jet_speed()), time,
+/// remaining_s or elapsed_s (both null when the time's meaning is unknown),
+/// faults by name, fault_advice ([{fault, advice}]), allowed ({start, pause,
+/// resume, stop, speed}), temperatures, current, rpm, bus voltage, versions.
 nlohmann::json state_document(const MachineStatus& s, Family remembered = Family::none);
+
+/// The machine's limits as screens need them, from the table: plans (count),
+/// segments (per plan), speed {min, max}, time_max_s and time_max ("99:59"),
+/// fast_speed (kFastSpeed).
+nlohmann::json limits_document();
+
+/// What kind of failure a command met, for programs that act on it (the
+/// panel's advice, an automation's retry). Never decided from message text
+/// above the device layer.
+enum class Failure : uint8_t {
+  invalid,      ///< the command's values or shape (nothing sent; or exception 01/02/03)
+  fault,        ///< exception 04: the machine shows a fault
+  masked,       ///< exception 04: Modbus control is masked (control mask bit 1)
+  wrong_state,  ///< exception 04: not possible in this state (nothing to pause, ...)
+  refused,      ///< another refusal (exception 04 of unknown cause, another device)
+  no_answer,    ///< no valid answer: timeout, CRC, the port
+  busy,         ///< the machine (exception 06) or the program has too much waiting
+};
+/// "invalid", "fault", "masked", "wrong_state", "refused", "no_answer", "busy".
+std::string_view failure_code(Failure f) noexcept;
+Failure classify_failure(const rtukit::Status& e) noexcept;
+/// What the swimmer does about it, one sentence; never empty.
+std::string_view failure_advice(Failure f) noexcept;
+/// Puts a failed command's "ok": false, "error" (one line: "Modbus exception
+/// 04 (server device failure): the machine shows a fault (voltage)" or the
+/// rule's text), "code" (failure_code) and "advice" into `result`.
+void describe_failure(const rtukit::Status& e, nlohmann::json& result);
+/// The same for a program's own refusal when too many commands wait.
+void describe_busy(std::string_view why, nlohmann::json& result);
 
 // ---- the identity ----
 

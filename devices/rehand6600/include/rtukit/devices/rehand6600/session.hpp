@@ -215,7 +215,8 @@ class Session {
   Reason drive_block() const;
   /// The snapshot is a reading taken after the last outage.
   bool fresh() const noexcept { return snapshot_.valid && snapshot_.sequence >= fresh_from_; }
-  void start_emergency(TimePoint now, const std::string& reason);
+  void start_emergency(TimePoint now, const std::string& reason,
+                       std::optional<ClientId> phone = std::nullopt);
   /// Ends every press `which` selects, with `reason`; `emergency`: a loss of
   /// control (0x006A, and every other press ends too).
   void end_where(const std::function<bool(const Press&)>& which, const std::string& reason, bool emergency,
