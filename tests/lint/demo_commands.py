@@ -30,6 +30,13 @@ def command_words(args):
     return words
 
 
+def check_command(rtukit, words, where, failures):
+    """`rtukit WORDS --help` must succeed: the command exists as written."""
+    done = subprocess.run([rtukit, *words, "--help"], capture_output=True, text=True, timeout=60)
+    if done.returncode != 0:
+        failures.append(f"{where}: rtukit {' '.join(words)}: {(done.stderr or done.stdout).strip().splitlines()[:1]}")
+
+
 def main():
     rtukit = sys.argv[1]
     failures, checked = [], 0
@@ -42,10 +49,7 @@ def main():
         if not words:
             continue
         checked += 1
-        done = subprocess.run([rtukit, *words, "--help"], capture_output=True, text=True, timeout=60)
-        if done.returncode != 0:
-            failures.append(f"scripts/demo.sh:{number}: rtukit {' '.join(words)}: "
-                            f"{(done.stderr or done.stdout).strip().splitlines()[:1]}")
+        check_command(rtukit, words, f"scripts/demo.sh:{number}", failures)
     if checked < 20:
         failures.append(f"only {checked} demo commands found in {DEMO}: did the demo's `run` helper change?")
     examples = 0
@@ -58,10 +62,7 @@ def main():
             if not words:
                 continue
             examples += 1
-            done = subprocess.run([rtukit, *words, "--help"], capture_output=True, text=True, timeout=60)
-            if done.returncode != 0:
-                failures.append(f"{path.relative_to(ROOT)}:{number}: rtukit {' '.join(words)}: "
-                                f"{(done.stderr or done.stdout).strip().splitlines()[:1]}")
+            check_command(rtukit, words, f"{path.relative_to(ROOT)}:{number}", failures)
     if examples < 3:
         failures.append(f"only {examples} commands found in the examples' comments: did their form change?")
     for failure in failures:
