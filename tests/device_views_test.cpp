@@ -314,6 +314,27 @@ TEST(RehandViews, ThePosturesAreTheModelsTable_LegRotationShowsActuators4And5) {
   EXPECT_EQ(leg["held"], "up") << leg.dump();
   EXPECT_FALSE(postures[5]["moving"]) << "leg extension shares actuator 5 but is not held";
   EXPECT_EQ(postures[0]["status"], "still");
+  EXPECT_EQ(leg["badge"], "over-current") << "a fault shows first";
+}
+
+// The one word the display shows per posture: a limit one actuator reached
+// while the posture still moves is not shown ("lower limit" showed while
+// the seat still came down); once nothing moves, the limit is.
+TEST(RehandViews, APostureStillMovingShowsMovingNotALimit) {
+  rh::Snapshot s = chair();
+  s.regs[rh::reg::actuator_state(4)] = rh::kActuatorMoving;
+  s.regs[rh::reg::actuator_state(5)] = rh::kLowerLimit;
+  const auto held = [](uint16_t command) -> uint16_t { return command == rh::reg::kLegRotate ? 2 : 0; };
+  nlohmann::ordered_json leg = rh::postures_view(s, held)[4];
+  EXPECT_EQ(leg["badge_kind"], "moving") << leg.dump();
+  EXPECT_EQ(leg["badge"], "moving") << leg.dump();
+  s.regs[rh::reg::actuator_state(4)] = rh::kLowerLimit;  // the end: nothing moves
+  leg = rh::postures_view(s, held)[4];
+  EXPECT_EQ(leg["badge_kind"], "limit") << leg.dump();
+  EXPECT_EQ(leg["badge"], "lower limit") << leg.dump();
+  s.regs[rh::reg::actuator_state(4)] = 0;
+  s.regs[rh::reg::actuator_state(5)] = 0;
+  EXPECT_EQ(rh::postures_view(s, held)[4]["badge"], "still");
 }
 
 // Stand/sit's progress is the mean of the actuators it drives (1, 2, 4);

@@ -125,10 +125,14 @@ Json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& h
   Json postures = Json::array();
   for (const Posture& p : kPostures) {
     Json actuators = Json::array();
-    bool actuator_moving = false;
+    bool actuator_moving = false, over_current = false;
+    std::string limit;  // the first actuator's limit, if one is at a limit
     for (uint8_t n : p.driven()) {
       const uint16_t state = s[reg::actuator_state(n)];
       actuator_moving = actuator_moving || state == kActuatorMoving;
+      over_current = over_current || state == kOverCurrent;
+      if (limit.empty() && (state == kUpperLimit || state == kLowerLimit))
+        limit = name(reg::actuator_state(n), state);
       actuators.push_back({{"n", n},
                            {"state", name(reg::actuator_state(n), state)},
                            {"position", s[reg::actuator_position(n)]}});
@@ -136,10 +140,23 @@ Json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& h
     const uint16_t held_value = held ? held(p.command) : 0;
     const uint16_t status = p.status ? s[p.status] : 0;
     const bool own_status = status != 0 && (status == p.status_values[0] || status == p.status_values[1]);
+    const bool moving = own_status || (held_value != 0 && actuator_moving);
+    // The one word a screen shows: a fault first; then a motion under way
+    // (a limit one actuator reached while the posture still moves is not
+    // where the posture is: "lower limit" showed while the seat still came
+    // down); then a limit; else still.
+    const auto [badge, kind] =
+        over_current ? std::pair<std::string, std::string>{"over-current", "over-current"}
+        : moving
+            ? std::pair<std::string, std::string>{own_status ? name(p.status, status) : "moving", "moving"}
+        : !limit.empty() ? std::pair<std::string, std::string>{limit, "limit"}
+                         : std::pair<std::string, std::string>{"still", "still"};
     postures.push_back({{"key", std::string(find_register(p.command)->key)},
                         {"status", own_status ? name(p.status, status) : "still"},
                         {"held", held_value ? name(p.command, held_value) : ""},
-                        {"moving", own_status || (held_value != 0 && actuator_moving)},
+                        {"moving", moving},
+                        {"badge", badge},
+                        {"badge_kind", kind},
                         {"actuators", actuators}});
   }
   return postures;

@@ -168,14 +168,10 @@ function renderValues(s, lost) {
 }
 
 // Table 1's posture state, next to each posture's buttons: a badge for what
-// the posture does (moving, at a limit, over-current) and a bar per actuator
-// for its position (0..1000 per-mille); the stand row shows its progress.
-// Limits and over-current come from the posture's actuators; "moving" only
-// from the daemon's `moving`, true for the posture whose command is held (or
-// whose own status register says it moves): postures share actuators, so
-// holding Seat lift moves actuator 1 without standing the chair up.
-const STATE_RANK = { 'over-current': 0, 'upper limit': 1, 'lower limit': 2, moving: 3, still: 4 };
-
+// the posture does and a bar per actuator for its position (0..1000
+// per-mille); the stand row shows its progress. The badge's word and kind
+// are the device layer's (postures_view: a fault first, then a motion under
+// way, then a limit, else still): no rule of it lives here.
 function renderPostures(s) {
   const byKey = new Map((s.postures || []).map((p) => [p.key, p]));
   for (const cell of $$('.posture-state')) {
@@ -194,14 +190,8 @@ function showPostureState(cell, posture, progress) {
   }
   const [badge, bars] = cell.children;
   const actuators = (posture && posture.actuators) || [];
-  const worst = actuators.map((a) => a.state).sort((a, b) => (STATE_RANK[a] ?? 5) - (STATE_RANK[b] ?? 5))[0] || '';
-  const status = (posture && posture.status) || '';
-  let text = '--';
-  let kind = '';
-  if (worst === 'over-current') { text = 'over-current'; kind = 'over-current'; }
-  else if (worst === 'upper limit' || worst === 'lower limit') { text = worst; kind = 'limit'; }
-  else if (posture && posture.moving === true) { text = status && status !== 'still' ? status : 'moving'; kind = 'moving'; }
-  else if (posture) text = 'still';
+  const text = posture ? posture.badge : '--';
+  const kind = posture && posture.badge_kind !== 'still' ? posture.badge_kind : '';
   badge.textContent = text;
   badge.className = `badge ${kind}`;
   cell.dataset.state = kind || (posture ? 'still' : '');
@@ -279,6 +269,12 @@ function renderErrorOverlay(lost) {
     $('#error-advice').textContent = advice ? `${advice[0].toUpperCase()}${advice.slice(1)}` : '';
     $('#ack').textContent = acknowledgedError === s.error ? 'Acknowledged: waiting for the error to clear' : 'Acknowledge';
     overlay.classList.remove('hidden');
+  } else if (!overlay.classList.contains('hidden') && lost) {
+    // No contact (the host gone, or its state old): nothing is known about
+    // the error, so nothing may say it cleared (it once read "The error has
+    // cleared" above "No contact since" after a host death).
+    $('#error-detail').textContent = 'Whether the error has cleared is not known: no contact. Every function is disabled.';
+    $('#error-advice').textContent = '';
   } else if (!overlay.classList.contains('hidden') && stateIsFresh) {
     if (acknowledgedError) {
       acknowledgedError = 0;

@@ -48,7 +48,11 @@ nlohmann::ordered_json status_numbers(const Snapshot& s);
 /// value a client holds on its command, "" for none), "moving" (its status
 /// register says so, or its command is held and an actuator it drives
 /// moves: holding seat lift moves actuator 1, which stand/sit shares, and
-/// only seat lift moves) and "actuators": each actuator it drives, {"n",
+/// only seat lift moves), "badge" and "badge_kind" (the one word a screen
+/// shows: "over-current" when an actuator reports it; else, while moving,
+/// the status's name or "moving" (kind "moving"); else an actuator's
+/// "upper limit"/"lower limit" (kind "limit"); else "still") and
+/// "actuators": each actuator it drives, {"n",
 /// "state" (its row's name), "position" (per mille)}. `held(command)`: the
 /// value held on that command, 0 for none.
 nlohmann::ordered_json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& held);
