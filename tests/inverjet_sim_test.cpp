@@ -366,7 +366,8 @@ TEST_F(InverjetSim, Cli_BadInput_ExitCodesAndOneLine) {
       {{"inverjet", "plan", "set", "1", dir_ / "decreasing.csv"}, 2, "line 3: end 01:00 is not after 02:00"},
       {{"inverjet", "plan", "set", "1", dir_ / "fast.csv"}, 2, "line 1: speed 101 % is out of range"},
       {{"inverjet", "plan", "set", "1", dir_ / "broken.json"}, 2, "not a valid JSON array"},
-      {{"inverjet", "plan", "set", "1", dir_ / "missing.csv"}, 2, "cannot read plan file"},
+      // A file the OS cannot give: an I/O error, exit 4, as `map check` (it was 2).
+      {{"inverjet", "plan", "set", "1", dir_ / "missing.csv"}, 4, "cannot read plan file"},
       {{"inverjet", "plan", "set", "1", "/dev/zero"}, 2, "not a regular file"},  // never read forever
       {{"inverjet", "plan", "show", "5"}, 2, "plan 5 is out of range 1..4"},
       {{"inverjet", "status", "--unit", "255"}, 2, "unit 255 is out of range 1..254"},

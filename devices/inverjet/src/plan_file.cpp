@@ -152,9 +152,16 @@ nlohmann::ordered_json plan_json(const std::vector<Segment>& segments) {
 
 Outcome<std::vector<Segment>> read_plan_file(const std::string& path) {
   const Outcome<std::string> text = io::read_regular_file(path, 64 * 1024);
-  if (!text.ok())
+  // As a map file (map_file.cpp): a file the OS cannot give is an I/O error
+  // (the CLI's exit 4, as `map check`; it was 2), one that is no plan file
+  // (not a regular file, too large) a usage error.
+  if (!text.ok()) {
+    const rtukit::Status& e = text.error();
+    if (e.code() == Errc::io_error)  // the OS's words follow from the error (the CLI's "I/O error: ...")
+      return rtukit::Status(e.error(), fmt::format("cannot read plan file '{}'", path));
     return rtukit::Status(Errc::invalid_argument,
-                          fmt::format("cannot read plan file '{}': {}", path, text.error().reason()));
+                          fmt::format("cannot read plan file '{}': {}", path, e.reason()));
+  }
   Outcome<std::vector<Segment>> segments = parse_plan(*text);
   if (!segments.ok())
     return rtukit::Status(Errc::invalid_argument, fmt::format("{}: {}", path, segments.error().reason()));

@@ -32,8 +32,10 @@ nlohmann::ordered_json plan_json(const std::vector<Segment>& segments);
 
 /// Reads the plan file `path` and parses it (parse_plan). A plan is 50
 /// lines at most: a file larger than 64 KB, or one that is not a regular
-/// file, is not a plan. invalid_argument: "cannot read plan file 'p.csv':
-/// not a regular file", "p.csv: line 3: end 00:50 is not after 01:00".
+/// file, is not a plan. io_error: the OS cannot read it ("cannot read plan
+/// file 'p.csv'", the OS's error in the Error); invalid_argument: "cannot read
+/// plan file 'p.csv': not a regular file", "p.csv: line 3: end 00:50 is not
+/// after 01:00".
 Outcome<std::vector<Segment>> read_plan_file(const std::string& path);
 
 }  // namespace rtukit::inverjet
