@@ -137,10 +137,21 @@ TEST(ProfileReading, AnUnknownKeyIsRefusedListingTheKnownOnes) {
   auto bad = select({"speed", "sped"});
   ASSERT_FALSE(bad.ok());
   EXPECT_EQ(bad.error().code(), Errc::invalid_argument);
-  EXPECT_EQ(
-      bad.error().reason(),
-      "no register 'sped' in testdev (registers: speed, mode, temp, volts, energy, seg, command, block, "
-      "far)");
+  EXPECT_EQ(bad.error().reason(),
+            "no register 'sped' in testdev: did you mean 'speed'? (registers: speed, mode, temp, volts, "
+            "energy, seg, "
+            "command, block, far)");
+  // Nothing near: no guess, the list only; a short key is never "near" a
+  // different short one (one edit in three letters is another word).
+  bad = select({"colour"});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().reason().find("did you mean"), std::string::npos) << bad.error().reason();
+  bad = select({"sex"});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_EQ(bad.error().reason().find("did you mean"), std::string::npos) << bad.error().reason();
+  bad = select({"Volt"});
+  ASSERT_FALSE(bad.ok());
+  EXPECT_NE(bad.error().reason().find("did you mean 'volts'?"), std::string::npos) << bad.error().reason();
 }
 
 TEST(ProfileReading, AWriteOnlyRowIsReadNever_WrittenYes) {

@@ -39,8 +39,11 @@ Outcome<std::vector<Selected>> select_rows(const Profile& p, std::span<const std
       // The known keys in the reason: a typo is fixed from the message alone.
       std::string known;
       for (const Row& row : p.rows) known += (known.empty() ? "" : ", ") + std::string(row.key);
-      return Status(Errc::invalid_argument,
-                    fmt::format("no register '{}' in {} (registers: {})", key, p.name, known));
+      const Row* near = nearest_row(map, key);
+      return Status(
+          Errc::invalid_argument,
+          fmt::format("no register '{}' in {}{} (registers: {})", key, p.name,
+                      near ? fmt::format(": did you mean '{}'?", near->key) : std::string(), known));
     }
     if (!for_write && !r->readable())
       return Status(Errc::invalid_argument, fmt::format("{} is write-only", r->key));

@@ -261,7 +261,11 @@ std::string SimHost::command(std::string_view line) {
     std::string out;
     for (const std::string& key : args) {
       const Row* r = find_row(m.map(), key);
-      if (!r) return fmt::format("error: no register '{}' (see 'registers')", key);
+      if (!r) {
+        const Row* near = nearest_row(m.map(), key);
+        return fmt::format("error: no register '{}'{} (see 'registers')", key,
+                           near ? fmt::format(": did you mean '{}'?", near->key) : std::string());
+      }
       // The device's view, not a bus read: write-only rows show what is stored.
       for (unsigned i = 0; i < std::min<unsigned>(r->repeat, 8); ++i) {
         const std::string name = r->repeat > 1 ? fmt::format("{}[{}]", r->key, i) : std::string(r->key);

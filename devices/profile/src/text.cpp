@@ -8,7 +8,9 @@
 #include <cctype>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <nlohmann/json.hpp>
+#include <vector>
 
 namespace rtukit::profile {
 namespace {
@@ -127,6 +129,42 @@ const Row* find_row(const RegisterMap& map, std::string_view typed) {
     if (fold_name(r.key) == key) return &r;
   }
   return nullptr;
+}
+
+namespace {
+// Levenshtein distance, two rows; keys are short.
+size_t edit_distance(std::string_view a, std::string_view b) {
+  std::vector<size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+}  // namespace
+
+const Row* nearest_row(const RegisterMap& map, std::string_view typed) {
+  const std::string key = canonical_key(typed);
+  const Row* best = nullptr;
+  size_t best_distance = SIZE_MAX;
+  bool tie = false;
+  for (const Row& r : map.rows()) {
+    const size_t d = edit_distance(key, fold_name(r.key));
+    if (d < best_distance) {
+      best = &r;
+      best_distance = d;
+      tie = false;
+    } else if (d == best_distance) {
+      tie = true;
+    }
+  }
+  // Near enough to be the same word mistyped, and only one such.
+  if (!best || tie || best_distance > 2 || best_distance * 3 >= std::max<size_t>(key.size(), 1))
+    return nullptr;
+  return best;
 }
 
 std::string excerpt(std::string_view s, size_t max) {

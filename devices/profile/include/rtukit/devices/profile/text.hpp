@@ -85,6 +85,10 @@ Result<uint32_t> parse_duration(std::string_view text) noexcept;
 std::string canonical_key(std::string_view typed);
 /// The row a user named (either case style), or nullptr.
 const Row* find_row(const RegisterMap& map, std::string_view typed);
+/// The row whose key is nearest to a key that named none (at most 2 edits,
+/// and fewer than a third of the key's letters: "sped" -> speed), for a
+/// "did you mean" in the refusal; nullptr when none is that near, or two are.
+const Row* nearest_row(const RegisterMap& map, std::string_view typed);
 
 /// Lowercase word with '-' and ' ' as '_' (for comparing names a user typed).
 std::string fold_name(std::string_view name);
