@@ -215,10 +215,15 @@ class WebSocket:
     def recv(self, timeout=None):
         """The next text message, or None when `timeout` passes first."""
         self.s.settimeout(timeout)
+        # A message may come in fragments (RFC 6455, 5.4): a text frame
+        # without FIN, then continuation frames (opcode 0) up to one with
+        # FIN. The daemon's server fragments a message over 4 KB (a state
+        # with an error's advice is one): read as one frame, it was cut.
+        message = None
         try:
             while True:
                 self._need(2)
-                opcode, n = self.buf[0] & 0x0F, self.buf[1] & 0x7F
+                fin, opcode, n = self.buf[0] & 0x80, self.buf[0] & 0x0F, self.buf[1] & 0x7F
                 at = 2
                 if n == 126:
                     self._need(4)
@@ -233,11 +238,14 @@ class WebSocket:
                 elif opcode == 0x8:
                     self.close_reason = payload[2:].decode(errors="replace")
                     raise OSError(f"closed by the server: {self.close_reason}")
-                elif opcode == 0x1:
-                    if self.hello is None and b'"hello"' in payload:
+                elif opcode == 0x1 or (opcode == 0x0 and message is not None):
+                    message = payload if opcode == 0x1 else message + payload
+                    if not fin:
+                        continue
+                    if self.hello is None and b'"hello"' in message:
                         import json
-                        self.hello = json.loads(payload)
-                    return payload.decode()
+                        self.hello = json.loads(message)
+                    return message.decode()
         except socket.timeout:
             return None
 
