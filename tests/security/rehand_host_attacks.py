@@ -287,6 +287,18 @@ def main():
         check("a signature by another key for the phone's id is refused",
               forged is not None and not forged.get("ok"), json.dumps(forged))
         replay.close()
+        # ---- a phone hears no other phone's name or id (issue 38): a
+        # bystander phone, paired and connected. Before, the daemon sent every
+        # phone the "replaced" event (the other phone's id and name) when one
+        # connected again, and the bystander's page took it for its own and
+        # left its link; a phone's emergency stop named the phone to all.
+        display_request(display_port, {"op": "pair_start"})
+        bob_code = wait_for(lambda: state(display_port)["pairing_code"], 10)
+        bob_key = PhoneKey()
+        bob = WebSocket(phone_port, "/ws", tls=True)
+        sockets.append(bob)
+        bob_paired = bob_key.pair(bob, bob_code, "Bob's phone")
+        check("a second phone pairs (the bystander)", bool(bob_paired and bob_paired.get("ok")), json.dumps(bob_paired))
         # ---- one connection per phone, the newest wins
         watcher = WebSocket(display_port, "/ws?role=display")  # what the display hears
         sockets.append(watcher)
@@ -297,6 +309,10 @@ def main():
         check("...and the display is told, with the phone's name",
               told is not None and told.get("name") == "Anna's phone", json.dumps(told))
         watcher.close()
+        # The display has heard it, so the bystander would have by now too.
+        overheard = next_message(bob, "event", 1, event="replaced")
+        check("...and no other phone is (neither the phone's id nor its name)", overheard is None,
+              json.dumps(overheard))
         try:
             while first.recv(5) is not None:
                 pass
@@ -315,6 +331,11 @@ def main():
         events = [next_message(second, "event", 5, event="released")]
         check("...as a loss of control (the stop command, D-12)", events[0] is not None and events[0].get("emergency"),
               json.dumps(events[0]))
+        stop_told = next_message(bob, "event", 5, event="emergency")
+        check("the bystander phone hears of the emergency stop and why, not whose phone it was",
+              stop_told is not None and stop_told.get("reason") and "phone" not in stop_told
+              and "Anna" not in json.dumps(stop_told), json.dumps(stop_told))
+        bob.close()
         wait_for(lambda: not state(display_port)["emergency"], 10)
         late = second.request({"op": "renew", "press": 1})
         check("a late renewal is refused", late is not None and not late.get("ok") and "ended" in late.get("error", ""),

@@ -290,7 +290,7 @@ struct HostDaemon::Impl {
       host.leave(id);  // at once, not when the close completes
       other.phone.clear();
       other.authenticated = false;
-      broadcast({{"type", "event"}, {"event", "replaced"}, {"phone", phone}, {"name", name_of(phone)}});
+      tell_displays({{"type", "event"}, {"event", "replaced"}, {"phone", phone}, {"name", name_of(phone)}});
       log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(phone),
                       phone));
     }
@@ -815,8 +815,11 @@ struct HostDaemon::Impl {
   // code, the fingerprint and the phone list to displays only.
   void broadcast_state() {
     publish_ble_state();
-    const std::string for_phones = state_json(false).dump();
-    const std::string for_displays = state_json(true).dump();
+    send_to_all(state_json(true).dump(), state_json(false).dump());
+  }
+
+  // One text to the displays, another to the authenticated phones.
+  void send_to_all(const std::string& for_displays, const std::string& for_phones) {
     for (auto& [id, c] : clients) {
       if (c.role == Role::display)
         c.socket->send(for_displays);
@@ -827,8 +830,16 @@ struct HostDaemon::Impl {
 
   void broadcast(const Json& j) {
     const std::string text = j.dump();
+    send_to_all(text, text);
+  }
+
+  // An event that names a phone: the displays only. A phone hears no other
+  // phone's name or id (and a phone page took any "replaced" for its own
+  // and left its link, as every other phone did when one connected again).
+  void tell_displays(const Json& j) {
+    const std::string text = j.dump();
     for (auto& [id, c] : clients)
-      if (c.authenticated) c.socket->send(text);
+      if (c.role == Role::display) c.socket->send(text);
   }
 
   // On the server thread: what the host controller reported.
@@ -879,10 +890,14 @@ struct HostDaemon::Impl {
                                            : "the chair is still: emergency stop released");
         // Which phone and why, for the display to say (a stop nobody
         // explains looks like a fault of the chair).
-        broadcast({{"type", "event"},
-                   {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"},
-                   {"reason", e.reason},
-                   {"phone", e.type == T::emergency_started && e.client ? client_name(e.client) : ""}});
+        {
+          Json event{{"type", "event"},
+                     {"event", e.type == T::emergency_started ? "emergency" : "emergency_ended"},
+                     {"reason", e.reason}};
+          const std::string for_phones = event.dump();  // that it stopped and why, never whose phone
+          event["phone"] = e.type == T::emergency_started && e.client ? client_name(e.client) : "";
+          send_to_all(event.dump(), for_phones);
+        }
         broadcast_state();
         break;
       case T::driver_changed:

@@ -166,10 +166,9 @@ function onMessage(m) {
     stateIsFresh = true;
     render();
   } else if (m.type === 'event') {
-    if (m.event === 'replaced') {
-      becomeReplaced();
-      link.close();
-    } else if (m.event === 'released') {
+    // This page's own replacement comes as the close's reason
+    // (REPLACED_REASON); the daemon's "replaced" events are the display's.
+    if (m.event === 'released') {
       showRefusal(m.reason || m.error || 'released: lift the finger and press again');
     }
   } else if (m.type === 'error' && m.error) {
