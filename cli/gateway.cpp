@@ -49,6 +49,7 @@ int run_gateway(const GatewayArgs& a) {
   o.quarantine_after = a.quarantine_after;
   o.probe_backoff = std::chrono::milliseconds(a.probe_ms);
   o.probe_backoff_max = std::chrono::milliseconds(std::max(a.probe_max_ms, a.probe_ms));
+  o.notice = [](std::string_view line) { fmt::print(stderr, "gateway: {}\n", line); };
   o.on_quarantine = [](const GatewayUnitEvent& e) {
     if (e.quarantined)
       fmt::print(stderr,

@@ -154,7 +154,16 @@ TEST(GatewayAdmission, CodecThenUnitThenReadOnly) {
   EXPECT_EQ(relayed.request.address, 0x21);
   EXPECT_EQ(relayed.request.quantity, 4);
   EXPECT_EQ(admit_gateway_request(open, 248, read, false).exception, Errc::gateway_path_unavailable);
-  EXPECT_EQ(admit_gateway_request(open, 0, write, false).exception, Errc::gateway_path_unavailable);
+  // Unit 0: the serial line's broadcast, for the writes a broadcast carries
+  // (issue 38: every request to unit 0 got a bare 0A). A read has nobody to
+  // answer it; a list never lets a broadcast through; read-only refuses it.
+  EXPECT_EQ(admit_gateway_request(open, 0, write, false).action, A::relay);
+  EXPECT_EQ(admit_gateway_request(open, 0, read, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(open, 0, echo, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(listed, 0, write, false).exception, Errc::gateway_path_unavailable);
+  EXPECT_EQ(admit_gateway_request(read_only, 0, write, false).exception, Errc::illegal_function);
+  const std::vector<uint8_t> read_write = {0x17, 0, 0, 0, 1, 0, 0, 0, 1, 2, 0, 7};
+  EXPECT_EQ(admit_gateway_request(open, 0, read_write, false).exception, Errc::gateway_path_unavailable);
   EXPECT_EQ(admit_gateway_request(listed, 22, read, false).exception, Errc::gateway_path_unavailable);
   EXPECT_EQ(admit_gateway_request(listed, 21, write, false).action, A::relay);
   EXPECT_EQ(admit_gateway_request(read_only, 21, write, false).exception, Errc::illegal_function);
@@ -204,6 +213,32 @@ TEST_F(GatewayTest, SilentUnitIs0B_NotAllowedIs0A_ReadOnlyIs01) {
   const RunResult r = run({kRtukit, "read", "--port", where(), "--unit", "9", "0"});
   EXPECT_EQ(r.code, 1) << r.output;
   EXPECT_NE(r.output.find("exception 0B"), std::string::npos) << r.output;
+}
+
+// Unit 0 through the gateway (issue 38): a write is broadcast on the line,
+// every unit executes it, and the client gets the write's normal answer; a
+// read gets 0A and the gateway says once, on its console, what unit 0 is.
+TEST_F(GatewayTest, UnitZeroBroadcastsAWrite_AReadIs0AWithAReason) {
+  start();
+  auto m = client();
+  ASSERT_TRUE(m->write_single_register(UnitId{0}, 0x30, 77).ok());
+  for (const uint8_t unit : {1, 21}) {
+    uint16_t v = 0;
+    ASSERT_TRUE(m->read_holding_registers(UnitId{unit}, 0x30, {&v, 1}).ok());
+    EXPECT_EQ(v, 77) << "unit " << int(unit);
+  }
+  uint16_t v = 0;
+  EXPECT_EQ(m->read_holding_registers(UnitId{0}, 0x30, {&v, 1}).code(), Errc::gateway_path_unavailable);
+  EXPECT_EQ(m->read_holding_registers(UnitId{0}, 0x30, {&v, 1}).code(), Errc::gateway_path_unavailable);
+  EXPECT_TRUE(gateway_->wait_for_output("to read, name the device's unit (1..247)")) << gateway_->output();
+  const std::string out = gateway_->output();
+  EXPECT_NE(out.find("gateway: a client asked unit 0 for an answer (function 03): answered 0A. Unit 0 is the "
+                     "serial line's broadcast address"),
+            std::string::npos)
+      << out;
+  size_t told = 0;
+  for (size_t at = 0; (at = out.find("asked unit 0", at)) != std::string::npos; ++at) ++told;
+  EXPECT_EQ(told, 1u) << out;  // once for the client, not a line per request
 }
 
 // Diagnostics and identification pass through (issue 14); a read-only

@@ -1,5 +1,7 @@
 #include "rtukit/driver/gateway.hpp"
 
+#include <fmt/core.h>
+
 #include <algorithm>
 #include <array>
 #include <cerrno>
@@ -8,6 +10,7 @@
 #include <map>
 #include <mutex>
 #include <optional>
+#include <set>
 #include <tuple>
 
 #include "rtukit/core/mbap.hpp"
@@ -141,6 +144,7 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   void forget(uint64_t client) {
     std::lock_guard lock(mutex);
     queues.erase(client);
+    told_of_unit_0.erase(client);
   }
   // The bus worker's step: serves one queued request (round robin between
   // clients); returns now when more wait, else never (a request wakes it).
@@ -171,6 +175,7 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   std::map<CacheKey, Cached> cache;
   std::array<UnitHealth, 256> health{};
   GatewayStats stats;
+  std::set<uint64_t> told_of_unit_0;  // clients whose request to unit 0 the notice explained
 };
 
 // One client connection: Modbus TCP (MBAP) or RTU frames over TCP in,
@@ -270,10 +275,11 @@ GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t un
     if (!ordered) return {Action::refuse, Errc::illegal_data_value, {}};
     return {Action::drop, Errc::ok, {}};
   }
-  const bool allowed = options.allowed_units.empty()
-                           ? unit >= 1 && unit <= 247
-                           : std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
-                                 options.allowed_units.end();
+  const bool allowed =
+      options.allowed_units.empty()
+          ? (unit >= 1 && unit <= 247) || (unit == kBroadcast.value && is_broadcastable(req->function))
+          : std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
+                options.allowed_units.end();
   if (!allowed) return {Action::refuse, Errc::gateway_path_unavailable, {}};
   // Read-only: an allow-list, so whatever it does not name is refused (fails closed).
   if (options.read_only && !relays_when_read_only(*req)) return {Action::refuse, Errc::illegal_function, {}};
@@ -307,7 +313,25 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
   }
   const GatewayAdmission admission = admit_gateway_request(options, h.unit, pdu, ordered);
   if (admission.action == GatewayAdmission::Action::drop) return;
-  if (admission.action == GatewayAdmission::Action::refuse) return refuse(admission.exception);
+  if (admission.action == GatewayAdmission::Action::refuse) {
+    // A bare 0A leaves an integrator whose client says "unit 0" guessing:
+    // say once per client what unit 0 is on the serial side.
+    if (h.unit == kBroadcast.value && admission.exception == Errc::gateway_path_unavailable &&
+        options.notice) {
+      bool first = false;
+      {
+        std::lock_guard lock(mutex);
+        first = told_of_unit_0.insert(client).second;
+      }
+      if (first)
+        options.notice(fmt::format(
+            "a client asked unit 0 for an answer (function {:02X}): answered 0A. Unit 0 is the serial line's "
+            "broadcast address: it takes writes (05, 06, 0F, 10, 16), which every unit executes and none "
+            "answers{}; to read, name the device's unit (1..247)",
+            function, options.allowed_units.empty() ? "" : ", and not with --allow-units"));
+    }
+    return refuse(admission.exception);
+  }
   const Request* req = &admission.request;
   const io::Clock::time_point now = clock.now();
   std::lock_guard lock(mutex);

@@ -62,7 +62,12 @@ struct GatewayOptions {
   /// allow-list); every other request gets exception 01 from the gateway and
   /// never reaches the bus.
   bool read_only = false;
-  /// Units relayed; empty: 1..247. Others get exception 0x0A.
+  /// Units relayed; empty: 1..247, and unit 0 (the broadcast address) for
+  /// the writes a broadcast carries (05, 06, 0F, 10, 16): relayed as a
+  /// broadcast, which every unit executes and none answers, and confirmed to
+  /// the client with the write's normal response once sent. Others get
+  /// exception 0x0A. A list never lets a broadcast through (it would reach
+  /// units the list does not name).
   std::vector<uint8_t> allowed_units;
   /// Serve identical reads from the last answer for this long (0: never).
   std::chrono::milliseconds cache{0};
@@ -85,6 +90,10 @@ struct GatewayOptions {
   /// Called on the bus thread when a unit enters or leaves quarantine (a log
   /// line); must not call back into the gateway.
   std::function<void(const GatewayUnitEvent&)> on_quarantine;
+  /// One line for the operator (the first request to unit 0 of each client
+  /// that wants an answer: why it got 0A); called on the TCP side's thread,
+  /// must not call back into the gateway.
+  std::function<void(std::string_view)> notice;
 };
 
 struct GatewayStats {
