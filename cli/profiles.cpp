@@ -98,10 +98,41 @@ int run_docs(const std::string& root, bool write) {
   return stale ? kRefused : kOk;
 }
 
-int run_get(const DeviceArgs& a, const profile::Profile& p) {
-  const std::vector<Selected> selected = select_or_fail(p, a.keys, false);
+// A verb's failure as one line and its exit code: `context` says where
+// ("Inverjet unit 21 on /dev/ttyUSB0"), the device's reason what.
+[[noreturn]] void verb_failed(const profile::DeviceEntry& entry, const std::string& context,
+                              const rtukit::Status& e) {
+  // No answer: in the device's own words when it has them.
+  const bool no_answer = entry.no_answer && exit_code(e.error()) == kNoResponse;
+  const std::string reason = no_answer ? entry.no_answer(e) : std::string(e.reason());
+  const std::string line = context.empty() || reason.empty() ? (context.empty() ? reason : context)
+                                                             : fmt::format("{}: {}", context, reason);
+  if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
+  if (e.is_exception()) throw Failure{kModbusException, line};
+  if (no_answer) throw Failure{kNoResponse, line};
+  if (e.code() == Errc::refused) throw Failure{kRefused, line};
+  fail(e.error(), line);
+}
+
+// A master on the link to a device that is what it claims: the entry's
+// `identify` (the Rehand 6600's handshake) runs first, so a slave that is
+// not the device is never read or written as one. A map file: no check.
+std::unique_ptr<Master> device_master(const DeviceArgs& a, const profile::DeviceEntry* entry, UnitId unit) {
   auto master = a.link.make_master();
+  if (entry && entry->identify) {
+    if (const rtukit::Status e = entry->identify(*master, unit))
+      verb_failed(*entry,
+                  fmt::format("{} unit {} on {}", entry->label.empty() ? entry->profile->name : entry->label,
+                              unit.value, master->describe()),
+                  e);
+  }
+  return master;
+}
+
+int run_get(const DeviceArgs& a, const profile::Profile& p, const profile::DeviceEntry* entry = nullptr) {
+  const std::vector<Selected> selected = select_or_fail(p, a.keys, false);
   const UnitId unit = device_unit(a.unit, p);
+  auto master = device_master(a, entry, unit);
   const std::vector<ReadValue> values = profile::read_selected(*master, unit, selected);
   print_values(p, unit, values, a.json);
   for (const ReadValue& v : values) {
@@ -112,12 +143,12 @@ int run_get(const DeviceArgs& a, const profile::Profile& p) {
   return kOk;
 }
 
-int run_set(const DeviceArgs& a, const profile::Profile& p) {
+int run_set(const DeviceArgs& a, const profile::Profile& p, const profile::DeviceEntry* entry) {
   Outcome<profile::KeyWrite> w = profile::plan_key_write(p, a.key, a.value);
   if (!w)
     throw Failure{w.error().code() == Errc::refused ? kRefused : kUsage, std::string(w.error().reason())};
-  auto master = a.link.make_master();
   const UnitId unit = device_unit(a.unit, p);
+  auto master = device_master(a, entry, unit);
   const std::string name = entry_name(w->entry);
   if (const Error e = profile::write_entry(*master, unit, *w)) fail(e, fmt::format("write {}", name));
   if (a.json) {
@@ -130,10 +161,10 @@ int run_set(const DeviceArgs& a, const profile::Profile& p) {
   return kOk;
 }
 
-int run_watch(const DeviceArgs& a, const profile::Profile& p) {
+int run_watch(const DeviceArgs& a, const profile::Profile& p, const profile::DeviceEntry* entry) {
   const std::vector<Selected> selected = select_or_fail(p, a.keys, false);
-  auto master = a.link.make_master();
   const UnitId unit = device_unit(a.unit, p);
+  auto master = device_master(a, entry, unit);
   watch_loop(a.watch, [&](unsigned) {
     const std::vector<ReadValue> values = profile::read_selected(*master, unit, selected);
     print_values(p, unit, values, a.json);
@@ -186,11 +217,11 @@ struct Source {
 
 // A device's status: its status rows (what it measures and reports); a
 // device without any: every readable row.
-int run_status(DeviceArgs a, const profile::Profile& p) {
+int run_status(DeviceArgs a, const profile::Profile& p, const profile::DeviceEntry* entry) {
   a.keys.clear();
   for (const Row& r : p.rows)
     if (r.role == profile::Role::status && r.readable()) a.keys.emplace_back(r.key);
-  return run_get(a, p);
+  return run_get(a, p, entry);
 }
 
 // The verbs every device has: get, set, watch, status. A device's own verb
@@ -210,7 +241,7 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
                          fmt::format("{} get --port /dev/ttyUSB0{} KEY --json", source.command(),
                                      source.device())});
         },
-        [source](const DeviceArgs& a) { return run_get(a, source.of(a)); });
+        [source](const DeviceArgs& a) { return run_get(a, source.of(a), source.entry); });
   if (!has("set"))
     add_command<DeviceArgs>(
         dev, action, "set", "write one register by name (value with unit, name or mm:ss)",
@@ -223,7 +254,7 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
                     "values as people write them: 80, 80%, outdoor, 30:00, 0x1F; a link-address row "
                     "(address 5): the device answers at 5 from then on"});
         },
-        [source](const DeviceArgs& a) { return run_set(a, source.of(a)); });
+        [source](const DeviceArgs& a) { return run_set(a, source.of(a), source.entry); });
   if (!has("watch"))
     add_command<DeviceArgs>(
         dev, action, "watch", "poll registers by name until Ctrl-C",
@@ -234,7 +265,7 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
           examples(cmd, {fmt::format("{} watch --port /dev/ttyUSB0{} --interval 2000", source.command(),
                                      source.device())});
         },
-        [source](const DeviceArgs& a) { return run_watch(a, source.of(a)); });
+        [source](const DeviceArgs& a) { return run_watch(a, source.of(a), source.entry); });
   if (!has("status"))
     add_command<DeviceArgs>(
         dev, action, "status", "read what the device reports (its status registers)",
@@ -244,23 +275,7 @@ void add_bus_verbs(CLI::App& dev, Action& action, Source source) {
                          fmt::format("{} status --port /dev/ttyUSB0{} --json", source.command(),
                                      source.device())});
         },
-        [source](const DeviceArgs& a) { return run_status(a, source.of(a)); });
-}
-
-// A verb's failure as one line and its exit code: `context` says where
-// ("Inverjet unit 21 on /dev/ttyUSB0"), the device's reason what.
-[[noreturn]] void verb_failed(const profile::DeviceEntry& entry, const std::string& context,
-                              const rtukit::Status& e) {
-  // No answer: in the device's own words when it has them.
-  const bool no_answer = entry.no_answer && exit_code(e.error()) == kNoResponse;
-  const std::string reason = no_answer ? entry.no_answer(e) : std::string(e.reason());
-  const std::string line = context.empty() || reason.empty() ? (context.empty() ? reason : context)
-                                                             : fmt::format("{}: {}", context, reason);
-  if (e.code() == Errc::invalid_argument) throw Failure{kUsage, line};
-  if (e.is_exception()) throw Failure{kModbusException, line};
-  if (no_answer) throw Failure{kNoResponse, line};
-  if (e.code() == Errc::refused) throw Failure{kRefused, line};
-  fail(e.error(), line);
+        [source](const DeviceArgs& a) { return run_status(a, source.of(a), source.entry); });
 }
 
 // A device's own verb (profile/verb.hpp): the device checks the arguments,

@@ -40,6 +40,7 @@ const profile::DeviceEntry& device_entry() {
       .run_verb = run_verb,
       .label = "Rehand 6600",
       .no_answer = [](const rtukit::Status& e) { return link_failure_text(e.reason(), false); },
+      .identify = identify,
       .example_port = "/dev/ttyS3",
       .answer_timeout_ms = 200};
   return entry;

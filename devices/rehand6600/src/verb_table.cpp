@@ -63,13 +63,22 @@ rtukit::Status another_device(const rtukit::Status& e) {
   return e.code() == Errc::refused ? rtukit::Status(Errc::refused, link_failure_text(e.reason(), true)) : e;
 }
 
+}  // namespace
+
+rtukit::Status identify(Master& master, UnitId unit) {
+  const rtukit::Status e = handshake(master, unit);
+  if (e.ok()) return e;
+  return e.code() == Errc::io_error || e.code() == Errc::not_connected
+             ? rtukit::Status(e.error(), "handshake")
+             : another_device(e);
+}
+
+namespace {
+
 // The handshake, then table 1 in one read: the status panel, or its values.
 Outcome<profile::VerbResult> status(const profile::VerbArgs& args, profile::VerbContext& where) {
   Master& master = where.open();
-  if (const rtukit::Status e = handshake(master, where.unit))
-    return e.code() == Errc::io_error || e.code() == Errc::not_connected
-               ? rtukit::Status(e.error(), "handshake")
-               : another_device(e);
+  if (const rtukit::Status e = identify(master, where.unit)) return e;
   Snapshot s;
   if (const Error e = master.read_holding_registers(where.unit, 0, s.regs))
     return e.code() == Errc::io_error || e.is_exception()

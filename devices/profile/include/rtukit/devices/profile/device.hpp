@@ -70,6 +70,13 @@ struct DeviceEntry {
   /// advice (the Rehand 6600's "1010 Master Error" with what to check);
   /// empty: the front-end's.
   std::function<std::string(const rtukit::Status&)> no_answer;
+  /// Who answers at the unit, checked before the verbs every device has
+  /// (get, set, watch, status) read or write anything: the device's
+  /// handshake (the Rehand 6600 reads its device ID, 0x68), so a generic
+  /// slave at the address is never read as the device. Returns ok, or the
+  /// failure worded as the device's own verbs word it: refused (another
+  /// device answered), a timeout (nobody did), io_error. Empty: no check.
+  std::function<rtukit::Status(Master&, UnitId)> identify;
   /// The port its examples show, and the answer timeout its verbs start from.
   std::string_view example_port = "/dev/ttyUSB0";
   unsigned answer_timeout_ms = 1000;

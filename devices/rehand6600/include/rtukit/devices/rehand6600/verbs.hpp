@@ -30,6 +30,13 @@ std::string device_id_mismatch(uint16_t id);
 ///  - any other (timeout, CRC): no answer, "handshake: no answer (timeout)".
 rtukit::Status handshake(Master& master, UnitId unit);
 
+/// The handshake as every one-shot command words its failure (the device
+/// entry's `identify`: `get` and the other common verbs check it first):
+/// ok; refused, "1010 Master Error: handshake: device ID 0x42, expected 0x68
+/// (not a Rehand 6600 controller?)" with what to check; no answer and I/O
+/// errors as handshake() gives them, under "handshake".
+rtukit::Status identify(Master& master, UnitId unit);
+
 /// The command of `kind` (Kind::hold or Kind::pulse) named `key`
 /// ("seat_lift" or "seat-lift"); invalid_argument naming the commands there
 /// are: "'fly' is not a hold command (stand, seat_lift, ...)".
