@@ -14,9 +14,11 @@
 
 #include "process.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
+#include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/device.hpp"
 #include "rtukit/devices/profile/map_file.hpp"
+#include "rtukit/devices/profile/reading.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
@@ -454,4 +456,29 @@ TEST(DocsFromTheRegistry, EachSectionIsRewrittenFromItsTable_AMissingOneIsNamed)
   ASSERT_FALSE(missing.ok());
   EXPECT_NE(std::string(missing.error().reason()).find("rtukit rehand6600 registers"), std::string::npos)
       << missing.error().reason();
+}
+
+// Issue 38: `inverjet set state fault_screen` answered "fault_screen is not
+// one of off, ..., fault_screen". A name the row reads but a write may not
+// give says so, and the list a refusal gives holds only what a write takes.
+TEST(WriteByKey, ANameAWriteMayNotGiveIsReadOnly_NotMissing) {
+  namespace ij = rtukit::inverjet;
+  Outcome<profile::KeyWrite> w = profile::plan_key_write(ij::kProfile, "state", "fault_screen");
+  ASSERT_FALSE(w.ok());
+  EXPECT_EQ(
+      w.error().reason(),
+      "state: fault_screen (17) is read only: the device sets it itself; a write takes off, free_initial, "
+      "free_starting, free_running, free_paused, free_ended, timer_initial, timer_starting, timer_running, "
+      "timer_paused, timer_ended, training_initial, training_starting, training_running, training_paused, "
+      "training_ended, operation_menu");
+  w = profile::plan_key_write(ij::kProfile, "state", "17");
+  ASSERT_FALSE(w.ok());
+  EXPECT_NE(w.error().reason().find("state: 17 (fault_screen) is read only"), std::string_view::npos)
+      << w.error().reason();
+  w = profile::plan_key_write(ij::kProfile, "state", "flying");
+  ASSERT_FALSE(w.ok());
+  EXPECT_NE(w.error().reason().find("'flying' is not a state (off, "), std::string_view::npos)
+      << w.error().reason();
+  EXPECT_EQ(w.error().reason().find("fault_screen"), std::string_view::npos) << w.error().reason();
+  EXPECT_TRUE(profile::plan_key_write(ij::kProfile, "state", "operation_menu").ok());
 }

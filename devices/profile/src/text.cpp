@@ -78,11 +78,33 @@ std::string names_list(const Row& row) {
   return out;
 }
 
+// The names a write may give: those inside the row's write range (every
+// name when none is: a row nobody writes lists what it reads).
+std::string writable_names(const Row& row) {
+  std::string out;
+  for (const Named& n : row.names) {
+    if (RegisterMap::check_value(row, n.value)) continue;
+    if (!out.empty()) out += ", ";
+    out += fold_name(n.name);
+  }
+  return out.empty() ? names_list(row) : out;
+}
+
 Outcome<int64_t> checked(const Row& row, int64_t raw, std::string_view typed) {
   if (RegisterMap::check_value(row, raw)) {
+    // A name the row reads but a write may not give (the Inverjet's
+    // fault_screen, 17: the machine enters it itself): said so, not "not
+    // one of" a list that holds it.
+    if (row.encoding == Encoding::choice && !name_of(row, raw).empty())
+      return Status(
+          Errc::illegal_data_value,
+          fmt::format("{}: {} ({}) is read only: the device sets it itself; a write takes {}", row.key, typed,
+                      fold_name(typed) == fold_name(name_of(row, raw)) ? std::to_string(raw)
+                                                                       : fold_name(name_of(row, raw)),
+                      writable_names(row)));
     if (row.encoding == Encoding::choice)
       return Status(Errc::illegal_data_value,
-                    fmt::format("{}: {} is not one of {}", row.key, typed, names_list(row)));
+                    fmt::format("{}: {} is not one of {}", row.key, typed, writable_names(row)));
     return Status(Errc::illegal_data_value,
                   fmt::format("{}: {} is outside {}", row.key, typed, range_text(row, row.write_range())));
   }
@@ -288,7 +310,7 @@ Outcome<int64_t> parse_value(const Row& row, std::string_view typed_view) {
       }
       if (const auto v = parse_integer(typed)) return checked(row, *v, typed);
       return Status(Errc::invalid_argument,
-                    fmt::format("'{}' is not a {} ({})", typed, row.key, names_list(row)));
+                    fmt::format("'{}' is not a {} ({})", typed, row.key, writable_names(row)));
     }
     case Encoding::bits: {
       if (const auto v = parse_integer(typed)) return checked(row, *v, typed);
