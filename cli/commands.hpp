@@ -51,10 +51,22 @@ struct Failure;
 /// "unknown command 'raed' (did you mean 'read'?) (commands: ...)", or nothing.
 std::optional<Failure> check_words(const CLI::App& app, const std::vector<std::string>& args);
 
+/// What an mbpoll user typed that rtukit spells otherwise, for a command
+/// line that did not parse: "mbpoll's -a 21 is --unit 21 here" for each
+/// mbpoll option found (-a, -r, -t 0..4, -m, -c, -l, -1, -B, -P, -p, -R, -o)
+/// and for a device given as a bare argument, then where the whole mapping
+/// is (docs/coming-from-mbpoll.md). Empty: nothing looks like mbpoll.
+std::string mbpoll_hint(const std::vector<std::string>& args);
+
 /// Every option of a command, those in its option groups included.
 std::vector<const CLI::Option*> all_options(const CLI::App& app);
 
 /// completion bash|zsh (generated from the command definitions).
 void add_completion_command(CLI::App& app, Action& action);
+
+/// manpage: the manual page (roff) of every command of `app`, its
+/// options, examples and the exit codes, generated from the definitions.
+void add_manpage_command(CLI::App& app, Action& action);
+std::string manual_page(const CLI::App& app);
 
 }  // namespace rtukit::cli

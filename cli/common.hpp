@@ -57,6 +57,20 @@ enum Exit : int {
   kRefused = 5,  ///< the device is not the expected one (handshake) or its rules refuse the command
 };
 
+/// What each exit code means, for the help and the manual page (one table).
+struct ExitCodeText {
+  int code;
+  std::string_view meaning;
+};
+inline constexpr ExitCodeText kExitCodes[] = {
+    {kOk, "done"},
+    {kModbusException, "the device answered a Modbus exception (the line says which and why)"},
+    {kUsage, "bad input: an unknown command or option, a value out of range; nothing was sent"},
+    {kNoResponse, "no response: a timeout, a bad CRC, an answer that does not fit the request"},
+    {kIoError, "I/O error: no such port, not a serial port, permission, connection refused, a file"},
+    {kRefused, "refused: another device answers (the handshake), or the device's rules refuse the command"},
+};
+
 /// Thrown inside a subcommand to leave with a message and an exit code;
 /// caught once in main(). (Exceptions are fine here; the core has none.)
 struct Failure {

@@ -26,6 +26,12 @@ int main(int argc, char** argv) {
   add_sniff_command(app, action);
   add_doctor_command(app, action);
   add_completion_command(app, action);
+  add_manpage_command(app, action);
+  std::string codes = "Exit codes:";
+  for (const ExitCodeText& e : kExitCodes) codes += fmt::format("\n  {}  {}", e.code, e.meaning);
+  app.footer(codes +
+             "\n  128+N  ended by signal N (130: Ctrl-C)\nrtukit help COMMAND: the help of a command; "
+             "man rtukit: every command");
   // `rtukit help [COMMAND...]`: the help of that command.
   std::vector<std::string> args(argv + 1, argv + argc);
   if (!args.empty() && args[0] == "help") {
@@ -62,7 +68,9 @@ int main(int argc, char** argv) {
       sub = sub->get_subcommands().front();
       where += " " + sub->get_name();
     }
-    fmt::print(stderr, "rtukit: {} (see {} --help)\n", e.what(), where);
+    const std::string mbpoll = mbpoll_hint(args);
+    fmt::print(stderr, "rtukit: {} (see {} --help){}\n", e.what(), where,
+               mbpoll.empty() ? "" : "; " + mbpoll);
     return kUsage;
   }
   // --json anywhere on the chosen command path: failures are JSON too.
@@ -77,7 +85,9 @@ int main(int argc, char** argv) {
     return output_broken() ? kOk : code;
   } catch (const Failure& f) {
     if (output_broken()) return kOk;  // its reader ended first (`| head`): nothing is wrong
-    fmt::print(stderr, "rtukit: {}\n", f.message);
+    // A usage error with mbpoll's words in it (`read /dev/ttyUSB0 ...`): where they go here.
+    const std::string mbpoll = f.code == kUsage ? mbpoll_hint(args) : "";
+    fmt::print(stderr, "rtukit: {}{}\n", f.message, mbpoll.empty() ? "" : "; " + mbpoll);
     if (json_requested()) print_json(json_failure(f));
     return f.code;
   } catch (const std::exception& e) {

@@ -127,4 +127,50 @@ std::optional<Failure> check_words(const CLI::App& app, const std::vector<std::s
   return std::nullopt;
 }
 
+std::string mbpoll_hint(const std::vector<std::string>& args) {
+  std::vector<std::string> found;
+  const auto value = [&](size_t i) { return i + 1 < args.size() ? args[i + 1] : std::string("N"); };
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& w = args[i];
+    if (w == "--") break;
+    if (w == "-a") {
+      found.push_back(fmt::format("-a {0} is --unit {0}", value(i)));
+    } else if (w == "-r") {
+      found.push_back(fmt::format(
+          "-r {0} is the address after the command, counted from 0 (or --one-based {0})", value(i)));
+    } else if (w == "-t" && i + 1 < args.size() && !args[i + 1].empty() &&
+               std::string_view("0134").find(args[i + 1][0]) != std::string_view::npos &&
+               (args[i + 1].size() == 1 || args[i + 1][1] == ':')) {
+      // rtukit's -t is --type (u16...): mbpoll's names the table.
+      static constexpr std::string_view kTables[] = {"--coils", "--discrete", "", "--input", "--holding"};
+      found.push_back(fmt::format("-t {} is {}{}", args[i + 1], kTables[args[i + 1][0] - '0'],
+                                  args[i + 1].size() > 1 ? " with --type u16|i16|u32|i32|f32" : ""));
+    } else if (w == "-m") {
+      found.push_back("-m is said by the port (--port /dev/ttyUSB0, --port tcp://HOST:502)");
+    } else if (w == "-c") {
+      found.push_back(fmt::format("-c {0} is the count after the address", value(i)));
+    } else if (w == "-l") {
+      found.push_back(fmt::format("-l {0} is `rtukit poll ... --interval {0}`", value(i)));
+    } else if (w == "-1") {
+      found.push_back("-1 is `rtukit read`");
+    } else if (w == "-B") {
+      found.push_back("-B is --word-order high-first (the default)");
+    } else if (w == "-P") {
+      found.push_back(fmt::format("-P {0} is --parity {0}", value(i)));
+    } else if (w == "-p") {
+      found.push_back(fmt::format("-p {0} is part of the port: --port tcp://HOST:{0}", value(i)));
+    } else if (w == "-R") {
+      found.push_back("-R is --rs485");
+    } else if (w == "-o") {
+      found.push_back("-o SECONDS is --timeout MILLISECONDS");
+    } else if (w.starts_with("/dev/") && (i == 0 || !args[i - 1].starts_with("-"))) {
+      found.push_back(fmt::format("the device is --port {}", w));
+    }
+  }
+  if (found.empty()) return "";
+  std::string text = "mbpoll's ";
+  for (size_t i = 0; i < found.size(); ++i) text += (i ? "; " : "") + found[i];
+  return text + " here (docs/coming-from-mbpoll.md)";
+}
+
 }  // namespace rtukit::cli

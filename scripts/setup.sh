@@ -37,8 +37,10 @@ PACKAGES=(
 if [ "$target" != "programs" ]; then PACKAGES+=(
   # the clang builds (warnings, fuzzers), the format check
   clang clang-format libclang-rt-14-dev
-  # packaging: man page, .deb contents check
-  help2man dpkg-dev file
+  # packaging: the .deb contents check
+  dpkg-dev file
+  # the man page read by groff with every warning on (CliUsability)
+  groff-base
   libgtest-dev libgmock-dev libbenchmark-dev
   # Cortex-M cross compile check of core
   gcc-arm-none-eabi libstdc++-arm-none-eabi-newlib binutils-arm-none-eabi

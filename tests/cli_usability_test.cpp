@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <fstream>
 
 #include "process.hpp"
 
@@ -44,7 +45,7 @@ TEST(CliUsability, UnknownCommandsSuggestTheClosest) {
             "rtukit: unknown command 'raed' (did you mean 'read'?) (commands: read, poll, write, readwrite, "
             "scan, slave, diag, ident, "
             "inverjet, rehand6600, devices, " kExampleDevice
-            "map, sim, gateway, bus, relay, sniff, doctor, completion)\n");
+            "map, sim, gateway, bus, relay, sniff, doctor, completion, manpage)\n");
   r = rtukit({"inverjet", "stat"});
   EXPECT_EQ(r.code, 2);
   EXPECT_NE(r.output.find("rtukit: unknown command 'stat' for 'rtukit inverjet' (did you mean 'status'?)"),
@@ -60,6 +61,32 @@ TEST(CliUsability, UnknownOptionsSuggestTheClosest) {
   EXPECT_EQ(r.output,
             "rtukit: unknown option '--prot' for 'rtukit read' (did you mean '--port'?) (see rtukit read "
             "--help)\n");
+}
+
+// Issue 38: mbpoll's options (-a, -r, -t 4, a bare device) got CLI11's
+// generic "not expected" with no pointer to what rtukit calls them. The
+// failing line says, for each, what it is here, and names the mapping's doc.
+TEST(CliUsability, MbpollOptionsSayWhatTheyAreHere) {
+  RunResult r = rtukit({"read", "-a", "21", "-r", "34", "-c", "4", "/dev/ttyUSB0"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  for (const char* says : {"mbpoll's -a 21 is --unit 21",
+                           "-r 34 is the address after the command, counted from 0 "
+                           "(or --one-based 34)",
+                           "-c 4 is the count after the address", "the device is --port /dev/ttyUSB0",
+                           " here (docs/coming-from-mbpoll.md)\n"})
+    EXPECT_NE(r.output.find(says), std::string::npos) << says << "\n" << r.output;
+  EXPECT_EQ(std::count(r.output.begin(), r.output.end(), '\n'), 1) << r.output;
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "-t", "4", "0", "2"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_NE(r.output.find("mbpoll's -t 4 is --holding here"), std::string::npos) << r.output;
+  r = rtukit({"read", "--port", "/dev/ttyUSB0", "-t", "3:float", "0", "2"});
+  EXPECT_NE(r.output.find("mbpoll's -t 3:float is --input with --type u16|i16|u32|i32|f32 here"),
+            std::string::npos)
+      << r.output;
+  // A mistake that is not mbpoll's gets no such hint.
+  r = rtukit({"read", "--port", "/dev/ttyUSB0"});
+  EXPECT_EQ(r.code, 2) << r.output;
+  EXPECT_EQ(r.output.find("mbpoll"), std::string::npos) << r.output;
 }
 
 TEST(CliUsability, HelpForACommand) {
@@ -377,6 +404,55 @@ TEST(CliUsability, EveryCommandHelpHasExamples) {
       EXPECT_GT(r.output.find("--port"), link) << c[0];
     }
   }
+}
+
+// Issue 38: the man page was help2man's copy of the top-level help (no
+// command's options, no exit codes, no examples) and listed the example
+// thermostat. It is generated from the commands now: every command the
+// completion knows has its section, the exit codes their table, a device's
+// verbs their examples; groff reads it without a warning.
+TEST(CliUsability, TheManPageHasEveryCommandItsExamplesAndTheExitCodes) {
+  const RunResult page = rtukit({"manpage"});
+  ASSERT_EQ(page.code, 0) << page.output;
+  const RunResult completion = rtukit({"completion", "bash"});
+  // Every path the completion offers ("rtukit sim map") is a section of the page.
+  const std::string known_start = "local known=\"|";
+  const size_t at = completion.output.find(known_start);
+  ASSERT_NE(at, std::string::npos) << completion.output;
+  const std::string known =
+      completion.output.substr(at + known_start.size(), completion.output.find('"', at + known_start.size()) -
+                                                            at - known_start.size());
+  size_t commands = 0;
+  for (size_t from = 0, bar; (bar = known.find('|', from)) != std::string::npos; from = bar + 1) {
+    const std::string path = known.substr(from, bar - from);
+    if (path == "rtukit") continue;
+    ++commands;
+    std::string roff_path;
+    for (const char c : path) roff_path += c == '-' ? std::string("\\-") : std::string(1, c);
+    EXPECT_NE(page.output.find(".SS \"" + roff_path + "\"\n"), std::string::npos) << path;
+  }
+  EXPECT_GT(commands, 40u);
+  for (const char* says : {".SH EXIT STATUS\n.TP\n\\fB0\\fR\ndone\n",
+                           "\\fB5\\fR\nrefused: another device answers", "rtukit inverjet start \\-\\-port",
+                           "\\fB\\-\\-timeout UINT", ".SS \"rtukit rehand6600 hold\"", "docs/: inverjet.md"})
+    EXPECT_NE(page.output.find(says), std::string::npos) << says;
+#ifdef RTUKIT_EXAMPLE_DEVICE
+  EXPECT_NE(page.output.find(".SS \"rtukit thermostat"), std::string::npos);
+#else
+  EXPECT_EQ(page.output.find("thermostat"), std::string::npos);  // a packaged build has no example device
+#endif
+  // groff with every warning on, its output thrown away: nothing on stderr.
+  TempDir dir;
+  const std::string file = dir / "rtukit.1";
+  { std::ofstream(file) << page.output; }
+  const RunResult groff = run({"sh", "-c", "groff -man -ww -z " + file + " 2>&1"});
+  EXPECT_EQ(groff.code, 0) << groff.output;
+  EXPECT_EQ(groff.output, "") << groff.output;
+  // The top-level help lists the exit codes from the same table.
+  const RunResult help = rtukit({"--help"});
+  EXPECT_NE(help.output.find("Exit codes:\n  0  done\n  1  the device answered a Modbus exception"),
+            std::string::npos)
+      << help.output;
 }
 
 TEST(CliUsability, VersionAndCompletion) {

@@ -251,6 +251,8 @@ setTimeout(() => done({timeout: true}), 5000);
         check("...with table 3's advice: what to check (the device layer's, as `rehand6600 errors` prints it)",
               wait_for(lambda: text(hmi, "#error-advice").startswith("The seat-lift actuator (actuator 1)") and
                        "check:" in text(hmi, "#error-advice"), DEADLINE), text(hmi, "#error-advice"))
+        check("...and a device error is no lost link", text(hmi, "#error-detail")
+              == "Every function is disabled until the error clears.", text(hmi, "#error-detail"))
         other = hmi.find_element(By.CSS_SELECTOR, '[data-cmd="backrest"][data-value="forward"]')
         check("buttons disabled under the overlay", not other.is_enabled())
         check("Stop stays enabled above the overlay", hmi.find_element(By.ID, "stop").is_enabled() and hmi.execute_script(
@@ -523,6 +525,9 @@ setTimeout(() => done('still open'), 10000);
         check("link lost: the 1010 overlay", wait_for(
             lambda: hmi.find_element(By.ID, "error-overlay").is_displayed()
             and text(hmi, "#error-text") == "1010 Master Error", DEADLINE), text(hmi, "#error-text"))
+        # Told by the state's link, not by the page knowing the code 1010 (the lint of restated facts).
+        check("...which says the controller does not answer", text(hmi, "#error-detail")
+              == "No communication with the controller. Every function is disabled.", text(hmi, "#error-detail"))
         hmi.save_screenshot(os.path.join(OUT, "hmi-1010.png"))
         hmi.find_element(By.ID, "ack").click()
         check("the display says since when and what to do", wait_for(

@@ -261,7 +261,8 @@ function renderErrorOverlay(lost) {
   const s = state;
   if (s && s.error) {
     $('#error-text').textContent = s.error_text || `${s.error.toString(16).toUpperCase()} Error`;
-    $('#error-detail').textContent = s.error === 0x1010
+    // The link's own error (1010) is the one raised while the daemon has no contact.
+    $('#error-detail').textContent = s.connected === false
       ? 'No communication with the controller. Every function is disabled.'
       : 'Every function is disabled until the error clears.';
     // What to check, as table 3 says (the device layer's advice, as `rtukit rehand6600 errors`).
