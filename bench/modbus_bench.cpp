@@ -208,7 +208,8 @@ int main(int argc, char** argv) {
   }
   const std::string libmodbus_server = LIBMODBUS_SERVER_BIN;
   const std::vector<Scenario> scenarios = {
-      {"pty", 1, 4}, {"pty", 1, 125}, {"tcp", 1, 4}, {"tcp", 1, 125}, {"tcp", 16, 4}, {"tcp", 16, 125},
+      {"pty", 1, 4},  {"pty", 1, 125},  {"tcp", 1, 4},  {"tcp", 1, 125},
+      {"tcp", 16, 4}, {"tcp", 16, 125}, {"tcp", 64, 4},
   };
   char date[32];
   const std::time_t now = std::time(nullptr);

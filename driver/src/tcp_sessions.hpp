@@ -26,6 +26,8 @@
 #pragma once
 
 #include <array>
+#include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <functional>
 #include <list>
@@ -33,6 +35,8 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "rtukit/core/mbap.hpp"
@@ -42,6 +46,75 @@
 namespace rtukit {
 
 class TcpSession;
+
+/// Memory for one asynchronous operation at a time: a connection's read or
+/// its write. Asio allocates each operation's state per call; its own cache
+/// keeps two blocks per thread, which a server with a read, a write and
+/// timers in flight on every connection outruns, so every request cost two
+/// heap allocations (measured: bench/README.md, issue 39). An operation that
+/// does not fit, or comes while the block is taken, gets the heap as before.
+class OperationMemory {
+ public:
+  OperationMemory() = default;
+  OperationMemory(const OperationMemory&) = delete;
+  OperationMemory& operator=(const OperationMemory&) = delete;
+  void* allocate(size_t size) {
+    if (!in_use_ && size <= sizeof(storage_)) {
+      in_use_ = true;
+      return storage_;
+    }
+    return ::operator new(size);
+  }
+  void deallocate(void* p) noexcept {
+    if (p == storage_)
+      in_use_ = false;
+    else
+      ::operator delete(p);
+  }
+
+ private:
+  alignas(std::max_align_t) unsigned char storage_[512];
+  bool in_use_ = false;
+};
+
+/// The allocator Asio finds on a handler (its nested allocator_type, Boost
+/// 1.74's associated_allocator): allocates from an OperationMemory.
+template <class T>
+class OperationAllocator {
+ public:
+  using value_type = T;
+  explicit OperationAllocator(OperationMemory& memory) noexcept : memory_(&memory) {}
+  template <class U>
+  OperationAllocator(const OperationAllocator<U>& other) noexcept : memory_(other.memory_) {}
+  T* allocate(size_t n) { return static_cast<T*>(memory_->allocate(sizeof(T) * n)); }
+  void deallocate(T* p, size_t) noexcept { memory_->deallocate(p); }
+  template <class U>
+  bool operator==(const OperationAllocator<U>& other) const noexcept {
+    return memory_ == other.memory_;
+  }
+
+ private:
+  template <class>
+  friend class OperationAllocator;
+  OperationMemory* memory_;
+};
+
+/// A completion handler whose operation's state lives in `memory`.
+template <class Handler>
+struct InMemory {
+  using allocator_type = OperationAllocator<void>;
+  OperationMemory* memory;
+  Handler handler;
+  allocator_type get_allocator() const noexcept { return allocator_type(*memory); }
+  template <class... Args>
+  void operator()(Args&&... args) {
+    handler(std::forward<Args>(args)...);
+  }
+};
+template <class Handler>
+InMemory<std::decay_t<Handler>> in_memory(OperationMemory& memory, Handler&& handler) {
+  return {&memory, std::forward<Handler>(handler)};
+}
 
 /// What an acceptor and its sessions share. Sessions hold it by shared_ptr,
 /// so a session that outlives its server stays valid.
@@ -254,30 +327,31 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
 
   void read() {
     auto self = shared_from_this();
-    socket_.async_read_some(asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
-                            [this, self](const boost::system::error_code& ec, size_t n) {
-                              if (closed_) return;
-                              if (is_end_of_stream(ec)) {
-                                // The client has sent all it will; what it sent is still answered.
-                                peer_done_ = true;
-                                if (lingering_) return close();
-                                return finish();
-                              }
-                              if (ec) return close();
-                              if (finishing_) return read();  // after the end: read and dropped
-                              heard_ = true;
-                              touch();
-                              arm_idle();
-                              if (!on_received(n)) {
-                                finish();  // answers what ran before the bad header
-                                if (!closed_) read();
-                                return;
-                              }
-                              if (closed_) return;
-                              request_progress();
-                              flush();
-                              read();
-                            });
+    socket_.async_read_some(
+        asio::buffer(rx_.data() + rx_len_, rx_.size() - rx_len_),
+        in_memory(read_memory_, [this, self](const boost::system::error_code& ec, size_t n) {
+          if (closed_) return;
+          if (is_end_of_stream(ec)) {
+            // The client has sent all it will; what it sent is still answered.
+            peer_done_ = true;
+            if (lingering_) return close();
+            return finish();
+          }
+          if (ec) return close();
+          if (finishing_) return read();  // after the end: read and dropped
+          heard_ = true;
+          touch();
+          arm_idle();
+          if (!on_received(n)) {
+            finish();  // answers what ran before the bad header
+            if (!closed_) read();
+            return;
+          }
+          if (closed_) return;
+          request_progress();
+          flush();
+          read();
+        }));
   }
 
   void flush() {
@@ -288,12 +362,12 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     pending_.clear();
     auto self = shared_from_this();
     asio::async_write(socket_, asio::buffer(in_flight_),
-                      [this, self](const boost::system::error_code& ec, size_t) {
+                      in_memory(write_memory_, [this, self](const boost::system::error_code& ec, size_t) {
                         writing_ = false;
                         in_flight_.clear();
                         if (ec) return close();
                         flush();
-                      });
+                      }));
   }
 
   // Finishing, everything answered and written: the end of our stream
@@ -337,14 +411,26 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     });
   }
 
+  // The idle timeout runs from the last bytes received. Each read only
+  // notes when it came; the one timer, armed at the start, looks when it
+  // fires and waits again for what is left. Re-arming it at every request
+  // cost a system call (timerfd_settime) and a cancelled wait per request.
   void arm_idle() {
     const auto timeout = shared_->options.idle_timeout;
     if (timeout.count() <= 0) return;
-    idle_.expires_after(timeout);
-    const uint64_t generation = ++idle_generation_;
+    heard_at_ = std::chrono::steady_clock::now();  // Asio's timers run on this clock
+    if (idle_armed_) return;
+    idle_armed_ = true;
+    wait_idle(timeout);
+  }
+  void wait_idle(std::chrono::steady_clock::duration after) {
+    idle_.expires_after(after);
     auto self = shared_from_this();
-    idle_.async_wait([this, self, generation](const boost::system::error_code& ec) {
-      if (ec || closed_ || generation != idle_generation_) return;  // re-armed by a request, or closed
+    idle_.async_wait([this, self](const boost::system::error_code& ec) {
+      if (ec || closed_) return;
+      const auto quiet_until = heard_at_ + shared_->options.idle_timeout;
+      const auto now = std::chrono::steady_clock::now();
+      if (now < quiet_until) return wait_idle(quiet_until - now);  // heard from since: what is left
       ++shared_->stats.idle_closed;
       close();
     });
@@ -358,7 +444,8 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   std::list<TcpSession*>::iterator entry_;
   bool counted_ = true;  // holds a slot (live, sessions)
   uint64_t last_activity_ = 0;
-  uint64_t idle_generation_ = 0;
+  std::chrono::steady_clock::time_point heard_at_{};  // the last bytes received (idle_timeout runs from it)
+  bool idle_armed_ = false;
   uint64_t deadline_generation_ = 0;
   unsigned owed_ = 0;            // MBAP requests taken, not yet answered
   bool heard_ = false;           // bytes received since the last answer
@@ -370,6 +457,9 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   std::vector<uint8_t> in_flight_;
   bool writing_ = false;
   bool closed_ = false;
+  // One read and one write in flight at a time: each has its own memory.
+  OperationMemory read_memory_;
+  OperationMemory write_memory_;
 };
 
 /// Accepts connections and makes a session of each, within the limits.
