@@ -42,6 +42,7 @@
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
+#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 
@@ -418,18 +419,18 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   void arm_idle() {
     const auto timeout = shared_->options.idle_timeout;
     if (timeout.count() <= 0) return;
-    heard_at_ = std::chrono::steady_clock::now();  // Asio's timers run on this clock
+    heard_at_ = clock_.now();
     if (idle_armed_) return;
     idle_armed_ = true;
     wait_idle(timeout);
   }
-  void wait_idle(std::chrono::steady_clock::duration after) {
+  void wait_idle(io::Clock::duration after) {
     idle_.expires_after(after);
     auto self = shared_from_this();
     idle_.async_wait([this, self](const boost::system::error_code& ec) {
       if (ec || closed_) return;
       const auto quiet_until = heard_at_ + shared_->options.idle_timeout;
-      const auto now = std::chrono::steady_clock::now();
+      const auto now = clock_.now();
       if (now < quiet_until) return wait_idle(quiet_until - now);  // heard from since: what is left
       ++shared_->stats.idle_closed;
       close();
@@ -444,7 +445,10 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   std::list<TcpSession*>::iterator entry_;
   bool counted_ = true;  // holds a slot (live, sessions)
   uint64_t last_activity_ = 0;
-  std::chrono::steady_clock::time_point heard_at_{};  // the last bytes received (idle_timeout runs from it)
+  // The idle timeout is time on Asio's timer, which runs on the steady
+  // clock: so is this (as the stream server's turnaround).
+  DriverClock& clock_ = SteadyClock::instance();
+  io::Clock::time_point heard_at_{};  // the last bytes received (idle_timeout runs from it)
   bool idle_armed_ = false;
   uint64_t deadline_generation_ = 0;
   unsigned owed_ = 0;            // MBAP requests taken, not yet answered

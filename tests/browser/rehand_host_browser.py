@@ -383,6 +383,7 @@ setTimeout(() => done('still open'), 10000);
         check("phone paired", wait_for(lambda: phone.find_element(By.ID, "remote").is_displayed()
                                        and re.fullmatch(r"\d+ %", text(phone, "#battery")), DEADLINE))
         check("the display lists the phone", wait_for(lambda: "Test phone" in text(hmi, "#phone-list")))
+        check("...and no banner says it drives", not hmi.find_element(By.ID, "driver-banner").is_displayed())
         # What the phone keeps is a WebCrypto key the page cannot read out
         # (a phishing page at another origin cannot reach it at all; one at
         # this origin can only ask it to sign while open): no token anywhere.
@@ -449,6 +450,14 @@ setTimeout(() => done('still open'), 10000);
         drove = wait_for(lambda: state(http_port)["values"]["speed"] > 0, DEADLINE)
         check("phone forward drives the chair", bool(drove), con.held())
         check("the display shows which phone drives", "driving" in text(hmi, "#phone-list"))
+        # ...and in large text where everyone at the chair sees it (issue 38:
+        # it was the phone list's status alone, small, in the side column).
+        banner = hmi.find_element(By.ID, "driver-banner")
+        size = float(hmi.execute_script("return parseFloat(getComputedStyle(arguments[0]).fontSize)", banner))
+        check("...in a banner, in large text: the phone's name", banner.is_displayed()
+              and text(hmi, "#driver-banner") == "Test phone drives the chair. STOP stops it." and size >= 20,
+              f"{text(hmi, '#driver-banner')!r}, {size} px")
+        hmi.save_screenshot(os.path.join(OUT, "hmi-phone-drives.png"))
         t0 = time.monotonic()
         ActionChains(phone).release(fwd).perform()
         seen = []

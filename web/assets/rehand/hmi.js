@@ -325,6 +325,12 @@ function renderPhones(s) {
     list.replaceChildren(...phones.map(phoneRow));
   }
   renderControls(isLost());  // the new Forget buttons take the current enabled state
+  // Who drives, where everyone at the chair sees it (the phone list's
+  // 'driving' is small, in the side column).
+  const driving = phones.find((p) => p.driving);
+  $('#driver-banner').textContent = driving
+    ? `${driving.name || driving.phone}${driving.link === 'ble' ? ' (Bluetooth)' : ''} drives the chair. STOP stops it.` : '';
+  $('#driver-banner').classList.toggle('hidden', !driving);
 }
 
 function phoneRow(p) {
