@@ -10,7 +10,6 @@
 #include <fmt/core.h>
 #include <ifaddrs.h>
 #include <netinet/in.h>
-#include <openssl/crypto.h>
 #include <qrencode.h>
 
 #include <atomic>
@@ -29,6 +28,7 @@
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
+#include "rtukit/programs/pairing_window.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/server.hpp"
@@ -189,11 +189,11 @@ struct HostDaemon::Impl {
     // is showing.
     if (display_listener && path == "/api/state") return {.body = state_json(true).dump()};
     if (display_listener && path == "/api/pair/qr.svg") {
-      if (code.code.empty()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
+      if (!window.is_open()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
       // The code and the certificate's fingerprint in the fragment: never
       // sent to a server, never in a log; the page reads and removes it.
       return {.content_type = "image/svg+xml",
-              .body = qr_svg(fmt::format("{}/#code={}&fp={}", phone_url, code.code, fingerprint))};
+              .body = qr_svg(fmt::format("{}/#code={}&fp={}", phone_url, window.code(), fingerprint))};
     }
     if (auto a = web::asset_response(path)) return *a;
     return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
@@ -344,9 +344,7 @@ struct HostDaemon::Impl {
         return {};
       }
       case Kind::pair_start: {
-        std::string fresh = random_code();
-        if (fresh.empty()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
-        code = {std::move(fresh), clock.now() + kCodeLifetime, 0, 0};
+        if (!window.open(clock.now())) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
         if (ble) ble->set_pairing(true);
         update_advertising();
         log("pairing code shown on the display");
@@ -417,22 +415,19 @@ struct HostDaemon::Impl {
               "minute");
         // One answer for "no code shown", "expired" and "wrong": nothing a
         // stranger can probe tells whether a code is showing.
-        if (code.code.empty() || clock.now() > code.until || k.code.size() != code.code.size() ||
-            CRYPTO_memcmp(k.code.data(), code.code.data(), code.code.size()) != 0) {
+        // The window's rules (pairing_window.hpp): a code guessed at is
+        // replaced, a window guessed at from everywhere closes.
+        if (const PairingWindow::Guess g = window.guess(k.code, clock.now());
+            g != PairingWindow::Guess::right) {
           count_wrong(from);
-          if (!code.code.empty() && ++code.window_guesses >= kWindowGuesses) {
-            // Guessed at from everywhere: the window closes; only the display reopens it.
+          if (g == PairingWindow::Guess::window_closed) {
             log(
                 fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
                             "phone\" again on the display",
                             kWindowGuesses, from));
             close_pairing();
             broadcast_state();
-          } else if (!code.code.empty() && ++code.guesses >= kCodeGuesses) {
-            // Guessed at: a new code replaces it, so the owner can still pair,
-            // in the same window (its end does not move).
-            code.code = random_code();
-            code.guesses = 0;
+          } else if (g == PairingWindow::Guess::code_replaced) {
             log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
             broadcast_state();
           }
@@ -442,7 +437,7 @@ struct HostDaemon::Impl {
         // (a key the page cannot use would pair a phone that never connects).
         if (!web::verify_p256(k.public_key, challenge_message(c.challenge), k.signature))
           return refuse("the phone's signature does not match its key: reload the page and pair again");
-        const std::string used = code.code;
+        const std::string used = window.code();
         // One "Pair a phone", one phone: the window closes for both links
         // (before, a web pairing left the Bluetooth window open).
         close_pairing();
@@ -471,7 +466,7 @@ struct HostDaemon::Impl {
           c.socket->is_open())
         c.socket->close("authentication timeout");
     }
-    if (!code.code.empty() && now > code.until) {
+    if (window.expire(now)) {
       close_pairing();
       broadcast_state();
     }
@@ -541,7 +536,7 @@ struct HostDaemon::Impl {
   }
 
   void close_pairing() {
-    code = {};
+    window.close();
     ble_passkey.clear();
     ble_passkey_for.clear();
     if (ble) ble->set_pairing(false);
@@ -694,7 +689,7 @@ struct HostDaemon::Impl {
     bool bonded = false;
     for (const BleDevice& b : ble->devices())
       bonded = bonded || (b.bonded && !ble_forgetting.contains(b.path));
-    ble->set_advertising(bonded || !code.code.empty());
+    ble->set_advertising(bonded || window.is_open());
   }
 
   // ------------------------------------------------------------ state
@@ -758,11 +753,9 @@ struct HostDaemon::Impl {
             {"disabled", {{"all", d.all}, {"drive", d.drive}, {"raise", d.raise}}},
             {"driver", driver}};
     if (!for_display) return st;
-    st["pairing_code"] = code.code;
+    st["pairing_code"] = window.code();
     st["pairing_seconds"] =
-        code.code.empty()
-            ? 0
-            : std::chrono::duration_cast<std::chrono::seconds>(code.until - clock.now()).count();
+        std::chrono::duration_cast<std::chrono::seconds>(window.left(clock.now())).count();
     st["fingerprint"] = fingerprint;
     Json phones = Json::array();
     for (const PairedPhone& p : pairing.phones()) {
@@ -926,12 +919,9 @@ struct HostDaemon::Impl {
   // Server-thread state.
   std::map<uint64_t, Client> clients;
   uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
-  struct Code {
-    std::string code;
-    Clock::time_point until{};  ///< the window's end: 2 minutes after "Pair a phone"
-    int guesses = 0;            ///< wrong guesses at this code
-    int window_guesses = 0;     ///< wrong guesses in this window, every code and address together
-  } code;
+  PairingWindow window{
+      random_code,
+      {.lifetime = kCodeLifetime, .code_guesses = kCodeGuesses, .window_guesses = kWindowGuesses}};
   GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
   std::optional<std::chrono::system_clock::time_point> last_contact;
   uint64_t last_sequence = 0;
