@@ -27,10 +27,12 @@
 #include <exception>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <thread>
 #include <type_traits>
 
 #include "rtukit/io/asio_fwd.hpp"  // rtukit::asio
+#include "rtukit/web/guard.hpp"
 #include "rtukit/web/server.hpp"
 
 namespace rtukit::web {
@@ -350,15 +352,11 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
     });
   }
 
-  // A token bucket: `max_messages_per_s`, bursts up to two seconds' worth.
+  // `max_messages_per_s`, bursts up to two seconds' worth (guard.hpp); a
+  // new connection starts with a full bucket.
   bool within_rate() {
-    const auto now = clock_or_steady(server_.options.clock).now();
-    const double rate = server_.options.max_messages_per_s;
-    tokens_ = std::min(2 * rate, tokens_ + std::chrono::duration<double>(now - refilled_).count() * rate);
-    refilled_ = now;
-    if (tokens_ < 1) return false;
-    tokens_ -= 1;
-    return true;
+    if (!rate_) rate_.emplace(server_.options.max_messages_per_s);
+    return rate_->take(clock_or_steady(server_.options.clock).now());
   }
 
   void write() {
@@ -400,8 +398,7 @@ class WsSession final : public Socket, public std::enable_shared_from_this<WsSes
   size_t queued_ = 0;
   size_t frames_ = 0;  ///< frames of the message being received
   bool open_ = false, closing_ = false, finished_ = false;
-  double tokens_ = 0;
-  Clock::time_point refilled_{};  ///< the epoch: a new connection starts with a full bucket
+  std::optional<TokenBucket> rate_;  ///< the message rate, made at the first message
 };
 
 // Whether a request may reach the handlers (RFC 6455 section 10.2; DNS

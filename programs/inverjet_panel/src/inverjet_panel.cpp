@@ -10,7 +10,8 @@
 // the login page needs a session cookie. A session is a 256-bit random token
 // the browser keeps in an HttpOnly, SameSite=Strict cookie (Secure unless the
 // listener is plain HTTP on loopback); the panel keeps only its SHA-256, in
-// memory, for 12 hours. Wrong passwords: 10 per source address per minute.
+// memory, for 12 hours. Wrong passwords: 10 per source (an IPv4 address, an
+// IPv6 /64) per minute, counted by the guard every program shares (web/guard.hpp).
 #include "rtukit/programs/inverjet_panel.hpp"
 
 #include <fcntl.h>
@@ -42,6 +43,7 @@
 #include "rtukit/driver/poll_schedule.hpp"
 #include "rtukit/io/atomic_file.hpp"
 #include "rtukit/web/assets.hpp"
+#include "rtukit/web/guard.hpp"
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
 #include "rtukit/web/webcrypto.hpp"
@@ -61,42 +63,21 @@ constexpr auto kSessionLife = std::chrono::hours(12);
 constexpr size_t kMaxSessions = 256;  ///< the oldest goes first beyond this
 constexpr int kWrongPerAddress = 10;  ///< wrong passwords per source address per kWrongWindow
 constexpr auto kWrongWindow = std::chrono::minutes(1);
+constexpr size_t kWrongSources = 4096;  ///< sources remembered at once; a new one waits past it (fail closed)
 
 struct Command {
   uint64_t socket = 0;  ///< the page that sent it: its result goes there
   Json message;
 };
 
-std::string hex(const unsigned char* data, size_t n) {
-  std::string out;
-  for (size_t i = 0; i < n; ++i) out += fmt::format("{:02x}", data[i]);
-  return out;
+// The salt and the key of a password record, as their hex (web/guard.hpp).
+std::string hex_of(const unsigned char* data, size_t n) {
+  return web::hex({reinterpret_cast<const char*>(data), n});
 }
-
-std::optional<std::vector<unsigned char>> unhex(std::string_view text) {
-  if (text.size() % 2) return std::nullopt;
-  std::vector<unsigned char> out;
-  for (size_t i = 0; i < text.size(); i += 2) {
-    unsigned v = 0;
-    for (const char c : text.substr(i, 2)) {
-      v <<= 4;
-      if (c >= '0' && c <= '9')
-        v |= static_cast<unsigned>(c - '0');
-      else if (c >= 'a' && c <= 'f')
-        v |= static_cast<unsigned>(c - 'a' + 10);
-      else
-        return std::nullopt;
-    }
-    out.push_back(static_cast<unsigned char>(v));
-  }
-  return out;
-}
-
-std::string sha256_hex(std::string_view text) {
-  std::array<unsigned char, EVP_MAX_MD_SIZE> digest{};
-  unsigned int n = 0;
-  if (EVP_Digest(text.data(), text.size(), digest.data(), &n, EVP_sha256(), nullptr) != 1) return {};
-  return hex(digest.data(), n);
+std::optional<std::vector<unsigned char>> bytes_of_hex(std::string_view text) {
+  const std::optional<std::string> bytes = web::from_hex(text);
+  if (!bytes) return std::nullopt;
+  return std::vector<unsigned char>(bytes->begin(), bytes->end());
 }
 
 bool derive(std::string_view password, const std::vector<unsigned char>& salt, unsigned iterations,
@@ -122,7 +103,7 @@ std::optional<Record> parse_record(std::string_view text) {
       iterations.find_first_not_of("0123456789") != std::string::npos)
     return std::nullopt;
   r.iterations = static_cast<unsigned>(std::stoul(iterations));
-  auto s = unhex(salt), k = unhex(key);
+  auto s = bytes_of_hex(salt), k = bytes_of_hex(key);
   if (r.iterations < 1000 || !s || !k || s->size() < 8 || k->size() != kKeyBytes) return std::nullopt;
   r.salt = std::move(*s);
   r.key = std::move(*k);
@@ -156,8 +137,8 @@ std::optional<std::string> form_value(std::string_view body, std::string_view ke
       if (v[i] == '+') {
         out += ' ';
       } else if (v[i] == '%' && i + 2 < v.size()) {
-        const auto b = unhex(fmt::format("{}{}", static_cast<char>(std::tolower(v[i + 1])),
-                                         static_cast<char>(std::tolower(v[i + 2]))));
+        const auto b = bytes_of_hex(fmt::format("{}{}", static_cast<char>(std::tolower(v[i + 1])),
+                                                static_cast<char>(std::tolower(v[i + 2]))));
         if (!b) return std::nullopt;
         out += static_cast<char>((*b)[0]);
         i += 2;
@@ -209,7 +190,7 @@ rtukit::Outcome<std::string> make_password_record(std::string_view password, uns
   if (!derive(password, salt, iterations, key.data(), key.size()))
     return rtukit::Status(Errc::io_error, "PBKDF2 failed (OpenSSL)");
   return fmt::format("{} {} {} {} {}\n", kRecordTag, kRecordAlgorithm, iterations,
-                     hex(salt.data(), salt.size()), hex(key.data(), key.size()));
+                     hex_of(salt.data(), salt.size()), hex_of(key.data(), key.size()));
 }
 
 rtukit::Outcome<bool> check_password(std::string_view record, std::string_view password) {
@@ -537,11 +518,9 @@ struct Panel::Impl {
   };
   std::map<std::string, Session> sessions;  ///< by the SHA-256 (hex) of the token
   std::map<uint64_t, std::string> socket_session;
-  struct Wrong {
-    Clock::time_point since{};
-    int count = 0;
-  };
-  std::map<std::string, Wrong> wrong;  ///< per source address
+  /// Wrong passwords per source (an IPv4 address, an IPv6 /64), in bounded
+  /// memory: the guard the Rehand host daemon's pairing uses too.
+  web::GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
 
   web::Listener listener() const {
     web::Listener l = web::Listener::from(options.http);
@@ -565,7 +544,7 @@ struct Panel::Impl {
   std::string session_of(const web::HttpRequest& r) {
     const std::string token = cookie_value(r.cookie, kCookie);
     if (token.empty() || token.size() > 100) return {};
-    const std::string id = sha256_hex(token);
+    const std::string id = web::sha256_hex(token);
     const auto it = sessions.find(id);
     if (it == sessions.end()) return {};
     if (clock.now() >= it->second.until) {
@@ -598,18 +577,14 @@ struct Panel::Impl {
       end_session(id, "session expired: log in again");
       log("a session expired (12 h)");
     }
-    for (auto it = wrong.begin(); it != wrong.end();)
-      it = now - it->second.since > kWrongWindow ? wrong.erase(it) : std::next(it);
   }
 
-  // Wrong passwords from one address, per minute: guessing is slow.
+  // Wrong passwords from one source, per minute: guessing is slow. The
+  // seconds to wait, or nothing.
   std::optional<int64_t> locked_for(const std::string& address) {
-    auto& w = wrong[address];
-    const auto now = clock.now();
-    if (now - w.since > kWrongWindow) w = {now, 0};
-    if (w.count < kWrongPerAddress) return std::nullopt;
-    return std::max<int64_t>(1,
-                             std::chrono::ceil<std::chrono::seconds>(w.since + kWrongWindow - now).count());
+    const auto wait = wrong.wait(address, clock.now());
+    if (wait <= Clock::duration::zero()) return std::nullopt;
+    return std::max<int64_t>(1, std::chrono::ceil<std::chrono::seconds>(wait).count());
   }
 
   static web::HttpResponse see_other(std::string where) {
@@ -655,8 +630,8 @@ struct Panel::Impl {
     const Outcome<bool> ok = check_password(record, *password);
     if (!ok) return refuse(500, std::string(ok.error().reason()));
     if (!*ok) {
-      ++wrong[from].count;
-      log(fmt::format("wrong password from {} ({} this minute)", from, wrong[from].count));
+      const int count = wrong.count(from, clock.now());
+      log(fmt::format("wrong password from {} ({} this minute)", from, count));
       return refuse(401, "Wrong password: try again. Ask the pool staff for the panel's password.");
     }
     std::array<unsigned char, kTokenBytes> raw{};
@@ -669,7 +644,7 @@ struct Panel::Impl {
       end_session(oldest->first, "too many sessions: the oldest ended");
     }
     const auto now = clock.now();
-    sessions[sha256_hex(token)] = {now + kSessionLife, now};
+    sessions[web::sha256_hex(token)] = {now + kSessionLife, now};
     log(fmt::format("login from {} ({} session(s))", from, sessions.size()));
     // Secure, except on plain HTTP on loopback (the browser would drop it).
     const bool secure = r.secure || !web::is_loopback(options.http);

@@ -26,6 +26,7 @@
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/programs/rehand_message.hpp"
+#include "rtukit/web/guard.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -85,11 +86,8 @@ struct BlePeripheral::Impl {
   std::atomic<bool> pairing_open{false};
   mutable std::mutex mutex;                ///< guards the devices, the jobs, the registration's answer
   std::map<std::string, BleDevice> known;  ///< by object path
-  struct Bucket {
-    double tokens;
-    std::chrono::steady_clock::time_point refilled;
-  };
-  std::map<std::string, Bucket> buckets;  ///< commands per device (loop thread)
+  const DriverClock* clock = nullptr;      ///< the daemon's (start()'s argument)
+  std::map<std::string, web::TokenBucket> buckets;  ///< commands per device (loop thread)
   std::deque<std::function<void()>> jobs;
   std::condition_variable registered_cv;
   int registrations_left = 2;  ///< the application, and the advertisement when it starts with one
@@ -153,15 +151,8 @@ struct BlePeripheral::Impl {
   // A token bucket per device (the loop thread's only): max_commands_per_s,
   // bursts up to two seconds' worth, as the web server bounds a socket.
   bool within_rate(const std::string& device) {
-    const auto now = SteadyClock::instance().now();
-    const double rate = options.max_commands_per_s;
-    auto [it, added] = buckets.try_emplace(device, Bucket{2 * rate, now});
-    Bucket& b = it->second;
-    b.tokens = std::min(2 * rate, b.tokens + std::chrono::duration<double>(now - b.refilled).count() * rate);
-    b.refilled = now;
-    if (b.tokens < 1) return false;
-    b.tokens -= 1;
-    return true;
+    const auto it = buckets.try_emplace(device, static_cast<double>(options.max_commands_per_s)).first;
+    return it->second.take(clock->now());
   }
 
   std::string device_of(const Options& call) {
@@ -469,8 +460,10 @@ struct BlePeripheral::Impl {
 
 BlePeripheral::BlePeripheral(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
 
-Outcome<std::unique_ptr<BlePeripheral>> BlePeripheral::start(BleOptions options, BleHandlers handlers) {
+Outcome<std::unique_ptr<BlePeripheral>> BlePeripheral::start(BleOptions options, BleHandlers handlers,
+                                                             const DriverClock& clock) {
   auto d = std::make_unique<Impl>();
+  d->clock = &clock;
   d->options = std::move(options);
   d->handlers = std::move(handlers);
   d->adapter_path = "/org/bluez/" + d->options.adapter;

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/io/clock.hpp"
 #include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
@@ -70,8 +71,10 @@ class BlePeripheral {
   /// Connects to the system bus, registers the agent (DisplayOnly), the GATT
   /// application and the advertisement with BlueZ on `options.adapter`, and
   /// runs the link until destroyed. Errors: io_error with the reason ("no
-  /// system bus", "BlueZ has no adapter hci0", BlueZ's refusal).
-  static Outcome<std::unique_ptr<BlePeripheral>> start(BleOptions options, BleHandlers handlers);
+  /// system bus", "BlueZ has no adapter hci0", BlueZ's refusal). `clock`
+  /// (the daemon's; it must outlive the link) times the command rate.
+  static Outcome<std::unique_ptr<BlePeripheral>> start(BleOptions options, BleHandlers handlers,
+                                                       const DriverClock& clock);
   ~BlePeripheral();  ///< unregisters what it registered, ends the thread
   BlePeripheral(const BlePeripheral&) = delete;
   BlePeripheral& operator=(const BlePeripheral&) = delete;

@@ -31,6 +31,7 @@
 #include "rtukit/programs/pairing_window.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
+#include "rtukit/web/guard.hpp"
 #include "rtukit/web/server.hpp"
 #include "rtukit/web/tls.hpp"
 #include "rtukit/web/webcrypto.hpp"
@@ -273,9 +274,9 @@ struct HostDaemon::Impl {
   }
 
   // Wrong codes and signatures per source (an IPv4 address, an IPv6 /64), per
-  // minute: guessing is slow (GuessLimit, rehand_message.hpp).
+  // minute: guessing is slow (web::GuessLimit, web/guard.hpp).
   bool too_many_wrong(const std::string& peer) { return wrong.refused(peer, clock.now()); }
-  void count_wrong(const std::string& peer) { wrong.count(peer, clock.now()); }
+  void count_wrong(const std::string& peer) { (void)wrong.count(peer, clock.now()); }
 
   std::string name_of(const std::string& phone) const {
     const PairedPhone* p = pairing.phone(phone);
@@ -922,7 +923,7 @@ struct HostDaemon::Impl {
   PairingWindow window{
       random_code,
       {.lifetime = kCodeLifetime, .code_guesses = kCodeGuesses, .window_guesses = kWindowGuesses}};
-  GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
+  web::GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
   std::optional<std::chrono::system_clock::time_point> last_contact;
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
@@ -1030,8 +1031,8 @@ rtukit::Status HostDaemon::start() {
     h.devices_changed = [&d] { d.server->post([&d] { d.ble_sync(); }); };
     // Advertising from the start only when a bonded phone may connect
     // (ble_sync then follows BlueZ's list of bonds).
-    Outcome<std::unique_ptr<BlePeripheral>> ble =
-        BlePeripheral::start({.adapter = o.ble_adapter, .advertise = ble_phones_known}, std::move(h));
+    Outcome<std::unique_ptr<BlePeripheral>> ble = BlePeripheral::start(
+        {.adapter = o.ble_adapter, .advertise = ble_phones_known}, std::move(h), d.clock);
     if (!ble) {
       d.server->stop();
       return ble.error();

@@ -3,7 +3,6 @@
 // field of another type, and an exception here would end the web thread).
 #include "rtukit/programs/rehand_message.hpp"
 
-#include <arpa/inet.h>
 #include <fmt/core.h>
 
 #include "rtukit/devices/profile/text.hpp"
@@ -253,33 +252,6 @@ HostMessage parse_host_message(std::string_view text, HostRole role, bool authen
   out.command =
       role == HostRole::display ? display_command(out.op, m) : phone_command(out.op, m, authenticated);
   return out;
-}
-
-std::string guess_source(std::string_view peer) {
-  const std::string text(peer);
-  in6_addr a{};
-  if (inet_pton(AF_INET6, text.c_str(), &a) != 1) return text;
-  for (size_t i = 8; i < 16; ++i) a.s6_addr[i] = 0;  // the interface half: the subscriber chooses it
-  char out[INET6_ADDRSTRLEN] = {};
-  if (!inet_ntop(AF_INET6, &a, out, sizeof out)) return text;
-  return std::string(out) + "/64";
-}
-
-bool GuessLimit::refused(std::string_view peer, Clock::time_point now) {
-  std::erase_if(table_, [&](const auto& kv) { return now - kv.second.since >= window_; });
-  const auto it = table_.find(guess_source(peer));
-  if (it == table_.end()) return table_.size() >= max_sources_;
-  return it->second.count >= per_source_;
-}
-
-void GuessLimit::count(std::string_view peer, Clock::time_point now) {
-  const std::string source = guess_source(peer);
-  auto it = table_.find(source);
-  if (it == table_.end()) {
-    if (table_.size() >= max_sources_) return;  // refused() refuses it anyway
-    it = table_.emplace(source, Entry{now, 0}).first;
-  }
-  ++it->second.count;
 }
 
 }  // namespace rtukit::programs

@@ -63,41 +63,6 @@ struct HostCommand {
 /// result is `fallback`. Never throws.
 std::string phone_name(std::string_view raw, std::string_view fallback = "Phone");
 
-/// The source a guess is counted against, from a connection's peer address
-/// as web::Socket::peer_address() gives it ("192.0.2.7", "2001:db8::1"): an
-/// IPv4 address itself, an IPv6 address's /64 ("2001:db8:1:2::/64": one
-/// subscriber's network has 2^64 addresses, so a limit per address would be
-/// no limit there). Anything else is its own key.
-std::string guess_source(std::string_view peer);
-
-/// Wrong pairing codes and tokens, counted per source (guess_source) over a
-/// window: a source with `per_source` wrong ones is refused until its window
-/// ends. Sources whose window is over are forgotten; a table full of live
-/// sources (many addresses guessing at once) refuses a new one until some
-/// window ends: fail closed, with bounded memory. Time is passed in.
-class GuessLimit {
- public:
-  using Clock = std::chrono::steady_clock;
-  GuessLimit(int per_source, Clock::duration window, size_t max_sources)
-      : per_source_(per_source), window_(window), max_sources_(max_sources) {}
-  /// True when `peer` may not try now.
-  bool refused(std::string_view peer, Clock::time_point now);
-  /// One more wrong guess from `peer` (call after refused() said no).
-  void count(std::string_view peer, Clock::time_point now);
-  /// Sources remembered now (pruned by refused()).
-  size_t sources() const noexcept { return table_.size(); }
-
- private:
-  struct Entry {
-    Clock::time_point since;
-    int count = 0;
-  };
-  int per_source_;
-  Clock::duration window_;
-  size_t max_sources_;
-  std::map<std::string, Entry, std::less<>> table_;
-};
-
 /// A message as a client sent it.
 struct HostMessage {
   /// A JSON object with a string "op". False: answered {"type": "error"}, nothing else.
