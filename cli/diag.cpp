@@ -8,8 +8,8 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "rtukit/devices/profile/diagnostics.hpp"
-#include "rtukit/devices/profile/protocol_text.hpp"
+#include "rtukit/tool/diagnostics.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -38,12 +38,12 @@ int run_diag(const DiagArgs& a) {
   Json doc = json_document({}, unit.value);
   doc["action"] = a.action;
   if (a.action == "counters") {
-    profile::DiagCounters c;
-    const Status s = profile::read_counters(*master, unit, c);
+    tool::DiagCounters c;
+    const Status s = tool::read_counters(*master, unit, c);
     Json counters = Json::object();
     for (size_t i = 0; i < c.values.size(); ++i) {
-      counters[profile::diag_counters()[i].key] = c.values[i];
-      if (!a.json) fmt::print("{:<22} {}\n", profile::diag_counters()[i].text, c.values[i]);
+      counters[tool::diag_counters()[i].key] = c.values[i];
+      if (!a.json) fmt::print("{:<22} {}\n", tool::diag_counters()[i].text, c.values[i]);
     }
     if (s) fail(s);
     counters["exception_status"] = c.exception_status;
@@ -54,38 +54,38 @@ int run_diag(const DiagArgs& a) {
       fmt::print("{:<22} {}\n", "completed requests", c.event_count);
     }
   } else if (a.action == "events") {
-    const auto log = profile::read_event_log(*master, unit);
+    const auto log = tool::read_event_log(*master, unit);
     if (!log.ok()) fail(log.error());
     doc["status"] = log->status;
     doc["event_count"] = log->event_count;
     doc["message_count"] = log->message_count;
     Json events = Json::array();
-    for (uint8_t e : log->events) events.push_back({{"code", e}, {"text", profile::comm_event_text(e)}});
+    for (uint8_t e : log->events) events.push_back({{"code", e}, {"text", tool::comm_event_text(e)}});
     doc["events"] = events;
     if (!a.json) {
       fmt::print("{} completed requests, {} bus messages{}; the newest event first:\n", log->event_count,
                  log->message_count, log->status ? " (busy)" : "");
-      for (uint8_t e : log->events) fmt::print("  0x{:02X}  {}\n", e, profile::comm_event_text(e));
+      for (uint8_t e : log->events) fmt::print("  0x{:02X}  {}\n", e, tool::comm_event_text(e));
     }
   } else if (a.action == "echo") {
     std::vector<uint8_t> data;
     for (const std::string& d : a.data)
       data.push_back(static_cast<uint8_t>(parse_number(d, "echo byte", 0, 255)));
-    const auto echo = profile::echo(*master, unit, std::move(data), time_source());
+    const auto echo = tool::echo(*master, unit, std::move(data), time_source());
     if (!echo.ok()) fail(echo.error());
     if (!echo->same())
       throw Failure{kNoResponse,
-                    fmt::format("echo from {} differs: sent {}, got {}", profile::unit_where(unit, *master),
+                    fmt::format("echo from {} differs: sent {}, got {}", tool::unit_where(unit, *master),
                                 hex(echo->sent), hex(echo->answer))};
     doc["echo"] = hex(echo->sent);
     doc["ms"] = echo->ms;
     if (!a.json)
       fmt::print("echo ok: {} ({} bytes) in {:.1f} ms\n", hex(echo->sent), echo->sent.size(), echo->ms);
   } else if (a.action == "clear") {
-    if (const Status s = profile::clear_counters(*master, unit)) fail(s);
+    if (const Status s = tool::clear_counters(*master, unit)) fail(s);
     if (!a.json) fmt::print("counters and diagnostic register cleared\n");
   } else if (a.action == "restart") {
-    const auto answered = profile::restart_communications(*master, unit, a.clear_log);
+    const auto answered = tool::restart_communications(*master, unit, a.clear_log);
     if (!answered.ok()) fail(answered.error());
     doc["answered"] = *answered;
     if (!a.json)
@@ -94,7 +94,7 @@ int run_diag(const DiagArgs& a) {
                              : "communications restarted, counters cleared" +
                                    std::string(a.clear_log ? ", event log cleared" : ""));
   } else if (a.action == "listen-only") {
-    if (const Status s = profile::force_listen_only(*master, unit)) fail(s);
+    if (const Status s = tool::force_listen_only(*master, unit)) fail(s);
     if (!a.json)
       fmt::print("unit {} now only listens: it answers nothing until `rtukit diag restart`\n", unit.value);
   } else {
@@ -122,7 +122,7 @@ int run_ident(const IdentArgs& a) {
   auto master = a.link.make_master();
   Json doc = json_document({}, unit.value);
   if (a.server_id) {
-    const auto id = profile::report_server_id(*master, unit);
+    const auto id = tool::report_server_id(*master, unit);
     if (!id.ok()) fail(id.error());
     const std::string data = id->printable ? id->text : hex(id->data);
     doc["server_id"] = id->id;
@@ -136,10 +136,10 @@ int run_ident(const IdentArgs& a) {
     }
     return kOk;
   }
-  const auto access = profile::device_id_access(a.level, a.object >= 0);
+  const auto access = tool::device_id_access(a.level, a.object >= 0);
   if (!access.ok()) throw Failure{kUsage, std::string(access.error().reason())};
-  const auto id = profile::read_identification(*master, unit, *access,
-                                               a.object >= 0 ? static_cast<uint8_t>(a.object) : 0);
+  const auto id =
+      tool::read_identification(*master, unit, *access, a.object >= 0 ? static_cast<uint8_t>(a.object) : 0);
   if (!id.ok()) fail(id.error());
   doc["conformity"] = id->level;
   Json objects = Json::object();

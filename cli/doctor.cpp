@@ -9,9 +9,9 @@
 
 #include "commands.hpp"
 #include "common.hpp"
-#include "rtukit/devices/profile/diagnostics.hpp"
 #include "rtukit/driver/line_probe.hpp"
 #include "rtukit/io/serial_config.hpp"
+#include "rtukit/tool/diagnostics.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -79,7 +79,7 @@ int run_doctor(const DoctorArgs& a) {
                     "and wiring first (`rtukit scan`)",
                     spec.path, unit.value, a.rounds, address)};
   progress.clear();
-  const profile::LineAdvice advice = profile::line_advice(r, spec.serial.baud, kernel_rs485);
+  const tool::LineAdvice advice = tool::line_advice(r, spec.serial.baud, kernel_rs485);
   const double turn50 = r.turnaround_p50_us, turn99 = r.turnaround_p99_us;
   const std::optional<unsigned> best_gap = r.error_free_gap_ms;
 

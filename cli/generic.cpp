@@ -12,13 +12,13 @@
 #include "commands.hpp"
 #include "common.hpp"
 #include "profiles.hpp"
-#include "rtukit/devices/profile/address_notation.hpp"
-#include "rtukit/devices/profile/bank_file.hpp"
-#include "rtukit/devices/profile/typed_request.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
+#include "rtukit/tool/address_notation.hpp"
+#include "rtukit/tool/bank_file.hpp"
+#include "rtukit/tool/typed_request.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -27,9 +27,9 @@ using profile::Space;
 
 // Addresses as typed and shown, tables as output names them, reads and
 // writes planned, sent and shown: the kit's (profile/typed_request.hpp).
-using profile::put_address;
-using profile::ReadPlan;
-using profile::table_name;
+using tool::put_address;
+using tool::ReadPlan;
+using tool::table_name;
 
 // A reference is never taken silently: the same digits may also be a plain
 // address (parse_address's note), so the note is printed, also before a refusal.
@@ -78,27 +78,27 @@ ReadPlan plan_read(ReadArgs& a) {
   a.address = a.operands[0];
   if (a.operands.size() == 2) a.count = a.operands[1];
   const bool tcp = a.link.spec(false).kind == io::PortSpec::Kind::tcp;
-  const profile::ReadRequest request{.unit = parse_unit(a.unit, tcp),
-                                     .tcp = tcp,
-                                     .tables_named = unsigned{a.holding} + a.input + a.coils + a.discrete,
-                                     .table = a.input      ? Space::input
-                                              : a.coils    ? Space::coil
-                                              : a.discrete ? Space::discrete
-                                                           : Space::holding,
-                                     .address = a.address,
-                                     .count = a.count,
-                                     .type = value_type_of(a.type),
-                                     .order = word_order_of(a.order),
-                                     .one_based = a.one_based};
+  const tool::ReadRequest request{.unit = parse_unit(a.unit, tcp),
+                                  .tcp = tcp,
+                                  .tables_named = unsigned{a.holding} + a.input + a.coils + a.discrete,
+                                  .table = a.input      ? Space::input
+                                           : a.coils    ? Space::coil
+                                           : a.discrete ? Space::discrete
+                                                        : Space::holding,
+                                  .address = a.address,
+                                  .count = a.count,
+                                  .type = value_type_of(a.type),
+                                  .order = word_order_of(a.order),
+                                  .one_based = a.one_based};
   std::string note;
-  Outcome<ReadPlan> plan = profile::plan_read(request, &note);
+  Outcome<ReadPlan> plan = tool::plan_read(request, &note);
   print_note(note);
   if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
   return *plan;
 }
 
 std::string value_text(const nlohmann::json& v, const ReadArgs& a, const ReadPlan& p) {
-  return profile::value_text(v, p, a.format == "hex");
+  return tool::value_text(v, p, a.format == "hex");
 }
 
 int run_read(ReadArgs a) {
@@ -106,9 +106,9 @@ int run_read(ReadArgs a) {
   const ReadPlan p = plan_read(a);
   auto master = a.link.make_master();
   nlohmann::json values;
-  const Error e = profile::read_values(*master, p, values);
+  const Error e = tool::read_values(*master, p, values);
   if (a.link.stats) print_stats(*master);
-  if (e) fail(e, profile::read_context(p, *master));
+  if (e) fail(e, tool::read_context(p, *master));
   if (a.json) {
     Json out = json_document({}, p.unit.value);
     out["table"] = table_name(p.table);
@@ -137,7 +137,7 @@ int run_poll(PollArgs args) {
   ReadArgs& a = args.read;
   const ReadPlan p = plan_read(a);
   auto master = a.link.make_master();
-  const std::string context = profile::read_context(p, *master);
+  const std::string context = tool::read_context(p, *master);
   if (args.output == "csv") {
     std::string header = "time";
     for (size_t i = 0; i < p.count; ++i) header += "," + p.notation.text(p.address + i * p.per_value);
@@ -147,7 +147,7 @@ int run_poll(PollArgs args) {
   unsigned failures = 0, polls = 0;
   watch_loop(args.watch, [&](unsigned) {
     nlohmann::json values;
-    last = profile::read_values(*master, p, values);
+    last = tool::read_values(*master, p, values);
     ++polls;
     if (last) ++failures;
     Json line = json_document({}, p.unit.value);
@@ -205,25 +205,25 @@ int run_write(const WriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, tcp);
   // Checked and encoded by the kit (profile/typed_request.hpp) before the port is opened.
   std::string note;
-  const profile::WriteRequest request{.unit = unit,
-                                      .address = a.address,
-                                      .one_based = a.one_based,
-                                      .coils = a.coils,
-                                      .multiple = a.multiple,
-                                      .values = a.values,
-                                      .mask = a.mask,
-                                      .type = value_type_of(a.type),
-                                      .order = word_order_of(a.order)};
-  Outcome<profile::WritePlan> plan = profile::plan_write(request, &note);
+  const tool::WriteRequest request{.unit = unit,
+                                   .address = a.address,
+                                   .one_based = a.one_based,
+                                   .coils = a.coils,
+                                   .multiple = a.multiple,
+                                   .values = a.values,
+                                   .mask = a.mask,
+                                   .type = value_type_of(a.type),
+                                   .order = word_order_of(a.order)};
+  Outcome<tool::WritePlan> plan = tool::plan_write(request, &note);
   print_note(note);
   if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
-  const profile::WritePlan& p = *plan;
+  const tool::WritePlan& p = *plan;
   auto master = a.link.make_master();
-  const std::string context = profile::write_context(p, *master);
-  const Error e = profile::send_write(*master, p);
+  const std::string context = tool::write_context(p, *master);
+  const Error e = tool::send_write(*master, p);
   if (a.link.stats) print_stats(*master);
   if (e) fail(e, context);
-  const std::string text = profile::write_text(request, p, tcp);
+  const std::string text = tool::write_text(request, p, tcp);
   if (a.json) {
     Json out = json_document({}, unit.value);
     out["table"] = a.coils ? "coils" : "holding";
@@ -250,21 +250,21 @@ struct ReadWriteArgs {
 int run_readwrite(const ReadWriteArgs& a) {
   const UnitId unit = parse_unit(a.unit, a.link.spec(false).kind == io::PortSpec::Kind::tcp);
   std::vector<std::string> notes;
-  Outcome<profile::ReadWritePlan> plan = profile::plan_readwrite({.unit = unit,
-                                                                  .read_address = a.read_address,
-                                                                  .count = static_cast<uint16_t>(a.count),
-                                                                  .write_address = a.write_address,
-                                                                  .values = a.values,
-                                                                  .one_based = a.one_based},
-                                                                 &notes);
+  Outcome<tool::ReadWritePlan> plan = tool::plan_readwrite({.unit = unit,
+                                                            .read_address = a.read_address,
+                                                            .count = static_cast<uint16_t>(a.count),
+                                                            .write_address = a.write_address,
+                                                            .values = a.values,
+                                                            .one_based = a.one_based},
+                                                           &notes);
   for (const std::string& note : notes) print_note(note);
   if (!plan.ok()) throw Failure{kUsage, std::string(plan.error().reason())};
-  const profile::ReadWritePlan& p = *plan;
+  const tool::ReadWritePlan& p = *plan;
   auto master = a.link.make_master();
   std::vector<uint16_t> out(p.count);
   const Error e = master->read_write_multiple_registers(unit, p.read_at, out, p.write_at, p.values);
   if (a.link.stats) print_stats(*master);
-  if (e) fail(e, profile::readwrite_context(p, *master));
+  if (e) fail(e, tool::readwrite_context(p, *master));
   if (a.json) {
     Json doc = json_document({}, unit.value);
     doc["table"] = "holding";
@@ -358,7 +358,7 @@ int run_slave(const SlaveArgs& a) {
     banks.back()->accepted_quirks = a.link.frame_quirks();
     banks.back()->objects[2] = RTUKIT_VERSION;  // the revision, unless --init names one
     if (!a.init.empty()) {
-      const Status e = profile::load_bank_file(a.init, *banks.back());
+      const Status e = tool::load_bank_file(a.init, *banks.back());
       if (!e.ok()) throw Failure{e.code() == Errc::io_error ? kIoError : kUsage, std::string(e.reason())};
     }
     if (engine.add_unit(unit, *banks.back()))

@@ -14,6 +14,7 @@ set(_rtukit_libs
   rtukit_driver:driver
   rtukit_profile:profile
   rtukit_profile_host:profile_host
+  rtukit_tool:tool
   rtukit_inverjet_model:inverjet_model
   rtukit_inverjet:inverjet
   rtukit_rehand6600_model:rehand6600_model

@@ -14,16 +14,17 @@
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/profile/reading.hpp"
 #include "rtukit/devices/profile/text.hpp"
-#include "rtukit/devices/profile/typed_request.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/io/clock.hpp"
+#include "rtukit/tool/typed_request.hpp"
 
 namespace rtukit::profile {
 namespace {
 
 using namespace std::chrono_literals;
+using namespace rtukit::tool;  // the typed requests (the generic commands' logic)
 
 constexpr Named kModes[] = {{0, "normal"}, {1, "indoor"}};
 

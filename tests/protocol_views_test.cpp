@@ -12,21 +12,21 @@
 
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/pdu.hpp"
-#include "rtukit/devices/profile/address_notation.hpp"
-#include "rtukit/devices/profile/bank_file.hpp"
-#include "rtukit/devices/profile/protocol_text.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/transaction_text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/sniffer.hpp"
+#include "rtukit/tool/address_notation.hpp"
+#include "rtukit/tool/bank_file.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 #include "sniffer_feed.hpp"
 
 namespace rtukit {
 namespace {
 
 std::string event(uint8_t e) {
-  return profile::comm_event_text(e);
+  return tool::comm_event_text(e);
 }
 
 TEST(ProtocolViews, CommEventBytesInWords) {
@@ -47,19 +47,19 @@ TEST(ProtocolViews, CommEventBytesInWords) {
 }
 
 TEST(ProtocolViews, DeviceObjectNamesKeysAndConformity) {
-  EXPECT_STREQ(profile::device_object_name(0), "vendor");
-  EXPECT_STREQ(profile::device_object_name(1), "product code");
-  EXPECT_STREQ(profile::device_object_name(3), "vendor URL");
-  EXPECT_STREQ(profile::device_object_name(6), "application");
-  EXPECT_EQ(profile::device_object_name(7), nullptr);
-  EXPECT_EQ(profile::device_object_name(0x80), nullptr);
-  EXPECT_STREQ(profile::device_object_key(1), "product_code");
-  EXPECT_STREQ(profile::device_object_key(3), "vendor_url");
-  EXPECT_EQ(profile::device_object_key(7), nullptr);
-  EXPECT_STREQ(profile::conformity_level_name(0x01), "basic");
-  EXPECT_STREQ(profile::conformity_level_name(0x82), "regular");  // bit 7: individual access too
-  EXPECT_STREQ(profile::conformity_level_name(0x83), "extended");
-  EXPECT_STREQ(profile::conformity_level_name(0x04), "unknown");
+  EXPECT_STREQ(tool::device_object_name(0), "vendor");
+  EXPECT_STREQ(tool::device_object_name(1), "product code");
+  EXPECT_STREQ(tool::device_object_name(3), "vendor URL");
+  EXPECT_STREQ(tool::device_object_name(6), "application");
+  EXPECT_EQ(tool::device_object_name(7), nullptr);
+  EXPECT_EQ(tool::device_object_name(0x80), nullptr);
+  EXPECT_STREQ(tool::device_object_key(1), "product_code");
+  EXPECT_STREQ(tool::device_object_key(3), "vendor_url");
+  EXPECT_EQ(tool::device_object_key(7), nullptr);
+  EXPECT_STREQ(tool::conformity_level_name(0x01), "basic");
+  EXPECT_STREQ(tool::conformity_level_name(0x82), "regular");  // bit 7: individual access too
+  EXPECT_STREQ(tool::conformity_level_name(0x83), "extended");
+  EXPECT_STREQ(tool::conformity_level_name(0x04), "unknown");
 }
 
 std::vector<uint8_t> with_crc(std::vector<uint8_t> b) {
@@ -305,12 +305,12 @@ TEST(ProtocolViews, TypedValuesToRegisters) {
 
 TEST(ProtocolViews, AGenericSlavesMemoryFromAFile) {
   MemoryBank bank(100);
-  const Status ok = profile::load_bank_text("init.json", R"({
+  const Status ok = tool::load_bank_text("init.json", R"({
       "holding": {"0x21": [1, 2, -1], "0": 5},
       "input": {"3": 7},
       "coils": {"10": [1, 0, 1]},
       "identification": {"vendor": "ACME", "product_code": "M-3", "vendor_url": "https://acme.example", "0x80": "serial 42"}})",
-                                            bank);
+                                         bank);
   ASSERT_TRUE(ok.ok()) << ok.reason();
   EXPECT_EQ(bank.holding[0], 5);
   EXPECT_EQ(bank.holding[0x21], 1);
@@ -328,7 +328,7 @@ TEST(ProtocolViews, AGenericSlavesMemoryFromAFile) {
 
   const auto refusal = [](std::string_view text) {
     MemoryBank b(100);
-    const Status e = profile::load_bank_text("init.json", text, b);
+    const Status e = tool::load_bank_text("init.json", text, b);
     return e.code() == Errc::invalid_argument ? std::string(e.reason()) : std::string("accepted");
   };
   EXPECT_EQ(refusal(R"({"holding": {"99": [1, 2]}})"), "init.json: holding address 100 past --registers");
@@ -344,25 +344,25 @@ TEST(ProtocolViews, AGenericSlavesMemoryFromAFile) {
             "object id 'serial' is not a number (decimal, or hex as 0x21)");
   EXPECT_EQ(refusal("[1, 2]"), "init.json: expected an object of tables");
   EXPECT_EQ(refusal("{").substr(0, 30), "init.json: not valid JSON: [js");
-  const Status missing = profile::load_bank_file("/nonexistent/init.json", *std::make_unique<MemoryBank>(1));
+  const Status missing = tool::load_bank_file("/nonexistent/init.json", *std::make_unique<MemoryBank>(1));
   EXPECT_EQ(missing.code(), Errc::io_error);
   EXPECT_EQ(missing.reason().substr(0, 40), "cannot read /nonexistent/init.json: No s");
 }
 
 TEST(ProtocolViews, AddressesAsTypedAndShownBack) {
   using profile::Space;
-  const Outcome<profile::TypedAddress> plain = profile::parse_address("0x21", false);
+  const Outcome<tool::TypedAddress> plain = tool::parse_address("0x21", false);
   ASSERT_TRUE(plain.ok());
   EXPECT_EQ(plain->address, 0x21);
   EXPECT_EQ(plain->space, std::nullopt);
   EXPECT_EQ(plain->notation.where(plain->address), "33 (0x0021)");
   EXPECT_TRUE(plain->note.empty());
 
-  const Outcome<profile::TypedAddress> one = profile::parse_address("34", true);
+  const Outcome<tool::TypedAddress> one = tool::parse_address("34", true);
   EXPECT_EQ(one->address, 33);
   EXPECT_EQ(one->notation.span(33, 2), "34..35 (0x0021..0x0022)");
 
-  const Outcome<profile::TypedAddress> ref = profile::parse_address("40034", false);
+  const Outcome<tool::TypedAddress> ref = tool::parse_address("40034", false);
   ASSERT_TRUE(ref.ok());
   EXPECT_EQ(ref->address, 33);
   EXPECT_EQ(ref->space, Space::holding);
@@ -371,22 +371,20 @@ TEST(ProtocolViews, AddressesAsTypedAndShownBack) {
   EXPECT_EQ(
       ref->note,
       "40034 is taken as a reference: holding register 34 (0-based 33; for address 40034 write 0x9C62)");
-  const Outcome<profile::TypedAddress> coil = profile::parse_address("000010", false);
+  const Outcome<tool::TypedAddress> coil = tool::parse_address("000010", false);
   EXPECT_EQ(coil->space, Space::coil);
   EXPECT_EQ(coil->address, 9);
   EXPECT_EQ(coil->notation.text(9), "000010");
-  EXPECT_EQ(profile::parse_address("10001", false)->space, Space::discrete);
-  EXPECT_EQ(profile::parse_address("30001", false)->space, Space::input);
+  EXPECT_EQ(tool::parse_address("10001", false)->space, Space::discrete);
+  EXPECT_EQ(tool::parse_address("30001", false)->space, Space::input);
 
-  EXPECT_EQ(profile::parse_address("40000", false).error().reason(),
+  EXPECT_EQ(tool::parse_address("40000", false).error().reason(),
             "40000 is not a reference: holding registers are 40001..49999 (six digits: 400001..465536); for "
             "address 40000 write 0x9C40");
-  EXPECT_EQ(profile::parse_address("70000", false).error().reason(),
-            "address 70000 is out of range 0..65535");
-  EXPECT_EQ(profile::parse_address("0", true).error().reason(),
-            "address (1-based) 0 is out of range 1..65536");
-  EXPECT_EQ(profile::space_noun(Space::input, false), "input register");
-  EXPECT_EQ(profile::space_noun(Space::discrete, true), "discrete inputs");
+  EXPECT_EQ(tool::parse_address("70000", false).error().reason(), "address 70000 is out of range 0..65535");
+  EXPECT_EQ(tool::parse_address("0", true).error().reason(), "address (1-based) 0 is out of range 1..65536");
+  EXPECT_EQ(tool::space_noun(Space::input, false), "input register");
+  EXPECT_EQ(tool::space_noun(Space::discrete, true), "discrete inputs");
 }
 
 TEST(ProtocolViews, HexPairs) {

@@ -90,7 +90,7 @@ enum class DeviceIdAccess : uint8_t { basic = 1, regular = 2, extended = 3, indi
 
 /// FC0C comm event bytes (Modbus over serial line, 6.4), as the slave engine
 /// logs them and a master reads them back (in words on the host side:
-/// profile::comm_event_text in devices/profile/protocol_text.hpp).
+/// tool::comm_event_text in tool/protocol_text.hpp).
 namespace comm_event {
 inline constexpr uint8_t kRestart = 0x00;             ///< communications restart (FC08 01)
 inline constexpr uint8_t kEnteredListenOnly = 0x04;   ///< entered listen-only mode (FC08 04)

@@ -22,7 +22,10 @@
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
+
+// The profile kit's value types, which the generic commands share with the devices.
+using profile::Space;
 
 /// "holding register", "input register", "coil", "discrete input"; with an
 /// "s" when `plural`.
@@ -59,4 +62,4 @@ struct TypedAddress {
 /// 0x9C40", "address 70000 is out of range 0..65535").
 Outcome<TypedAddress> parse_address(std::string_view text, bool one_based);
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -1,4 +1,4 @@
-#include "rtukit/devices/profile/address_notation.hpp"
+#include "rtukit/tool/address_notation.hpp"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,9 @@
 
 #include "rtukit/devices/profile/typed_value.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
+
+using profile::parse_number;
 
 std::string space_noun(Space space, bool plural) {
   const char* noun = space == Space::holding ? "holding register"
@@ -77,4 +79,4 @@ Outcome<TypedAddress> parse_address(std::string_view typed, bool one_based) {
   return TypedAddress{.address = static_cast<uint16_t>(*n)};
 }
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -16,7 +16,7 @@
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 
 /// Fills `bank` from the file at `path` (at most 16 MiB). Errors, the reason
 /// naming the file: io_error or malformed as io::read_regular_file gives
@@ -29,4 +29,4 @@ Status load_bank_file(const std::string& path, MemoryBank& bank);
 /// The same from the file's text; `source` names it in reasons.
 Status load_bank_text(std::string_view source, std::string_view text, MemoryBank& bank);
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -13,14 +13,14 @@
 
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/slave.hpp"
-#include "rtukit/devices/profile/diagnostics.hpp"
-#include "rtukit/devices/profile/protocol_text.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/io/clock.hpp"
+#include "rtukit/tool/diagnostics.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 namespace {
 
 using namespace std::chrono_literals;
@@ -67,7 +67,7 @@ size_t counter_index(std::string_view key) {
 
 // ------------------------------------------------------------- counters
 
-TEST(ProfileDiagnostics, CounterTableIsTheSpecificationsOrder) {
+TEST(ToolDiagnostics, CounterTableIsTheSpecificationsOrder) {
   const auto all = diag_counters();
   ASSERT_EQ(all.size(), 9U);
   EXPECT_EQ(all[0].sub, Diagnostic::bus_message_count);
@@ -76,7 +76,7 @@ TEST(ProfileDiagnostics, CounterTableIsTheSpecificationsOrder) {
   EXPECT_EQ(all[8].sub, Diagnostic::return_diagnostic_register);
 }
 
-TEST(ProfileDiagnostics, ReadsEveryCounterTheStatusAndTheEventCount) {
+TEST(ToolDiagnostics, ReadsEveryCounterTheStatusAndTheEventCount) {
   Rig rig;
   ASSERT_TRUE(clear_counters(*rig.master, kUnit).ok());
   std::array<uint16_t, 1> out{};
@@ -94,7 +94,7 @@ TEST(ProfileDiagnostics, ReadsEveryCounterTheStatusAndTheEventCount) {
   EXPECT_GT(c.event_count, 0U);
 }
 
-TEST(ProfileDiagnostics, AFailedCounterNamesItsStepAndKeepsWhatCameBefore) {
+TEST(ToolDiagnostics, AFailedCounterNamesItsStepAndKeepsWhatCameBefore) {
   Rig rig;
   rig.answers = 2;
   DiagCounters c;
@@ -106,7 +106,7 @@ TEST(ProfileDiagnostics, AFailedCounterNamesItsStepAndKeepsWhatCameBefore) {
             "FC08 diagnostics sub-function 0x0D (exceptions sent) to unit 5 on " + rig.master->describe());
 }
 
-TEST(ProfileDiagnostics, AFailedEventCounterNamesFc0B) {
+TEST(ToolDiagnostics, AFailedEventCounterNamesFc0B) {
   Rig rig;
   rig.answers = static_cast<unsigned>(diag_counters().size()) + 1;  // the counters and FC07
   DiagCounters c;
@@ -117,7 +117,7 @@ TEST(ProfileDiagnostics, AFailedEventCounterNamesFc0B) {
 
 // ------------------------------------------------------------- event log
 
-TEST(ProfileDiagnostics, ReadsTheEventLogNewestFirst) {
+TEST(ToolDiagnostics, ReadsTheEventLogNewestFirst) {
   Rig rig;
   std::array<uint16_t, 1> out{};
   ASSERT_TRUE(rig.master->read_holding_registers(kUnit, 0x2000, out).is_exception());
@@ -131,7 +131,7 @@ TEST(ProfileDiagnostics, ReadsTheEventLogNewestFirst) {
   EXPECT_EQ(log->status, 0U);
 }
 
-TEST(ProfileDiagnostics, AFailedEventLogNamesFc0C) {
+TEST(ToolDiagnostics, AFailedEventLogNamesFc0C) {
   Rig rig;
   rig.answers = 0;
   const auto log = read_event_log(*rig.master, kUnit);
@@ -142,7 +142,7 @@ TEST(ProfileDiagnostics, AFailedEventLogNamesFc0C) {
 
 // ------------------------------------------------------------- echo
 
-TEST(ProfileDiagnostics, EchoReturnsTheDataTimedOnTheGivenClock) {
+TEST(ToolDiagnostics, EchoReturnsTheDataTimedOnTheGivenClock) {
   Rig rig;
   const auto e = echo(*rig.master, kUnit, {0x12, 0x34}, rig.clock);
   ASSERT_TRUE(e.ok()) << e.error().reason();
@@ -153,7 +153,7 @@ TEST(ProfileDiagnostics, EchoReturnsTheDataTimedOnTheGivenClock) {
   EXPECT_LT(e->ms, 100.0);
 }
 
-TEST(ProfileDiagnostics, EchoWithoutDataSendsA537) {
+TEST(ToolDiagnostics, EchoWithoutDataSendsA537) {
   Rig rig;
   const auto e = echo(*rig.master, kUnit, {}, rig.clock);
   ASSERT_TRUE(e.ok());
@@ -161,7 +161,7 @@ TEST(ProfileDiagnostics, EchoWithoutDataSendsA537) {
   EXPECT_EQ(e->answer, e->sent);
 }
 
-TEST(ProfileDiagnostics, AnEchoThatDiffersIsNotAnError) {
+TEST(ToolDiagnostics, AnEchoThatDiffersIsNotAnError) {
   Rig rig;
   rig.flip_echo = true;
   const auto e = echo(*rig.master, kUnit, {0x12, 0x34}, rig.clock);
@@ -170,7 +170,7 @@ TEST(ProfileDiagnostics, AnEchoThatDiffersIsNotAnError) {
   EXPECT_EQ(e->answer, (std::vector<uint8_t>{0xED, 0x34}));
 }
 
-TEST(ProfileDiagnostics, AFailedEchoNamesItsStep) {
+TEST(ToolDiagnostics, AFailedEchoNamesItsStep) {
   Rig rig;
   rig.answers = 0;
   const auto e = echo(*rig.master, kUnit, {1}, rig.clock);
@@ -180,7 +180,7 @@ TEST(ProfileDiagnostics, AFailedEchoNamesItsStep) {
 
 // ------------------------------------------------------------- listen-only, restart, clear
 
-TEST(ProfileDiagnostics, ListenOnlyThenRestartWithoutAnAnswer) {
+TEST(ToolDiagnostics, ListenOnlyThenRestartWithoutAnAnswer) {
   Rig rig;
   ASSERT_TRUE(force_listen_only(*rig.master, kUnit).ok());
   EXPECT_TRUE(rig.engine.listen_only());
@@ -193,7 +193,7 @@ TEST(ProfileDiagnostics, ListenOnlyThenRestartWithoutAnAnswer) {
   EXPECT_TRUE(*answered);
 }
 
-TEST(ProfileDiagnostics, ClearAndListenOnlyFailuresNameTheirStep) {
+TEST(ToolDiagnostics, ClearAndListenOnlyFailuresNameTheirStep) {
   Rig rig;
   rig.answers = 0;
   const Status clear = clear_counters(*rig.master, kUnit);
@@ -203,7 +203,7 @@ TEST(ProfileDiagnostics, ClearAndListenOnlyFailuresNameTheirStep) {
   EXPECT_TRUE(force_listen_only(*rig.master, kUnit).ok());
 }
 
-TEST(ProfileDiagnostics, RestartToASilentUnitIsNotAnError) {
+TEST(ToolDiagnostics, RestartToASilentUnitIsNotAnError) {
   Rig rig;
   const auto r = restart_communications(*rig.master, UnitId{6}, false);  // no unit 6: no answer
   ASSERT_TRUE(r.ok());
@@ -212,7 +212,7 @@ TEST(ProfileDiagnostics, RestartToASilentUnitIsNotAnError) {
 
 // ------------------------------------------------------------- identification
 
-TEST(ProfileDiagnostics, ReportServerIdDecodesTheHeadAndText) {
+TEST(ToolDiagnostics, ReportServerIdDecodesTheHeadAndText) {
   Rig rig;
   const auto id = report_server_id(*rig.master, kUnit);
   ASSERT_TRUE(id.ok()) << id.error().reason();
@@ -224,7 +224,7 @@ TEST(ProfileDiagnostics, ReportServerIdDecodesTheHeadAndText) {
   EXPECT_EQ(id->data.size(), id->text.size() + 2);
 }
 
-TEST(ProfileDiagnostics, ReportServerIdKeepsBytesThatAreNotText) {
+TEST(ToolDiagnostics, ReportServerIdKeepsBytesThatAreNotText) {
   Rig rig;
   rig.bank.objects[0] = std::string("\x01\x02", 2);
   const auto id = report_server_id(*rig.master, kUnit);
@@ -232,7 +232,7 @@ TEST(ProfileDiagnostics, ReportServerIdKeepsBytesThatAreNotText) {
   EXPECT_FALSE(id->printable);
 }
 
-TEST(ProfileDiagnostics, LevelNamesAnAccess) {
+TEST(ToolDiagnostics, LevelNamesAnAccess) {
   EXPECT_EQ(*device_id_access("basic", false), DeviceIdAccess::basic);
   EXPECT_EQ(*device_id_access("regular", false), DeviceIdAccess::regular);
   EXPECT_EQ(*device_id_access("extended", false), DeviceIdAccess::extended);
@@ -243,7 +243,7 @@ TEST(ProfileDiagnostics, LevelNamesAnAccess) {
   EXPECT_EQ(bad.error().reason(), "--level full: use basic, regular or extended");
 }
 
-TEST(ProfileDiagnostics, ReadsIdentificationObjectsByName) {
+TEST(ToolDiagnostics, ReadsIdentificationObjectsByName) {
   Rig rig;
   rig.bank.objects[0x80] = "test bench";
   const auto id = read_identification(*rig.master, kUnit, DeviceIdAccess::extended);
@@ -257,7 +257,7 @@ TEST(ProfileDiagnostics, ReadsIdentificationObjectsByName) {
                                               {"0x80", "test bench"}}));
 }
 
-TEST(ProfileDiagnostics, AMissingObjectIsTheDevicesException) {
+TEST(ToolDiagnostics, AMissingObjectIsTheDevicesException) {
   Rig rig;
   const auto id = read_identification(*rig.master, kUnit, DeviceIdAccess::individual, 7);
   ASSERT_FALSE(id.ok());
@@ -277,13 +277,13 @@ LineTestResult measured() {
   return r;
 }
 
-TEST(ProfileDiagnostics, AdviceForAGoodLineIsBaudAndTimeout) {
+TEST(ToolDiagnostics, AdviceForAGoodLineIsBaudAndTimeout) {
   const LineAdvice a = line_advice(measured(), 9600, false);
   EXPECT_EQ(a.options, "--baud 9600 --timeout 60");
   EXPECT_FALSE(a.high_latency);
 }
 
-TEST(ProfileDiagnostics, AdviceAddsEchoDelayAndRs485) {
+TEST(ToolDiagnostics, AdviceAddsEchoDelayAndRs485) {
   LineTestResult r = measured();
   r.echo = true;
   r.error_free_gap_ms = 5;
@@ -293,7 +293,7 @@ TEST(ProfileDiagnostics, AdviceAddsEchoDelayAndRs485) {
   EXPECT_TRUE(a.high_latency);
 }
 
-TEST(ProfileDiagnostics, AdviceForALineWithErrorsAtEveryGapIsRetries) {
+TEST(ToolDiagnostics, AdviceForALineWithErrorsAtEveryGapIsRetries) {
   LineTestResult r = measured();
   r.error_free_gap_ms.reset();
   r.added_us = 2000;  // not more than 2 ms: not called out
@@ -303,4 +303,4 @@ TEST(ProfileDiagnostics, AdviceForALineWithErrorsAtEveryGapIsRetries) {
 }
 
 }  // namespace
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

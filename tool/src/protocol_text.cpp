@@ -1,4 +1,4 @@
-#include "rtukit/devices/profile/protocol_text.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 
 #include <fmt/core.h>
 
@@ -6,7 +6,7 @@
 
 #include "rtukit/core/pdu.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 
 std::string comm_event_text(uint8_t event) {
   namespace ce = comm_event;
@@ -69,4 +69,4 @@ const char* conformity_level_name(uint8_t conformity) noexcept {
   }
 }
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -1,12 +1,12 @@
-#include "rtukit/devices/profile/diagnostics.hpp"
+#include "rtukit/tool/diagnostics.hpp"
 
 #include <fmt/format.h>
 
 #include <chrono>
 
-#include "rtukit/devices/profile/protocol_text.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 namespace {
 
 constexpr DiagCounter kCounters[] = {
@@ -159,4 +159,4 @@ LineAdvice line_advice(const LineTestResult& r, uint32_t baud, bool kernel_rs485
   return out;
 }
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

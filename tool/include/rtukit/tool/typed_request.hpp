@@ -11,13 +11,18 @@
 #include <string_view>
 #include <vector>
 
-#include "rtukit/devices/profile/address_notation.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/status.hpp"
+#include "rtukit/tool/address_notation.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
+
+// The profile kit's value types, which the generic commands share with the devices.
+using profile::Space;
+using profile::ValueType;
+using profile::WordOrder;
 
 /// A table as output and JSON name it ("table": "coils"): "holding",
 /// "input", "coils", "discrete".
@@ -172,4 +177,4 @@ Outcome<ReadWritePlan> plan_readwrite(const ReadWriteRequest& request,
 /// write 2 at 100 (0x0064), read 2 at 100 (0x0064) from unit 5 on ...".
 std::string readwrite_context(const ReadWritePlan& p, const Master& master);
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -1,4 +1,4 @@
-#include "rtukit/devices/profile/bank_file.hpp"
+#include "rtukit/tool/bank_file.hpp"
 
 #include <fmt/format.h>
 
@@ -7,11 +7,13 @@
 #include <type_traits>
 
 #include "rtukit/core/pdu.hpp"
-#include "rtukit/devices/profile/protocol_text.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/io/atomic_file.hpp"
+#include "rtukit/tool/protocol_text.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
+
+using profile::parse_number;
 
 Status load_bank_file(const std::string& path, MemoryBank& bank) {
   Outcome<std::string> text = io::read_regular_file(path, 16 << 20);  // 4 tables of 64 K values, written out
@@ -90,4 +92,4 @@ Status load_bank_text(std::string_view source, std::string_view text, MemoryBank
   return {};
 }
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

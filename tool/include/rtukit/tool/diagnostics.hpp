@@ -20,7 +20,7 @@
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 
 /// "unit 5 on /dev/ttyUSB0 9600 8N1": where a request went, for its context.
 std::string unit_where(UnitId unit, const Master& master);
@@ -118,4 +118,4 @@ struct LineAdvice {
 /// the kernel's RS-485 mode is available for the port.
 LineAdvice line_advice(const LineTestResult& r, uint32_t baud, bool kernel_rs485);
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -7,7 +7,7 @@
 #include <cstdint>
 #include <string>
 
-namespace rtukit::profile {
+namespace rtukit::tool {
 
 /// One FC0C event byte (core's comm_event::k*) in words: "communications
 /// restart", "entered listen-only mode", "received broadcast, communication
@@ -27,4 +27,4 @@ const char* device_object_key(uint8_t id) noexcept;
 /// "regular", "extended", or "unknown".
 const char* conformity_level_name(uint8_t conformity) noexcept;
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool

@@ -1,10 +1,15 @@
-#include "rtukit/devices/profile/typed_request.hpp"
+#include "rtukit/tool/typed_request.hpp"
 
 #include <fmt/format.h>
 
 #include <vector>
 
-namespace rtukit::profile {
+namespace rtukit::tool {
+
+using profile::decode_typed;
+using profile::encode_typed;
+using profile::parse_number;
+using profile::words_of;
 
 const char* table_name(Space t) noexcept {
   switch (t) {
@@ -248,4 +253,4 @@ std::string readwrite_context(const ReadWritePlan& p, const Master& master) {
                      p.read_notation.where(p.read_at), p.unit.value, master.describe());
 }
 
-}  // namespace rtukit::profile
+}  // namespace rtukit::tool
