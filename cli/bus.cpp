@@ -11,8 +11,8 @@
 #include "rtukit/driver/virtual_bus.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/atomic_file.hpp"
-#include "rtukit/io/tap_client.hpp"
-#include "rtukit/io/tap_server.hpp"
+#include "rtukit/term/tap_client.hpp"
+#include "rtukit/term/tap_server.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -60,22 +60,22 @@ int run_bus(const BusArgs& a) {
       if (f) std::fclose(f);
     });
     if (!tap) throw Failure{kIoError, fmt::format("--tap {}: cannot write", a.tap)};
-    std::fputs(io::tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
+    std::fputs(term::tap_header(a.baud, o.line.bits_per_char, 0).c_str(), tap.get());
   }
   asio::io_context ctx;
   // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
   // right after "listening on" ends the server cleanly too.
   asio::signal_set signals(ctx);
   stop_on_signals(signals, ctx);
-  std::unique_ptr<io::TapServer> tap_server;
+  std::unique_ptr<term::TapServer> tap_server;
   const VirtualBus* started = nullptr;
   if (!a.name.empty())
-    tap_server = std::make_unique<io::TapServer>(ctx, bus_tap_socket(a.name), [&] {
-      return io::tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
+    tap_server = std::make_unique<term::TapServer>(ctx, bus_tap_socket(a.name), [&] {
+      return term::tap_header(a.baud, o.line.bits_per_char, started ? started->now_us() : 0);
     });
   if (tap || tap_server)
     o.tap = [&tap, &tap_server](const BusCharacter& c) {
-      const std::string line = io::tap_line(c);
+      const std::string line = term::tap_line(c);
       if (tap) std::fputs(line.c_str(), tap.get());
       if (tap_server) tap_server->publish(line);
     };

@@ -9,7 +9,7 @@
 
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/trace_log.hpp"
-#include "rtukit/io/tap_client.hpp"
+#include "rtukit/term/tap_client.hpp"
 
 namespace rtukit::cli {
 
@@ -160,7 +160,7 @@ void examples(CLI::App& cmd, std::span<const std::string_view> lines) {
 }
 
 Json json_document(std::string_view device, int unit) {
-  const io::WallTime w = io::wall_time(true, time_source());
+  const term::WallTime w = term::wall_time(true, time_source());
   Json j;
   j["time"] = fmt::format("{:04}-{:02}-{:02}T{:02}:{:02}:{:02}.{:03}Z", w.tm.tm_year + 1900, w.tm.tm_mon + 1,
                           w.tm.tm_mday, w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms);
@@ -256,7 +256,7 @@ void watch_loop(const WatchOptions& options, const std::function<void(unsigned n
 
 void watch_view(const WatchOptions& options, bool json, std::string_view device, UnitId unit,
                 const std::string& title, const std::function<ViewFrame(unsigned n)>& refresh) {
-  const bool tty = io::stdout_is_terminal() && !json;
+  const bool tty = term::stdout_is_terminal() && !json;
   LivePanel panel(title, options.interval_ms);
   std::string down_since;
   watch_loop(options, [&](unsigned n) {
@@ -298,7 +298,7 @@ int serve_until_stopped(std::string_view name, const std::function<rtukit::Statu
 }
 
 std::string bus_tap_socket(const std::string& name) {
-  Outcome<std::string> path = io::bus_tap_socket(name);
+  Outcome<std::string> path = term::bus_tap_socket(name);
   if (!path.ok()) throw Failure{kUsage, std::string(path.error().reason())};
   return *path;
 }

@@ -26,20 +26,20 @@
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/terminal.hpp"
+#include "rtukit/term/terminal.hpp"
 
 namespace rtukit::cli {
 
-// The terminal and the signals (rtukit/io/terminal.hpp: io is the only
+// The terminal and the signals (rtukit/term/terminal.hpp: io is the only
 // layer that touches the OS), under the names the commands use.
-using io::catch_broken_output;
-using io::clock_hms;
-using io::Interruptible;
-using io::LivePanel;
-using io::output_broken;
-using io::Progress;
-using io::stop_on_signals;
-using io::warn_if_exposed;
+using term::catch_broken_output;
+using term::clock_hms;
+using term::Interruptible;
+using term::LivePanel;
+using term::output_broken;
+using term::Progress;
+using term::stop_on_signals;
+using term::warn_if_exposed;
 
 /// The CLI's clock: the real one (the commands are the outermost layer; what
 /// they call below takes a clock of its own).
@@ -231,7 +231,7 @@ int serve(Program& program, std::string_view name, const std::function<void()>& 
 using profile::hex;
 
 /// Where `rtukit bus --name NAME` offers its tap to `rtukit sniff --bus NAME`:
-/// io::bus_tap_socket, whose error becomes Failure{kUsage} with its reason.
+/// term::bus_tap_socket, whose error becomes Failure{kUsage} with its reason.
 std::string bus_tap_socket(const std::string& name);
 
 /// A server's -v: each request and its answer on stdout, "rx 15 03 ... -> tx 15 03 ..." or "(silence)".

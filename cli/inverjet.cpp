@@ -94,12 +94,12 @@ int run_panel_password(const JetArgs& a) {
                     std::string(e.reason())};
   };
   check(programs::check_password_file_path(a.file, a.force));  // before asking for a password
-  const std::string password = io::read_secret_line("New panel password: ");
+  const std::string password = term::read_secret_line("New panel password: ");
   if (password.empty())
     throw Failure{kUsage, fmt::format("no password on stdin (at least {} characters)",
                                       programs::kMinPasswordCharacters)};
   check(programs::check_new_password(password));
-  if (io::stdin_is_terminal() && io::read_secret_line("Again: ") != password)
+  if (term::stdin_is_terminal() && term::read_secret_line("Again: ") != password)
     throw Failure{kUsage, "the two passwords differ: nothing written"};
   check(programs::write_password_file(a.file, password, a.force));
   fmt::print(

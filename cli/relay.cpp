@@ -11,8 +11,8 @@
 #include "common.hpp"
 #include "rtukit/driver/fault_relay.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/line_console.hpp"
-#include "rtukit/io/stdin_console.hpp"
+#include "rtukit/term/line_console.hpp"
+#include "rtukit/term/stdin_console.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -52,12 +52,12 @@ int run_relay(const RelayArgs& a) {
       });
   if (!relay.ok()) throw Failure{exit_code(relay.error().error()), std::string(relay.error().reason())};
   for (const std::string& f : a.faults) (void)(*relay)->command(f);
-  const io::ConsoleHandler on_line = [&relay](const std::string& line, const io::ConsoleReply& reply) {
+  const term::ConsoleHandler on_line = [&relay](const std::string& line, const term::ConsoleReply& reply) {
     if (!line.empty()) reply((*relay)->command(line));
   };
-  std::unique_ptr<io::LineConsole> socket_console;
+  std::unique_ptr<term::LineConsole> socket_console;
   if (!a.console.empty()) {
-    auto c = io::LineConsole::open(ctx, a.console.substr(5), on_line);
+    auto c = term::LineConsole::open(ctx, a.console.substr(5), on_line);
     if (!c.ok())
       throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
                     std::string(c.error().reason())};
@@ -66,8 +66,8 @@ int run_relay(const RelayArgs& a) {
   }
   fmt::print("relay: {} <-> {}\nlistening on {}\n", (*relay)->port(), o.device, (*relay)->port());
   std::fflush(stdout);
-  std::unique_ptr<io::StdinConsole> console;
-  if (!a.no_console) console = std::make_unique<io::StdinConsole>(ctx, on_line);
+  std::unique_ptr<term::StdinConsole> console;
+  if (!a.no_console) console = std::make_unique<term::StdinConsole>(ctx, on_line);
   ctx.run();
   return kOk;
 }

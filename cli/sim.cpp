@@ -19,8 +19,8 @@
 #include "rtukit/devices/profile/state_file.hpp"
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/line_console.hpp"
-#include "rtukit/io/stdin_console.hpp"
+#include "rtukit/term/line_console.hpp"
+#include "rtukit/term/stdin_console.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -86,7 +86,7 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   asio::io_context ctx;
   // Armed before anything says it is ready: a SIGHUP or SIGTERM that comes
   // right after "listening on" ends the server cleanly too.
-  io::ignore_tty_stops();
+  term::ignore_tty_stops();
   asio::signal_set signals(ctx);
   stop_on_signals(signals, ctx);
   Outcome<std::unique_ptr<profile::SimHost>> started = profile::SimHost::start(ctx, std::move(device), o);
@@ -94,14 +94,15 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   profile::SimHost& host = **started;
   fmt::print("{}\n", host.banner());
 
-  const io::ConsoleHandler on_line = [&host, &ctx](const std::string& line, const io::ConsoleReply& reply) {
+  const term::ConsoleHandler on_line = [&host, &ctx](const std::string& line,
+                                                     const term::ConsoleReply& reply) {
     const std::string text = host.command(line);
     if (!text.empty()) reply(text.back() == '\n' ? text : text + "\n");
     if (host.quit_requested()) ctx.stop();
   };
-  std::unique_ptr<io::LineConsole> socket_console;
+  std::unique_ptr<term::LineConsole> socket_console;
   if (!console_path.empty()) {
-    auto c = io::LineConsole::open(ctx, console_path, on_line);
+    auto c = term::LineConsole::open(ctx, console_path, on_line);
     if (!c.ok())
       throw Failure{c.error().code() == Errc::invalid_argument ? kUsage : kIoError,
                     std::string(c.error().reason())};
@@ -111,8 +112,8 @@ int run_sim(const SimArgs& a, profile::SimDevice device) {
   if (!a.no_console) fmt::print("console: type 'help' for commands\n");
   std::fflush(stdout);
 
-  std::unique_ptr<io::StdinConsole> console;
-  if (!a.no_console) console = std::make_unique<io::StdinConsole>(ctx, on_line);
+  std::unique_ptr<term::StdinConsole> console;
+  if (!a.no_console) console = std::make_unique<term::StdinConsole>(ctx, on_line);
   ctx.run();
   console.reset();
   return kOk;

@@ -19,8 +19,8 @@
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
 #include "rtukit/io/listen_port.hpp"
-#include "rtukit/io/pcap_file.hpp"
-#include "rtukit/io/tap_client.hpp"
+#include "rtukit/term/pcap_file.hpp"
+#include "rtukit/term/tap_client.hpp"
 
 namespace rtukit::cli {
 namespace {
@@ -65,15 +65,15 @@ UnitProfiles unit_profiles(const SniffArgs& a) {
 }
 
 // The --pcap file, if asked for.
-std::unique_ptr<io::PcapFile> open_pcap(const SniffArgs& a) {
+std::unique_ptr<term::PcapFile> open_pcap(const SniffArgs& a) {
   if (a.pcap.empty()) return nullptr;
-  Outcome<std::unique_ptr<io::PcapFile>> f = io::PcapFile::create(a.pcap, a.overwrite);
+  Outcome<std::unique_ptr<term::PcapFile>> f = term::PcapFile::create(a.pcap, a.overwrite);
   if (!f.ok()) throw Failure{exit_code(f.error().error()), fmt::format("--pcap {}", f.error().reason())};
   return std::move(*f);
 }
 
 // Times are printed from `origin` (when sniffing started; 0 for a tap, whose times start with the bus).
-void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, io::PcapFile* pcap,
+void report(const SniffArgs& a, Sniffer& s, const UnitProfiles& profiles, term::PcapFile* pcap,
             uint64_t origin = 0) {
   for (const SniffedTransaction& t : s.take()) {
     const SniffedFrame& first = t.request ? *t.request : *t.response;
@@ -136,7 +136,7 @@ void print_summary(const Sniffer& s, bool json) {
 }
 
 // One character of a bus tap: exact times from the bus itself.
-void feed_tap(Sniffer& s, const io::TapCharacter& c) {
+void feed_tap(Sniffer& s, const term::TapCharacter& c) {
   s.flush(c.end_us);
   if (!c.dropped) s.feed(c.heard, c.end_us);
 }
@@ -145,7 +145,7 @@ void feed_tap(Sniffer& s, const io::TapCharacter& c) {
 // bus's own rate and its exact character times.
 int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
   const std::string path = bus_tap_socket(a.bus);
-  Outcome<std::unique_ptr<io::TapClient>> client = io::TapClient::connect(path);
+  Outcome<std::unique_ptr<term::TapClient>> client = term::TapClient::connect(path);
   if (!client.ok() && client.error().code() == Errc::not_connected)
     throw Failure{kIoError, fmt::format("--bus {}: no bus of that name is running ({}); start one with "
                                         "`rtukit bus --name {}`",
@@ -153,7 +153,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
   if (!client.ok()) throw Failure{kIoError, fmt::format("--bus {}: cannot use {}", a.bus, path)};
   const Interruptible interrupt;
   std::unique_ptr<Sniffer> s;
-  std::unique_ptr<io::PcapFile> pcap = open_pcap(a);
+  std::unique_ptr<term::PcapFile> pcap = open_pcap(a);
   int64_t offset = 0;  // our clock minus the bus's
   const uint64_t until = a.seconds ? io::now_us() + uint64_t{a.seconds} * 1'000'000 : 0;
   bool ended = false;
@@ -164,7 +164,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
     for (const std::string& line : lines) {
       if (!s) {
         // The first line is the header: the bus's rate and clock.
-        const std::optional<io::TapHeader> h = io::parse_tap_header(line);
+        const std::optional<term::TapHeader> h = term::parse_tap_header(line);
         if (!h) throw Failure{kIoError, fmt::format("--bus {}: not a bus tap", a.bus)};
         offset = static_cast<int64_t>(io::now_us()) - static_cast<int64_t>(h->now_us);
         s = std::make_unique<Sniffer>(SnifferConfig{.baud = h->baud,
@@ -175,7 +175,7 @@ int sniff_bus(const SniffArgs& a, const UnitProfiles& profiles) {
                    h->baud, ms(s->t15_us()), ms(s->t35_us()));
         continue;
       }
-      if (const std::optional<io::TapCharacter> c = io::parse_tap_line(line)) feed_tap(*s, *c);
+      if (const std::optional<term::TapCharacter> c = term::parse_tap_line(line)) feed_tap(*s, *c);
     }
     if (s) {
       // Close frames only as far as the tap has surely arrived: a busy bus
@@ -207,14 +207,14 @@ int run_sniff(const SniffArgs& a) {
   Sniffer s(SnifferConfig{.baud = a.link.baud,
                           .bits_per_char = bits,
                           .response_timeout_us = static_cast<uint32_t>(a.link.timeout_ms) * 1000});
-  std::unique_ptr<io::PcapFile> pcap = open_pcap(a);
+  std::unique_ptr<term::PcapFile> pcap = open_pcap(a);
   if (!a.tap.empty()) {
     std::ifstream in(a.tap);
     if (!in) throw Failure{kIoError, fmt::format("--tap {}: cannot read", a.tap)};
     std::string line;
     uint64_t last = 0;
     while (std::getline(in, line)) {
-      const std::optional<io::TapCharacter> c = io::parse_tap_line(line);
+      const std::optional<term::TapCharacter> c = term::parse_tap_line(line);
       if (!c) continue;
       last = c->end_us;
       feed_tap(s, *c);

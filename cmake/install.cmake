@@ -11,6 +11,7 @@ include(CMakePackageConfigHelpers)
 set(_rtukit_libs
   rtukit_core:core
   rtukit_io:io
+  rtukit_term:term
   rtukit_driver:driver
   rtukit_profile:profile
   rtukit_profile_host:profile_host

@@ -8,7 +8,7 @@
 #include <cstring>
 #include <memory>
 
-#include "rtukit/io/terminal.hpp"
+#include "rtukit/term/terminal.hpp"
 
 namespace rtukit {
 
@@ -34,7 +34,7 @@ Outcome<std::function<void(const TraceEvent&)>> trace_writer(bool to_stderr, con
   }
   // The callback may outlive this call (the Master keeps it): the file is shared, the clock outlives both.
   return std::function<void(const TraceEvent&)>([log, to_stderr, &clock](const TraceEvent& e) {
-    const io::WallTime w = io::wall_time(false, clock);
+    const term::WallTime w = term::wall_time(false, clock);
     const std::string line =
         trace_line(e, fmt::format("{:02}:{:02}:{:02}.{:03}", w.tm.tm_hour, w.tm.tm_min, w.tm.tm_sec, w.ms));
     if (to_stderr) std::fputs(line.c_str(), stderr);

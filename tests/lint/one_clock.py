@@ -18,7 +18,7 @@ import re
 import sys
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-FOLDERS = ["core", "driver", "devices", "tool", "web", "programs", "cli"]
+FOLDERS = ["core", "term", "driver", "devices", "tool", "web", "programs", "cli"]
 READ = re.compile(
     r"\b(?:steady_clock|system_clock|high_resolution_clock|Clock|WallClock)\s*::\s*now\s*\("
     r"|\btime\s*\(\s*(?:nullptr|NULL|0)\s*\)|\bgettimeofday\s*\(|\bclock_gettime\s*\(")

@@ -17,8 +17,8 @@
 
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/io/clock.hpp"
-#include "rtukit/io/terminal.hpp"
 #include "rtukit/programs/rehand_ble_remote.hpp"
+#include "rtukit/term/terminal.hpp"
 
 namespace rtukit::programs {
 namespace {
@@ -251,7 +251,7 @@ class Remote {
   rtukit::Status loop() {
     fmt::print("{}\n", gatt::RemoteKeys::help());
     std::fflush(stdout);
-    io::KeysAtOnce keys_at_once;
+    term::KeysAtOnce keys_at_once;
     bool input = true;
     while (!keys_.quit() && !interrupts_.interrupted()) {
       while (bus_->processPendingRequest()) {
@@ -305,7 +305,7 @@ class Remote {
   BleRemoteOptions options_;
   DriverClock& clock_ = SteadyClock::instance();  // the keys' time (a terminal's keys are real-time)
   gatt::RemoteKeys keys_;
-  io::Interruptible interrupts_;
+  term::Interruptible interrupts_;
   std::unique_ptr<sdbus::IConnection> bus_;
   std::string device_path_, state_path_, command_path_, result_path_;
   std::unique_ptr<sdbus::IProxy> device_, command_, state_, result_;

@@ -28,7 +28,7 @@
 #include <span>
 #include <vector>
 
-#include "rtukit/io/tap_client.hpp"
+#include "rtukit/term/tap_client.hpp"
 
 namespace rtukit {
 
@@ -56,7 +56,7 @@ struct BusDelivery {
 
 /// A character as it was on the line (for a tap or a sniffer): the tap's
 /// own record (io/tap_client.hpp), so a tap line is read back as one.
-using BusCharacter = io::TapCharacter;
+using BusCharacter = term::TapCharacter;
 
 struct BusLineStats {
   uint64_t characters = 0;  ///< characters that went out (stray ones included)

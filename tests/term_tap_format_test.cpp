@@ -1,5 +1,5 @@
 // The bus tap's character lines (docs/bus-tools.md) and where a named bus
-// offers its tap (rtukit/io/tap_client.hpp): the text is a format other
+// offers its tap (rtukit/term/tap_client.hpp): the text is a format other
 // programs read, so it is pinned; a name that would not make a safe path is
 // refused with the reason the CLI prints.
 #include <gtest/gtest.h>
@@ -10,9 +10,9 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/io/tap_client.hpp"
+#include "rtukit/term/tap_client.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 namespace {
 
 TEST(TapLine, FormatIsPinned) {
@@ -136,4 +136,4 @@ TEST(BusTapSocket, ANameThatIsNoSafePathPartIsRefused) {
 }
 
 }  // namespace
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -2,7 +2,7 @@
 // the clock between reads), so the client is a plain blocking socket with a
 // poll timeout rather than an Asio object: the caller decides how long a
 // read may wait and does its own work between reads.
-#include "rtukit/io/tap_client.hpp"
+#include "rtukit/term/tap_client.hpp"
 
 #include <fmt/core.h>
 #include <poll.h>
@@ -17,7 +17,7 @@
 #include <cstdlib>
 #include <cstring>
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 namespace {
 
@@ -135,4 +135,4 @@ Outcome<std::vector<std::string>> TapClient::read_lines(std::chrono::millisecond
   return lines;
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

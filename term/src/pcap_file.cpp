@@ -2,7 +2,7 @@
 // for RTU on a serial line, but decodes a UDP port as RTU when told to, and
 // every pcap reader understands raw IP. The fields are written in the host's
 // byte order, which pcap readers detect from the magic number.
-#include "rtukit/io/pcap_file.hpp"
+#include "rtukit/term/pcap_file.hpp"
 
 #include <unistd.h>
 
@@ -11,13 +11,13 @@
 
 #include "rtukit/io/atomic_file.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 Outcome<std::unique_ptr<PcapFile>> PcapFile::create(const std::string& path, bool overwrite) {
   const uint32_t header[] = {kMagic, 0x00040002, 0,
                              0,      65535,      101};  // magic, v2.4, tz, sigfigs, snaplen, raw IP
   const std::string_view magic(reinterpret_cast<const char*>(header), 4);
-  Outcome<int> fd = create_output_file(path, magic, overwrite);
+  Outcome<int> fd = io::create_output_file(path, magic, overwrite);
   if (!fd.ok()) return fd.error();
   std::FILE* out = ::fdopen(*fd, "wb");
   if (!out) {
@@ -64,4 +64,4 @@ void PcapFile::write(const void* data, size_t size) {
   std::fwrite(data, 1, size, out_);
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -10,9 +10,9 @@
 #include <thread>
 
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/line_console.hpp"
+#include "rtukit/term/line_console.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 /// Ignores SIGTTIN and SIGTTOU for the whole process: a background job must
 /// never be stopped by the terminal it was started from.
@@ -40,4 +40,4 @@ class StdinConsole {
   std::thread thread_;
 };
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -14,7 +14,7 @@
 
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 class PcapFile {
  public:
@@ -43,4 +43,4 @@ class PcapFile {
   std::FILE* out_;
 };
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -10,9 +10,9 @@
 #include <iterator>
 #include <vector>
 
-#include "rtukit/io/pcap_file.hpp"
+#include "rtukit/term/pcap_file.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 namespace {
 
 struct PcapFileTest : ::testing::Test {
@@ -83,4 +83,4 @@ TEST_F(PcapFileTest, ReplacesACaptureButNoOtherFileWithoutOverwrite) {
 }
 
 }  // namespace
-}  // namespace rtukit::io
+}  // namespace rtukit::term

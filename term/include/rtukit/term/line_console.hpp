@@ -13,7 +13,7 @@
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 /// Sends `text` as it is (the caller ends it with '\n').
 using ConsoleReply = std::function<void(std::string text)>;
@@ -41,4 +41,4 @@ class LineConsole {
   std::unique_ptr<State> state_;
 };
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

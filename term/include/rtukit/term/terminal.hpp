@@ -20,7 +20,7 @@
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 /// The signals that end a command cleanly, as Ctrl-C does: SIGINT, SIGTERM,
 /// SIGHUP (its terminal or session closed) and SIGPIPE when it comes from the
@@ -160,6 +160,6 @@ std::string read_secret_line(std::string_view prompt);
 /// loopback): Modbus has no authentication, so whoever reaches it reads and
 /// writes the device. `who` names the listener ("the slave"). Nothing for a
 /// serial port, a pty or loopback.
-void warn_if_exposed(const PortSpec& listen, std::string_view who);
+void warn_if_exposed(const io::PortSpec& listen, std::string_view who);
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

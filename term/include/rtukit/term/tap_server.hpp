@@ -14,7 +14,7 @@
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 class TapServer {
  public:
@@ -48,4 +48,4 @@ class TapServer {
   std::unique_ptr<State> state_;
 };
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

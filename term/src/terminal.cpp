@@ -2,7 +2,7 @@
 // stops and it cleans up (a pty's link removed, state saved), a `watch`
 // leaves its loop. The handlers below only set flags (and, for SIGPIPE,
 // look at our own streams); the program reads the flags.
-#include "rtukit/io/terminal.hpp"
+#include "rtukit/term/terminal.hpp"
 
 #include <fcntl.h>
 #include <fmt/core.h>
@@ -21,7 +21,7 @@
 
 #include "rtukit/io/asio.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 namespace {
 std::atomic<bool> g_interrupted{false};
@@ -237,8 +237,8 @@ std::string read_secret_line(std::string_view prompt) {
   return line;
 }
 
-void warn_if_exposed(const PortSpec& listen, std::string_view who) {
-  const std::string exposure = listener_exposure(listen);
+void warn_if_exposed(const io::PortSpec& listen, std::string_view who) {
+  const std::string exposure = io::listener_exposure(listen);
   if (exposure.empty()) return;
   fmt::print(stderr,
              "warning: {} listens on {} ({}): Modbus has no passwords, so anyone who can reach it reads and "
@@ -246,4 +246,4 @@ void warn_if_exposed(const PortSpec& listen, std::string_view who) {
              who, exposure, listen.describe());
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -16,7 +16,7 @@
 
 #include "rtukit/io/status.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 /// What a bus tap's header says: the bus's rate and its clock when the
 /// header was made (docs/bus-tools.md).
@@ -93,4 +93,4 @@ class TapClient {
   Status ended_;        // set once the connection is over
 };
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

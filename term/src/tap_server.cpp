@@ -1,7 +1,7 @@
 // A tap server's clients are sniffers: they must never slow the bus that
 // publishes, so every write is asynchronous and a client's backlog is
 // bounded rather than waited for.
-#include "rtukit/io/tap_server.hpp"
+#include "rtukit/term/tap_server.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>
@@ -13,7 +13,7 @@
 
 #include "rtukit/io/asio.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 using Local = asio::local::stream_protocol;
 
@@ -128,4 +128,4 @@ void TapServer::publish(const std::string& line) {
   }
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -1,13 +1,13 @@
 // A console session reads and answers asynchronously on the io_context's
 // thread, so a slow or silent client never holds up the simulator it drives.
-#include "rtukit/io/line_console.hpp"
+#include "rtukit/term/line_console.hpp"
 
 #include <sys/stat.h>
 #include <unistd.h>
 
 #include "rtukit/io/asio.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 using Local = asio::local::stream_protocol;
 
@@ -82,4 +82,4 @@ LineConsole::~LineConsole() {
   ::unlink(state_->path.c_str());
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

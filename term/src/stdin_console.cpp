@@ -2,7 +2,7 @@
 // so they run on a thread of their own; the simulator itself is touched
 // only on the io_context's thread, where each line is posted. The thread is
 // stopped through a pipe so it can be joined even while a read would block.
-#include "rtukit/io/stdin_console.hpp"
+#include "rtukit/term/stdin_console.hpp"
 
 #include <poll.h>
 #include <sys/stat.h>
@@ -15,7 +15,7 @@
 
 #include "rtukit/io/asio.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 
 void ignore_tty_stops() {
   std::signal(SIGTTIN, SIG_IGN);
@@ -73,4 +73,4 @@ StdinConsole::~StdinConsole() {
   if (stop_[1] >= 0) ::close(stop_[1]);
 }
 
-}  // namespace rtukit::io
+}  // namespace rtukit::term

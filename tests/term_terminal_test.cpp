@@ -1,4 +1,4 @@
-// The CLI's terminal and signal plumbing (rtukit/io/terminal.hpp), in one
+// The CLI's terminal and signal plumbing (rtukit/term/terminal.hpp), in one
 // process: a stop signal sets the flags and ends a wait, a SIGPIPE only
 // counts when our own output is broken, and the progress line, the live
 // panel and the password prompt write exactly their bytes, to a pipe (no
@@ -22,10 +22,12 @@
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/terminal.hpp"
+#include "rtukit/term/terminal.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 namespace {
+
+using namespace rtukit::io;  // the transports they run on
 
 using namespace std::chrono_literals;
 
@@ -447,4 +449,4 @@ TEST(WarnIfExposed, OneLineForAListenerBeyondLoopbackOnly) {
 }
 
 }  // namespace
-}  // namespace rtukit::io
+}  // namespace rtukit::term

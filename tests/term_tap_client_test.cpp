@@ -16,10 +16,10 @@
 #include <vector>
 
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/tap_client.hpp"
-#include "rtukit/io/tap_server.hpp"
+#include "rtukit/term/tap_client.hpp"
+#include "rtukit/term/tap_server.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 namespace {
 
 using std::chrono::milliseconds;
@@ -173,4 +173,4 @@ TEST(TapClient, APathTooLongForAUnixSocketIsInvalidArgument) {
 }
 
 }  // namespace
-}  // namespace rtukit::io
+}  // namespace rtukit::term

@@ -14,10 +14,12 @@
 #include "rtukit/io/clock.hpp"
 #include "rtukit/io/listen_port.hpp"
 #include "rtukit/io/pty.hpp"
-#include "rtukit/io/stdin_console.hpp"
+#include "rtukit/term/stdin_console.hpp"
 
-namespace rtukit::io {
+namespace rtukit::term {
 namespace {
+
+using namespace rtukit::io;  // the transports they run on
 
 using std::chrono::milliseconds;
 
@@ -148,4 +150,4 @@ TEST(ListenPort, APortThatCannotBeOpenedIsIoErrorWithTheOsError) {
 }
 
 }  // namespace
-}  // namespace rtukit::io
+}  // namespace rtukit::term
