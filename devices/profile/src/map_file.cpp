@@ -214,6 +214,191 @@ Status check_profile(const Profile& profile) {
   return {};
 }
 
+// Reads a map file's parts into a MapProfile, one field reader each (a
+// failure throws Bad with "SOURCE:LINE: what is wrong").
+class MapFileReader {
+ public:
+  MapFileReader(const Reader& reader, MapProfile& map) : reader_(reader), map_(map) {}
+
+  // device: name, title, vendor, product code, revision, unit, baud, parity, stop bits, quirks.
+  void device(const YAML::Node& device) {
+    Profile& p = map_.profile_;
+    if (!device["name"]) reader_.fail(device, "device.name is missing");
+    p.name = map_.keep(reader_.text(device["name"], "device.name"));
+    if (device["title"]) p.title = map_.keep(reader_.text(device["title"], "device.title"));
+    if (device["vendor"]) p.vendor = map_.keep(reader_.text(device["vendor"], "device.vendor"));
+    if (device["product_code"])
+      p.product_code = map_.keep(reader_.text(device["product_code"], "device.product_code"));
+    if (device["revision"]) p.revision = map_.keep(reader_.text(device["revision"], "device.revision"));
+    if (device["unit"]) {
+      const int64_t u = reader_.integer(device["unit"], "device.unit");
+      if (u < 1 || u > 255) reader_.fail(device["unit"], "device.unit must be 1..255");
+      p.link.unit = static_cast<uint8_t>(u);
+    }
+    if (device["unit_max"]) {
+      const int64_t u = reader_.integer(device["unit_max"], "device.unit_max");
+      if (u < 1 || u > 255) reader_.fail(device["unit_max"], "device.unit_max must be 1..255");
+      p.link.unit_max = static_cast<uint8_t>(u);
+    }
+    if (device["baud"]) {
+      const int64_t b = reader_.integer(device["baud"], "device.baud");
+      if (b < 300 || b > 4000000) reader_.fail(device["baud"], "device.baud must be 300..4000000");
+      p.link.baud = static_cast<uint32_t>(b);
+    }
+    if (device["parity"]) {
+      const std::string parity = fold_name(reader_.text(device["parity"], "device.parity"));
+      if (parity == "n" || parity == "none")
+        p.link.parity = 'N';
+      else if (parity == "e" || parity == "even")
+        p.link.parity = 'E';
+      else if (parity == "o" || parity == "odd")
+        p.link.parity = 'O';
+      else
+        reader_.fail(device["parity"], "device.parity is N, E or O (none, even, odd)");
+    }
+    if (device["stop_bits"]) {
+      const int64_t s = reader_.integer(device["stop_bits"], "device.stop_bits");
+      if (s != 1 && s != 2) reader_.fail(device["stop_bits"], "device.stop_bits is 1 or 2");
+      p.link.stop_bits = static_cast<uint8_t>(s);
+    }
+    if (const YAML::Node q = device["quirks"]) {
+      if (!q.IsSequence()) reader_.fail(q, "device.quirks is a list");
+      for (const YAML::Node& item : q) {
+        const std::string name = fold_name(reader_.text(item, "quirk"));
+        if (name == "fc10_without_byte_count")
+          p.quirks.fc10_without_byte_count = true;
+        else if (name == "fc03_two_byte_count")
+          p.quirks.fc03_two_byte_count = true;
+        else
+          reader_.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
+      }
+    }
+  }
+
+  // flags: the file's own, in order (bits 1..29), after the kit's.
+  void flags(const YAML::Node& doc) {
+    // The kit's flags (persisted, link-address, link-baud) need no
+    // declaring; the file names its own in order: bits 1..29.
+    for (const FlagName& kit : kKitFlags) map_.flag_names_.push_back(kit);
+    if (const YAML::Node flags = doc["flags"]) {
+      if (!flags.IsSequence()) reader_.fail(flags, "flags is a list of names");
+      unsigned bit = 1;
+      for (const YAML::Node& f : flags) {
+        const std::string name = reader_.text(f, "flag");
+        if (std::any_of(std::begin(kKitFlags), std::end(kKitFlags),
+                        [&](const FlagName& kit) { return kit.name == name; }))
+          continue;
+        if (bit > 29) reader_.fail(f, "at most 29 device flags");
+        map_.flag_names_.push_back({Flags{1} << bit++, map_.keep(name)});
+      }
+    }
+  }
+
+  // One entry of registers, checked against the rows before it.
+  void row(const YAML::Node& n) {
+    if (!n.IsMap()) reader_.fail(n, "a register is a mapping (key, space, address...)");
+    check_fields(
+        reader_, n,
+        {"key", "title", "space", "address", "role", "encoding", "unit", "scale", "order", "access", "range",
+         "writable_range", "default", "default_first", "flags", "values", "notes", "repeat", "stride"},
+        "a register");
+    Row r;
+    if (!n["key"]) reader_.fail(n, "a register needs a key");
+    r.key = map_.keep(reader_.text(n["key"], "key"));
+    if (!n["address"]) reader_.fail(n, fmt::format("register '{}' needs an address", r.key));
+    const int64_t address = reader_.integer(n["address"], "address");
+    if (address < 0 || address > 0xFFFF) reader_.fail(n["address"], "address must be 0..0xFFFF");
+    r.address = static_cast<uint16_t>(address);
+    r.title = n["title"] ? map_.keep(reader_.text(n["title"], "title")) : r.key;
+    if (n["space"]) r.space = reader_.choice(n["space"], "space", kSpaces, space_name);
+    r.role = r.space == Space::input || r.space == Space::discrete ? Role::status : Role::setting;
+    if (n["role"]) r.role = reader_.choice(n["role"], "role", kRoles, role_name);
+    r.encoding = r.space == Space::coil || r.space == Space::discrete ? Encoding::boolean : Encoding::u16;
+    if (n["encoding"]) r.encoding = reader_.choice(n["encoding"], "encoding", kEncodings, encoding_name);
+    if (n["unit"]) r.unit = map_.keep(reader_.text(n["unit"], "unit"));
+    if (n["scale"]) {
+      const int64_t s = reader_.integer(n["scale"], "scale");
+      if (s < 1 || s > 10000) reader_.fail(n["scale"], "scale must be 1..10000");
+      r.scale = static_cast<uint16_t>(s);
+    }
+    if (n["order"]) {
+      const std::string o = fold_name(reader_.text(n["order"], "order"));
+      if (o == "high_first")
+        r.order = WordOrder::high_first;
+      else if (o == "low_first")
+        r.order = WordOrder::low_first;
+      else
+        reader_.fail(n["order"], "order is high_first or low_first");
+    }
+    if (n["access"]) r.access = reader_.choice(n["access"], "access", kAccesses, access_name);
+    if (n["range"]) r.range = reader_.range(n["range"], "range");
+    if (n["writable_range"]) r.writable_range = reader_.range(n["writable_range"], "writable_range");
+    if (n["default"]) r.default_value = reader_.integer(n["default"], "default");
+    if (n["default_first"]) r.default_first = reader_.integer(n["default_first"], "default_first");
+    if (n["repeat"]) {
+      const int64_t v = reader_.integer(n["repeat"], "repeat");
+      if (v < 1 || v > 0xFFFF) reader_.fail(n["repeat"], "repeat must be 1..65535");
+      r.repeat = static_cast<uint16_t>(v);
+    }
+    if (n["stride"]) {
+      const int64_t v = reader_.integer(n["stride"], "stride");
+      if (v < 1 || v > 0xFFFF) reader_.fail(n["stride"], "stride must be 1..65535");
+      r.stride = static_cast<uint16_t>(v);
+    }
+    if (n["notes"]) r.notes = map_.keep(reader_.text(n["notes"], "notes"));
+    if (const YAML::Node flags = n["flags"]) {
+      if (!flags.IsSequence()) reader_.fail(flags, "flags is a list of names");
+      for (const YAML::Node& f : flags) {
+        const std::string name = reader_.text(f, "flag");
+        const auto it = std::find_if(map_.flag_names_.begin(), map_.flag_names_.end(),
+                                     [&](const FlagName& fn) { return fn.name == name; });
+        if (it == map_.flag_names_.end())
+          reader_.fail(f, fmt::format("unknown flag '{}' (declare it under 'flags' at the top)", name));
+        r.flags |= it->flag;
+      }
+    }
+    if (const YAML::Node values = n["values"]) {
+      if (!values.IsMap()) reader_.fail(values, "values is a mapping of number: name");
+      std::vector<Named> named;
+      for (const auto& kv : values) {
+        const int64_t v = reader_.integer(kv.first, "value");
+        if (v < 0 || v > 0xFFFF) reader_.fail(kv.first, "a value must be 0..65535");
+        named.push_back({static_cast<uint16_t>(v), map_.keep(reader_.text(kv.second, "value name"))});
+      }
+      map_.names_.push_back(std::move(named));
+      r.names = map_.names_.back();
+    }
+    map_.rows_.push_back(r);
+    // The node of each row, for the line of a table-level error below.
+    if (const Status s = check_profile(Profile{.rows = std::span<const Row>(map_.rows_)}); !s.ok())
+      reader_.fail(n, std::string(s.reason()));
+  }
+
+  // After the rows: a device field beside a link row must agree with it.
+  void link_rows_agree(const YAML::Node& device) {
+    const Profile& p = map_.profile_;
+    // A link row decides the unit or the rate; a device field beside it
+    // must agree (an exported built-in has both), or the file says two things.
+    const Profile rows_only{.rows = std::span<const Row>(map_.rows_)};
+    if (const Row* r = row_with(rows_only, kLinkAddress);
+        r && device["unit"] && p.link.unit != r->default_value)
+      reader_.fail(device["unit"],
+                   fmt::format("device.unit {} disagrees with the default {} of the link-address "
+                               "row '{}': the row decides, drop device.unit",
+                               p.link.unit, r->default_value, r->key));
+    if (const Row* r = row_with(rows_only, kLinkBaud);
+        r && device["baud"] && p.link.baud != baud_of(*r, r->default_value))
+      reader_.fail(device["baud"],
+                   fmt::format("device.baud {} disagrees with the default {} of the link-baud row "
+                               "'{}': the row decides, drop device.baud",
+                               p.link.baud, baud_of(*r, r->default_value), r->key));
+  }
+
+ private:
+  const Reader& reader_;
+  MapProfile& map_;
+};
+
 Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::string_view source) {
   Reader reader(source);
   auto map = std::make_unique<MapProfile>();
@@ -248,168 +433,14 @@ Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::strin
                  {"name", "title", "vendor", "product_code", "revision", "unit", "unit_max", "baud", "parity",
                   "stop_bits", "quirks"},
                  "device");
-    Profile& p = map->profile_;
-    if (!device["name"]) reader.fail(device, "device.name is missing");
-    p.name = map->keep(reader.text(device["name"], "device.name"));
-    if (device["title"]) p.title = map->keep(reader.text(device["title"], "device.title"));
-    if (device["vendor"]) p.vendor = map->keep(reader.text(device["vendor"], "device.vendor"));
-    if (device["product_code"])
-      p.product_code = map->keep(reader.text(device["product_code"], "device.product_code"));
-    if (device["revision"]) p.revision = map->keep(reader.text(device["revision"], "device.revision"));
-    if (device["unit"]) {
-      const int64_t u = reader.integer(device["unit"], "device.unit");
-      if (u < 1 || u > 255) reader.fail(device["unit"], "device.unit must be 1..255");
-      p.link.unit = static_cast<uint8_t>(u);
-    }
-    if (device["unit_max"]) {
-      const int64_t u = reader.integer(device["unit_max"], "device.unit_max");
-      if (u < 1 || u > 255) reader.fail(device["unit_max"], "device.unit_max must be 1..255");
-      p.link.unit_max = static_cast<uint8_t>(u);
-    }
-    if (device["baud"]) {
-      const int64_t b = reader.integer(device["baud"], "device.baud");
-      if (b < 300 || b > 4000000) reader.fail(device["baud"], "device.baud must be 300..4000000");
-      p.link.baud = static_cast<uint32_t>(b);
-    }
-    if (device["parity"]) {
-      const std::string parity = fold_name(reader.text(device["parity"], "device.parity"));
-      if (parity == "n" || parity == "none")
-        p.link.parity = 'N';
-      else if (parity == "e" || parity == "even")
-        p.link.parity = 'E';
-      else if (parity == "o" || parity == "odd")
-        p.link.parity = 'O';
-      else
-        reader.fail(device["parity"], "device.parity is N, E or O (none, even, odd)");
-    }
-    if (device["stop_bits"]) {
-      const int64_t s = reader.integer(device["stop_bits"], "device.stop_bits");
-      if (s != 1 && s != 2) reader.fail(device["stop_bits"], "device.stop_bits is 1 or 2");
-      p.link.stop_bits = static_cast<uint8_t>(s);
-    }
-    if (const YAML::Node q = device["quirks"]) {
-      if (!q.IsSequence()) reader.fail(q, "device.quirks is a list");
-      for (const YAML::Node& item : q) {
-        const std::string name = fold_name(reader.text(item, "quirk"));
-        if (name == "fc10_without_byte_count")
-          p.quirks.fc10_without_byte_count = true;
-        else if (name == "fc03_two_byte_count")
-          p.quirks.fc03_two_byte_count = true;
-        else
-          reader.fail(item, "unknown quirk (fc10_without_byte_count, fc03_two_byte_count)");
-      }
-    }
-    // The kit's flags (persisted, link-address, link-baud) need no
-    // declaring; the file names its own in order: bits 1..29.
-    for (const FlagName& kit : kKitFlags) map->flag_names_.push_back(kit);
-    if (const YAML::Node flags = doc["flags"]) {
-      if (!flags.IsSequence()) reader.fail(flags, "flags is a list of names");
-      unsigned bit = 1;
-      for (const YAML::Node& f : flags) {
-        const std::string name = reader.text(f, "flag");
-        if (std::any_of(std::begin(kKitFlags), std::end(kKitFlags),
-                        [&](const FlagName& kit) { return kit.name == name; }))
-          continue;
-        if (bit > 29) reader.fail(f, "at most 29 device flags");
-        map->flag_names_.push_back({Flags{1} << bit++, map->keep(name)});
-      }
-    }
+    MapFileReader parts(reader, *map);
+    parts.device(device);
+    parts.flags(doc);
     const YAML::Node regs = doc["registers"];
     if (!regs || !regs.IsSequence() || regs.size() == 0)
       reader.fail(doc, "'registers' must be a list of at least one register");
-    for (const YAML::Node& n : regs) {
-      if (!n.IsMap()) reader.fail(n, "a register is a mapping (key, space, address...)");
-      check_fields(reader, n,
-                   {"key", "title", "space", "address", "role", "encoding", "unit", "scale", "order",
-                    "access", "range", "writable_range", "default", "default_first", "flags", "values",
-                    "notes", "repeat", "stride"},
-                   "a register");
-      Row r;
-      if (!n["key"]) reader.fail(n, "a register needs a key");
-      r.key = map->keep(reader.text(n["key"], "key"));
-      if (!n["address"]) reader.fail(n, fmt::format("register '{}' needs an address", r.key));
-      const int64_t address = reader.integer(n["address"], "address");
-      if (address < 0 || address > 0xFFFF) reader.fail(n["address"], "address must be 0..0xFFFF");
-      r.address = static_cast<uint16_t>(address);
-      r.title = n["title"] ? map->keep(reader.text(n["title"], "title")) : r.key;
-      if (n["space"]) r.space = reader.choice(n["space"], "space", kSpaces, space_name);
-      r.role = r.space == Space::input || r.space == Space::discrete ? Role::status : Role::setting;
-      if (n["role"]) r.role = reader.choice(n["role"], "role", kRoles, role_name);
-      r.encoding = r.space == Space::coil || r.space == Space::discrete ? Encoding::boolean : Encoding::u16;
-      if (n["encoding"]) r.encoding = reader.choice(n["encoding"], "encoding", kEncodings, encoding_name);
-      if (n["unit"]) r.unit = map->keep(reader.text(n["unit"], "unit"));
-      if (n["scale"]) {
-        const int64_t s = reader.integer(n["scale"], "scale");
-        if (s < 1 || s > 10000) reader.fail(n["scale"], "scale must be 1..10000");
-        r.scale = static_cast<uint16_t>(s);
-      }
-      if (n["order"]) {
-        const std::string o = fold_name(reader.text(n["order"], "order"));
-        if (o == "high_first")
-          r.order = WordOrder::high_first;
-        else if (o == "low_first")
-          r.order = WordOrder::low_first;
-        else
-          reader.fail(n["order"], "order is high_first or low_first");
-      }
-      if (n["access"]) r.access = reader.choice(n["access"], "access", kAccesses, access_name);
-      if (n["range"]) r.range = reader.range(n["range"], "range");
-      if (n["writable_range"]) r.writable_range = reader.range(n["writable_range"], "writable_range");
-      if (n["default"]) r.default_value = reader.integer(n["default"], "default");
-      if (n["default_first"]) r.default_first = reader.integer(n["default_first"], "default_first");
-      if (n["repeat"]) {
-        const int64_t v = reader.integer(n["repeat"], "repeat");
-        if (v < 1 || v > 0xFFFF) reader.fail(n["repeat"], "repeat must be 1..65535");
-        r.repeat = static_cast<uint16_t>(v);
-      }
-      if (n["stride"]) {
-        const int64_t v = reader.integer(n["stride"], "stride");
-        if (v < 1 || v > 0xFFFF) reader.fail(n["stride"], "stride must be 1..65535");
-        r.stride = static_cast<uint16_t>(v);
-      }
-      if (n["notes"]) r.notes = map->keep(reader.text(n["notes"], "notes"));
-      if (const YAML::Node flags = n["flags"]) {
-        if (!flags.IsSequence()) reader.fail(flags, "flags is a list of names");
-        for (const YAML::Node& f : flags) {
-          const std::string name = reader.text(f, "flag");
-          const auto it = std::find_if(map->flag_names_.begin(), map->flag_names_.end(),
-                                       [&](const FlagName& fn) { return fn.name == name; });
-          if (it == map->flag_names_.end())
-            reader.fail(f, fmt::format("unknown flag '{}' (declare it under 'flags' at the top)", name));
-          r.flags |= it->flag;
-        }
-      }
-      if (const YAML::Node values = n["values"]) {
-        if (!values.IsMap()) reader.fail(values, "values is a mapping of number: name");
-        std::vector<Named> named;
-        for (const auto& kv : values) {
-          const int64_t v = reader.integer(kv.first, "value");
-          if (v < 0 || v > 0xFFFF) reader.fail(kv.first, "a value must be 0..65535");
-          named.push_back({static_cast<uint16_t>(v), map->keep(reader.text(kv.second, "value name"))});
-        }
-        map->names_.push_back(std::move(named));
-        r.names = map->names_.back();
-      }
-      map->rows_.push_back(r);
-      // The node of each row, for the line of a table-level error below.
-      if (const Status s = check_profile(Profile{.rows = std::span<const Row>(map->rows_)}); !s.ok())
-        reader.fail(n, std::string(s.reason()));
-    }
-    // A link row decides the unit or the rate; a device field beside it
-    // must agree (an exported built-in has both), or the file says two things.
-    const Profile rows_only{.rows = std::span<const Row>(map->rows_)};
-    if (const Row* r = row_with(rows_only, kLinkAddress);
-        r && device["unit"] && p.link.unit != r->default_value)
-      reader.fail(device["unit"],
-                  fmt::format("device.unit {} disagrees with the default {} of the link-address "
-                              "row '{}': the row decides, drop device.unit",
-                              p.link.unit, r->default_value, r->key));
-    if (const Row* r = row_with(rows_only, kLinkBaud);
-        r && device["baud"] && p.link.baud != baud_of(*r, r->default_value))
-      reader.fail(device["baud"],
-                  fmt::format("device.baud {} disagrees with the default {} of the link-baud row "
-                              "'{}': the row decides, drop device.baud",
-                              p.link.baud, baud_of(*r, r->default_value), r->key));
+    for (const YAML::Node& n : regs) parts.row(n);
+    parts.link_rows_agree(device);
   } catch (const Bad& bad) {
     return Status(Errc::invalid_argument, bad.message);
   } catch (const YAML::Exception& e) {

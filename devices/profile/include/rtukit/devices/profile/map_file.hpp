@@ -19,12 +19,15 @@
 namespace rtukit::profile {
 
 /// A profile read from a file. Owns every string and row it points to.
+class MapFileReader;
+
 class MapProfile {
  public:
   const Profile& profile() const noexcept { return profile_; }
 
  private:
   friend Outcome<std::unique_ptr<MapProfile>> parse_map(std::string_view text, std::string_view source);
+  friend class MapFileReader;  // parse_map's field readers
   std::string_view keep(std::string s);
   std::deque<std::string> strings_;
   std::deque<std::vector<Named>> names_;
