@@ -268,6 +268,30 @@ setTimeout(() => done({timeout: true}), 5000);
               and "leg_rotate" not in con.held(), f"held: {con.held()}")
         check("overlay stays until acknowledged", hmi.find_element(By.ID, "error-overlay").is_displayed())
         ActionChains(hmi).release().perform()
+        check("...saying the error cleared", wait_for(lambda: text(hmi, "#error-detail").startswith(
+            "The error has cleared."), DEADLINE), text(hmi, "#error-detail"))
+        # The daemon frozen (SIGSTOP: its sockets stay open, nothing comes):
+        # within the pages' 3 s of silence the display shows no contact, and
+        # its overlay no longer says the error cleared (nothing is known).
+        # Before the heartbeat and the pages' silence check, a frozen daemon's
+        # last state looked live for ever.
+        os.kill(host.pid, signal.SIGSTOP)
+        try:
+            t0 = time.monotonic()
+            frozen = wait_for(lambda: hmi.find_element(By.ID, "lost").is_displayed()
+                              and text(hmi, "#error-detail").startswith("Whether the error has cleared is not known"),
+                              DEADLINE)
+            took = time.monotonic() - t0
+            check("a frozen daemon: the display shows no contact within its 3 s of silence, the error not known",
+                  bool(frozen) and "has cleared." not in text(hmi, "#error-detail"),
+                  f"{took:.1f} s: {text(hmi, '#error-detail')!r}")
+            hmi.save_screenshot(os.path.join(OUT, "hmi-daemon-frozen.png"))
+        finally:
+            os.kill(host.pid, signal.SIGCONT)
+        check("the daemon back: the display live again, the cleared error's overlay as it was",
+              wait_for(lambda: not hmi.find_element(By.ID, "lost").is_displayed()
+                       and text(hmi, "#error-detail").startswith("The error has cleared."), 30),
+              text(hmi, "#error-detail"))
         # The error cleared, the overlay still up: another connection may hold
         # a command again, and Stop on the overlay releases it and every other.
         r = hmi.execute_async_script(HOLD_JS, f"ws://127.0.0.1:{http_port}/ws?role=display", "seat_tilt", "back")

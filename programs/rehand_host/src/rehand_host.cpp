@@ -45,6 +45,7 @@ using Json = nlohmann::json;
 using Role = HostRole;
 
 constexpr auto kCodeLifetime = std::chrono::minutes(2);  ///< "Pair a phone": one window, never extended
+constexpr auto kHeartbeat = std::chrono::seconds(1);      ///< the state at least this often (pages: 3 s of silence is a loss)
 constexpr int kCodeGuesses = 3;                          ///< wrong codes before the code is replaced
 /// Wrong codes in one window, from all addresses together, before the window
 /// closes: a guesser with many addresses gets 10 tries at 1 in a million each,
@@ -462,6 +463,10 @@ struct HostDaemon::Impl {
   // pairing code expires, the state follows the clock (last contact).
   void tick() {
     const auto now = clock.now();
+    // A heartbeat: the state at least once a second, changed or not, so a
+    // page that hears nothing for 3 s knows the daemon is gone or frozen
+    // (common.js SILENT_MS) instead of showing its last state as live.
+    if (now - last_state_sent >= kHeartbeat) broadcast_state();
     for (auto& [id, c] : clients) {
       if (c.role == Role::phone && !c.authenticated && now - c.opened > options.auth_timeout &&
           c.socket->is_open())
@@ -810,6 +815,7 @@ struct HostDaemon::Impl {
   void broadcast_state() {
     publish_ble_state();
     send_to_all(state_json(true).dump(), state_json(false).dump());
+    last_state_sent = clock.now();
   }
 
   // One text to the displays, another to the authenticated phones.
@@ -925,6 +931,7 @@ struct HostDaemon::Impl {
       {.lifetime = kCodeLifetime, .code_guesses = kCodeGuesses, .window_guesses = kWindowGuesses}};
   web::GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
   std::optional<std::chrono::system_clock::time_point> last_contact;
+  Clock::time_point last_state_sent{};  ///< broadcast_state(): the heartbeat's start
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
   Clock::time_point last_expiry_check{};

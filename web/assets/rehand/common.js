@@ -16,6 +16,11 @@ export const RENEW_MS = 100;
 // ended the press anyway, so the page ends it too instead of pretending.
 export const PRESS_ANSWER_TIMEOUT_MS = 1500;
 const RECONNECT_MS = 1000;
+// The daemon sends the state at least once a second (a heartbeat when
+// nothing changes): a socket silent for this long is taken for dead, as if it
+// had closed (a frozen daemon keeps its sockets open, and its last state
+// would look live forever).
+export const SILENT_MS = 3000;
 
 export function $(selector) { return document.querySelector(selector); }
 export function $$(selector) { return [...document.querySelectorAll(selector)]; }
@@ -116,16 +121,45 @@ export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}
     pending.clear();
   }
 
+  // What a closed socket means, once per socket: its requests and presses
+  // end, the page hears why, and a new socket follows (unless told not to).
+  function lost(ws, event) {
+    if (socket !== ws) return;
+    socket = null;
+    settleAll({ ok: false, error: 'connection to the chair lost' });
+    // Before anything else: every press of this page ends with its socket
+    // (the daemon drops them too; the page must not show them as held).
+    endAllPresses('connection to the chair lost');
+    onClose(event);
+    if (shouldReconnect(event)) reconnectTimer = setTimeout(open, RECONNECT_MS);
+  }
+
+  // A socket open but silent past SILENT_MS: lost now, without waiting for a
+  // closing handshake a frozen daemon would never answer.
+  setInterval(() => {
+    const ws = socket;
+    if (!ws || ws.readyState !== WebSocket.OPEN) return;
+    if (Date.now() - heardAt <= SILENT_MS) return;
+    lost(ws, { code: 4000, reason: 'no message from the chair for 3 s' });
+    ws.close();
+  }, 500);
+  let heardAt = 0;  // when the open socket last opened or brought a message
+
   function open() {
     const scheme = location.protocol === 'https:' ? 'wss:' : 'ws:';
     const ws = new WebSocket(`${scheme}//${location.host}${path}`);
     socket = ws;
-    ws.onopen = () => { if (socket === ws) onOpen(); };
+    ws.onopen = () => {
+      if (socket !== ws) return;
+      heardAt = Date.now();
+      onOpen();
+    };
     ws.onmessage = (event) => {
       if (socket !== ws) return;
       let message;
       try { message = JSON.parse(event.data); } catch { return; }
       link.lastMessageAt = new Date();
+      heardAt = link.lastMessageAt.getTime();
       if (message.type === 'result' && pending.has(message.id)) {
         const entry = pending.get(message.id);
         pending.delete(message.id);
@@ -134,15 +168,7 @@ export function connect({ path, onMessage, onOpen = () => {}, onClose = () => {}
       }
       onMessage(message);
     };
-    ws.onclose = (event) => {
-      if (socket !== ws) return;
-      settleAll({ ok: false, error: 'connection to the chair lost' });
-      // Before anything else: every press of this page ends with its socket
-      // (the daemon drops them too; the page must not show them as held).
-      endAllPresses('connection to the chair lost');
-      onClose(event);
-      if (shouldReconnect(event)) reconnectTimer = setTimeout(open, RECONNECT_MS);
-    };
+    ws.onclose = (event) => lost(ws, event);
   }
   if (autoOpen) open();
   return link;
