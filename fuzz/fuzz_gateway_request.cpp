@@ -8,7 +8,8 @@
 //     FC08 sub-functions 00, 02, 0B..12, FC0B, FC0C, FC11, FC2B/0E; pinned
 //     entry by entry in tests/gateway_test.cpp, GatewayReadOnly*);
 //   - refused: one exception (01, 02, 03, 04, 0A) and only for a reason: 0A
-//     only for a unit not allowed, 01 on a read-only gateway only for a
+//     only for a unit not allowed (unit 0, the broadcast address, is allowed
+//     only without a list and only for 05, 06, 0F, 10, 16), 01 on a read-only gateway only for a
 //     request outside the allow-list or a function the codec refuses;
 //   - dropped: only an RTU frame (ordered) the codec cannot read, never an
 //     MBAP request (the client would wait for ever);
@@ -42,10 +43,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const GatewayAdmission again = admit_gateway_request(o, unit, pdu, ordered);
   if (a.action != again.action || a.exception != again.exception) std::abort();
 
-  const bool allowed = o.allowed_units.empty() ? unit >= 1 && unit <= 247
-                                               : std::find(o.allowed_units.begin(), o.allowed_units.end(),
-                                                           unit) != o.allowed_units.end();
   const Result<Request> decoded = decode_request(pdu);
+  // Unit 0 (broadcast) only without a list and only for the writes a broadcast carries.
+  const bool broadcast = unit == 0 && decoded.ok() && is_broadcastable(decoded->function);
+  const bool allowed = o.allowed_units.empty() ? (unit >= 1 && unit <= 247) || broadcast
+                                               : unit != 0 && std::find(o.allowed_units.begin(), o.allowed_units.end(),
+                                                                        unit) != o.allowed_units.end();
   using Action = GatewayAdmission::Action;
   switch (a.action) {
     case Action::relay: {

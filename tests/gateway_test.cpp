@@ -161,6 +161,9 @@ TEST(GatewayAdmission, CodecThenUnitThenReadOnly) {
   EXPECT_EQ(admit_gateway_request(open, 0, read, false).exception, Errc::gateway_path_unavailable);
   EXPECT_EQ(admit_gateway_request(open, 0, echo, false).exception, Errc::gateway_path_unavailable);
   EXPECT_EQ(admit_gateway_request(listed, 0, write, false).exception, Errc::gateway_path_unavailable);
+  // Not even a list that names 0 (the fuzz target's property, CI 2026-12-01).
+  const GatewayOptions lists_zero{.allowed_units = {0, 21}};
+  EXPECT_EQ(admit_gateway_request(lists_zero, 0, write, false).exception, Errc::gateway_path_unavailable);
   EXPECT_EQ(admit_gateway_request(read_only, 0, write, false).exception, Errc::illegal_function);
   const std::vector<uint8_t> read_write = {0x17, 0, 0, 0, 1, 0, 0, 0, 1, 2, 0, 7};
   EXPECT_EQ(admit_gateway_request(open, 0, read_write, false).exception, Errc::gateway_path_unavailable);

@@ -278,8 +278,8 @@ GatewayAdmission admit_gateway_request(const GatewayOptions& options, uint8_t un
   const bool allowed =
       options.allowed_units.empty()
           ? (unit >= 1 && unit <= 247) || (unit == kBroadcast.value && is_broadcastable(req->function))
-          : std::find(options.allowed_units.begin(), options.allowed_units.end(), unit) !=
-                options.allowed_units.end();
+          : unit != kBroadcast.value && std::find(options.allowed_units.begin(), options.allowed_units.end(),
+                                                  unit) != options.allowed_units.end();
   if (!allowed) return {Action::refuse, Errc::gateway_path_unavailable, {}};
   // Read-only: an allow-list, so whatever it does not name is refused (fails closed).
   if (options.read_only && !relays_when_read_only(*req)) return {Action::refuse, Errc::illegal_function, {}};
