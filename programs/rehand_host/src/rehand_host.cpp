@@ -28,7 +28,7 @@
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 #include "rtukit/devices/rehand6600/reference.hpp"
 #include "rtukit/devices/rehand6600/views.hpp"
-#include "rtukit/programs/pairing_window.hpp"
+#include "rtukit/programs/phone_access.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/assets.hpp"
 #include "rtukit/web/guard.hpp"
@@ -45,32 +45,19 @@ using Json = nlohmann::json;
 using Role = HostRole;
 
 constexpr auto kCodeLifetime = std::chrono::minutes(2);  ///< "Pair a phone": one window, never extended
-constexpr auto kHeartbeat = std::chrono::seconds(1);      ///< the state at least this often (pages: 3 s of silence is a loss)
-constexpr int kCodeGuesses = 3;                          ///< wrong codes before the code is replaced
+constexpr auto kHeartbeat =
+    std::chrono::seconds(1);     ///< the state at least this often (pages: 3 s of silence is a loss)
+constexpr int kCodeGuesses = 3;  ///< wrong codes before the code is replaced
 /// Wrong codes in one window, from all addresses together, before the window
 /// closes: a guesser with many addresses gets 10 tries at 1 in a million each,
 /// then the display must open it again (the person at the chair sees it close).
 constexpr int kWindowGuesses = 10;
-constexpr int kWrongPerAddress = 10;                    ///< wrong codes or signatures per source address...
-constexpr auto kWrongWindow = std::chrono::minutes(1);  ///< ...in this window, then refused until it ends
-constexpr size_t kWrongSources = 4096;                  ///< sources the table keeps at most (about 200 KiB)
 
+/// A WebSocket: a display's (always in) or a phone's (in once PhoneAccess let it in).
 struct Client {
   web::SocketPtr socket;
   Role role = Role::display;
-  bool authenticated = false;  ///< a display always; a phone once it signed the challenge (auth or pair)
-  std::string phone;           ///< the paired phone's id
-  Clock::time_point opened{};
-  std::string challenge;  ///< base64url of 32 random bytes, sent in the hello: this connection's only
 };
-
-/// What a phone's key signs to prove it is paired: this text and the
-/// connection's challenge (docs/rehand6600-remote.md). The prefix keeps the
-/// signature from meaning anything anywhere else; the challenge is new on
-/// every connection, so a signature seen once opens no other.
-std::string challenge_message(const std::string& challenge) {
-  return "rtukit-rehand6600-phone:" + challenge;
-}
 
 std::string local_time(int64_t unix_seconds, const char* format) {
   const std::time_t t = unix_seconds;
@@ -142,7 +129,13 @@ struct HostDaemon::Impl {
       : options(with_clock(std::move(o))),
         clock(clock_or_steady(options.clock)),
         host(std::move(link), options.host),
-        pairing(options.pairing_file) {
+        pairing(options.pairing_file),
+        access(pairing, clock, random_code,
+               {.window = {.lifetime = kCodeLifetime,
+                           .code_guesses = kCodeGuesses,
+                           .window_guesses = kWindowGuesses},
+                .auth_timeout = options.auth_timeout,
+                .max_age = options.pairing_max_age}) {
     if (!options.log)
       options.log = [this](const std::string& line) {
         fmt::print(stderr, "{} rehand6600 host: {}\n", local_time(unix_now(), "%Y-%m-%d %H:%M:%S"), line);
@@ -158,10 +151,9 @@ struct HostDaemon::Impl {
   int64_t unix_now() const { return clock.unix_seconds(); }
   // The pairing store's time: the calendar, never before what its file
   // recorded (a board without a real-time clock boots in 1970).
-  int64_t pairing_now() {
-    return pairing.time(
-        unix_now(), std::chrono::duration_cast<std::chrono::seconds>(clock.now().time_since_epoch()).count());
-  }
+  int64_t pairing_now() { return access.store_now(); }
+  // A display is always in; a phone once it authenticated or paired.
+  bool is_in(const Client& c) const { return c.role == Role::display || access.is_in(c.socket->id()); }
 
   void log(const std::string& line) const { options.log(line); }
 
@@ -191,11 +183,11 @@ struct HostDaemon::Impl {
     // is showing.
     if (display_listener && path == "/api/state") return {.body = state_json(true).dump()};
     if (display_listener && path == "/api/pair/qr.svg") {
-      if (!window.is_open()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
+      if (!access.window_open()) return {.status = 404, .body = R"({"error":"no pairing code is shown"})"};
       // The code and the certificate's fingerprint in the fragment: never
       // sent to a server, never in a log; the page reads and removes it.
       return {.content_type = "image/svg+xml",
-              .body = qr_svg(fmt::format("{}/#code={}&fp={}", phone_url, window.code(), fingerprint))};
+              .body = qr_svg(fmt::format("{}/#code={}&fp={}", phone_url, access.code(), fingerprint))};
     }
     if (auto a = web::asset_response(path)) return *a;
     return {.status = 404, .content_type = "text/plain; charset=utf-8", .body = "not found\n"};
@@ -212,27 +204,29 @@ struct HostDaemon::Impl {
   // ------------------------------------------------------------ WebSocket
 
   void opened(const web::SocketPtr& s) {
-    Client c{.socket = s, .opened = clock.now()};
-    c.role = s->request().listener == 0 ? Role::display : Role::phone;
-    c.authenticated = c.role == Role::display;
+    Client c{.socket = s, .role = s->request().listener == 0 ? Role::display : Role::phone};
+    // A phone's challenge: base64url of 32 random bytes, sent in the hello,
+    // this connection's only (PhoneAccess::signed_text).
+    std::string challenge;
     if (c.role == Role::phone) {
       std::array<unsigned char, 32> random{};
       if (!web::random_bytes(random.data(), random.size())) {
         s->close("no random numbers on the display computer");
         return;
       }
-      c.challenge = web::base64url({reinterpret_cast<const char*>(random.data()), random.size()});
+      challenge = web::base64url({reinterpret_cast<const char*>(random.data()), random.size()});
+      access.connected(s->id(), challenge);
     }
     clients.emplace(s->id(), c);
     if (c.role == Role::display) host.join(s->id(), rh::ClientKind::display);
     Json hello{{"type", "hello"},
                {"role", c.role == Role::display ? "display" : "phone"},
-               {"authenticated", c.authenticated},
+               {"authenticated", c.role == Role::display},
                {"client", s->id()},
                {"lease_ms", options.host.lease.count()},
                {"auth_timeout_ms", std::chrono::milliseconds(options.auth_timeout).count()},
                {"mph", options.mph}};
-    if (c.role == Role::phone) hello["challenge"] = c.challenge;
+    if (c.role == Role::phone) hello["challenge"] = challenge;
     s->send(hello.dump());
     if (c.role == Role::display) s->send(state_json(true).dump());
   }
@@ -243,12 +237,12 @@ struct HostDaemon::Impl {
     // The session decides what losing this client means: a phone that was
     // driving is a loss of control (the stop command), anything else ends.
     host.leave(s->id());
-    const Client c = it->second;
-    if (c.role == Role::phone && c.authenticated) remember_gone(s->id(), name_of(c.phone));
     clients.erase(it);
-    if (c.role == Role::phone && c.authenticated) {
-      (void)pairing.touch(c.phone, pairing_now());
-      log(fmt::format("phone '{}' ({}) disconnected from {}", name_of(c.phone), c.phone, s->peer_address()));
+    const std::string phone = access.left(s->id());
+    if (!phone.empty()) {
+      remember_gone(s->id(), name_of(phone));
+      (void)access.touch(phone);
+      log(fmt::format("phone '{}' ({}) disconnected from {}", name_of(phone), phone, s->peer_address()));
       broadcast_state();
     }
   }
@@ -257,7 +251,7 @@ struct HostDaemon::Impl {
     auto it = clients.find(s->id());
     if (it == clients.end()) return;
     Client& c = it->second;
-    const HostMessage m = parse_host_message(text, c.role, c.authenticated);
+    const HostMessage m = parse_host_message(text, c.role, is_in(c));
     if (!m.envelope) {
       s->send(Json{{"type", "error"}, {"error", "expected a JSON object with \"op\""}}.dump());
       return;
@@ -274,42 +268,34 @@ struct HostDaemon::Impl {
     return rtukit::Status(Errc::refused, std::move(reason));
   }
 
-  // Wrong codes and signatures per source (an IPv4 address, an IPv6 /64), per
-  // minute: guessing is slow (web::GuessLimit, web/guard.hpp).
-  bool too_many_wrong(const std::string& peer) { return wrong.refused(peer, clock.now()); }
-  void count_wrong(const std::string& peer) { (void)wrong.count(peer, clock.now()); }
-
   std::string name_of(const std::string& phone) const {
     const PairedPhone* p = pairing.phone(phone);
     return p ? p->name : "a forgotten phone";
   }
 
-  // A phone is in: one connection per phone, the newest wins.
-  void admit_phone(Client& c, const std::string& phone) {
-    for (auto& [id, other] : clients) {
-      if (id == c.socket->id() || other.phone != phone) continue;
-      other.socket->close("replaced by a new connection");
+  // PhoneAccess let `c` in as a.phone: its older connections close (one
+  // per phone, the newest wins), it joins the session, the phone hears who it is.
+  void admitted(Client& c, const PhoneAccess::Admission& a, Json& result) {
+    for (const uint64_t id : a.replaced) {
+      if (auto it = clients.find(id); it != clients.end())
+        it->second.socket->close("replaced by a new connection");
       host.leave(id);  // at once, not when the close completes
-      other.phone.clear();
-      other.authenticated = false;
-      tell_displays({{"type", "event"}, {"event", "replaced"}, {"phone", phone}, {"name", name_of(phone)}});
-      log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(phone),
-                      phone));
+      tell_displays(
+          {{"type", "event"}, {"event", "replaced"}, {"phone", a.phone}, {"name", name_of(a.phone)}});
+      log(fmt::format("phone '{}' ({}) connected again: the older connection is closed", name_of(a.phone),
+                      a.phone));
     }
-    c.authenticated = true;
-    c.phone = phone;
     host.join(c.socket->id(), rh::ClientKind::phone);
-    (void)pairing.touch(phone, pairing_now());
+    result["phone"] = a.phone;
+    result["name"] = name_of(a.phone);
+    result["client"] = c.socket->id();
   }
 
   // Closes every connection of `phone` (forgotten): its presses end now.
   void drop_phone(const std::string& phone, const std::string& why) {
-    for (auto& [id, c] : clients) {
-      if (c.phone != phone) continue;
-      c.socket->close(why);
+    for (const uint64_t id : access.drop(phone)) {
+      if (auto it = clients.find(id); it != clients.end()) it->second.socket->close(why);
       host.leave(id);
-      c.phone.clear();
-      c.authenticated = false;
     }
   }
 
@@ -320,7 +306,7 @@ struct HostDaemon::Impl {
     const uint64_t me = c.socket->id();
     switch (k.kind) {
       case Kind::press:
-        if (rtukit::Status e = may_drive(c.phone, k.address)) return e;
+        if (rtukit::Status e = may_drive(access.phone_of(me), k.address)) return e;
         return host.press(me, k.address, k.value, k.press);
       case Kind::renew:
         return host.renew(me, k.press);
@@ -346,7 +332,7 @@ struct HostDaemon::Impl {
         return {};
       }
       case Kind::pair_start: {
-        if (!window.open(clock.now())) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
+        if (!access.open_window()) return rtukit::Status(Errc::io_error, "no random numbers (getrandom)");
         if (ble) ble->set_pairing(true);
         update_advertising();
         log("pairing code shown on the display");
@@ -389,67 +375,34 @@ struct HostDaemon::Impl {
       }
       case Kind::auth: {
         const std::string& from = c.socket->peer_address();
-        if (too_many_wrong(from))
-          return refuse(
-              "too many wrong signatures or codes from this address (or too many addresses guessing): wait a "
-              "minute");
-        // One answer for an unknown phone and a wrong signature.
-        if (!pairing.verify(k.phone, challenge_message(c.challenge), k.signature)) {
-          count_wrong(from);
-          return refuse(
-              "not paired: this phone is unknown or was forgotten; pair again with the display's code");
-        }
-        const std::optional<std::string> phone = k.phone;
-        admit_phone(c, *phone);
-        result["phone"] = *phone;
-        result["name"] = name_of(*phone);
-        result["client"] = me;
-        log(fmt::format("phone '{}' ({}) connected from {}", name_of(*phone), *phone, from));
+        const PhoneAccess::Admission a = access.authenticate(me, from, k.phone, k.signature);
+        if (a.error) return a.error;
+        admitted(c, a, result);
+        log(fmt::format("phone '{}' ({}) connected from {}", name_of(a.phone), a.phone, from));
         c.socket->send(state_json(false).dump());
         broadcast_state();
         return {};
       }
       case Kind::pair: {
         const std::string& from = c.socket->peer_address();
-        if (too_many_wrong(from))
-          return refuse(
-              "too many wrong signatures or codes from this address (or too many addresses guessing): wait a "
-              "minute");
-        // One answer for "no code shown", "expired" and "wrong": nothing a
-        // stranger can probe tells whether a code is showing.
-        // The window's rules (pairing_window.hpp): a code guessed at is
-        // replaced, a window guessed at from everywhere closes.
-        if (const PairingWindow::Guess g = window.guess(k.code, clock.now());
-            g != PairingWindow::Guess::right) {
-          count_wrong(from);
-          if (g == PairingWindow::Guess::window_closed) {
-            log(
-                fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
-                            "phone\" again on the display",
-                            kWindowGuesses, from));
-            close_pairing();
-            broadcast_state();
-          } else if (g == PairingWindow::Guess::code_replaced) {
-            log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
-            broadcast_state();
-          }
-          return refuse("wrong or expired code: enter the code the display shows now");
+        const PhoneAccess::Admission a = access.pair(me, from, k.code, k.name, k.public_key, k.signature);
+        if (a.guess == PairingWindow::Guess::window_closed) {
+          log(
+              fmt::format("pairing closed: {} wrong codes while it was open (last from {}); open \"Pair a "
+                          "phone\" again on the display",
+                          kWindowGuesses, from));
+          close_pairing();
+          broadcast_state();
+        } else if (a.guess == PairingWindow::Guess::code_replaced) {
+          log(fmt::format("pairing code guessed at {} times (last from {}): replaced", kCodeGuesses, from));
+          broadcast_state();
         }
-        // The right code: the phone also shows it holds the key it brings
-        // (a key the page cannot use would pair a phone that never connects).
-        if (!web::verify_p256(k.public_key, challenge_message(c.challenge), k.signature))
-          return refuse("the phone's signature does not match its key: reload the page and pair again");
-        const std::string used = window.code();
+        if (a.error) return a.error;
         // One "Pair a phone", one phone: the window closes for both links
         // (before, a web pairing left the Bluetooth window open).
         close_pairing();
-        Outcome<std::string> added = pairing.add(k.name, used, web::base64url(k.public_key), pairing_now());
-        if (!added) return added.error();
-        admit_phone(c, *added);
-        result["phone"] = *added;
-        result["name"] = name_of(*added);
-        result["client"] = me;
-        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(*added), *added,
+        admitted(c, a, result);
+        log(fmt::format("phone '{}' ({}) paired from {} with the display's code", name_of(a.phone), a.phone,
                         from));
         c.socket->send(state_json(false).dump());
         broadcast_state();
@@ -467,22 +420,18 @@ struct HostDaemon::Impl {
     // page that hears nothing for 3 s knows the daemon is gone or frozen
     // (common.js SILENT_MS) instead of showing its last state as live.
     if (now - last_state_sent >= kHeartbeat) broadcast_state();
-    for (auto& [id, c] : clients) {
-      if (c.role == Role::phone && !c.authenticated && now - c.opened > options.auth_timeout &&
-          c.socket->is_open())
-        c.socket->close("authentication timeout");
-    }
-    if (window.expire(now)) {
+    for (const uint64_t id : access.timed_out())
+      if (auto it = clients.find(id); it != clients.end()) it->second.socket->close("authentication timeout");
+    if (access.expire_window()) {
       close_pairing();
       broadcast_state();
     }
     // With --ble, once the link is up: an expired bond is removed from BlueZ, not only from the file.
     const bool ble_ready = options.ble_adapter.empty() || ble;
-    if (ble_ready && now - last_expiry_check > std::chrono::minutes(1)) {
-      last_expiry_check = now;
+    if (ble_ready) {
       const auto days = options.pairing_max_age.count() / 86400;
-      for (const PairingStore::Forgotten& p :
-           pairing.expire(pairing_now(), options.pairing_max_age.count())) {
+      const std::vector<PairingStore::Forgotten> forgotten = access.expire_unused();
+      for (const PairingStore::Forgotten& p : forgotten) {
         if (p.id.starts_with("ble:")) {
           if (!remove_bond(p.id, fmt::format("forgotten: unused for more than {} days", days)))
             log(fmt::format("Bluetooth phone {} forgotten: unused for more than {} days", p.id, days));
@@ -491,7 +440,7 @@ struct HostDaemon::Impl {
         drop_phone(p.id, "this pairing expired");
         log(fmt::format("phone '{}' ({}) forgotten: unused for more than {} days", p.name, p.id, days));
       }
-      if (ble) broadcast_state();
+      if (ble && !forgotten.empty()) broadcast_state();
     }
     const rh::Snapshot s = host.snapshot();
     if (host.connected() && s.valid && s.sequence != last_sequence) {
@@ -521,8 +470,7 @@ struct HostDaemon::Impl {
     if (gone_names.size() > 16) gone_names.erase(gone_names.begin());
   }
   std::string client_name(uint64_t client) const {
-    if (const auto it = clients.find(client); it != clients.end() && it->second.role == Role::phone)
-      return name_of(it->second.phone);
+    if (const std::string phone = access.phone_of(client); !phone.empty()) return name_of(phone);
     if (std::string ble_phone = ble_name(client); !ble_phone.empty()) return ble_phone;
     for (const auto& [id, name] : gone_names)
       if (id == client) return name;
@@ -542,7 +490,7 @@ struct HostDaemon::Impl {
   }
 
   void close_pairing() {
-    window.close();
+    access.close_window();
     ble_passkey.clear();
     ble_passkey_for.clear();
     if (ble) ble->set_pairing(false);
@@ -695,7 +643,7 @@ struct HostDaemon::Impl {
     bool bonded = false;
     for (const BleDevice& b : ble->devices())
       bonded = bonded || (b.bonded && !ble_forgetting.contains(b.path));
-    ble->set_advertising(bonded || window.is_open());
+    ble->set_advertising(bonded || access.window_open());
   }
 
   // ------------------------------------------------------------ state
@@ -722,19 +670,18 @@ struct HostDaemon::Impl {
     };
     Json presses = Json::array();
     for (const rh::Session::Press& p : held) {
-      auto owner = clients.find(p.client);
-      const bool phone = owner != clients.end() && owner->second.role == Role::phone;
+      const std::string phone = access.phone_of(p.client);
       const std::string ble_phone = ble_name(p.client);
       presses.push_back({{"command", key_of(p.command)},
                          {"value", p.value},
                          {"owner", !ble_phone.empty() ? ble_phone
-                                   : phone            ? name_of(owner->second.phone)
+                                   : !phone.empty()   ? name_of(phone)
                                                       : "display"}});
     }
     const rh::Disabled d = host.disabled();
     std::string driver;
     if (const auto id = host.driver()) {
-      if (auto it = clients.find(*id); it != clients.end()) driver = it->second.phone;
+      driver = access.phone_of(*id);
       for (const auto& [path, client] : ble_clients)
         if (client == *id) driver = ble_id(path);
     }
@@ -759,14 +706,12 @@ struct HostDaemon::Impl {
             {"disabled", {{"all", d.all}, {"drive", d.drive}, {"raise", d.raise}}},
             {"driver", driver}};
     if (!for_display) return st;
-    st["pairing_code"] = window.code();
-    st["pairing_seconds"] =
-        std::chrono::duration_cast<std::chrono::seconds>(window.left(clock.now())).count();
+    st["pairing_code"] = access.code();
+    st["pairing_seconds"] = std::chrono::duration_cast<std::chrono::seconds>(access.window_left()).count();
     st["fingerprint"] = fingerprint;
     Json phones = Json::array();
     for (const PairedPhone& p : pairing.phones()) {
-      bool connected = false;
-      for (const auto& [id, c] : clients) connected = connected || (c.authenticated && c.phone == p.id);
+      const bool connected = access.is_connected(p.id);
       phones.push_back({{"phone", p.id},
                         {"name", p.name},
                         {"paired_code", p.code},
@@ -823,7 +768,7 @@ struct HostDaemon::Impl {
     for (auto& [id, c] : clients) {
       if (c.role == Role::display)
         c.socket->send(for_displays);
-      else if (c.authenticated)
+      else if (access.is_in(id))
         c.socket->send(for_phones);
     }
   }
@@ -920,21 +865,17 @@ struct HostDaemon::Impl {
   DriverClock& clock;
   rh::Host host;
   PairingStore pairing;
+  PhoneAccess access;  ///< who is in: pairing, guesses, authentication, expiry (phone_access.hpp)
   std::unique_ptr<web::Server> server;
   std::unique_ptr<BlePeripheral> ble;  ///< --ble: set by start() before the server runs its handlers
   std::atomic<bool> flush_pending{false};
   // Server-thread state.
   std::map<uint64_t, Client> clients;
   uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
-  PairingWindow window{
-      random_code,
-      {.lifetime = kCodeLifetime, .code_guesses = kCodeGuesses, .window_guesses = kWindowGuesses}};
-  web::GuessLimit wrong{kWrongPerAddress, kWrongWindow, kWrongSources};
   std::optional<std::chrono::system_clock::time_point> last_contact;
   Clock::time_point last_state_sent{};  ///< broadcast_state(): the heartbeat's start
   uint64_t last_sequence = 0;
   bool near_obstacle = false;
-  Clock::time_point last_expiry_check{};
   std::vector<std::pair<uint64_t, std::string>> gone_names;  ///< remember_gone()
   std::map<std::string, uint64_t> ble_clients;    ///< a BLE phone's device path -> its session client
   std::set<std::string> ble_forgetting;           ///< device paths whose bond is being removed
