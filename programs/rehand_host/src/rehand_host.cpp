@@ -264,10 +264,6 @@ struct HostDaemon::Impl {
     s->send(result.dump());
   }
 
-  static rtukit::Status refuse(std::string reason) {
-    return rtukit::Status(Errc::refused, std::move(reason));
-  }
-
   std::string name_of(const std::string& phone) const {
     const PairedPhone* p = pairing.phone(phone);
     return p ? p->name : "a forgotten phone";
