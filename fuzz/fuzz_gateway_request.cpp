@@ -46,9 +46,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const Result<Request> decoded = decode_request(pdu);
   // Unit 0 (broadcast) only without a list and only for the writes a broadcast carries.
   const bool broadcast = unit == 0 && decoded.ok() && is_broadcastable(decoded->function);
-  const bool allowed = o.allowed_units.empty() ? (unit >= 1 && unit <= 247) || broadcast
-                                               : unit != 0 && std::find(o.allowed_units.begin(), o.allowed_units.end(),
-                                                                        unit) != o.allowed_units.end();
+  const bool allowed = o.allowed_units.empty()
+                           ? (unit >= 1 && unit <= 247) || broadcast
+                           : unit != 0 && std::find(o.allowed_units.begin(), o.allowed_units.end(), unit) !=
+                                              o.allowed_units.end();
   using Action = GatewayAdmission::Action;
   switch (a.action) {
     case Action::relay: {
