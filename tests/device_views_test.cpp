@@ -356,6 +356,52 @@ TEST(RehandViews, StandProgressDistancesAndSignedNumbers) {
   EXPECT_FALSE(n.contains("reserved_27"));
 }
 
+// The daemon's state document's chair part, from one HostState: the
+// advice with an error, signed rows signed, presses by their owner's name,
+// the driver by its phone id, the chosen drive mode by its row's name.
+TEST(RehandViews, TheStateDocumentIsOneHostState) {
+  rh::HostState st;
+  st.snapshot = chair();
+  st.connected = true;
+  st.snapshot.regs[rh::reg::kJoystickX] = static_cast<uint16_t>(-25);
+  st.active_error = 0x10C3;
+  st.presses.push_back({.client = 7, .id = 1, .command = rh::reg::kPhoneForward, .value = 1});
+  st.driver = 7;
+  st.drive_mode = 2;
+  st.speed_level = 1;
+  st.emergency = true;
+  st.disabled.drive = "a phone is driving";
+  const rh::ClientNames names{
+      .owner = [](rh::Session::ClientId c) { return c == 7 ? "Anna's phone" : "display"; },
+      .phone = [](rh::Session::ClientId c) { return c == 7 ? "p-7" : ""; }};
+  nlohmann::ordered_json v = rh::state_view(st, names);
+  EXPECT_TRUE(v["connected"]);
+  EXPECT_EQ(v["error"], 0x10C3);
+  EXPECT_EQ(v["error_text"], "10C3 Seat lift Error");
+  EXPECT_NE(v["error_advice"].get<std::string>().find("check"), std::string::npos) << v["error_advice"];
+  EXPECT_EQ(v["values"]["joystick_x"], -25);
+  EXPECT_EQ(v["text"]["battery"], rh::format_value(*rh::find_register("battery"), 80));
+  EXPECT_FALSE(v["text"].contains("reserved_27"));
+  EXPECT_EQ(v["drive_mode"], "indoor");
+  EXPECT_EQ(v["speed_level"], 1);
+  ASSERT_EQ(v["presses"].size(), 1U);
+  EXPECT_EQ(v["presses"][0]["command"], "phone_forward");
+  EXPECT_EQ(v["presses"][0]["owner"], "Anna's phone");
+  EXPECT_EQ(v["driver"], "p-7");
+  EXPECT_TRUE(v["emergency"]);
+  EXPECT_FALSE(v["stop"]);
+  EXPECT_EQ(v["disabled"]["drive"], "a phone is driving");
+  EXPECT_EQ(v["postures"].size(), std::size(rh::kPostures));
+  // No error: no advice; no poll read yet: not connected, whatever the link.
+  st.active_error = 0;
+  st.snapshot.valid = false;
+  v = rh::state_view(st, names);
+  EXPECT_EQ(v["error_advice"], "");
+  EXPECT_FALSE(v["connected"]) << "a link without a reading shows nothing live";
+  st.driver.reset();
+  EXPECT_EQ(rh::state_view(st, names)["driver"], "");
+}
+
 TEST(RehandViews, TheJsonValuesOfTableOne) {
   rh::Snapshot s = chair();
   nlohmann::ordered_json v = rh::snapshot_values(s, false);

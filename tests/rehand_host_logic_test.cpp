@@ -1121,6 +1121,34 @@ TEST(RehandHostCore, APhoneDrivesAtSpeedLevelOne_TheDisplaysLevelComesBackWhenTh
   EXPECT_EQ(rig.core.speed_level(), 3);
 }
 
+// The state document reads one HostState: the chosen drive mode and speed
+// level (the daemon kept its own copies before), the phone in the seat
+// with its press, the level actually written, all from one reading.
+TEST(RehandHostCore, OneStateHoldsTheChoicesThePressesAndTheDriver) {
+  CoreRig rig;
+  HostState st = rig.core.state();
+  EXPECT_EQ(st.drive_mode, 1) << "D-7: normal until chosen";
+  EXPECT_EQ(st.chosen_speed, 1);
+  ASSERT_FALSE(rig.core.queue(CoreRig::kDisplay, reg::kDriveMode, 3, 100));
+  ASSERT_FALSE(rig.core.queue(CoreRig::kDisplay, reg::kSpeedLevel, 4, 101));
+  rig.run_for(100ms);
+  ASSERT_FALSE(rig.core.session().press(CoreRig::kPhone, reg::kPhoneForward, 1, 1, rig.t));
+  rig.core.sync(rig.t);
+  st = rig.core.state();
+  EXPECT_EQ(st.drive_mode, 3);
+  EXPECT_EQ(st.chosen_speed, 4) << "the display's level, put back after the phone";
+  EXPECT_EQ(st.speed_level, 1) << "D-14: level 1 while a phone holds the seat";
+  ASSERT_TRUE(st.driver);
+  EXPECT_EQ(*st.driver, CoreRig::kPhone);
+  ASSERT_EQ(st.presses.size(), 1U);
+  EXPECT_EQ(st.presses[0].command, reg::kPhoneForward);
+  EXPECT_TRUE(st.connected);
+  EXPECT_EQ(st.active_error, 0);
+  // A refused drive mode (not in its row) changes nothing.
+  EXPECT_TRUE(rig.core.queue(CoreRig::kDisplay, reg::kDriveMode, 9, 102));
+  EXPECT_EQ(rig.core.state().drive_mode, 3);
+}
+
 // A pulse is two writes, the phone's light 2 then 0 (D-4: the seed prints
 // 2 for on) and a signal 1 then 0, under one ticket whose outcome reaches
 // the caller (the HostCore mutants of host.cpp:526 and :545, the result

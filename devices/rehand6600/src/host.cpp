@@ -546,7 +546,23 @@ rtukit::Status HostCore::queue(Session::ClientId client, uint16_t command, uint1
     return rtukit::Status(Errc::refused, logic_.connected() ? "the controller's queue is full: try again"
                                                             : "no communication with the controller");
   if (command == reg::kSpeedLevel) chosen_speed_ = value;
+  if (command == reg::kDriveMode) chosen_drive_mode_ = value;
   return {};
+}
+
+HostState HostCore::state() const {
+  return {.snapshot = logic_.snapshot(),
+          .connected = logic_.connected(),
+          .active_error = logic_.active_error(),
+          .presses = session_.presses(),
+          .disabled = session_.disabled(),
+          .driver = session_.driver(),
+          .emergency = session_.emergency(),
+          .near_obstacle = session_.near_obstacle(),
+          .stop_latched = session_.stop_latched(),
+          .speed_level = speed_level(),
+          .chosen_speed = chosen_speed_,
+          .drive_mode = chosen_drive_mode_};
 }
 
 std::optional<HostLogic::Request> HostCore::next(TimePoint now) {
@@ -649,6 +665,11 @@ HostLogic::TimePoint Host::step() {
   cv_.notify_all();
   for (const Event& ev : events) emit(ev);
   return clock_.now();  // one request a step: the next is decided afresh
+}
+
+HostState Host::state() const {
+  std::lock_guard lock(mutex_);
+  return core_.state();
 }
 
 Snapshot Host::snapshot() const {

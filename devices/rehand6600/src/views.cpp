@@ -117,6 +117,44 @@ Json status_numbers(const Snapshot& s) {
   return values;
 }
 
+Json state_view(const HostState& s, const ClientNames& names) {
+  const Snapshot& snap = s.snapshot;
+  Json text = Json::object();
+  for (const Register& r : registers())
+    if (table_of(r) == Table::status && !r.key.starts_with("reserved"))
+      text[std::string(r.key)] = format_value(r, snap[r.address]);
+  const auto held_on = [&s](uint16_t command) -> uint16_t {
+    for (const Session::Press& h : s.presses)
+      if (h.command == command) return h.value;
+    return 0;
+  };
+  Json presses = Json::array();
+  for (const Session::Press& p : s.presses)
+    presses.push_back({{"command", std::string(find_register(p.command)->key)},
+                       {"value", p.value},
+                       {"owner", names.owner ? names.owner(p.client) : std::string("display")}});
+  const std::string_view mode = profile::name_of(*find_register(reg::kDriveMode), s.drive_mode);
+  const uint16_t error = s.active_error;
+  return Json{
+      {"connected", s.connected && snap.valid},
+      {"error", error},
+      {"error_text", error ? error_text(error) : ""},
+      {"error_advice", error ? error_advice(error) : ""},
+      {"values", status_numbers(snap)},
+      {"text", text},
+      {"drive_mode", mode.empty() ? std::to_string(s.drive_mode) : std::string(mode)},
+      {"speed_level", s.speed_level},
+      {"postures", postures_view(snap, held_on)},
+      {"stand_progress", stand_progress(snap)},
+      {"distances", distances_view(snap)},
+      {"near_obstacle", s.near_obstacle},
+      {"emergency", s.emergency},
+      {"stop", s.stop_latched},
+      {"presses", presses},
+      {"disabled", {{"all", s.disabled.all}, {"drive", s.disabled.drive}, {"raise", s.disabled.raise}}},
+      {"driver", s.driver && names.phone ? names.phone(*s.driver) : std::string()}};
+}
+
 Json postures_view(const Snapshot& s, const std::function<uint16_t(uint16_t)>& held) {
   const auto name = [](uint16_t address, uint16_t value) {
     const std::string_view n = profile::name_of(*find_register(address), value);

@@ -117,11 +117,6 @@ std::string key_of(uint16_t address) {
   return r ? std::string(r->key) : std::string();
 }
 
-std::string choice(uint16_t address, uint16_t value) {
-  const rh::Register* r = rh::find_register(address);
-  return r ? std::string(profile::name_of(*r, value)) : std::to_string(value);
-}
-
 }  // namespace
 
 struct HostDaemon::Impl {
@@ -323,7 +318,6 @@ struct HostDaemon::Impl {
         return host.send(me, k.address, 1);
       case Kind::set: {
         if (rtukit::Status e = host.send(me, k.address, k.value)) return e;
-        (k.address == rh::reg::kDriveMode ? drive_mode : speed_level) = k.value;
         broadcast_state();
         return {};
       }
@@ -438,13 +432,13 @@ struct HostDaemon::Impl {
       }
       if (ble && !forgotten.empty()) broadcast_state();
     }
-    const rh::Snapshot s = host.snapshot();
-    if (host.connected() && s.valid && s.sequence != last_sequence) {
-      last_sequence = s.sequence;
+    const rh::HostState hs = host.state();
+    if (hs.connected && hs.snapshot.valid && hs.snapshot.sequence != last_sequence) {
+      last_sequence = hs.snapshot.sequence;
       last_contact = clock.wall();
       publish_ble_state();  // a new reading: the counter moved (published only when the bytes differ)
     }
-    const bool near = host.near_obstacle();
+    const bool near = hs.near_obstacle;
     if (near && !near_obstacle) broadcast({{"type", "event"}, {"event", "near_obstacle"}});
     near_obstacle = near;
   }
@@ -644,63 +638,34 @@ struct HostDaemon::Impl {
 
   // ------------------------------------------------------------ state
 
+  // The phone id of a client: a Wi-Fi phone's, or "ble:ADDRESS"; "" for the display.
+  std::string phone_id_of(rh::Host::ClientId id) {
+    for (const auto& [path, client] : ble_clients)
+      if (client == id) return ble_id(path);
+    return access.phone_of(id);
+  }
+
   Json state_json(bool for_display) {
-    const rh::Snapshot s = host.snapshot();
-    const uint16_t error = host.active_error();
-    Json text = Json::object();
-    for (const rh::Register& r : rh::registers())
-      if (rh::table_of(r) == rh::Table::status && !r.key.starts_with("reserved"))
-        text[std::string(r.key)] = rh::format_value(r, s[r.address]);
-    const bool live = host.connected() && s.valid;
+    // The chair's part from the device layer (views.hpp), from one reading
+    // of the host taken under its lock; the daemon adds its connections.
+    const rh::HostState hs = host.state();
+    std::string driver;
+    if (hs.driver) driver = phone_id_of(*hs.driver);
     const int64_t contact_ms =
         last_contact
             ? std::chrono::duration_cast<std::chrono::milliseconds>(last_contact->time_since_epoch()).count()
             : 0;
-    // The device layer's views (views.hpp): postures as kPostures says,
-    // signed rows signed, distances by name.
-    const std::vector<rh::Session::Press> held = host.presses();
-    const auto held_on = [&held](uint16_t command) -> uint16_t {
-      for (const rh::Session::Press& h : held)
-        if (h.command == command) return h.value;
-      return 0;
-    };
-    Json presses = Json::array();
-    for (const rh::Session::Press& p : held) {
-      const std::string phone = access.phone_of(p.client);
-      const std::string ble_phone = ble_name(p.client);
-      presses.push_back({{"command", key_of(p.command)},
-                         {"value", p.value},
-                         {"owner", !ble_phone.empty() ? ble_phone
-                                   : !phone.empty()   ? name_of(phone)
-                                                      : "display"}});
-    }
-    const rh::Disabled d = host.disabled();
-    std::string driver;
-    if (const auto id = host.driver()) {
-      driver = access.phone_of(*id);
-      for (const auto& [path, client] : ble_clients)
-        if (client == *id) driver = ble_id(path);
-    }
     Json st{{"type", "state"},
-            {"connected", live},
             {"last_contact", contact_ms ? local_time(contact_ms / 1000, "%H:%M:%S") : ""},
-            {"last_contact_ms", contact_ms},
-            {"error", error},
-            {"error_text", error ? rh::error_text(error) : ""},
-            {"error_advice", error ? rh::error_advice(error) : ""},  // what to check (table 3's advice)
-            {"values", rh::status_numbers(s)},
-            {"text", text},
-            {"drive_mode", choice(rh::reg::kDriveMode, drive_mode)},
-            {"speed_level", host.speed_level()},  // 1 while a phone drives (D-14)
-            {"postures", rh::postures_view(s, held_on)},
-            {"stand_progress", rh::stand_progress(s)},
-            {"distances", rh::distances_view(s)},
-            {"near_obstacle", host.near_obstacle()},
-            {"emergency", host.emergency()},
-            {"stop", host.stop_latched()},
-            {"presses", presses},
-            {"disabled", {{"all", d.all}, {"drive", d.drive}, {"raise", d.raise}}},
-            {"driver", driver}};
+            {"last_contact_ms", contact_ms}};
+    st.update(rh::state_view(hs, {.owner =
+                                      [this](rh::Host::ClientId c) {
+                                        const std::string ble_phone = ble_name(c);
+                                        if (!ble_phone.empty()) return ble_phone;
+                                        const std::string phone = access.phone_of(c);
+                                        return phone.empty() ? std::string("display") : name_of(phone);
+                                      },
+                                  .phone = [this](rh::Host::ClientId c) { return phone_id_of(c); }}));
     if (!for_display) return st;
     st["pairing_code"] = access.code();
     st["pairing_seconds"] = std::chrono::duration_cast<std::chrono::seconds>(access.window_left()).count();
@@ -743,11 +708,12 @@ struct HostDaemon::Impl {
   // whose notifications stop knows its link is stale (docs/rehand6600-ble.md).
   void publish_ble_state() {
     if (!ble) return;
-    const auto b = rh::ble::encode_state({.snapshot = host.snapshot(),
-                                          .active_error = host.active_error(),
-                                          .disabled = host.disabled(),
-                                          .phone_driving = host.driver().has_value(),
-                                          .emergency = host.emergency()});
+    const rh::HostState hs = host.state();
+    const auto b = rh::ble::encode_state({.snapshot = hs.snapshot,
+                                          .active_error = hs.active_error,
+                                          .disabled = hs.disabled,
+                                          .phone_driving = hs.driver.has_value(),
+                                          .emergency = hs.emergency});
     ble->publish_state(std::vector<uint8_t>(b.begin(), b.end()));
   }
 
@@ -789,8 +755,11 @@ struct HostDaemon::Impl {
     switch (e.type) {
       case T::connected:
         // The controller may have rebooted to its defaults: give it ours.
-        (void)host.send(rh::Host::kLocalClient, rh::reg::kDriveMode, drive_mode);
-        (void)host.send(rh::Host::kLocalClient, rh::reg::kSpeedLevel, speed_level);
+        {
+          const rh::HostState hs = host.state();
+          (void)host.send(rh::Host::kLocalClient, rh::reg::kDriveMode, hs.drive_mode);
+          (void)host.send(rh::Host::kLocalClient, rh::reg::kSpeedLevel, hs.chosen_speed);
+        }
         broadcast_state();
         break;
       case T::horn:
@@ -867,7 +836,6 @@ struct HostDaemon::Impl {
   std::atomic<bool> flush_pending{false};
   // Server-thread state.
   std::map<uint64_t, Client> clients;
-  uint16_t drive_mode = 1, speed_level = 1;  // D-7: the controller's power-on values
   std::optional<std::chrono::system_clock::time_point> last_contact;
   Clock::time_point last_state_sent{};  ///< broadcast_state(): the heartbeat's start
   uint64_t last_sequence = 0;

@@ -253,6 +253,25 @@ class HostLogic {
   std::array<Command, reg::kCommandCount> commands_{};
 };
 
+/// What the host knows at one instant, taken at once (Host::state() under
+/// its one lock), so no reader sees a press without its driver or an error
+/// without the snapshot it came with. The state document's chair part is
+/// built from this alone (views.hpp, state_view).
+struct HostState {
+  Snapshot snapshot;
+  bool connected = false;     ///< handshake done, link up
+  uint16_t active_error = 0;  ///< the overlay's error: 1010 while the link is down, else 0x0026; 0 = none
+  std::vector<Session::Press> presses;
+  Disabled disabled;
+  std::optional<Session::ClientId> driver;  ///< who holds the driver's seat (a phone), if anyone
+  bool emergency = false;                   ///< a phone's emergency stop is being held
+  bool near_obstacle = false;
+  bool stop_latched = false;  ///< the display's STOP
+  uint16_t speed_level = 1;   ///< written to the controller: 1 while a phone drives (D-14)
+  uint16_t chosen_speed = 1;  ///< the display's (or a tool's) last speed level (D-7: 1 until chosen)
+  uint16_t drive_mode = 1;    ///< the last drive mode chosen (D-7: 1, normal, until chosen)
+};
+
 /// The host's decisions and rules together, sans-IO and single-threaded:
 /// HostLogic (what goes on the wire) and the Session (who may do what),
 /// joined exactly as the Host joins them on its bus thread. The Host adds a
@@ -302,6 +321,8 @@ class HostCore {
   /// driver's seat (D-14), else the level the display (or a tool) chose
   /// last (1 until one does: the controller's power-on level, D-7).
   uint16_t speed_level() const noexcept { return session_.driver() ? 1 : chosen_speed_; }
+  /// Everything at once (HostState); the time is the last sync()'s.
+  HostState state() const;
 
  private:
   // D-14: while someone holds the driver's seat the controller is set to
@@ -317,6 +338,7 @@ class HostCore {
   std::vector<Event> events_;                        ///< the logic's events already told to the session
   std::vector<std::pair<uint64_t, Error>> results_;  ///< the queued writes' outcomes not yet taken
   uint16_t chosen_speed_ = 1;                        ///< the display's (or a tool's) last speed level
+  uint16_t chosen_drive_mode_ = 1;                   ///< the last drive mode queued (D-7: 1 until one is)
   Slow slow_ = Slow::no;
   TimePoint slow_retry_at_{};  ///< after a failed write of level 1: not tried again before
   TimePoint now_{};            ///< the time of the last sync() or on_result()
@@ -348,6 +370,8 @@ class Host {
   /// held: never released in the middle of a stop). Idempotent.
   void stop();
 
+  /// Everything the state document shows, under one lock (HostState).
+  HostState state() const;
   Snapshot snapshot() const;
   bool connected() const;
   /// The error the overlay shows: 1010 while the link is down, else 0x0026; 0 = none.

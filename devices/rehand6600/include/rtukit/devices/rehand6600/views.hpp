@@ -9,6 +9,7 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/devices/rehand6600/host.hpp"
 #include "rtukit/devices/rehand6600/snapshot.hpp"
 
 namespace rtukit::rehand6600 {
@@ -60,6 +61,27 @@ nlohmann::ordered_json postures_view(const Snapshot& s, const std::function<uint
 int stand_progress(const Snapshot& s);
 /// The four ultrasonic distances in mm: {"front", "rear", "left", "right"}.
 nlohmann::ordered_json distances_view(const Snapshot& s);
+
+/// Who the host's clients are, as the state document names them; the
+/// daemon knows its connections, the device layer does not.
+struct ClientNames {
+  /// Who holds a press: a phone's name, or "display".
+  std::function<std::string(Session::ClientId)> owner;
+  /// The phone id of the client in the driver's seat ("" when none is known).
+  std::function<std::string(Session::ClientId)> phone;
+};
+
+/// The chair's part of the host daemon's state document (docs/rehand6600.md,
+/// "The host daemon"), from one HostState: "connected" (linked and a poll
+/// read), "error", "error_text", "error_advice" (table 3's advice, "" when
+/// no error), "values" (status_numbers), "text" (each status register as
+/// its row formats it), "drive_mode" (its row's name), "speed_level",
+/// "postures", "stand_progress", "distances", "near_obstacle",
+/// "emergency", "stop", "presses" ([{"command" key, "value", "owner"}]),
+/// "disabled" ({"all", "drive", "raise"}: why, "" when allowed) and
+/// "driver" (names.phone of the driver, "" for none). The caller adds its
+/// own fields (the type, the pairing code, the phones).
+nlohmann::ordered_json state_view(const HostState& s, const ClientNames& names);
 
 /// One table-3 error code as JSON: {"code": "10C3", "function", "text",
 /// "advice"} (`rtukit rehand6600 errors --json`).
