@@ -11,7 +11,9 @@
 // command refused by the checks (invalid_argument, refused) sent no write to
 // the machine; no command sends more than one write (never applied halfway);
 // every reason is valid UTF-8, so the result document the bridge and the
-// panel publish ({"ok": false, "error": reason}) serialises.
+// panel publish ({"ok": false, "error": reason}) serialises. Each payload is
+// also the panel's check of what a page typed (inverjet::check_typed): an
+// answer with a "why", no exception, always serialisable.
 //
 // Input: lines "NAME PAYLOAD" (payload up to the end of the line; a line
 // starting with '!' is a retained message), at most 8, run in order on one
@@ -30,6 +32,7 @@
 #include "fuzz_support.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/sim.hpp"
+#include "rtukit/devices/inverjet/typed.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/io/clock.hpp"
@@ -124,6 +127,17 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     }
     result["ok"] = !e;
     (void)result.dump();  // what the bridge and the panel publish
+
+    // The pool panel's check of what a page typed ({"op": "check"}:
+    // inverjet/typed.hpp), on the same payload: an answer with a "why" for
+    // any JSON, never an exception, and it serialises (an excerpt of what
+    // was typed is never half a character).
+    const nlohmann::json typed = nlohmann::json::parse(payload, nullptr, false);
+    if (!typed.is_discarded()) {
+      const nlohmann::json answer = inverjet::check_typed(typed);
+      if (!answer.is_object() || !answer.contains("why") || !answer["why"].is_string()) std::abort();
+      (void)answer.dump();
+    }
   }
   return 0;
 }

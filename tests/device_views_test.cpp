@@ -12,6 +12,7 @@
 
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/plan_file.hpp"
+#include "rtukit/devices/inverjet/typed.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/inverjet/views.hpp"
 #include "rtukit/devices/rehand6600/device.hpp"
@@ -115,6 +116,69 @@ TEST(InverjetViews, ThePanelHighlightsOnlyAFault_TheLineStartsWithItsPrefix) {
   EXPECT_EQ(ij::status_line(s),
             "timer running     speed  60 %  time 25:00 remaining  motor 1200 rpm 3.50 A  MOSFET "
             "41.2 degC  motor 38.0 degC  faults none");
+}
+
+// What the pool panel's page types, read by the device layer (the page
+// parses nothing): the CLI's duration grammar, the rows' ranges, the
+// swimmer's words, the first thing wrong with a plan and where it is.
+TEST(InverjetTyped, TimesAndSpeedsAsTheCliReadsThem_InTheSwimmersWords) {
+  EXPECT_EQ(ij::read_time_text(" 30m ", "Time").value, 1800U) << "spaces around are no error";
+  EXPECT_EQ(ij::read_time_text("1m30s", "Time").value, 90U);
+  EXPECT_EQ(ij::read_time_text("99:59", "Time").value, 5999U);
+  EXPECT_EQ(ij::read_time_text("", "Time").why, "Time is empty: write 30:00, 30m or 90s.");
+  EXPECT_EQ(ij::read_time_text("5", "End").why, "End \"5\" has no unit: write 30:00, 30m or 90s.");
+  EXPECT_EQ(ij::read_time_text("30M", "Time").why, "Time \"30M\" is not a time: write 30:00, 30m or 90s.")
+      << "the CLI refuses 30M: so does the page";
+  EXPECT_EQ(ij::read_time_text("100:00", "Time").why, "Time 100:00 is out of range: 00:01 to 99:59.")
+      << "a time, too long; not 'no time'";
+  EXPECT_EQ(ij::read_time_text("0s", "Time").why, "Time 0s is out of range: 00:01 to 99:59.");
+  EXPECT_EQ(ij::read_speed_text(" 60 % ").value, 60U);
+  EXPECT_EQ(ij::read_speed_text("0").value, 0U);
+  EXPECT_EQ(ij::read_speed_text("").why, "Speed is empty: enter 0 to 100 %, for example 60.");
+  EXPECT_EQ(ij::read_speed_text("101").why, "Speed \"101\" is not 0 to 100 %: for example 60.");
+  EXPECT_FALSE(ij::read_speed_text("6o").value);
+  EXPECT_FALSE(ij::read_speed_text("-1").value);
+}
+
+TEST(InverjetTyped, APlansFirstFaultAndItsRow_AStartsFieldsForTheCommand) {
+  using J = nlohmann::json;
+  J r = ij::check_typed(
+      J{{"segments", {{{"speed", "60"}, {"end", "1:00"}}, {{"speed", 70}, {"end", "00:30"}}}}});
+  EXPECT_EQ(r["why"], "segment 2: end 00:30 is not after 01:00");
+  EXPECT_EQ(r["row"], 1);
+  EXPECT_EQ(r["field"], "end");
+  EXPECT_EQ(r["segments"][0]["end_s"], 60);
+  EXPECT_EQ(r["segments"][1]["speed"], 70) << "a number sent as a number reads too";
+  r = ij::check_typed(J{{"segments", {{{"speed", "60"}, {"end", "1m"}}, {{"speed", "70"}, {"end", "60s"}}}}});
+  EXPECT_EQ(r["why"], "segment 2: end 01:00 is not after 01:00")
+      << "an end equal to the one before is no segment";
+  r = ij::check_typed(J{{"segments", {{{"speed", "6o"}, {"end", "x"}}}}});
+  EXPECT_EQ(r["row"], 0);
+  EXPECT_EQ(r["field"], "speed") << "the first thing wrong, not the last";
+  EXPECT_TRUE(r["segments"][0]["speed"].is_null());
+  EXPECT_EQ(ij::check_typed(J{{"segments", J::array()}})["why"], "a plan has 1 to 50 segments");
+  J many = J::array();
+  for (int i = 1; i <= 51; ++i) many.push_back({{"speed", "50"}, {"end", std::to_string(i) + "m"}});
+  EXPECT_EQ(ij::check_typed(J{{"segments", many}})["why"], "a plan has 1 to 50 segments");
+  many.erase(many.end() - 1);
+  r = ij::check_typed(J{{"segments", many}});
+  EXPECT_EQ(r["why"], "") << r.dump();
+  EXPECT_EQ(r["segments"].size(), 50U);
+
+  r = ij::check_typed(J{{"start", {{"mode", "timer"}, {"speed", "60"}, {"duration", "30m"}}}});
+  EXPECT_EQ(r["why"], "");
+  EXPECT_EQ(r["fields"], (J{{"mode", "timer"}, {"speed", 60}, {"duration", "30:00"}}));
+  r = ij::check_typed(J{{"start", {{"mode", "timer"}, {"speed", "60"}}}});
+  EXPECT_EQ(r["field"], "duration");
+  EXPECT_FALSE(r.contains("fields")) << "a refused start has no body to send";
+  EXPECT_EQ(ij::check_typed(J{{"start", {{"mode", "free"}, {"speed", ""}}}})["field"], "speed");
+  EXPECT_EQ(ij::check_typed(J{{"start", {{"mode", "plan"}, {"plan", 4}}}})["fields"]["plan"], 4);
+  EXPECT_EQ(ij::check_typed(J{{"start", {{"mode", "plan"}, {"plan", 5}}}})["why"], "Choose a plan, 1 to 4.");
+  EXPECT_EQ(ij::check_typed(J{{"speed", "80%"}})["speed"], 80);
+  // Anything else gets an answer, never an exception.
+  for (const J& odd : {J(), J(3), J::array(), J{{"segments", 1}}, J{{"start", "x"}}, J{{"speed", J::array()}},
+                       J{{"segments", {1, "x", J()}}}})
+    EXPECT_NE(ij::check_typed(odd)["why"], "") << odd.dump();
 }
 
 TEST(InverjetIdentify, ThePoleCountTellsAnInverjetFromAnotherDevice) {

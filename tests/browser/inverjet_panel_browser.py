@@ -61,13 +61,19 @@ def click(d, css):
     d.find_element(By.CSS_SELECTOR, css).click()
 
 
-# Every message the page sends, but its pings (what "nothing was sent" means).
+# Every command the page sends: not its pings, nor its checks of what was
+# typed (the panel reads those by the device layer's rules and nothing runs:
+# "nothing was sent" means no command). The checks are kept apart.
 SPY = """
 if (!window.__sent) {
   window.__sent = [];
+  window.__checks = [];
   const send = WebSocket.prototype.send;
   WebSocket.prototype.send = function (data) {
-    try { const m = JSON.parse(data); if (m.op !== 'ping') window.__sent.push(m); } catch (e) {}
+    try {
+      const m = JSON.parse(data);
+      if (m.op === 'check') window.__checks.push(m); else if (m.op !== 'ping') window.__sent.push(m);
+    } catch (e) {}
     return send.call(this, data);
   };
 }"""
@@ -239,6 +245,15 @@ def main():
         click(d, "#start")
         check("a bare 30 is refused with an example", wait_for(lambda: "write 30:00, 30m or 90s" in text(d, "#reason"),
                                                                DEADLINE), text(d, "#reason"))
+        check("...and nothing is sent", sent(d) == [], json.dumps(sent(d)))
+        check("...read by the panel (the device layer's parser: the page parses no time)",
+              d.execute_script("return window.__checks.some((m) => m.start && m.start.duration === '30')"),
+              json.dumps(d.execute_script("return window.__checks.slice(-3)")))
+        # "30M": the page's own parser took it, the CLI and the panel's commands did not.
+        fill(d, d.find_element(By.ID, "timer-in"), "30M")
+        click(d, "#start")
+        check("a time the CLI refuses is refused here too", wait_for(lambda: "\"30M\" is not a time" in text(d, "#reason"),
+                                                                     DEADLINE), text(d, "#reason"))
         check("...and nothing is sent", sent(d) == [], json.dumps(sent(d)))
         fill(d, d.find_element(By.ID, "timer-in"), "30m")
         check("the refusal goes away when the time is right", wait_for(lambda: text(d, "#reason") == "", DEADLINE),

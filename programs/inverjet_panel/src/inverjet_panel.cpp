@@ -36,6 +36,7 @@
 #include <sstream>
 
 #include "rtukit/devices/inverjet/client.hpp"
+#include "rtukit/devices/inverjet/typed.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/bus_worker.hpp"
@@ -334,7 +335,7 @@ struct PanelLogic::Impl {
 
   Json read_plans() {
     Json all = Json::array();
-    for (unsigned p = 1; p <= 4; ++p) {
+    for (unsigned p = 1; p <= ij::kPlanCount; ++p) {
       Outcome<std::vector<ij::Segment>> segments = client.read_plan(p);
       Json list = Json::array();
       if (segments)
@@ -727,6 +728,15 @@ struct Panel::Impl {
       const std::string op = m["op"].get<std::string>();
       if (op == "ping") {  // the page's check for a half-open connection
         s->send(R"({"type":"pong"})");
+        return;
+      }
+      if (op == "check") {  // what the page typed, read by the device layer: no bus, no queue
+        Json r = inverjet::check_typed(m);
+        r["ok"] = r["why"].get<std::string>().empty();
+        r["type"] = "result";
+        r["op"] = "check";
+        r["id"] = m.value("id", Json());
+        s->send(r.dump(-1, ' ', false, Json::error_handler_t::replace));  // it may echo what was typed
         return;
       }
       if (op == "start" || op == "stop" || op == "plan")

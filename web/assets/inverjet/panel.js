@@ -1,8 +1,10 @@
-// The pool panel. The machine's rules are checked here for a quick answer
-// (the same rules as the CLI, with the limits the panel sends from the
-// device layer: segments per plan, speeds, the longest time, the number of
-// plans), and again by the panel's server, which runs every command through
-// the typed client: the page never has the last word. What a fault or a
+// The pool panel. What the swimmer types (a speed, a time, a plan's rows,
+// a start) is read by the panel's server, by the device layer's rules
+// ({"op": "check"}: devices/inverjet/typed.hpp, the CLI's parser and ranges):
+// this page parses no time or speed itself. The server runs every command
+// through the typed client again: the page never has the last word. The
+// limits the panel sends (plans, segments, the longest time, a fast speed)
+// build the lists and the warnings. What a fault or a
 // refusal means, what to do about it and which buttons the machine takes now
 // come from the device layer too (the state's fault_advice and allowed, a
 // result's code and advice): nothing here reads message text.
@@ -30,27 +32,12 @@ let limits = null;         // the machine's, from the panel ("limits"): none unt
 
 // ---- durations and speeds: one format everywhere
 function mmss(s) { return `${String(Math.floor(s / 60)).padStart(2, '0')}:${String(s % 60).padStart(2, '0')}`; }
-const EXAMPLE = 'write 30:00, 30m or 90s';
-function parseDuration(text, what = 'Time') {
-  const t = String(text).trim().toLowerCase();
-  if (t === '') return { error: `${what} is empty: ${EXAMPLE}.` };
-  if (/^\d+$/.test(t)) return { error: `${what} "${t}" has no unit: ${EXAMPLE}.` };
-  let m = /^(\d{1,2}):([0-5]\d)$/.exec(t);
-  let s;
-  if (m) s = Number(m[1]) * 60 + Number(m[2]);
-  else if ((m = /^(?:(\d{1,2})m)?(?:(\d{1,4})s)?$/.exec(t)) && (m[1] || m[2])) s = Number(m[1] || 0) * 60 + Number(m[2] || 0);
-  else return { error: `${what} "${String(text).trim()}" is not a time: ${EXAMPLE}.` };
-  if (!limits) return { error: 'Waiting for the machine\'s limits from the panel.' };
-  if (s < 1 || s > limits.time_max_s) return { error: `${what} ${String(text).trim()} is out of range: 00:01 to ${limits.time_max}.` };
-  return { seconds: s };
-}
-function parseSpeed(text) {
-  const t = String(text).trim().replace(/\s*%$/, '');
-  if (!limits) return { error: 'Waiting for the machine\'s limits from the panel.' };
-  const { min, max } = limits.speed;
-  if (t === '') return { error: `Speed is empty: enter ${min} to ${max} %, for example 60.` };
-  if (!/^\d{1,3}$/.test(t) || Number(t) < min || Number(t) > max) return { error: `Speed "${String(text).trim()}" is not ${min} to ${max} %: for example 60.` };
-  return { speed: Number(t) };
+// What was typed, read by the panel: {why: '' when right, ...the answer's
+// fields}; without the panel, {why, offline: true}.
+async function checkTyped(what) {
+  const r = await send('check', what);
+  if (r.code === 'no_panel') return { why: 'no connection to the panel', offline: true, row: -1, field: '' };
+  return r;
 }
 
 // ---- messages: each knows what clears it
@@ -286,8 +273,7 @@ function drawPlan(segments) {
 // ---- the plan editor: one draft per plan, kept until saved or reverted
 function fromMachine(p) {
   return (plans[p - 1] || []).map((s) => {
-    const end = typeof s.end_s === 'number' ? s.end_s : (typeof s.end === 'number' ? s.end : parseDuration(s.end).seconds);
-    return { speed: s.speed, speedText: String(s.speed), end, endText: mmss(end) };
+    return { speed: s.speed, speedText: String(s.speed), end: s.end_s, endText: mmss(s.end_s) };
   });
 }
 function draft() {
@@ -307,24 +293,6 @@ function markTabs() {
     b.classList.toggle('dirty', dirty);
     b.title = dirty ? `plan ${p}: unsaved edits` : '';
   }
-}
-
-// The first thing wrong with a plan: {why, row (0-based, or -1), field
-// ('speed' or 'end')}; why is '' when the plan is right.
-function validate(segments) {
-  if (!limits) return { why: 'waiting for the machine\'s limits from the panel', row: -1 };
-  if (segments.length < 1 || segments.length > limits.segments) return { why: `a plan has 1 to ${limits.segments} segments`, row: -1 };
-  let prev = 0;
-  for (let i = 0; i < segments.length; ++i) {
-    const s = segments[i];
-    const sp = parseSpeed(s.speedText);
-    if (sp.error) return { why: `segment ${i + 1}: ${sp.error}`, row: i, field: 'speed' };
-    const d = parseDuration(s.endText, 'End');
-    if (d.error) return { why: `segment ${i + 1}: ${d.error}`, row: i, field: 'end' };
-    if (d.seconds <= prev) return { why: `segment ${i + 1}: end ${mmss(d.seconds)} is not after ${mmss(prev)}`, row: i, field: 'end' };
-    prev = d.seconds;
-  }
-  return { why: '', row: -1 };
 }
 
 function button(text, label) {
@@ -353,8 +321,8 @@ function renderDraft() {
     en.className = 'end';
     en.value = s.endText;
     en.setAttribute('aria-label', `segment ${i + 1} ends at`);
-    sp.oninput = () => { s.speedText = sp.value; s.speed = parseSpeed(sp.value).speed; touched(); check(); };
-    en.oninput = () => { s.endText = en.value; s.end = parseDuration(en.value).seconds; touched(); check(); };
+    sp.oninput = () => { s.speedText = sp.value; touched(); check(); };
+    en.oninput = () => { s.endText = en.value; touched(); check(); };
     const tools = document.createElement('div');
     tools.className = 'tools';
     const up = button('↑', `move segment ${i + 1} up`);
@@ -371,9 +339,28 @@ function renderDraft() {
   updateControls();
 }
 
+// The plan being edited, read by the panel: the answer marks the first row
+// at fault (red border, aria-invalid) and says why, until the plan is right;
+// each row's values as they read draw the chart. Only the newest check of
+// the plan on screen is shown. Returns the answer.
+let checkSeq = 0;
 function check() {
-  const { why, row, field } = validate(draft().segments);
-  // The row at fault is marked (red border, aria-invalid) until it is right.
+  const d = draft();
+  const plan = editing;
+  const seq = ++checkSeq;
+  const typed = d.segments.map((s) => ({ speed: s.speedText, end: s.endText }));
+  return checkTyped({ segments: typed }).then((r) => {
+    if (seq === checkSeq && plan === editing && !r.offline) showCheck(d, r);
+    return r;
+  });
+}
+function showCheck(d, r) {
+  const { why, row, field } = r;
+  (r.segments || []).forEach((v, i) => {
+    if (!d.segments[i]) return;
+    d.segments[i].speed = v.speed === null ? NaN : v.speed;
+    d.segments[i].end = v.end_s === null ? NaN : v.end_s;
+  });
   [...$('#segments').children].forEach((el, i) => {
     el.classList.toggle('bad', i === row && field === 'end');
     el.classList.toggle('bad-speed', i === row && field === 'speed');
@@ -383,8 +370,7 @@ function check() {
   // A refusal goes away as soon as the plan is right again.
   if (why) say('#plan-reason', why, 'input');
   else if (shown['#plan-reason'] && shown['#plan-reason'].kind === 'input') say('#plan-reason', '');
-  drawPlan(draft().segments.filter((s) => Number.isFinite(s.end) && Number.isFinite(s.speed)));
-  return why;
+  drawPlan(d.segments.filter((s) => Number.isFinite(s.end) && Number.isFinite(s.speed)));
 }
 
 $('#seg-add').onclick = () => {
@@ -397,11 +383,10 @@ $('#seg-add').onclick = () => {
   renderDraft();
 };
 $('#plan-save').onclick = async () => {
-  const why = check();
-  if (why) { say('#plan-reason', `not saved: ${why}`, 'input'); return; }
-  const d = draft();
   const plan = editing;
-  const segments = d.segments.map((s) => ({ speed: parseSpeed(s.speedText).speed, end: mmss(parseDuration(s.endText).seconds) }));
+  const c = await check();
+  if (c.why) { say('#plan-reason', `not saved: ${c.why}`, 'input'); return; }
+  const segments = c.segments.map((s) => ({ speed: s.speed, end: mmss(s.end_s) }));
   const r = await act('plan', { plan, segments }, '#plan-reason');
   if (r.ok) {
     drafts.delete(plan);  // what the machine stored comes back with the plans
@@ -428,29 +413,27 @@ function buildPlanChoices() {
 }
 
 // ---- the run
-function startFields() {
+// The start as typed, read by the panel: {fields} for the command, or {error}.
+async function startFields() {
   const how = $('#start-mode').value;
-  if (how.startsWith('plan')) return { fields: { mode: 'plan', plan: Number(how.slice(4)) } };
-  const sp = parseSpeed($('#speed-in').value);
-  if (sp.error) return { error: sp.error };
-  const fields = { mode: how, speed: sp.speed };
-  if (how === 'timer') {
-    const d = parseDuration($('#timer-in').value);
-    if (d.error) return { error: d.error };
-    fields.duration = mmss(d.seconds);
-  }
-  return { fields };
+  const typed = how.startsWith('plan')
+    ? { mode: 'plan', plan: Number(how.slice(4)) }
+    : { mode: how, speed: $('#speed-in').value, duration: how === 'timer' ? $('#timer-in').value : undefined };
+  const r = await checkTyped({ start: typed });
+  return r.why ? { error: r.why } : { fields: r.fields };
 }
 // A refused input: the message stays until the input is right.
-function recheck() {
+async function recheck() {
   const s = shown['#reason'];
-  if (s && s.kind === 'input' && !startFields().error) say('#reason', '');
+  if (!s || s.kind !== 'input') return;
+  const f = await startFields();
+  if (!f.error && shown['#reason'] === s) say('#reason', '');
 }
 for (const id of ['#speed-in', '#timer-in', '#start-mode']) $(id).addEventListener('input', recheck);
 $('#start-mode').addEventListener('change', () => { recheck(); updateControls(); });
 
 $('#start').onclick = async () => {
-  const f = startFields();
+  const f = await startFields();
   if (f.error) { say('#reason', f.error, 'input'); return; }
   const what = f.fields.mode === 'plan' ? `plan ${f.fields.plan}` : `a ${f.fields.mode} run at ${f.fields.speed} %`;
   if (running() && !await confirmFirst(`A run is going (${state.state}, ${state.time}). Stop it and start ${what}?`, 'Yes, start again')) return;
@@ -466,10 +449,10 @@ async function setSpeed(speed) {
   recheck();
   act('speed', { speed });
 }
-$('#set-speed').onclick = () => {
-  const sp = parseSpeed($('#speed-in').value);
-  if (sp.error) { say('#reason', sp.error, 'input'); return; }
-  setSpeed(sp.speed);
+$('#set-speed').onclick = async () => {
+  const r = await checkTyped({ speed: $('#speed-in').value });
+  if (r.why) { say('#reason', r.why, 'input'); return; }
+  setSpeed(r.speed);
 };
 $('#slower').onclick = () => setSpeed(Math.max(limits.speed.min, (state ? state.speed : 0) - 5));
 $('#faster').onclick = () => setSpeed(Math.min(limits.speed.max, (state ? state.speed : 0) + 5));
