@@ -132,9 +132,8 @@ Errc check_range(uint8_t function, uint16_t address, uint16_t quantity) noexcept
   return Errc::ok;
 }
 
-#if RTUKIT_CORE_READ_WRITE
 // FC17: both quantities first (03), then both ranges (02).
-Errc check_read_write(const Request& r) noexcept {
+[[maybe_unused]] Errc check_read_write(const Request& r) noexcept {
   if (r.quantity < 1 || r.quantity > kMaxReadRegisters || r.write_quantity < 1 ||
       r.write_quantity > kMaxReadWriteWriteRegisters)
     return Errc::illegal_data_value;
@@ -143,7 +142,150 @@ Errc check_read_write(const Request& r) noexcept {
     return Errc::illegal_data_address;
   return Errc::ok;
 }
-#endif
+
+// One reader per request layout, each given the PDU and the request with
+// its function (and, after the first five, its address) already read; it
+// fills in the rest and says whether the request is well-formed. The
+// families compiled out (config.hpp) never get here: decode_request refuses
+// them first, and `if constexpr` leaves their readers out of the code.
+
+// 07, 0B, 0C, 11: the function code alone.
+[[maybe_unused]] Errc decode_bare(std::span<const uint8_t> pdu) noexcept {
+  if (pdu.size() != 1) return Errc::illegal_data_value;
+  return Errc::ok;
+}
+
+// 08: a sub-function and its data (any data for return query data).
+[[maybe_unused]] Errc decode_diagnostics(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() < 3) return Errc::malformed;
+  r.sub_function = load_be16(&pdu[1]);
+  r.data = pdu.subspan(3);
+  if (r.sub_function == static_cast<uint16_t>(Diagnostic::return_query_data)) return Errc::ok;  // any data
+  if (pdu.size() != 5) return Errc::illegal_data_value;
+  r.value = load_be16(&pdu[3]);
+  return Errc::ok;
+}
+
+// 2B/0E: read device identification (other MEI types are not implemented).
+[[maybe_unused]] Errc decode_identification(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() < 2) return Errc::malformed;
+  r.mei_type = pdu[1];
+  if (r.mei_type != kMeiDeviceIdentification) return Errc::illegal_function;  // other MEI types
+  if (pdu.size() != 4) return pdu.size() < 4 ? Errc::malformed : Errc::illegal_data_value;
+  r.read_code = pdu[2];
+  r.object_id = pdu[3];
+  if (r.read_code < 1 || r.read_code > 4) return Errc::illegal_data_value;
+  return Errc::ok;
+}
+
+// 01, 02, 03, 04: a quantity.
+Errc decode_read(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() != 5) return Errc::illegal_data_value;
+  r.quantity = load_be16(&pdu[3]);
+  return check_range(r.function, r.address, r.quantity);
+}
+
+// 05, 06: one value (a coil's is FF00 or 0000).
+Errc decode_write_single(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() != 5) return Errc::illegal_data_value;
+  r.quantity = 1;
+  r.value = load_be16(&pdu[3]);
+  if (kHasCoils && r.function == fc(Function::write_single_coil) && r.value != 0xFF00 && r.value != 0x0000)
+    return Errc::illegal_data_value;
+  return Errc::ok;
+}
+
+// 0F, 10: a quantity, a byte count and the data (or FC10 without the count).
+Errc decode_write_multiple(std::span<const uint8_t> pdu, Request& r, FrameQuirks quirks) noexcept {
+  r.quantity = load_be16(&pdu[3]);
+  const size_t expected_bytes = !kHasCoils || r.function == fc(Function::write_multiple_registers)
+                                    ? size_t{2} * r.quantity
+                                    : packed_size(r.quantity);
+  if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
+    r.data = pdu.subspan(6);
+  } else if (quirks.fc10_without_byte_count && r.function == fc(Function::write_multiple_registers) &&
+             pdu.size() == 5 + expected_bytes && r.quantity > 0) {
+    // The Inverjet document prints FC10 requests without the byte count;
+    // the length (already CRC-checked by the framer) tells the two apart.
+    // Only for a device that opts in, and only on RTU links: over Modbus
+    // TCP a truncated standard request would be taken for it.
+    r.data = pdu.subspan(5);
+    r.without_byte_count = true;
+  } else if (pdu.size() < 6) {
+    return Errc::malformed;
+  } else {
+    return Errc::illegal_data_value;  // byte count or length disagrees with quantity
+  }
+  return check_range(r.function, r.address, r.quantity);
+}
+
+// 16: an AND and an OR mask.
+[[maybe_unused]] Errc decode_mask_write(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() != 7) return pdu.size() < 7 ? Errc::malformed : Errc::illegal_data_value;
+  r.quantity = 1;
+  r.and_mask = load_be16(&pdu[3]);
+  r.or_mask = load_be16(&pdu[5]);
+  return Errc::ok;
+}
+
+// 17: a read quantity, a write address, quantity and byte count, the data.
+[[maybe_unused]] Errc decode_read_write(std::span<const uint8_t> pdu, Request& r) noexcept {
+  if (pdu.size() < 10) return Errc::malformed;
+  r.quantity = load_be16(&pdu[3]);
+  r.write_address = load_be16(&pdu[5]);
+  r.write_quantity = load_be16(&pdu[7]);
+  if (Errc e = check_read_write(r); e != Errc::ok) return e;
+  if (pdu[9] != 2 * size_t{r.write_quantity} || pdu.size() != 10 + size_t{pdu[9]})
+    return Errc::illegal_data_value;
+  r.data = pdu.subspan(10);
+  return Errc::ok;
+}
+
+// The request's fields after its function code, by its layout.
+Errc decode_fields(std::span<const uint8_t> pdu, Request& r, FrameQuirks quirks) noexcept {
+  if constexpr (kHasDiagnostics || kHasIdentification) {
+    switch (r.function) {
+      case fc(Function::read_exception_status):
+      case fc(Function::get_comm_event_counter):
+      case fc(Function::get_comm_event_log):
+      case fc(Function::report_server_id):
+        return decode_bare(pdu);
+      case fc(Function::diagnostics):
+        if constexpr (kHasDiagnostics) return decode_diagnostics(pdu, r);
+        break;
+      case fc(Function::encapsulated_interface):
+        if constexpr (kHasIdentification) return decode_identification(pdu, r);
+        break;
+      default:
+        break;
+    }
+  }
+  // The rest start with an address.
+  if (pdu.size() < 5) return Errc::malformed;
+  r.address = load_be16(&pdu[1]);
+  switch (r.function) {
+    case fc(Function::read_coils):
+    case fc(Function::read_discrete_inputs):
+    case fc(Function::read_holding_registers):
+    case fc(Function::read_input_registers):
+      return decode_read(pdu, r);
+    case fc(Function::write_single_coil):
+    case fc(Function::write_single_register):
+      return decode_write_single(pdu, r);
+    case fc(Function::write_multiple_coils):
+    case fc(Function::write_multiple_registers):
+      return decode_write_multiple(pdu, r, quirks);
+    case fc(Function::mask_write_register):
+      if constexpr (kHasMaskWrite) return decode_mask_write(pdu, r);
+      break;
+    case fc(Function::read_write_multiple_registers):
+      if constexpr (kHasReadWrite) return decode_read_write(pdu, r);
+      break;
+    default:
+      break;
+  }
+  return Errc::illegal_function;
+}
 
 }  // namespace
 
@@ -152,121 +294,8 @@ Result<Request> decode_request(std::span<const uint8_t> pdu, FrameQuirks quirks)
   Request r;
   r.function = pdu[0];
   if (!is_supported_function(r.function)) return Errc::illegal_function;
-#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
-  switch (r.function) {
-#if RTUKIT_CORE_DIAGNOSTICS
-    case fc(Function::read_exception_status):
-    case fc(Function::get_comm_event_counter):
-    case fc(Function::get_comm_event_log):
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
-    case fc(Function::report_server_id):
-#endif
-      // The function code alone.
-      if (pdu.size() != 1) return Errc::illegal_data_value;
-      return r;
-#if RTUKIT_CORE_DIAGNOSTICS
-    case fc(Function::diagnostics):
-      if (pdu.size() < 3) return Errc::malformed;
-      r.sub_function = load_be16(&pdu[1]);
-      r.data = pdu.subspan(3);
-      if (r.sub_function == static_cast<uint16_t>(Diagnostic::return_query_data)) return r;  // any data
-      if (pdu.size() != 5) return Errc::illegal_data_value;
-      r.value = load_be16(&pdu[3]);
-      return r;
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
-    case fc(Function::encapsulated_interface):
-      if (pdu.size() < 2) return Errc::malformed;
-      r.mei_type = pdu[1];
-      if (r.mei_type != kMeiDeviceIdentification) return Errc::illegal_function;  // other MEI types
-      if (pdu.size() != 4) return pdu.size() < 4 ? Errc::malformed : Errc::illegal_data_value;
-      r.read_code = pdu[2];
-      r.object_id = pdu[3];
-      if (r.read_code < 1 || r.read_code > 4) return Errc::illegal_data_value;
-      return r;
-#endif
-    default:
-      break;
-  }
-#endif
-  if (pdu.size() < 5) return Errc::malformed;
-  r.address = load_be16(&pdu[1]);
-  switch (r.function) {
-#if RTUKIT_CORE_COILS
-    case fc(Function::read_coils):
-    case fc(Function::read_discrete_inputs):
-#endif
-    case fc(Function::read_holding_registers):
-    case fc(Function::read_input_registers): {
-      if (pdu.size() != 5) return Errc::illegal_data_value;
-      r.quantity = load_be16(&pdu[3]);
-      if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
-      return r;
-    }
-#if RTUKIT_CORE_COILS
-    case fc(Function::write_single_coil):
-#endif
-    case fc(Function::write_single_register): {
-      if (pdu.size() != 5) return Errc::illegal_data_value;
-      r.quantity = 1;
-      r.value = load_be16(&pdu[3]);
-      if (RTUKIT_CORE_COILS && r.function == fc(Function::write_single_coil) && r.value != 0xFF00 &&
-          r.value != 0x0000)
-        return Errc::illegal_data_value;
-      return r;
-    }
-#if RTUKIT_CORE_COILS
-    case fc(Function::write_multiple_coils):
-#endif
-    case fc(Function::write_multiple_registers): {
-      r.quantity = load_be16(&pdu[3]);
-      const size_t expected_bytes = !RTUKIT_CORE_COILS || r.function == fc(Function::write_multiple_registers)
-                                        ? size_t{2} * r.quantity
-                                        : packed_size(r.quantity);
-      if (pdu.size() >= 6 && pdu[5] == expected_bytes && pdu.size() == 6 + expected_bytes) {
-        r.data = pdu.subspan(6);
-      } else if (quirks.fc10_without_byte_count && r.function == fc(Function::write_multiple_registers) &&
-                 pdu.size() == 5 + expected_bytes && r.quantity > 0) {
-        // The Inverjet document prints FC10 requests without the byte count;
-        // the length (already CRC-checked by the framer) tells the two apart.
-        // Only for a device that opts in, and only on RTU links: over Modbus
-        // TCP a truncated standard request would be taken for it.
-        r.data = pdu.subspan(5);
-        r.without_byte_count = true;
-      } else if (pdu.size() < 6) {
-        return Errc::malformed;
-      } else {
-        return Errc::illegal_data_value;  // byte count or length disagrees with quantity
-      }
-      if (Errc e = check_range(r.function, r.address, r.quantity); e != Errc::ok) return e;
-      return r;
-    }
-#if RTUKIT_CORE_MASK_WRITE
-    case fc(Function::mask_write_register): {
-      if (pdu.size() != 7) return pdu.size() < 7 ? Errc::malformed : Errc::illegal_data_value;
-      r.quantity = 1;
-      r.and_mask = load_be16(&pdu[3]);
-      r.or_mask = load_be16(&pdu[5]);
-      return r;
-    }
-#endif
-#if RTUKIT_CORE_READ_WRITE
-    case fc(Function::read_write_multiple_registers): {
-      if (pdu.size() < 10) return Errc::malformed;
-      r.quantity = load_be16(&pdu[3]);
-      r.write_address = load_be16(&pdu[5]);
-      r.write_quantity = load_be16(&pdu[7]);
-      if (Errc e = check_read_write(r); e != Errc::ok) return e;
-      if (pdu[9] != 2 * size_t{r.write_quantity} || pdu.size() != 10 + size_t{pdu[9]})
-        return Errc::illegal_data_value;
-      r.data = pdu.subspan(10);
-      return r;
-    }
-#endif
-    default:
-      return Errc::illegal_function;
-  }
+  if (Errc e = decode_fields(pdu, r, quirks); e != Errc::ok) return e;
+  return r;
 }
 
 #if RTUKIT_CORE_MASTER

@@ -90,169 +90,167 @@ size_t RtuFramer::crc_valid_prefix(const uint8_t* p, size_t max) noexcept {
   return 0;
 }
 
-// The frame lengths the bytes at `p` can have, from what is known so far.
-// count == 0 with predictable == true: not enough bytes yet to tell.
-RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const noexcept {
-  Candidates c;
-  auto add = [&c](size_t len) {
-    if (len > kMaxRtuAduSize || len < 4) return;
-    for (size_t i = 0; i < c.count; ++i)
-      if (c.len[i] == len) return;
-    c.len[c.count++] = len;
-    if (c.count == 2 && c.len[0] > c.len[1]) {
-      const size_t t = c.len[0];
-      c.len[0] = c.len[1];
-      c.len[1] = t;
+namespace {
+
+// The frame lengths the bytes at the head of the buffer can have.
+struct Candidates {
+  size_t len[2] = {0, 0};
+  size_t count = 0;  // 0 = length cannot be predicted (yet or at all)
+  size_t need = 7;   // bytes it takes to predict (FC0F/10: the byte count is the 7th)
+  bool predictable = true;
+  // Adds a possible length (kept sorted, no duplicates, 4..kMaxRtuAduSize).
+  void add(size_t length) noexcept {
+    if (length > kMaxRtuAduSize || length < 4) return;
+    for (size_t i = 0; i < count; ++i)
+      if (len[i] == length) return;
+    len[count++] = length;
+    if (count == 2 && len[0] > len[1]) {
+      const size_t t = len[0];
+      len[0] = len[1];
+      len[1] = t;
     }
-  };
+  }
+  // The length is not known from the bytes: silence ends the frame.
+  Candidates& unpredictable() noexcept {
+    predictable = false;
+    return *this;
+  }
+};
+
+// What a master's framer knows of the response it waits for.
+struct Expected {
+  FrameQuirks quirks;
+  uint8_t function;
+  uint16_t quantity;
+};
+
+// The lengths a request at `p` can have, from what is known so far (count
+// == 0 with predictable == true: not enough bytes yet to tell). A function
+// whose family is compiled out is not supported: it ends at silence, and
+// `if constexpr` leaves its case out.
+Candidates predict_request(const uint8_t* p, size_t avail, FrameQuirks quirks) noexcept {
+  Candidates c;
   if (avail < 2) return c;
   const uint8_t function = p[1];
-  if (shape_ == FrameShape::request) {
-    if (!is_supported_function(function)) {
-      c.predictable = false;
-      return c;
-    }
-    // (A function whose family is compiled out is not supported: it ends at silence.)
-#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
+  if (!is_supported_function(function)) return c.unpredictable();
+  if constexpr (kHasDiagnostics || kHasIdentification) {
     switch (function) {
-#if RTUKIT_CORE_DIAGNOSTICS
       case fc(Function::read_exception_status):
       case fc(Function::get_comm_event_counter):
       case fc(Function::get_comm_event_log):
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
       case fc(Function::report_server_id):
-#endif
-        add(4);  // address, function, CRC
+        c.add(4);  // address, function, CRC
         return c;
-#if RTUKIT_CORE_DIAGNOSTICS
       case fc(Function::diagnostics):
         // Return query data (sub-function 0) echoes any data: its end is silence.
         c.need = 4;
         if (avail < 4) return c;
         if (load_be16(p + 2) == static_cast<uint16_t>(Diagnostic::return_query_data))
-          c.predictable = false;
-        else
-          add(8);
+          return c.unpredictable();
+        c.add(8);
         return c;
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
       case fc(Function::encapsulated_interface):
         c.need = 3;
         if (avail < 3) return c;
-        if (p[2] == kMeiDeviceIdentification)
-          add(7);
-        else
-          c.predictable = false;  // another MEI type: 01 once silence ends it
+        if (p[2] != kMeiDeviceIdentification) return c.unpredictable();  // another MEI type: 01 at silence
+        c.add(7);
         return c;
-#endif
       default:
         break;
     }
-#endif
-#if RTUKIT_CORE_MASK_WRITE
+  }
+  if constexpr (kHasMaskWrite) {
     if (function == fc(Function::mask_write_register)) {
-      add(10);  // address, function, address, AND mask, OR mask, CRC
+      c.add(10);  // address, function, address, AND mask, OR mask, CRC
       return c;
     }
-#endif
-#if RTUKIT_CORE_READ_WRITE
+  }
+  if constexpr (kHasReadWrite) {
     if (function == fc(Function::read_write_multiple_registers)) {
       c.need = 11;
       if (avail < 11) return c;
-      add(13 + size_t{p[10]});  // 9 bytes of fields, the byte count, the data, CRC
+      c.add(13 + size_t{p[10]});  // 9 bytes of fields, the byte count, the data, CRC
       return c;
     }
-#endif
-    if (function != fc(Function::write_multiple_coils) &&
-        function != fc(Function::write_multiple_registers)) {
-      add(8);  // reads and single writes: address, function, 4 bytes, CRC
-      return c;
-    }
-    if (avail < 7) return c;
-    add(9 + size_t{p[6]});
-    // Short form (no byte count), FC10 only: length from the quantity.
-    if (function == fc(Function::write_multiple_registers) && quirks_.fc10_without_byte_count) {
-      const uint16_t q = load_be16(p + 4);
-      if (q >= 1 && q <= kMaxWriteRegisters) add(8 + 2 * size_t{q});
-    }
+  }
+  if (function != fc(Function::write_multiple_coils) && function != fc(Function::write_multiple_registers)) {
+    c.add(8);  // reads and single writes: address, function, 4 bytes, CRC
     return c;
   }
-#if RTUKIT_CORE_MASTER
-  // Response shapes.
+  if (avail < 7) return c;
+  c.add(9 + size_t{p[6]});
+  // Short form (no byte count), FC10 only: length from the quantity.
+  if (function == fc(Function::write_multiple_registers) && quirks.fc10_without_byte_count) {
+    const uint16_t q = load_be16(p + 4);
+    if (q >= 1 && q <= kMaxWriteRegisters) c.add(8 + 2 * size_t{q});
+  }
+  return c;
+}
+
+// The lengths a response at `p` can have. A response of a function this
+// master cannot send (its family compiled out) is someone else's: it ends
+// at silence, as an unknown function's (the whole core needs no such check).
+[[maybe_unused]] Candidates predict_response(const uint8_t* p, size_t avail, const Expected& e) noexcept {
+  Candidates c;
+  if (avail < 2) return c;
+  const uint8_t function = p[1];
   if (function & kExceptionBit) {
-    add(5);
+    c.add(5);
     return c;
+  }
+  if constexpr (!kCoreComplete) {
+    if (!is_supported_function(function)) return c.unpredictable();
   }
   switch (function) {
-#if RTUKIT_CORE_COILS
     case fc(Function::read_coils):
     case fc(Function::read_discrete_inputs):
-#endif
     case fc(Function::read_holding_registers):
-    case fc(Function::read_input_registers): {
+    case fc(Function::read_input_registers):
       if (avail < 3) return c;
-      add(5 + size_t{p[2]});
-      if (function >= fc(Function::read_holding_registers) && quirks_.fc03_two_byte_count) {
+      c.add(5 + size_t{p[2]});
+      if (function >= fc(Function::read_holding_registers) && e.quirks.fc03_two_byte_count) {
         // 2-byte byte count (Rehand 6600 document). With an expectation the
         // length is known; without one, read it from the frame.
-        if (expected_function_ == function && expected_quantity_ > 0) {
-          add(6 + 2 * size_t{expected_quantity_});
+        if (e.function == function && e.quantity > 0) {
+          c.add(6 + 2 * size_t{e.quantity});
         } else if (avail >= 4 && p[2] == 0) {
-          add(6 + size_t{load_be16(p + 2)});
+          c.add(6 + size_t{load_be16(p + 2)});
         }
       }
       return c;
-    }
-#if RTUKIT_CORE_COILS
     case fc(Function::write_single_coil):
     case fc(Function::write_multiple_coils):
-#endif
     case fc(Function::write_single_register):
     case fc(Function::write_multiple_registers):
-      add(8);
+      c.add(8);
       return c;
-#if RTUKIT_CORE_MASK_WRITE
     case fc(Function::mask_write_register):
-      add(10);  // the request echoed
+      c.add(10);  // the request echoed
       return c;
-#endif
-#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::read_exception_status):
-      add(5);
+      c.add(5);
       return c;
     case fc(Function::get_comm_event_counter):
-      add(8);  // status and event count
+      c.add(8);  // status and event count
       return c;
     case fc(Function::get_comm_event_log):
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::report_server_id):
-#endif
-#if RTUKIT_CORE_DIAGNOSTICS || RTUKIT_CORE_IDENTIFICATION
       if (avail < 3) return c;
-      add(5 + size_t{p[2]});  // byte count
+      c.add(5 + size_t{p[2]});  // byte count
       return c;
-#endif
-#if RTUKIT_CORE_DIAGNOSTICS
     case fc(Function::diagnostics):
       c.need = 4;
       if (avail < 4) return c;
       if (load_be16(p + 2) != static_cast<uint16_t>(Diagnostic::return_query_data))
-        add(8);
-      else if (expected_function_ == function && expected_quantity_ > 0)
-        add(6 + size_t{expected_quantity_});  // the echo of what we sent
+        c.add(8);
+      else if (e.function == function && e.quantity > 0)
+        c.add(6 + size_t{e.quantity});  // the echo of what we sent
       else
-        c.predictable = false;
+        c.unpredictable();
       return c;
-#endif
-#if RTUKIT_CORE_IDENTIFICATION
     case fc(Function::encapsulated_interface): {
       // No byte count: walk the objects (id, length, value) as they arrive.
-      if (avail >= 3 && p[2] != kMeiDeviceIdentification) {
-        c.predictable = false;
-        return c;
-      }
+      if (avail >= 3 && p[2] != kMeiDeviceIdentification) return c.unpredictable();
       size_t at = 8;  // address, 2B, 0E, code, conformity, more follows, next id, count
       c.need = at;
       if (avail < at) return c;
@@ -262,36 +260,35 @@ RtuFramer::Candidates RtuFramer::predict(const uint8_t* p, size_t avail) const n
           return c;
         }
         at += 2 + size_t{p[at + 1]};
-        if (at + 2 > kMaxRtuAduSize) {
-          c.predictable = false;
-          return c;
-        }
+        if (at + 2 > kMaxRtuAduSize) return c.unpredictable();
       }
-      add(at + 2);
+      c.add(at + 2);
       return c;
     }
-#endif
-#if RTUKIT_CORE_READ_WRITE
     case fc(Function::read_write_multiple_registers):
       if (avail < 3) return c;
-      add(5 + size_t{p[2]});
+      c.add(5 + size_t{p[2]});
       return c;
-#endif
     default:
-      c.predictable = false;
-      return c;
+      return c.unpredictable();
   }
-#else
-  // No master compiled in: responses are framed by silence and CRC only.
-  c.predictable = false;
-  return c;
-#endif
+}
+
+}  // namespace
+
+// Without a master compiled in, responses are framed by silence and CRC only.
+static Candidates predict(const uint8_t* p, size_t avail, FrameShape shape, const Expected& e) noexcept {
+  if (shape == FrameShape::request) return predict_request(p, avail, e.quirks);
+  if constexpr (kHasMaster)
+    return predict_response(p, avail, e);
+  else
+    return Candidates{}.unpredictable();
 }
 
 // Looks for a frame at buf_[pos], with `avail` bytes available from pos.
 RtuFramer::Verdict RtuFramer::check_at(size_t pos, size_t avail, size_t* frame_len) const noexcept {
   const uint8_t* p = buf_.data() + pos;
-  const Candidates c = predict(p, avail);
+  const Candidates c = predict(p, avail, shape_, {quirks_, expected_function_, expected_quantity_});
   if (!c.predictable) return Verdict::not_a_frame;
   if (c.count == 0) return avail >= c.need ? Verdict::not_a_frame : Verdict::need_more;
   bool waiting = false;
@@ -349,7 +346,8 @@ std::optional<RtuFrame> RtuFramer::next(uint64_t now_us) noexcept {
     }
 
     size_t len = 0;
-    const Candidates c = predict(buf_.data() + head_, avail);
+    const Candidates c =
+        predict(buf_.data() + head_, avail, shape_, {quirks_, expected_function_, expected_quantity_});
     const Verdict v = check_at(head_, avail, &len);
     if (v == Verdict::frame) {
       sliding_ = false;

@@ -67,16 +67,26 @@
 #define RTUKIT_CORE_READ_WRITE 1
 #endif
 
-#if (RTUKIT_CORE_MASTER != 0 && RTUKIT_CORE_MASTER != 1) || (RTUKIT_CORE_TCP != 0 && RTUKIT_CORE_TCP != 1) || \
-    (RTUKIT_CORE_COILS != 0 && RTUKIT_CORE_COILS != 1) ||                                                 \
-    (RTUKIT_CORE_DIAGNOSTICS != 0 && RTUKIT_CORE_DIAGNOSTICS != 1) ||                                     \
-    (RTUKIT_CORE_IDENTIFICATION != 0 && RTUKIT_CORE_IDENTIFICATION != 1) ||                               \
-    (RTUKIT_CORE_MASK_WRITE != 0 && RTUKIT_CORE_MASK_WRITE != 1) ||                                       \
+#if (RTUKIT_CORE_MASTER != 0 && RTUKIT_CORE_MASTER != 1) ||                                                 \
+    (RTUKIT_CORE_TCP != 0 && RTUKIT_CORE_TCP != 1) || (RTUKIT_CORE_COILS != 0 && RTUKIT_CORE_COILS != 1) || \
+    (RTUKIT_CORE_DIAGNOSTICS != 0 && RTUKIT_CORE_DIAGNOSTICS != 1) ||                                       \
+    (RTUKIT_CORE_IDENTIFICATION != 0 && RTUKIT_CORE_IDENTIFICATION != 1) ||                                 \
+    (RTUKIT_CORE_MASK_WRITE != 0 && RTUKIT_CORE_MASK_WRITE != 1) ||                                         \
     (RTUKIT_CORE_READ_WRITE != 0 && RTUKIT_CORE_READ_WRITE != 1)
 #error "rtukit core switches (RTUKIT_CORE_*) must be 0 or 1"
 #endif
 
 namespace rtukit {
+
+/// The switches as constants, for `if constexpr` in function bodies (the
+/// core keeps `#if` to whole declarations and definitions).
+inline constexpr bool kHasMaster = RTUKIT_CORE_MASTER;
+inline constexpr bool kHasTcp = RTUKIT_CORE_TCP;
+inline constexpr bool kHasCoils = RTUKIT_CORE_COILS;
+inline constexpr bool kHasDiagnostics = RTUKIT_CORE_DIAGNOSTICS;
+inline constexpr bool kHasIdentification = RTUKIT_CORE_IDENTIFICATION;
+inline constexpr bool kHasMaskWrite = RTUKIT_CORE_MASK_WRITE;
+inline constexpr bool kHasReadWrite = RTUKIT_CORE_READ_WRITE;
 
 /// True when every switch is on: the whole core, as the host build has it.
 inline constexpr bool kCoreComplete = RTUKIT_CORE_MASTER && RTUKIT_CORE_TCP && RTUKIT_CORE_COILS &&

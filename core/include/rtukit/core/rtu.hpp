@@ -123,14 +123,6 @@ class RtuFramer {
  private:
   // Result of looking at the bytes at the head of the buffer.
   enum class Verdict : uint8_t { frame, need_more, not_a_frame };
-  struct Candidates {
-    size_t len[2] = {0, 0};
-    size_t count = 0;  // 0 = length cannot be predicted (yet or at all)
-    size_t need = 7;   // bytes it takes to predict (FC0F/10: the byte count is the 7th)
-    bool predictable = true;
-  };
-
-  Candidates predict(const uint8_t* p, size_t avail) const noexcept;
   Verdict check_at(size_t pos, size_t avail, size_t* frame_len) const noexcept;
   bool lookahead_resync(size_t avail) noexcept;
   static size_t crc_valid_prefix(const uint8_t* p, size_t max) noexcept;
