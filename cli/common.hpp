@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "commands.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/devices/profile/verb.hpp"
@@ -24,7 +25,6 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/term/terminal.hpp"
 

@@ -19,6 +19,7 @@
 #include "rtukit/devices/registry.hpp"
 #include "rtukit/driver/sniffer.hpp"
 #include "rtukit/io/listen_port.hpp"
+#include "rtukit/io/now.hpp"
 #include "rtukit/term/pcap_file.hpp"
 #include "rtukit/term/tap_client.hpp"
 

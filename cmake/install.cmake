@@ -10,6 +10,7 @@ include(CMakePackageConfigHelpers)
 # name. `profile` is the pure kit; `*_model` the pure half of a device.
 set(_rtukit_libs
   rtukit_core:core
+  rtukit_base:base
   rtukit_io:io
   rtukit_term:term
   rtukit_driver:driver
@@ -44,8 +45,12 @@ foreach(entry IN LISTS _rtukit_libs)
   set_target_properties(${target} PROPERTIES EXPORT_NAME ${component})
   install(TARGETS ${target} EXPORT rtukitTargets ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR} COMPONENT dev)
   list(APPEND _rtukit_components ${component})
-  # pkg-config: highest layer first, as a linker wants them.
-  list(PREPEND _rtukit_pc_libs "-l${target}")
+  # pkg-config: highest layer first, as a linker wants them (a header-only
+  # library has no archive to name).
+  get_target_property(_type ${target} TYPE)
+  if(NOT _type STREQUAL "INTERFACE_LIBRARY")
+    list(PREPEND _rtukit_pc_libs "-l${target}")
+  endif()
 endforeach()
 # The warnings target is only ever linked privately; static libraries still
 # name it, so it travels in the export (it carries no usage requirements).

@@ -30,12 +30,12 @@
 #include <string_view>
 
 #include "fuzz_support.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/sim.hpp"
 #include "rtukit/devices/inverjet/typed.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
 namespace {

@@ -1,7 +1,7 @@
 // One clock (issue 27): the injectable DriverClock's calendar time, and what
 // runs on it: the poll schedule the bridge and the panel share, and a
 // simulator's device time. All on a ManualClock: no test here sleeps.
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 
 #include <gtest/gtest.h>
 
@@ -22,7 +22,7 @@ TEST(ManualClockTest, CalendarTimeMovesWithTheMonotonicTime) {
   EXPECT_EQ(clock.unix_seconds(), 1'767'225'600 + 31 * 86'400);
   clock.sleep_for(1500ms);
   EXPECT_EQ(clock.unix_seconds(), 1'767'225'600 + 31 * 86'400 + 1);
-  ManualClock later(io::WallClock::time_point(std::chrono::seconds(2'000'000'000)));
+  ManualClock later(WallClock::time_point(std::chrono::seconds(2'000'000'000)));
   EXPECT_EQ(later.unix_seconds(), 2'000'000'000);
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 #include <string>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/plan_file.hpp"
 #include "rtukit/devices/inverjet/typed.hpp"
@@ -23,7 +24,6 @@
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 namespace {

@@ -18,13 +18,13 @@
 #include <thread>
 
 #include "process.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/clock.hpp"
 
 using namespace rtukit;
 using namespace rtukit::test;

@@ -34,8 +34,8 @@ class BridgeLogicTest : public InverjetOnMemoryLink {
                                            [this](size_t, const MqttMessage& m) { sent_.push_back(m); });
   }
 
-  void run_until(io::Clock::time_point until) { run_logic_until(*logic_, until); }
-  void run_for(io::Clock::duration d) { run_until(clock_.now() + d); }
+  void run_until(Clock::time_point until) { run_logic_until(*logic_, until); }
+  void run_for(Clock::duration d) { run_until(clock_.now() + d); }
 
   std::vector<MqttMessage> taken(const std::string& suffix) {
     std::vector<MqttMessage> out;
@@ -171,7 +171,7 @@ TEST_F(BridgeLogicTest, AfterAConnect_DiscoveryAndStateGoOutAgain) {
 }
 
 TEST_F(BridgeLogicTest, OnTheBusWorker_ThePostedCommandRuns) {
-  BusWorker worker([this](io::Clock::time_point now) { return logic_->step(now); }, {.clock = &clock_});
+  BusWorker worker([this](Clock::time_point now) { return logic_->step(now); }, {.clock = &clock_});
   worker.run_once();
   ASSERT_TRUE(logic_->queue_command(0, "speed", command({{"speed", 55}}), false));
   worker.wake();

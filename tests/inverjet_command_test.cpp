@@ -10,7 +10,7 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/driver/memory_link.hpp"
 #include "rtukit/programs/inverjet_bridge.hpp"
 
@@ -79,7 +79,8 @@ TEST(InverjetCommand, EveryCommandHasADocumentedExample) {
 
 // The warnings of a bridge that was never started: no broker, no bus (a
 // link in memory that never answers), nothing connects.
-std::vector<std::string> warnings(const std::string& host, const std::string& user, const std::string& tls_ca) {
+std::vector<std::string> warnings(const std::string& host, const std::string& user,
+                                  const std::string& tls_ca) {
   rtukit::programs::BridgeOptions o;
   o.machines = {{.unit = 21, .id = "pool1"}};
   o.host = host;

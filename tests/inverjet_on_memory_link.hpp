@@ -10,11 +10,11 @@
 #include <array>
 #include <memory>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit::programs {
 
@@ -42,7 +42,7 @@ class InverjetOnMemoryLink : public ::testing::Test {
 
   // Steps `logic` until the clock reaches `until`, each at the time it asked.
   template <class Logic>
-  void run_logic_until(Logic& logic, io::Clock::time_point until) {
+  void run_logic_until(Logic& logic, Clock::time_point until) {
     using namespace std::chrono_literals;
     for (int i = 0; i < 100000 && clock_.now() < until; ++i) {
       const auto next = logic.step(clock_.now());
@@ -51,7 +51,7 @@ class InverjetOnMemoryLink : public ::testing::Test {
   }
 
   ManualClock clock_;
-  io::Clock::time_point start_ = clock_.now();
+  Clock::time_point start_ = clock_.now();
   inverjet::Machine machine_;
   SlaveEngine engine_;
   bool silent_ = false;

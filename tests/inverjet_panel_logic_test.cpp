@@ -39,8 +39,8 @@ class PanelLogicTest : public InverjetOnMemoryLink {
                                           [this](const PanelMessage& m) { sent_.push_back(m); });
   }
 
-  void run_until(io::Clock::time_point until) { run_logic_until(*logic_, until); }
-  void run_for(io::Clock::duration d) { run_until(clock_.now() + d); }
+  void run_until(Clock::time_point until) { run_logic_until(*logic_, until); }
+  void run_for(Clock::duration d) { run_until(clock_.now() + d); }
 
   // The messages of `type` (for every page, or for `to`), parsed.
   std::vector<Json> taken(const std::string& type, uint64_t to = 0) const {
@@ -284,7 +284,7 @@ TEST_F(PanelLogicTest, Welcome_CoversTheMessagesUpToItsSeq) {
 }
 
 TEST_F(PanelLogicTest, OnTheBusWorker_TheQueuedCommandRuns) {
-  BusWorker worker([this](io::Clock::time_point now) { return logic_->step(now); }, {.clock = &clock_});
+  BusWorker worker([this](Clock::time_point now) { return logic_->step(now); }, {.clock = &clock_});
   worker.run_once();
   ASSERT_TRUE(queue({{"op", "start"}, {"mode", "free"}, {"speed", 55}}));
   worker.wake();

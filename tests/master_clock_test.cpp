@@ -8,11 +8,11 @@
 #include <array>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 namespace {
@@ -41,7 +41,7 @@ struct Rig {
   MemoryBank bank{100};
   SlaveEngine engine;
   unsigned to_drop;
-  std::vector<io::Clock::time_point> arrivals;
+  std::vector<Clock::time_point> arrivals;
   MemoryLink* memory = nullptr;
   std::unique_ptr<Master> master;
 };

@@ -11,13 +11,13 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/profile/reading.hpp"
 #include "rtukit/devices/profile/text.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/tool/typed_request.hpp"
 
 namespace rtukit::profile {

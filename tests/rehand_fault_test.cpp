@@ -66,14 +66,14 @@ class StallLink final : public io::Link {
   Error open() override { return inner_->open(); }
   void close() noexcept override { inner_->close(); }
   bool is_open() const noexcept override { return inner_->is_open(); }
-  Error write(std::span<const uint8_t> bytes, io::Clock::time_point deadline) override {
+  Error write(std::span<const uint8_t> bytes, Clock::time_point deadline) override {
     if (const auto d = stall_.exchange(0ms); d > 0ms) {
       std::this_thread::sleep_for(d);  // the stall itself: the thing under test, not a wait for an event
       deadline += d;
     }
     return inner_->write(bytes, deadline);
   }
-  Result<size_t> read_some(std::span<uint8_t> out, io::Clock::time_point deadline) override {
+  Result<size_t> read_some(std::span<uint8_t> out, Clock::time_point deadline) override {
     return inner_->read_some(out, deadline);
   }
   void discard_input() noexcept override { inner_->discard_input(); }

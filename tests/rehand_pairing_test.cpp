@@ -8,7 +8,7 @@
 #include <string>
 
 #include "phone_key.hpp"
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/programs/rehand_host.hpp"
 #include "rtukit/web/webcrypto.hpp"
 

@@ -24,7 +24,7 @@ struct Rig {
     codes.pop_front();
     return c;
   }};
-  PairingWindow::Clock::time_point t0{std::chrono::hours(1)};
+  TimePoint t0{std::chrono::hours(1)};
 };
 
 TEST(RehandPairingWindow, TheRightCodeInTimePairs_OneAnswerForNoWindowExpiredAndWrong) {

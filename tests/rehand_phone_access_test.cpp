@@ -11,7 +11,7 @@
 #include <string>
 
 #include "phone_key.hpp"
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/programs/phone_access.hpp"
 #include "rtukit/web/webcrypto.hpp"
 

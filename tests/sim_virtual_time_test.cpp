@@ -8,12 +8,12 @@
 #include <thread>
 
 #include "process.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/sim.hpp"
 #include "rtukit/devices/profile/sim_host.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 namespace {

@@ -11,8 +11,8 @@
 #include <vector>
 
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/listen_port.hpp"
+#include "rtukit/io/now.hpp"
 #include "rtukit/io/pty.hpp"
 #include "rtukit/term/stdin_console.hpp"
 

@@ -19,8 +19,8 @@
 #include <string>
 #include <thread>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 #include "rtukit/term/terminal.hpp"
 

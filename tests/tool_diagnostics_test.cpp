@@ -11,12 +11,12 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/crc.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_bank.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/tool/diagnostics.hpp"
 #include "rtukit/tool/protocol_text.hpp"
 

@@ -28,7 +28,7 @@ TEST(GuessSource, AnIpv4AddressItself_AnIpv6NetworkAsOne) {
 
 TEST(GuessLimit, TenWrongFromOneNetworkAreRefusedUntilItsMinuteEnds) {
   GuessLimit limit(10, 1min, 4096);
-  GuessLimit::Clock::time_point t{1h};
+  TimePoint t{1h};
   for (int i = 0; i < 10; ++i) {
     const std::string peer = "2001:db8:1:2::" + std::to_string(i + 1);  // a new address each time
     ASSERT_FALSE(limit.refused(peer, t)) << i;
@@ -43,7 +43,7 @@ TEST(GuessLimit, TenWrongFromOneNetworkAreRefusedUntilItsMinuteEnds) {
 
 TEST(GuessLimit, ForgetsEndedMinutes_AFullTableRefusesNewSources) {
   GuessLimit limit(10, 1min, 3);
-  GuessLimit::Clock::time_point t{1h};
+  TimePoint t{1h};
   for (const char* peer : {"192.0.2.1", "192.0.2.2", "192.0.2.3"}) {
     ASSERT_FALSE(limit.refused(peer, t));
     limit.count(peer, t);
@@ -59,7 +59,7 @@ TEST(GuessLimit, ForgetsEndedMinutes_AFullTableRefusesNewSources) {
 // link had its own copy on the real clock (issue 38), the web server another.
 TEST(TokenBucket, ABurstOfTwoSecondsThenTheRate) {
   TokenBucket bucket(10);  // 10 a second
-  GuardClock::time_point t{1h};
+  TimePoint t{1h};
   int taken = 0;
   while (bucket.take(t)) ++taken;
   EXPECT_EQ(taken, 20);                 // the burst: two seconds' worth
@@ -76,7 +76,7 @@ TEST(TokenBucket, ABurstOfTwoSecondsThenTheRate) {
 // window; a full table, the first window to end.
 TEST(GuessLimit, WaitIsWhatIsLeftOfTheWindow) {
   GuessLimit limit(2, 1min, 2);
-  GuardClock::time_point t{1h};
+  TimePoint t{1h};
   EXPECT_EQ(limit.wait("192.0.2.1", t), 0s);
   EXPECT_EQ(limit.count("192.0.2.1", t), 1);
   EXPECT_EQ(limit.count("192.0.2.1", t + 10s), 2);

@@ -99,8 +99,7 @@ void BusWorker::run() {
     std::unique_lock lock(mutex_);
     // A wait of the clock's duration, bounded: the clock may be a virtual one.
     const auto now = clock_.now();
-    const auto wait =
-        std::clamp<io::Clock::duration>(next - now, io::Clock::duration::zero(), options_.longest_wait);
+    const auto wait = std::clamp<Clock::duration>(next - now, Clock::duration::zero(), options_.longest_wait);
     cv_.wait_for(lock, wait, [this] { return stopping_ || woken_ || !jobs_.empty(); });
     if (stopping_) return;
   }

@@ -32,7 +32,7 @@ struct FaultRelay::Impl {
     bool writing = false;
   };
   struct Held {
-    io::Clock::time_point at;
+    Clock::time_point at;
     Way way;
     std::vector<uint8_t> adu;
     std::string rule;
@@ -45,7 +45,7 @@ struct FaultRelay::Impl {
         timer(c),
         clock(clock_or_steady(options.clock)) {}
 
-  static uint64_t us(io::Clock::time_point t) {
+  static uint64_t us(Clock::time_point t) {
     return static_cast<uint64_t>(
         std::chrono::duration_cast<std::chrono::microseconds>(t.time_since_epoch()).count());
   }
@@ -78,7 +78,7 @@ struct FaultRelay::Impl {
     });
   }
 
-  void frame(Way from, std::vector<uint8_t> adu, io::Clock::time_point now) {
+  void frame(Way from, std::vector<uint8_t> adu, Clock::time_point now) {
     FaultPlan::Decision d;
     {
       std::lock_guard lock(mutex);
@@ -138,7 +138,7 @@ struct FaultRelay::Impl {
       if (it->at < first->at) first = it;
     // A wait of the relay clock's duration: Asio's timer runs on the steady clock.
     const auto from = clock.now();
-    timer.expires_after(first->at > from ? first->at - from : io::Clock::duration::zero());
+    timer.expires_after(first->at > from ? first->at - from : Clock::duration::zero());
     timer.async_wait([this](const boost::system::error_code& ec) {
       if (ec) return;
       const auto now = clock.now();
@@ -156,7 +156,7 @@ struct FaultRelay::Impl {
     });
   }
 
-  void record(io::Clock::time_point at, Way way, Kind kind, const std::vector<uint8_t>& adu,
+  void record(Clock::time_point at, Way way, Kind kind, const std::vector<uint8_t>& adu,
               const std::string& rule, bool delayed_send) {
     if (on_frame) on_frame(Record{at, way, kind, delayed_send, adu, rule});
   }

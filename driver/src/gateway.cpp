@@ -19,6 +19,7 @@
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
+#include "rtukit/io/now.hpp"
 #include "tcp_sessions.hpp"
 
 namespace rtukit {
@@ -123,14 +124,14 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   using CacheKey = std::tuple<uint8_t, uint8_t, uint16_t, uint16_t>;
   struct Cached {
     std::vector<uint8_t> pdu;
-    io::Clock::time_point at;
+    Clock::time_point at;
   };
   // What the gateway knows of a unit's health (quarantine).
   struct UnitHealth {
     unsigned silent = 0;  // requests in a row it left without an answer
     bool quarantined = false;
     std::chrono::milliseconds backoff{0};
-    io::Clock::time_point probe_at{};  // quarantined: the next request from then on is a probe
+    Clock::time_point probe_at{};  // quarantined: the next request from then on is a probe
   };
 
   Impl(Master& m, GatewayOptions o)
@@ -148,12 +149,12 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   }
   // The bus worker's step: serves one queued request (round robin between
   // clients); returns now when more wait, else never (a request wakes it).
-  io::Clock::time_point bus_step();
+  Clock::time_point bus_step();
   void serve(Job& job);
   void invalidate(uint8_t unit, const Request& write);
   // A request for `unit` now: answered 0x0B at once (quarantined, no probe
   // due)? Called with the lock held.
-  bool held_in_quarantine(uint8_t unit, io::Clock::time_point now) const {
+  bool held_in_quarantine(uint8_t unit, Clock::time_point now) const {
     const UnitHealth& h = health[unit];
     return h.quarantined && now < h.probe_at;
   }
@@ -166,7 +167,7 @@ struct Gateway::Impl : std::enable_shared_from_this<Gateway::Impl> {
   DriverClock& clock;
   std::vector<std::unique_ptr<TcpAcceptor>> acceptors;
   std::vector<std::string> schemes;  // each acceptor's: "tcp://", "rtu+tcp://"
-  BusWorker worker{[this](io::Clock::time_point) { return bus_step(); }, {.clock = &clock}};
+  BusWorker worker{[this](Clock::time_point) { return bus_step(); }, {.clock = &clock}};
 
   std::mutex mutex;                            // everything below
   std::map<uint64_t, std::deque<Job>> queues;  // per client, served round robin
@@ -333,7 +334,7 @@ void Gateway::Impl::on_request(const std::shared_ptr<GatewaySession>& session, u
     return refuse(admission.exception);
   }
   const Request* req = &admission.request;
-  const io::Clock::time_point now = clock.now();
+  const Clock::time_point now = clock.now();
   std::lock_guard lock(mutex);
   // An ordered client's cached read is served by the bus thread in its turn.
   if (options.cache.count() > 0 && is_read(function) && !ordered) {
@@ -382,12 +383,12 @@ void Gateway::Impl::invalidate(uint8_t unit, const Request& write) {
   }
 }
 
-io::Clock::time_point Gateway::Impl::bus_step() {
+Clock::time_point Gateway::Impl::bus_step() {
   Job job;
   {
     std::lock_guard lock(mutex);
     if (std::none_of(queues.begin(), queues.end(), [](const auto& q) { return !q.second.empty(); }))
-      return io::Clock::time_point::max();
+      return Clock::time_point::max();
     // Round robin: the next client after the one served last that has work.
     auto it = queues.upper_bound(last_served);
     while (it != queues.end() && it->second.empty()) ++it;
@@ -445,7 +446,7 @@ void Gateway::Impl::serve(Job& job) {
       }
       probe = true;
       ++stats.probes;
-      health_of.probe_at = io::Clock::time_point::max();
+      health_of.probe_at = Clock::time_point::max();
     }
     if (write) invalidate(job.unit, *req);
   }

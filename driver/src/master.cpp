@@ -51,12 +51,12 @@ Error Master::transact_locked(UnitId unit, const Request& request,
   // At least t3.5 of silence on a serial line after the last frame (the
   // Modbus serial line rule), or the inter-request delay when longer.
   const auto gap = std::max<std::chrono::microseconds>(options_.inter_request_delay, link_->frame_gap());
-  if (gap.count() > 0 && last_end_ != io::Clock::time_point{}) {
+  if (gap.count() > 0 && last_end_ != Clock::time_point{}) {
     const auto ready = last_end_ + gap;
     if (clock_.now() < ready) clock_.sleep_until(ready);
   }
   struct EndMark {
-    io::Clock::time_point& t;
+    Clock::time_point& t;
     DriverClock& clock;
     ~EndMark() { t = clock.now(); }
   } end_mark{last_end_, clock_};
@@ -121,7 +121,7 @@ Error Master::transact_locked(UnitId unit, const Request& request,
   return last;
 }
 
-void Master::trace_received(const Result<Response>& r, io::Clock::time_point sent_at) {
+void Master::trace_received(const Result<Response>& r, Clock::time_point sent_at) {
   std::string outcome = "ok";
   if (!r.ok()) {
     const Error e = r.error();
@@ -153,14 +153,14 @@ void Master::drain_late_answer() {
   for (;;) {
     const auto now = clock_.now();
     if (now >= until) return;
-    const Result<size_t> n = link_->read_some(
-        chunk, std::min(until, now + std::chrono::duration_cast<io::Clock::duration>(quiet)));
+    const Result<size_t> n =
+        link_->read_some(chunk, std::min(until, now + std::chrono::duration_cast<Clock::duration>(quiet)));
     if (!n.ok() || *n == 0) return;  // quiet (or the link failed: the next request reopens it)
     if (options_.trace) traced_rx_.insert(traced_rx_.end(), chunk.data(), chunk.data() + *n);
   }
 }
 
-Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline) {
+Result<Response> Master::receive_rtu(MasterTransaction& tx, Clock::time_point deadline) {
   tx.prepare(framer_, options_.discard_echo);
   const uint32_t crc_before = framer_.counters().crc_errors;
   std::array<uint8_t, 256> chunk{};
@@ -187,7 +187,7 @@ Result<Response> Master::receive_rtu(MasterTransaction& tx, io::Clock::time_poin
   }
 }
 
-Result<Response> Master::receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline) {
+Result<Response> Master::receive_tcp(MasterTransaction& tx, Clock::time_point deadline) {
   rx_len_ = 0;
   for (;;) {
     // Complete ADUs already buffered first.

@@ -9,6 +9,7 @@
 
 #include "rtukit/io/asio.hpp"
 #include "rtukit/io/link.hpp"
+#include "rtukit/io/now.hpp"
 #include "rtukit/io/pty.hpp"
 #include "rtukit/io/serial_config.hpp"
 #include "tcp_sessions.hpp"
@@ -105,7 +106,7 @@ class RtuStreamServer final : public SlaveListener {
  private:
   struct Answer {
     std::vector<uint8_t> bytes;
-    std::chrono::steady_clock::time_point not_before;
+    TimePoint not_before;
   };
 
   // The silence before an answer: t3.5 at the line's rate on a serial port.

@@ -39,10 +39,10 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/mbap.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 
@@ -424,7 +424,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
     idle_armed_ = true;
     wait_idle(timeout);
   }
-  void wait_idle(io::Clock::duration after) {
+  void wait_idle(Clock::duration after) {
     idle_.expires_after(after);
     auto self = shared_from_this();
     idle_.async_wait([this, self](const boost::system::error_code& ec) {
@@ -448,7 +448,7 @@ class TcpSession : public std::enable_shared_from_this<TcpSession> {
   // The idle timeout is time on Asio's timer, which runs on the steady
   // clock: so is this (as the stream server's turnaround).
   DriverClock& clock_ = SteadyClock::instance();
-  io::Clock::time_point heard_at_{};  // the last bytes received (idle_timeout runs from it)
+  Clock::time_point heard_at_{};  // the last bytes received (idle_timeout runs from it)
   bool idle_armed_ = false;
   uint64_t deadline_generation_ = 0;
   unsigned owed_ = 0;            // MBAP requests taken, not yet answered

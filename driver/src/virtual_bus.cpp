@@ -79,7 +79,7 @@ struct VirtualBus::Impl {
     // A wait of the bus clock's duration: Asio's timer runs on the steady clock.
     const auto at = t0 + std::chrono::microseconds(*due);
     const auto from = clock.now();
-    timer.expires_after(at > from ? at - from : io::Clock::duration::zero());
+    timer.expires_after(at > from ? at - from : Clock::duration::zero());
     timer.async_wait([this, life = std::weak_ptr<char>(alive)](const boost::system::error_code& ec) {
       if (!life.expired() && !ec) pump();
     });
@@ -142,7 +142,7 @@ struct VirtualBus::Impl {
   BusLine line;
   asio::steady_timer timer;
   DriverClock& clock;
-  io::Clock::time_point t0;
+  Clock::time_point t0;
   std::vector<std::unique_ptr<Port>> ports;
   std::vector<BusDelivery> deliveries;
   std::vector<BusCharacter> tapped;

@@ -8,7 +8,7 @@
 
 #include <cerrno>
 
-#include "rtukit/io/clock.hpp"
+#include "rtukit/io/now.hpp"
 #include "rtukit/io/serial_config.hpp"
 
 namespace rtukit::io {

@@ -19,12 +19,12 @@
 #include <random>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/memory_link.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit::inverjet::simulation {
 
@@ -41,9 +41,10 @@ std::string Faults::text() const {
 }
 
 std::string replay_command(const RunOptions& o) {
-  return fmt::format("RTUKIT_SIM_SEED={} RTUKIT_SIM_MS={} RTUKIT_SIM_STEPS={} RTUKIT_SIM_FAULTS={} "
-                     "build/asan/tests/inverjet_simulation_tests",
-                     o.seed, o.duration_ms, o.max_steps, o.faults.text());
+  return fmt::format(
+      "RTUKIT_SIM_SEED={} RTUKIT_SIM_MS={} RTUKIT_SIM_STEPS={} RTUKIT_SIM_FAULTS={} "
+      "build/asan/tests/inverjet_simulation_tests",
+      o.seed, o.duration_ms, o.max_steps, o.faults.text());
 }
 
 namespace {
@@ -59,7 +60,9 @@ struct Forward final : RegisterBank {
   Errc read_holding_registers(uint16_t a, std::span<uint16_t> out) override {
     return m->read_holding_registers(a, out);
   }
-  Errc read_input_registers(uint16_t a, std::span<uint16_t> out) override { return m->read_input_registers(a, out); }
+  Errc read_input_registers(uint16_t a, std::span<uint16_t> out) override {
+    return m->read_input_registers(a, out);
+  }
   Errc write_holding_registers(uint16_t a, std::span<const uint16_t> v) override {
     return m->write_holding_registers(a, v);
   }
@@ -84,9 +87,8 @@ class World {
     mo.response_timeout = 300ms;
     mo.retries = 1;
     mo.quirks = machine_->quirks();
-    auto link = std::make_unique<MemoryLink>(clock_, [this](std::span<const uint8_t> request) {
-      return respond(request);
-    });
+    auto link = std::make_unique<MemoryLink>(
+        clock_, [this](std::span<const uint8_t> request) { return respond(request); });
     master_ = std::make_unique<Master>(std::move(link), mo);
     (void)master_->open();
     client_ = std::make_unique<Client>(*master_);
@@ -120,10 +122,11 @@ class World {
     result_.ok = false;
     std::string recent;
     for (const std::string& line : log_) recent += "\n  " + line;
-    result_.failure = fmt::format("at {} ms (machine: phase {}, family {}, mode {}, time {} s, faults {:#x}): {}"
-                                  "\nlast operations:{}",
-                                  device_ms(), phase_name(machine_->phase()), family_name(machine_->family()),
-                                  machine_->mode(), machine_->run_time(), machine_->faults(), what, recent);
+    result_.failure = fmt::format(
+        "at {} ms (machine: phase {}, family {}, mode {}, time {} s, faults {:#x}): {}"
+        "\nlast operations:{}",
+        device_ms(), phase_name(machine_->phase()), family_name(machine_->family()), machine_->mode(),
+        machine_->run_time(), machine_->faults(), what, recent);
   }
   void note(std::string line) {
     // RTUKIT_SIM_TRACE=1: every operation as it happens, with the machine's state (a replay's detail).
@@ -149,7 +152,8 @@ class World {
     if (family == Family::timer && machine_->family() == Family::timer && machine_->run_time() > time &&
         phase == machine_->phase())
       fail(fmt::format("the timer counted up ({} -> {} s) without a command", time, machine_->run_time()));
-    if (machine_->family() == Family::training && machine_->phase() == Phase::ended && phase != Phase::ended) {
+    if (machine_->family() == Family::training && machine_->phase() == Phase::ended &&
+        phase != Phase::ended) {
       const Plan plan = machine_->plan(machine_->mode());
       const unsigned length = plan_length(plan);
       // Exactly at the end, unless the integrator rewrote the running plan
@@ -163,7 +167,8 @@ class World {
   }
 
   void check_state() {
-    if (machine_->run_time() > kMaxTime) fail(fmt::format("a time of {} s (below 0 or past 99:59)", machine_->run_time()));
+    if (machine_->run_time() > kMaxTime)
+      fail(fmt::format("a time of {} s (below 0 or past 99:59)", machine_->run_time()));
     if (machine_->family() == Family::timer && runs(*machine_) && machine_->run_time() > timer_top_)
       fail(fmt::format("the timer shows {} s, more than the {} s it was started with", machine_->run_time(),
                        timer_top_));
@@ -214,7 +219,8 @@ class World {
       }
       if (chance(0.02)) {
         ++result_.faults_injected;
-        reply.bytes[pick(0, static_cast<unsigned>(reply.bytes.size() - 1))] ^= static_cast<uint8_t>(pick(1, 255));
+        reply.bytes[pick(0, static_cast<unsigned>(reply.bytes.size() - 1))] ^=
+            static_cast<uint8_t>(pick(1, 255));
       } else if (chance(0.02)) {
         ++result_.faults_injected;
         reply.delay = std::chrono::milliseconds(pick(300, 900));  // after the master's deadline
@@ -340,7 +346,7 @@ class World {
   const RunOptions& o_;
   std::mt19937_64 rng_;
   ManualClock clock_;
-  const io::Clock::time_point origin_ = clock_.now();  ///< device time 0
+  const Clock::time_point origin_ = clock_.now();  ///< device time 0
   std::unique_ptr<Machine> machine_;
   Forward bank_;
   SlaveEngine engine_;

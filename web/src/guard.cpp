@@ -8,7 +8,7 @@
 
 namespace rtukit::web {
 
-bool TokenBucket::take(GuardClock::time_point now) noexcept {
+bool TokenBucket::take(TimePoint now) noexcept {
   if (refilled_)
     tokens_ = std::min(capacity_, tokens_ + std::chrono::duration<double>(now - *refilled_).count() * rate_);
   refilled_ = now;
@@ -38,7 +38,7 @@ bool GuessLimit::refused(std::string_view peer, Clock::time_point now) {
   return it->second.count >= per_source_;
 }
 
-GuessLimit::Clock::duration GuessLimit::wait(std::string_view peer, Clock::time_point now) {
+Clock::duration GuessLimit::wait(std::string_view peer, Clock::time_point now) {
   if (!refused(peer, now)) return Clock::duration::zero();
   const auto it = table_.find(guess_source(peer));
   if (it != table_.end()) return it->second.since + window_ - now;

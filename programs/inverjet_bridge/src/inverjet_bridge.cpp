@@ -37,7 +37,6 @@
 namespace rtukit::programs {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 namespace ij = inverjet;
 
@@ -56,8 +55,8 @@ bool valid_topic_level(const std::string& id) {
          id.find_first_of(" \t\n") == std::string::npos;
 }
 
-std::string iso_time(io::WallClock::time_point at) {
-  const std::time_t t = io::WallClock::to_time_t(at);
+std::string iso_time(WallClock::time_point at) {
+  const std::time_t t = WallClock::to_time_t(at);
   std::tm tm{};
   ::gmtime_r(&t, &tm);
   char out[32];
@@ -174,7 +173,7 @@ constexpr std::chrono::seconds kStatsPeriod{10};
 
 struct Machine {
   Machine(Master& master, BridgeMachine m, const BridgeOptions& o, size_t i, const Publish& p,
-          io::Clock::time_point now)
+          Clock::time_point now)
       : config(std::move(m)),
         index(i),
         client(master, UnitId{config.unit}),
@@ -463,7 +462,7 @@ void BridgeLogic::announce(size_t machine) {
   impl_->machines.at(machine)->announce = true;
 }
 
-io::Clock::time_point BridgeLogic::step(io::Clock::time_point now) {
+Clock::time_point BridgeLogic::step(Clock::time_point now) {
   Clock::time_point next = Clock::time_point::max();
   for (auto& m : impl_->machines) next = std::min(next, impl_->step(*m, now));
   return next;
@@ -534,7 +533,7 @@ struct Bridge::Impl {
                              .clock = &clock}),
         logic(master, options, clock,
               [this](size_t machine, const MqttMessage& m) { connections.at(machine)->publish(m); }),
-        worker([this](io::Clock::time_point now) { return logic.step(now); }, {.clock = &clock}) {}
+        worker([this](Clock::time_point now) { return logic.step(now); }, {.clock = &clock}) {}
 
   BridgeOptions options;
   DriverClock& clock;

@@ -52,7 +52,6 @@
 namespace rtukit::programs {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 namespace ij = inverjet;
 
@@ -177,7 +176,7 @@ std::string html_escape(std::string_view text) {
   return out;
 }
 
-int64_t unix_ms(io::WallClock::time_point at) {
+int64_t unix_ms(WallClock::time_point at) {
   return std::chrono::duration_cast<std::chrono::milliseconds>(at.time_since_epoch()).count();
 }
 
@@ -460,7 +459,7 @@ std::vector<std::string> PanelLogic::welcome(uint64_t& seq) const {
   return out;
 }
 
-io::Clock::time_point PanelLogic::step(io::Clock::time_point now) {
+Clock::time_point PanelLogic::step(Clock::time_point now) {
   Impl& l = *impl_;
   std::deque<Command> todo;
   {
@@ -487,7 +486,7 @@ struct Panel::Impl {
         worker([this](Clock::time_point now) { return logic.step(now); }, {.clock = &clock}) {
     if (!options.log)
       options.log = [this](const std::string& line) {
-        const std::time_t now = io::WallClock::to_time_t(clock.wall());
+        const std::time_t now = WallClock::to_time_t(clock.wall());
         std::tm tm{};
         ::localtime_r(&now, &tm);
         fmt::print(stderr, "{:%Y-%m-%d %H:%M:%S} inverjet panel: {}\n", tm, line);

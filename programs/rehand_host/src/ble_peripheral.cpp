@@ -23,8 +23,8 @@
 #include <mutex>
 #include <thread>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/programs/rehand_message.hpp"
 #include "rtukit/web/guard.hpp"
 

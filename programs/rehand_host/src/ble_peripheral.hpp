@@ -24,8 +24,8 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::programs {
 

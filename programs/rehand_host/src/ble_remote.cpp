@@ -15,8 +15,8 @@
 #include <optional>
 #include <regex>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/programs/rehand_ble_remote.hpp"
 #include "rtukit/term/terminal.hpp"
 
@@ -25,7 +25,6 @@ namespace {
 
 namespace gatt = rehand6600::ble;
 namespace rh = rehand6600;
-using Clock = std::chrono::steady_clock;
 using Props = std::map<std::string, sdbus::Variant>;
 using Interfaces = std::map<std::string, Props>;
 using ManagedObjects = std::map<sdbus::ObjectPath, Interfaces>;

@@ -27,7 +27,7 @@ bool PairingWindow::expire(Clock::time_point now) noexcept {
   return true;
 }
 
-PairingWindow::Clock::duration PairingWindow::left(Clock::time_point now) const noexcept {
+Clock::duration PairingWindow::left(Clock::time_point now) const noexcept {
   if (!is_open() || now >= until_) return Clock::duration::zero();
   return until_ - now;
 }

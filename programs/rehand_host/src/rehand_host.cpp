@@ -40,7 +40,6 @@ namespace rtukit::programs {
 namespace {
 
 namespace rh = rehand6600;
-using Clock = std::chrono::steady_clock;
 using Json = nlohmann::json;
 using Role = HostRole;
 

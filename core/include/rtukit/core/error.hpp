@@ -47,7 +47,7 @@ std::string_view errc_name(Errc code) noexcept;
 /// A failure may carry a reason: a static text that says why in the terms of
 /// the rule that refused ("not while charging"). Reasons must have static
 /// storage duration (string literals); text built at run time travels in a
-/// `Status` (rtukit/io/status.hpp) on the host side.
+/// `Status` (rtukit/base/status.hpp) on the host side.
 class [[nodiscard]] Error {
  public:
   constexpr Error() noexcept = default;

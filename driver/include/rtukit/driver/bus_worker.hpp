@@ -24,13 +24,13 @@
 #include <mutex>
 #include <thread>
 
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 
 namespace rtukit {
 
 class BusWorker {
  public:
-  using TimePoint = io::Clock::time_point;
+  using TimePoint = rtukit::TimePoint;
   /// One step of the program's logic, on the worker's thread, at `now` (the
   /// clock's). Returns when it is next due; a time not after `now` means
   /// "again at once" (more work is waiting).

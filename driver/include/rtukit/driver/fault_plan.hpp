@@ -29,8 +29,8 @@
 #include <string_view>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit {
 
@@ -60,7 +60,7 @@ Outcome<FaultRule> parse_fault_rule(std::string_view text);
 
 class FaultPlan {
  public:
-  using TimePoint = io::Clock::time_point;
+  using TimePoint = rtukit::TimePoint;
 
   /// What becomes of one frame.
   struct Decision {

@@ -24,12 +24,12 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/driver/fault_plan.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit {
 
@@ -53,7 +53,7 @@ class FaultRelay {
   static std::string line_of(const Record& r);
 
   struct Record {
-    io::Clock::time_point at;        ///< when it was decided (or, delayed, sent), on the relay's clock
+    Clock::time_point at;            ///< when it was decided (or, delayed, sent), on the relay's clock
     FaultRule::Way way;              ///< request (master to slave) or reply
     FaultPlan::Decision::Kind kind;  ///< pass, drop, corrupt, delay (sent later), or pass after a delay
     bool delayed_send = false;       ///< the moment a delayed frame went out

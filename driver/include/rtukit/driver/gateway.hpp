@@ -40,12 +40,12 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit {
 

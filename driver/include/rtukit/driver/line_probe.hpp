@@ -15,10 +15,10 @@
 #include <span>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {

@@ -22,11 +22,11 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/core/rtu.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {
@@ -62,7 +62,7 @@ struct MasterOptions {
   /// with a 2-byte byte count). Off by default; RTU framing only.
   FrameQuirks quirks{};
   /// The clock deadlines and delays run on; nullptr: the steady clock. Must
-  /// outlive the master. Tests pass a ManualClock (io/clock.hpp).
+  /// outlive the master. Tests pass a ManualClock (base/clock.hpp).
   DriverClock* clock = nullptr;
   /// Called (under the master's lock) for each request sent and each
   /// attempt's received bytes. Empty: no tracing, no cost.
@@ -167,10 +167,10 @@ class Master {
  private:
   Error transact_locked(UnitId unit, const Request& request,
                         const std::function<void(const Response&)>& on_response);
-  void trace_received(const Result<Response>& r, io::Clock::time_point sent_at);
-  Result<Response> receive_rtu(MasterTransaction& tx, io::Clock::time_point deadline);
+  void trace_received(const Result<Response>& r, Clock::time_point sent_at);
+  Result<Response> receive_rtu(MasterTransaction& tx, Clock::time_point deadline);
   void drain_late_answer();
-  Result<Response> receive_tcp(MasterTransaction& tx, io::Clock::time_point deadline);
+  Result<Response> receive_tcp(MasterTransaction& tx, Clock::time_point deadline);
 
   std::unique_ptr<io::Link> link_;
   MasterOptions options_;
@@ -182,7 +182,7 @@ class Master {
   uint16_t transaction_id_ = 0;
   std::vector<uint8_t> traced_rx_;  ///< bytes of the current attempt, kept only when tracing
   DriverClock& clock_;
-  io::Clock::time_point last_end_{};
+  Clock::time_point last_end_{};
 };
 
 }  // namespace rtukit

@@ -14,7 +14,7 @@
 #include <mutex>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 #include "rtukit/io/link.hpp"
 
 namespace rtukit {
@@ -37,7 +37,7 @@ class MemoryLink final : public io::Link {
   void close() noexcept override { open_ = false; }
   bool is_open() const noexcept override { return open_; }
 
-  Error write(std::span<const uint8_t> bytes, io::Clock::time_point) override {
+  Error write(std::span<const uint8_t> bytes, Clock::time_point) override {
     if (!open_) return Errc::not_connected;
     std::lock_guard lock(mutex_);
     writes_.emplace_back(bytes.begin(), bytes.end());
@@ -46,7 +46,7 @@ class MemoryLink final : public io::Link {
     return {};
   }
 
-  Result<size_t> read_some(std::span<uint8_t> out, io::Clock::time_point deadline) override {
+  Result<size_t> read_some(std::span<uint8_t> out, Clock::time_point deadline) override {
     if (!open_) return Errc::not_connected;
     std::unique_lock lock(mutex_);
     if (pending_.empty() || pending_.front().at > deadline) {
@@ -84,7 +84,7 @@ class MemoryLink final : public io::Link {
 
  private:
   struct Pending {
-    io::Clock::time_point at;
+    Clock::time_point at;
     std::vector<uint8_t> bytes;
   };
   DriverClock& clock_;

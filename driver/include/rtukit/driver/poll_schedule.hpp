@@ -16,27 +16,27 @@
 #include <chrono>
 #include <cstdint>
 
-#include "rtukit/io/clock.hpp"
+#include "rtukit/base/clock.hpp"
 
 namespace rtukit {
 
 struct PollPolicy {
-  io::Clock::duration period = std::chrono::milliseconds(500);
+  Clock::duration period = std::chrono::milliseconds(500);
   /// Consecutive failed polls after which the device counts as offline.
   unsigned failures_to_offline = 2;
-  io::Clock::duration max_backoff = std::chrono::seconds(5);
+  Clock::duration max_backoff = std::chrono::seconds(5);
 
   /// The policy for `hz` polls a second (> 0).
   static PollPolicy at_hz(double hz) {
     PollPolicy p;
-    p.period = std::chrono::duration_cast<io::Clock::duration>(std::chrono::duration<double>(1.0 / hz));
+    p.period = std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
     return p;
   }
 };
 
 class PollSchedule {
  public:
-  using TimePoint = io::Clock::time_point;
+  using TimePoint = rtukit::TimePoint;
 
   /// The first poll is due at `start`.
   explicit PollSchedule(PollPolicy policy, TimePoint start) noexcept : policy_(policy), next_(start) {}
@@ -71,16 +71,16 @@ class PollSchedule {
 
   /// The wait after `failures` failed polls in a row: period x 2^failures,
   /// at most max_backoff.
-  io::Clock::duration backoff(unsigned failures) const noexcept {
+  Clock::duration backoff(unsigned failures) const noexcept {
     const unsigned doublings = std::min(failures, 16u);
-    return std::min<io::Clock::duration>(policy_.period * (int64_t{1} << doublings), policy_.max_backoff);
+    return std::min<Clock::duration>(policy_.period * (int64_t{1} << doublings), policy_.max_backoff);
   }
 
   unsigned failures() const noexcept { return failures_; }
   bool offline() const noexcept { return failures_ >= policy_.failures_to_offline; }
   uint64_t polls() const noexcept { return polls_; }
   uint64_t late_polls() const noexcept { return late_polls_; }
-  io::Clock::duration worst_gap() const noexcept { return worst_gap_; }
+  Clock::duration worst_gap() const noexcept { return worst_gap_; }
   const PollPolicy& policy() const noexcept { return policy_; }
 
  private:
@@ -90,7 +90,7 @@ class PollSchedule {
   bool extra_ = false;
   unsigned failures_ = 0;
   uint64_t polls_ = 0, late_polls_ = 0;
-  io::Clock::duration worst_gap_{};
+  Clock::duration worst_gap_{};
 };
 
 }  // namespace rtukit

@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
 
 namespace rtukit {
 
@@ -35,7 +35,7 @@ class DeviceClock {
  private:
   double scale_;
   const DriverClock& clock_;
-  io::Clock::time_point t0_;
+  Clock::time_point t0_;
 };
 
 /// Calls `tick` every `period` on `ctx`'s thread until destroyed.

@@ -20,13 +20,13 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/rtu.hpp"
 #include "rtukit/core/slave.hpp"
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit {
 

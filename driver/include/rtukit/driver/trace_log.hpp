@@ -7,9 +7,9 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit {
 

@@ -17,10 +17,10 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/driver/bus_line.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit {
 

@@ -6,8 +6,8 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/error.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::io {
 

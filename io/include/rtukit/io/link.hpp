@@ -13,10 +13,10 @@
 #include <span>
 #include <string>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/core/master.hpp"
 #include "rtukit/core/rtu.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::io {

@@ -12,7 +12,7 @@
 #include <span>
 #include <string>
 
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::term {
 

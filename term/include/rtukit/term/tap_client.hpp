@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::term {
 

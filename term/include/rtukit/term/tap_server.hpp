@@ -11,8 +11,8 @@
 #include <memory>
 #include <string>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::term {
 

@@ -16,8 +16,8 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/io/asio_fwd.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/port.hpp"
 
 namespace rtukit::term {

@@ -19,8 +19,8 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/schema.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::tool {
 

@@ -13,8 +13,8 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/driver/memory_bank.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::tool {
 

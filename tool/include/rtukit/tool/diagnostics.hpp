@@ -14,11 +14,11 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/pdu.hpp"
 #include "rtukit/driver/line_probe.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::tool {
 

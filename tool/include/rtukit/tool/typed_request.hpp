@@ -11,10 +11,10 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/typed_value.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/status.hpp"
 #include "rtukit/tool/address_notation.hpp"
 
 namespace rtukit::tool {

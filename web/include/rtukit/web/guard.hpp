@@ -15,9 +15,9 @@
 #include <string>
 #include <string_view>
 
-namespace rtukit::web {
+#include "rtukit/base/clock.hpp"
 
-using GuardClock = std::chrono::steady_clock;
+namespace rtukit::web {
 
 /// `rate` a second on average, bursts up to `burst_seconds` of it. Starts
 /// full. Time is passed in.
@@ -27,13 +27,13 @@ class TokenBucket {
       : rate_(rate), capacity_(rate * burst_seconds), tokens_(capacity_) {}
   /// Takes one token at `now`: false when there is none (the caller refuses
   /// the message or command). The first call starts the clock.
-  bool take(GuardClock::time_point now) noexcept;
+  bool take(TimePoint now) noexcept;
 
  private:
   double rate_;
   double capacity_;
   double tokens_;
-  std::optional<GuardClock::time_point> refilled_;
+  std::optional<TimePoint> refilled_;
 };
 
 /// The source a guess is counted against, from a connection's peer address
@@ -51,7 +51,6 @@ std::string guess_source(std::string_view peer);
 /// bounded memory. Time is passed in.
 class GuessLimit {
  public:
-  using Clock = GuardClock;
   GuessLimit(int per_source, Clock::duration window, size_t max_sources)
       : per_source_(per_source), window_(window), max_sources_(max_sources) {}
   /// True when `peer` may not try now.

@@ -49,8 +49,8 @@
 #include <utility>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::web {
 

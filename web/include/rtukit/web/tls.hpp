@@ -9,7 +9,7 @@
 #include <cstddef>
 #include <string>
 
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::web {
 

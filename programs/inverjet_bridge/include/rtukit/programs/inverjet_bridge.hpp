@@ -35,12 +35,12 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/inverjet/verbs.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
 
@@ -152,7 +152,7 @@ class BridgeLogic {
   void announce(size_t machine);
   /// Runs what is due at `now`: each machine's commands, a held state,
   /// the health figures, the poll. Returns when something is next due.
-  io::Clock::time_point step(io::Clock::time_point now);
+  Clock::time_point step(Clock::time_point now);
 
  private:
   struct Impl;

@@ -30,11 +30,11 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/clock.hpp"
 #include "rtukit/io/link.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
 
@@ -152,7 +152,7 @@ class PanelLogic {
   std::vector<std::string> welcome(uint64_t& seq) const;
   /// Runs the commands queued, then the poll if it is due at `now` (or a
   /// command asked for it). Returns when the next poll is due.
-  io::Clock::time_point step(io::Clock::time_point now);
+  Clock::time_point step(Clock::time_point now);
 
  private:
   struct Impl;

@@ -21,11 +21,12 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/clock.hpp"
+
 namespace rtukit::programs {
 
 class PairingWindow {
  public:
-  using Clock = std::chrono::steady_clock;
   /// A fresh code, or "" when none can be made (no random numbers).
   using NewCode = std::function<std::string()>;
   struct Limits {

@@ -31,8 +31,8 @@
 #include <string_view>
 #include <vector>
 
-#include "rtukit/io/clock.hpp"
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/programs/pairing_window.hpp"
 #include "rtukit/programs/rehand_host.hpp"
 #include "rtukit/web/guard.hpp"
@@ -41,7 +41,6 @@ namespace rtukit::programs {
 
 class PhoneAccess {
  public:
-  using Clock = std::chrono::steady_clock;
   struct Limits {
     PairingWindow::Limits window;
     int wrong_per_source = 10;

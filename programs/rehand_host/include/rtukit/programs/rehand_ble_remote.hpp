@@ -10,7 +10,7 @@
 #include <chrono>
 #include <string>
 
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::programs {
 

@@ -30,9 +30,9 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/rehand6600/host.hpp"
 #include "rtukit/io/link.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::programs {
 

@@ -20,7 +20,7 @@
 #include <string>
 #include <string_view>
 
-#include "rtukit/io/status.hpp"
+#include "rtukit/base/status.hpp"
 
 namespace rtukit::programs {
 

@@ -23,11 +23,11 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
 #include "rtukit/devices/inverjet/registers.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
 

@@ -11,9 +11,9 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/inverjet/machine.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
 

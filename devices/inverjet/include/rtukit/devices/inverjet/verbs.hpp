@@ -18,11 +18,11 @@
 #include <string>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/inverjet/client.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::inverjet {
 

@@ -12,10 +12,10 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/devices/profile/sim_host.hpp"
 #include "rtukit/devices/profile/verb.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

@@ -12,9 +12,9 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/model.hpp"
 #include "rtukit/devices/profile/schema.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

@@ -11,9 +11,9 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/schema.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

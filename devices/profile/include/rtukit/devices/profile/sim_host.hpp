@@ -26,12 +26,12 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/model.hpp"
 #include "rtukit/driver/simulation.hpp"
 #include "rtukit/driver/slave_server.hpp"
 #include "rtukit/io/asio_fwd.hpp"
 #include "rtukit/io/port.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

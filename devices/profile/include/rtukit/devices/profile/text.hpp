@@ -10,8 +10,8 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/register_map.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

@@ -18,8 +18,8 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/schema.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

@@ -16,9 +16,9 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/link.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::profile {
 

@@ -19,9 +19,9 @@
 #include <string_view>
 #include <vector>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/rehand6600/session.hpp"
 #include "rtukit/devices/rehand6600/snapshot.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::rehand6600::ble {
 

@@ -18,13 +18,14 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
 #include "rtukit/devices/rehand6600/ble_gatt.hpp"
 
 namespace rtukit::rehand6600::ble {
 
 class RemoteKeys {
  public:
-  using TimePoint = std::chrono::steady_clock::time_point;
+  using TimePoint = rtukit::TimePoint;
   struct Options {
     std::chrono::milliseconds renew_every{100};
     std::chrono::milliseconds key_gap{700};  ///< no repeat for this long: the key was let go

@@ -58,6 +58,8 @@
 #include <string>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/core/error.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/session.hpp"
@@ -65,7 +67,6 @@
 #include "rtukit/driver/bus_worker.hpp"
 #include "rtukit/driver/master.hpp"
 #include "rtukit/io/link.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::rehand6600 {
 
@@ -124,7 +125,7 @@ struct Event {
 /// thread-safe (Host locks it).
 class HostLogic {
  public:
-  using TimePoint = std::chrono::steady_clock::time_point;
+  using TimePoint = rtukit::TimePoint;
   /// One-shot writes waiting at most; more are refused (the web thread
   /// never waits for the bus).
   static constexpr size_t kQueueLimit = 16;

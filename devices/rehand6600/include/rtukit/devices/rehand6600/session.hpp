@@ -49,10 +49,11 @@
 #include <utility>
 #include <vector>
 
+#include "rtukit/base/clock.hpp"
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/rehand6600/reasons.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/devices/rehand6600/snapshot.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::rehand6600 {
 
@@ -92,7 +93,7 @@ struct Disabled {
 
 class Session {
  public:
-  using TimePoint = std::chrono::steady_clock::time_point;
+  using TimePoint = rtukit::TimePoint;
   using ClientId = uint64_t;
   using PressId = uint64_t;
 

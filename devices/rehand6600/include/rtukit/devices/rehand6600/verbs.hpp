@@ -9,10 +9,10 @@
 #include <cstdint>
 #include <string_view>
 
+#include "rtukit/base/status.hpp"
 #include "rtukit/devices/profile/verb.hpp"
 #include "rtukit/devices/rehand6600/registers.hpp"
 #include "rtukit/driver/master.hpp"
-#include "rtukit/io/status.hpp"
 
 namespace rtukit::rehand6600 {
 

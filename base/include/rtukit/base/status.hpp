@@ -1,4 +1,4 @@
-// rtukit host side: an error with its reason, as one returned value.
+// rtukit base: an error with its reason, as one returned value.
 //
 // `Error` (core) carries a code and, optionally, a static reason. Host code
 // often knows more ("plan line 3: speed 120 is outside 0..100", "port

@@ -1,4 +1,4 @@
-// rtukit io: the one place that reads the time.
+// rtukit base: the one time type and the one place that reads the time.
 //
 // Everything below a program's main() reads the time through a DriverClock
 // it is given: a Master's deadlines, a server's turnaround, a simulator's
@@ -6,10 +6,12 @@
 // lifetime. Production passes SteadyClock::instance(); tests pass a
 // ManualClock, so a 1-second timeout, a 30-day expiry or a one-touch stand
 // take no real time at all. The lint test `Lint.OneClock` fails on a
-// `::now()` anywhere else in the library code.
+// `::now()` anywhere else in the library code. Pure rules (a session's
+// leases, a pairing window, a token bucket) spell their time `TimePoint`.
 //
-// The transports (io) stamp received characters with now_us(): that is the
-// OS's time of arrival, which the RTU framer's silences are measured in.
+// The transports (io) stamp received characters with io::now_us()
+// (rtukit/io/now.hpp): that is the OS's time of arrival, which the RTU
+// framer's silences are measured in.
 #pragma once
 
 #include <atomic>
@@ -18,20 +20,13 @@
 #include <thread>
 
 namespace rtukit {
-namespace io {
 
 /// The monotonic clock of the transports and of every deadline.
 using Clock = std::chrono::steady_clock;
+/// A moment on it: what every deadline, lease and expiry is.
+using TimePoint = Clock::time_point;
 /// Calendar time: log stamps, "no contact since hh:mm:ss", stored expiries.
 using WallClock = std::chrono::system_clock;
-
-/// Microseconds on the steady clock, the time base handed to the core.
-inline uint64_t now_us() noexcept {
-  return static_cast<uint64_t>(
-      std::chrono::duration_cast<std::chrono::microseconds>(Clock::now().time_since_epoch()).count());
-}
-
-}  // namespace io
 
 /// The injectable clock: a monotonic time for deadlines and a calendar time
 /// for what people read and what is stored across restarts.
@@ -39,11 +34,11 @@ class DriverClock {
  public:
   virtual ~DriverClock() = default;
   /// Monotonic time, for deadlines and intervals.
-  virtual io::Clock::time_point now() const = 0;
+  virtual Clock::time_point now() const = 0;
   /// Calendar time. Moves with now() on a ManualClock.
-  virtual io::WallClock::time_point wall() const = 0;
+  virtual WallClock::time_point wall() const = 0;
   /// Returns at or after `t` (at once when `t` has passed).
-  virtual void sleep_until(io::Clock::time_point t) = 0;
+  virtual void sleep_until(Clock::time_point t) = 0;
   void sleep_for(std::chrono::microseconds d) { sleep_until(now() + d); }
   /// Whole seconds since the Unix epoch on the calendar clock.
   int64_t unix_seconds() const {
@@ -54,9 +49,9 @@ class DriverClock {
 /// The real clocks.
 class SteadyClock final : public DriverClock {
  public:
-  io::Clock::time_point now() const override { return io::Clock::now(); }
-  io::WallClock::time_point wall() const override { return io::WallClock::now(); }
-  void sleep_until(io::Clock::time_point t) override { std::this_thread::sleep_until(t); }
+  Clock::time_point now() const override { return Clock::now(); }
+  WallClock::time_point wall() const override { return WallClock::now(); }
+  void sleep_until(Clock::time_point t) override { std::this_thread::sleep_until(t); }
   /// The process-wide instance (what everything uses unless told otherwise).
   static SteadyClock& instance() {
     static SteadyClock clock;
@@ -73,16 +68,14 @@ class SteadyClock final : public DriverClock {
 class ManualClock final : public DriverClock {
  public:
   ManualClock() = default;
-  explicit ManualClock(io::WallClock::time_point wall_start)
+  explicit ManualClock(WallClock::time_point wall_start)
       : wall_start_(std::chrono::duration_cast<std::chrono::microseconds>(wall_start.time_since_epoch())) {}
-  io::Clock::time_point now() const override {
-    return io::Clock::time_point(io::Clock::duration(now_.load()));
-  }
-  io::WallClock::time_point wall() const override {
-    return io::WallClock::time_point(std::chrono::duration_cast<io::WallClock::duration>(
+  Clock::time_point now() const override { return Clock::time_point(Clock::duration(now_.load())); }
+  WallClock::time_point wall() const override {
+    return WallClock::time_point(std::chrono::duration_cast<WallClock::duration>(
         wall_start_ + std::chrono::duration_cast<std::chrono::microseconds>(now() - start())));
   }
-  void sleep_until(io::Clock::time_point t) override {
+  void sleep_until(Clock::time_point t) override {
     auto want = t.time_since_epoch().count();
     auto cur = now_.load();
     while (cur < want && !now_.compare_exchange_weak(cur, want)) {
@@ -91,10 +84,10 @@ class ManualClock final : public DriverClock {
   void advance(std::chrono::microseconds d) { sleep_until(now() + d); }
 
  private:
-  static io::Clock::time_point start() {
-    return io::Clock::time_point(std::chrono::duration_cast<io::Clock::duration>(std::chrono::hours(1)));
+  static Clock::time_point start() {
+    return Clock::time_point(std::chrono::duration_cast<Clock::duration>(std::chrono::hours(1)));
   }
-  std::atomic<io::Clock::rep> now_{start().time_since_epoch().count()};
+  std::atomic<Clock::rep> now_{start().time_since_epoch().count()};
   std::chrono::microseconds wall_start_{std::chrono::seconds(1'767'225'600)};  // 2026-01-01
 };
 
