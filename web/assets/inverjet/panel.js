@@ -384,12 +384,18 @@ $('#seg-add').onclick = () => {
 };
 $('#plan-save').onclick = async () => {
   const plan = editing;
+  const d = draft();
+  const typed = JSON.stringify(d.segments.map((s) => [s.speedText, s.endText]));
   const c = await check();
+  if (c.offline) { sayOffline('#plan-reason', 'plan'); return; }
   if (c.why) { say('#plan-reason', `not saved: ${c.why}`, 'input'); return; }
   const segments = c.segments.map((s) => ({ speed: s.speed, end: mmss(s.end_s) }));
   const r = await act('plan', { plan, segments }, '#plan-reason');
   if (r.ok) {
-    drafts.delete(plan);  // what the machine stored comes back with the plans
+    // What the machine stored comes back with the plans; edits typed while
+    // it was being saved stay in the draft (unsaved), never thrown away.
+    const now = JSON.stringify(d.segments.map((s) => [s.speedText, s.endText]));
+    if (drafts.get(plan) === d && now === typed) drafts.delete(plan);
     say('#plan-reason', `plan ${plan} saved (${segments.length} segments)`, 'done');
     if (plan === editing) renderDraft();
   }
@@ -420,20 +426,29 @@ async function startFields() {
     ? { mode: 'plan', plan: Number(how.slice(4)) }
     : { mode: how, speed: $('#speed-in').value, duration: how === 'timer' ? $('#timer-in').value : undefined };
   const r = await checkTyped({ start: typed });
-  return r.why ? { error: r.why } : { fields: r.fields };
+  return r.why ? { error: r.why, offline: !!r.offline } : { fields: r.fields };
 }
-// A refused input: the message stays until the input is right.
+// A check the panel could not answer: the one failure the page finds
+// itself, shown as a command's (it clears when the link is back).
+function sayOffline(where, what) {
+  say(where, `${what}: ${NO_PANEL.error}`, 'command', NO_PANEL.advice, causeGone('no_panel'));
+}
+// A refused input: the message stays until the input is right. Only the
+// newest recheck's answer counts (an older one may be of a text since changed).
+let recheckSeq = 0;
 async function recheck() {
   const s = shown['#reason'];
   if (!s || s.kind !== 'input') return;
+  const seq = ++recheckSeq;
   const f = await startFields();
-  if (!f.error && shown['#reason'] === s) say('#reason', '');
+  if (seq === recheckSeq && !f.error && shown['#reason'] === s) say('#reason', '');
 }
 for (const id of ['#speed-in', '#timer-in', '#start-mode']) $(id).addEventListener('input', recheck);
 $('#start-mode').addEventListener('change', () => { recheck(); updateControls(); });
 
 $('#start').onclick = async () => {
   const f = await startFields();
+  if (f.offline) { sayOffline('#reason', 'start'); return; }
   if (f.error) { say('#reason', f.error, 'input'); return; }
   const what = f.fields.mode === 'plan' ? `plan ${f.fields.plan}` : `a ${f.fields.mode} run at ${f.fields.speed} %`;
   if (running() && !await confirmFirst(`A run is going (${state.state}, ${state.time}). Stop it and start ${what}?`, 'Yes, start again')) return;
@@ -451,6 +466,7 @@ async function setSpeed(speed) {
 }
 $('#set-speed').onclick = async () => {
   const r = await checkTyped({ speed: $('#speed-in').value });
+  if (r.offline) { sayOffline('#reason', 'speed'); return; }
   if (r.why) { say('#reason', r.why, 'input'); return; }
   setSpeed(r.speed);
 };

@@ -79,7 +79,8 @@
 namespace rtukit {
 
 /// The switches as constants, for `if constexpr` in function bodies (the
-/// core keeps `#if` to whole declarations and definitions).
+/// framer's prediction and the request decoder use them; `#if` is kept to
+/// whole declarations and definitions there).
 inline constexpr bool kHasMaster = RTUKIT_CORE_MASTER;
 inline constexpr bool kHasTcp = RTUKIT_CORE_TCP;
 inline constexpr bool kHasCoils = RTUKIT_CORE_COILS;
