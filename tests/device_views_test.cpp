@@ -175,6 +175,10 @@ TEST(InverjetTyped, APlansFirstFaultAndItsRow_AStartsFieldsForTheCommand) {
   EXPECT_EQ(ij::check_typed(J{{"start", {{"mode", "plan"}, {"plan", 4}}}})["fields"]["plan"], 4);
   EXPECT_EQ(ij::check_typed(J{{"start", {{"mode", "plan"}, {"plan", 5}}}})["why"], "Choose a plan, 1 to 4.");
   EXPECT_EQ(ij::check_typed(J{{"speed", "80%"}})["speed"], 80);
+  EXPECT_EQ(ij::check_typed(J{{"speed", 1.5}})["why"], "Speed \"1.5\" is not 0 to 100 %: for example 60.")
+      << "a value that is no text is refused as what it is, not as empty";
+  EXPECT_EQ(ij::check_typed(J{{"speed", nullptr}})["why"],
+            "Speed is empty: enter 0 to 100 %, for example 60.");
   // Anything else gets an answer, never an exception.
   for (const J& odd : {J(), J(3), J::array(), J{{"segments", 1}}, J{{"start", "x"}}, J{{"speed", J::array()}},
                        J{{"segments", {1, "x", J()}}}})

@@ -31,11 +31,14 @@ bool all_digits(std::string_view t) {
   return !t.empty() && std::all_of(t.begin(), t.end(), [](char c) { return c >= '0' && c <= '9'; });
 }
 
-// A field's text: a JSON string, or a number (a page may send one).
+// A field's text: a JSON string, or a number (a page may send one); any
+// other value as JSON text, so it is refused as what it is ("1.5", "true"),
+// not as an empty field. Null or missing: nothing typed.
 std::optional<std::string> text_of(const Json& v) {
   if (v.is_string()) return v.get<std::string>();
   if (v.is_number_integer()) return std::to_string(v.get<int64_t>());
-  return std::nullopt;
+  if (v.is_null()) return std::nullopt;
+  return v.dump(-1, ' ', false, Json::error_handler_t::replace);
 }
 
 Json number_or_null(const std::optional<uint32_t>& v) {
