@@ -272,3 +272,55 @@ TEST(RtuFramer, ByteCountDisagreeing_WithABadCrc_StaysSilent) {
   EXPECT_EQ(f.buffered(), 0U);
   EXPECT_EQ(frames_of(f, bytes(kRead), 200'000), std::vector<std::string>{kRead});
 }
+
+// Each function's frames are found by their length, the moment their last
+// byte arrives, long before the silence that would otherwise end them: the
+// framer's predictions, one frame per request and response shape (a frame
+// the framer could not predict would wait for t3.5 and fail here). FC08's
+// return query data is the one request whose end is silence.
+TEST(RtuFramer, EveryShapeIsFoundByItsLength_BeforeAnySilence) {
+  const RtuTiming timing = RtuTiming::for_serial(9600);
+  const auto framed_at_once = [&](FrameShape shape, std::vector<uint8_t> pdu) {
+    RtuFramer f(shape, timing);
+    pdu.insert(pdu.begin(), 0x11);
+    const std::vector<uint8_t> frame = with_crc(pdu);
+    std::vector<std::string> got = frames_of(f, frame, 1000);
+    return got == std::vector<std::string>{hex(frame)};
+  };
+  const std::vector<std::vector<uint8_t>> requests = {
+      {0x01, 0x00, 0x13, 0x00, 0x25},                    // read coils
+      {0x03, 0x00, 0x6B, 0x00, 0x03},                    // read holding registers
+      {0x05, 0x00, 0xAC, 0xFF, 0x00},                    // write single coil
+      {0x0F, 0x00, 0x13, 0x00, 0x0A, 0x02, 0xCD, 0x01},  // write multiple coils
+      {0x10, 0x00, 0x01, 0x00, 0x01, 0x02, 0x00, 0x0A},  // write multiple registers
+      {0x07},                                            // read exception status
+      {0x0B},                                            // get comm event counter
+      {0x0C},                                            // get comm event log
+      {0x11},                                            // report server id
+      {0x08, 0x00, 0x0A, 0x00, 0x00},                    // diagnostics: clear counters
+      {0x2B, 0x0E, 0x01, 0x00},                          // read device identification
+      {0x16, 0x00, 0x04, 0x00, 0xF2, 0x00, 0x25},        // mask write register
+      {0x17, 0x00, 0x03, 0x00, 0x06, 0x00, 0x0E, 0x00, 0x03, 0x06, 0x00, 0xFF, 0x00, 0xFF, 0x00, 0xFF},
+  };
+  for (const auto& pdu : requests)
+    EXPECT_TRUE(framed_at_once(FrameShape::request, pdu)) << "request " << hex(pdu);
+  EXPECT_FALSE(framed_at_once(FrameShape::request, {0x08, 0x00, 0x00, 0xA5, 0x37}))
+      << "return query data echoes any data: silence ends it";
+  const std::vector<std::vector<uint8_t>> responses = {
+      {0x01, 0x02, 0xCD, 0x6B},                                      // read coils
+      {0x03, 0x04, 0x02, 0x2B, 0x00, 0x00},                          // read holding registers
+      {0x06, 0x00, 0x01, 0x00, 0x03},                                // write single register
+      {0x10, 0x00, 0x01, 0x00, 0x02},                                // write multiple registers
+      {0x07, 0x6D},                                                  // read exception status
+      {0x0B, 0xFF, 0xFF, 0x01, 0x08},                                // get comm event counter
+      {0x0C, 0x08, 0x00, 0x00, 0x01, 0x08, 0x01, 0x21, 0x20, 0x00},  // get comm event log
+      {0x11, 0x02, 0x68, 0xFF},                                      // report server id
+      {0x08, 0x00, 0x0A, 0x00, 0x00},                                // diagnostics: clear counters
+      {0x16, 0x00, 0x04, 0x00, 0xF2, 0x00, 0x25},                    // mask write register
+      {0x17, 0x02, 0x00, 0xFE},                                      // read/write multiple registers
+      {0x2B, 0x0E, 0x01, 0x01, 0x00, 0x00, 0x01, 0x00, 0x03, 0x52, 0x54, 0x4B},  // one object
+      {0x83, 0x02},                                                              // an exception
+  };
+  for (const auto& pdu : responses)
+    EXPECT_TRUE(framed_at_once(FrameShape::response, pdu)) << "response " << hex(pdu);
+}
